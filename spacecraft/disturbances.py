@@ -1,0 +1,138 @@
+"""Disturbance torques on the spacecraft body (SPEC §5.4).
+
+A disturbance source is any callable ``source(t, R, omega) -> (B, 3)`` giving the external torque
+about the centre of mass in body axes [N·m], for time ``t`` [s], attitude ``R`` ``(B, 3, 3)``
+(body → inertial) and body rate ``omega`` ``(B, 3)``. The plant evaluates it at every integration
+stage, so sources must be pure functions of their arguments (state-dependent sources such as
+gravity gradient fit the same signature; the full library comes later).
+
+Sources compose with :class:`SumOfDisturbances`, which also reports each source's torque
+(:meth:`SumOfDisturbances.components`) for the logs.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from liecontrol._validation import as_array, check_positive
+
+__all__ = [
+    "DisturbanceSource",
+    "ZeroDisturbance",
+    "ConstantTorque",
+    "Seed000Disturbance",
+    "SumOfDisturbances",
+]
+
+#: Type of a disturbance source: ``(t, R (B,3,3), omega (B,3)) -> torque (B,3)``.
+DisturbanceSource = Callable[[float, np.ndarray, np.ndarray], np.ndarray]
+
+
+@dataclass(frozen=True)
+class ZeroDisturbance:
+    """No external torque."""
+
+    def __call__(self, t: float, R: np.ndarray, omega: np.ndarray) -> np.ndarray:
+        return np.zeros(omega.shape)
+
+
+@dataclass(frozen=True)
+class ConstantTorque:
+    """A body-fixed constant torque ``(3,)`` (same for every spacecraft) or ``(B, 3)`` [N·m]."""
+
+    torque: np.ndarray
+
+    def __post_init__(self) -> None:
+        T = as_array(self.torque, "torque", (3,)).copy()
+        if T.ndim not in (1, 2):
+            raise ValueError(f"torque: expected shape (3,) or (B, 3), got {T.shape}")
+        T.setflags(write=False)
+        object.__setattr__(self, "torque", T)
+
+    def __call__(self, t: float, R: np.ndarray, omega: np.ndarray) -> np.ndarray:
+        # broadcast_to gives a read-only view; the plant only reads it
+        return np.broadcast_to(self.torque, omega.shape)
+
+
+@dataclass(frozen=True)
+class Seed000Disturbance:
+    """Constant + harmonic body torque of seed 000 (SPEC §5.4, item 1), orbit rate ``n``:
+
+        T_d = (0.02 + 0.02 sin nt + 0.01 sin 2nt,
+               0.08 + 0.04 sin nt + 0.01 sin 2nt,
+               0.02 + 0.02 sin nt + 0.01 sin 2nt)  · scale   [N·m]
+
+    Args:
+        n: orbit rate [rad/s] (default 0.0011, SPEC §5.3).
+        scale: multiplies the whole torque (robustness sweeps; 1 = the paper's values).
+    """
+
+    n: float = 0.0011
+    scale: float = 1.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "n", check_positive(self.n, "n"))
+        s = float(as_array(self.scale, "scale"))
+        object.__setattr__(self, "scale", s)
+
+    def torque_at(self, t: float) -> np.ndarray:
+        """The ``(3,)`` torque at time ``t`` (identical for every spacecraft)."""
+        s1 = math.sin(self.n * t)
+        s2 = math.sin(2.0 * self.n * t)
+        c = self.scale
+        return np.array(
+            [
+                c * (0.02 + 0.02 * s1 + 0.01 * s2),
+                c * (0.08 + 0.04 * s1 + 0.01 * s2),
+                c * (0.02 + 0.02 * s1 + 0.01 * s2),
+            ]
+        )
+
+    def __call__(self, t: float, R: np.ndarray, omega: np.ndarray) -> np.ndarray:
+        return np.broadcast_to(self.torque_at(t), omega.shape)
+
+
+@dataclass(frozen=True)
+class SumOfDisturbances:
+    """Sum of named disturbance sources.
+
+    Args:
+        sources: mapping ``name -> source`` (or a sequence of sources, named ``"d0"``,
+            ``"d1"``, ... ). Each source is a callable ``(t, R, omega) -> (B, 3)``.
+
+    Example:
+        >>> d = SumOfDisturbances({"bias": ConstantTorque([0.0, 0.1, 0.0]),
+        ...                        "seed000": Seed000Disturbance()})
+        >>> d(0.0, np.eye(3)[None], np.zeros((1, 3)))
+        array([[0.02, 0.18, 0.02]])
+    """
+
+    sources: Mapping[str, DisturbanceSource]
+    _items: tuple = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        src = self.sources
+        if not isinstance(src, Mapping):
+            src = {f"d{i}": s for i, s in enumerate(src)}
+        if len(src) == 0:
+            raise ValueError("sources: at least one disturbance source is required")
+        for name, s in src.items():
+            if not callable(s):
+                raise ValueError(f"sources: entry {name!r} is not callable")
+        object.__setattr__(self, "sources", dict(src))
+        object.__setattr__(self, "_items", tuple(src.items()))
+
+    def components(self, t: float, R: np.ndarray, omega: np.ndarray) -> dict[str, np.ndarray]:
+        """Each source's torque ``(B, 3)``, by name."""
+        return {name: np.asarray(s(t, R, omega)) for name, s in self._items}
+
+    def __call__(self, t: float, R: np.ndarray, omega: np.ndarray) -> np.ndarray:
+        items = self._items
+        total = np.array(items[0][1](t, R, omega), dtype=np.float64)  # copy: sources may be views
+        for _, s in items[1:]:
+            total += s(t, R, omega)
+        return total
