@@ -1,0 +1,168 @@
+"""Pyramid cluster of four single-gimbal control moment gyroscopes (SGCMG), SPEC §5.2.
+
+Geometry (SPEC §5.2, seed 000's actuator; c = cos β, s = sin β, β the pyramid skew angle)::
+
+    h₁ = (−c sin δ₁,  cos δ₁,    s sin δ₁)
+    h₂ = (−cos δ₂,   −c sin δ₂,  s sin δ₂)
+    h₃ = ( c sin δ₃, −cos δ₃,    s sin δ₃)
+    h₄ = ( cos δ₄,    c sin δ₄,  s sin δ₄)
+
+    h(δ) = h₀ Σᵢ hᵢ(δᵢ),   A(δ) = ∂h/∂δ  (3×4),   ḣ = A δ̇.
+
+Each unit's momentum turns about its fixed gimbal axis gᵢ (``gimbal_axes``), so the Jacobian
+column is aᵢ = h₀ gᵢ × hᵢ and its derivative is ∂aᵢ/∂δᵢ = −h₀ hᵢ. Both are used below in
+closed form: one sin/cos evaluation gives h, A and everything the singularity measure needs.
+
+Singularity measure (SPEC §5.2): m = √det(Â Âᵀ) with the normalised Jacobian Â = A/h₀
+(dimensionless; 0 at a singular configuration, at most (4/3)^{3/2} ≈ 1.54 for four unit columns).
+Its gradient follows from Jacobi's formula (derived here, not taken from a paper)::
+
+    ∂ det(M)/∂δᵢ = tr(adj(M) ∂M/∂δᵢ) = 2 âᵢᵀ adj(M) ∂âᵢ/∂δᵢ = −2 âᵢᵀ adj(M) ĥᵢ,
+    ∂m/∂δᵢ = −âᵢᵀ adj(M) ĥᵢ / m,
+
+with M = ÂÂᵀ. The adjugate stays finite at rank-deficient M, and the numerator vanishes like m
+as m → 0 (the columns' components along the singular direction are O(m)), so dividing by the
+guarded max(m, 1e-8) never produces NaN/inf and changes nothing for m > 1e-8.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from liecontrol._validation import as_array
+
+__all__ = ["SgcmgPyramid", "adjugate_sym3", "det_sym3", "MEASURE_FLOOR"]
+
+#: Below this singularity measure the gradient's 1/m is replaced by 1/MEASURE_FLOOR (the
+#: numerator is O(m) there, so the gradient just fades to 0 at an exact singularity).
+MEASURE_FLOOR = 1e-8
+
+
+def adjugate_sym3(M: np.ndarray) -> np.ndarray:
+    """Adjugate (transposed cofactor matrix) of symmetric 3×3 matrices ``(..., 3, 3)``.
+
+    Only the upper triangle of ``M`` is read. Finite for any finite input, including singular
+    ``M`` (where ``M adj(M) = det(M) I = 0``).
+    """
+    a, b, c = M[..., 0, 0], M[..., 0, 1], M[..., 0, 2]
+    d, e, f = M[..., 1, 1], M[..., 1, 2], M[..., 2, 2]
+    c00 = d * f - e * e
+    c01 = c * e - b * f
+    c02 = b * e - c * d
+    c11 = a * f - c * c
+    c12 = b * c - a * e
+    c22 = a * d - b * b
+    return np.stack([c00, c01, c02, c01, c11, c12, c02, c12, c22], axis=-1).reshape(M.shape)
+
+
+def det_sym3(M: np.ndarray, adj: np.ndarray | None = None) -> np.ndarray:
+    """Determinant of symmetric 3×3 matrices by cofactor expansion along the first row."""
+    if adj is None:
+        adj = adjugate_sym3(M)
+    return np.einsum("...j,...j->...", M[..., 0, :], adj[..., :, 0])
+
+
+@dataclass(frozen=True)
+class SgcmgPyramid:
+    """Four-SGCMG pyramid (SPEC §5.2).
+
+    Parameters
+    ----------
+    h0 : rotor angular momentum of each unit [N m s] (seed 000: 300).
+    beta : pyramid skew angle [rad], 0 < β < π/2 (default 54.73°, near-spherical envelope).
+    gimbal_rate_limit : per-gimbal rate limit [rad/s] (applied by the plant through
+        ``spacecraft.steering.saturate_gimbal_rates``).
+
+    All methods take gimbal angles ``delta`` of shape ``(..., 4)`` [rad] with any leading dims.
+    """
+
+    h0: float = 300.0
+    beta: float = float(np.deg2rad(54.73))
+    gimbal_rate_limit: float = 1.0
+    # Constant coefficient matrices: unit momenta = S ∘ sin δ + C ∘ cos δ (column-wise).
+    _S: np.ndarray = field(init=False, repr=False, compare=False)
+    _C: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        for name in ("h0", "beta", "gimbal_rate_limit"):
+            v = getattr(self, name)
+            try:
+                v = float(v)
+            except (TypeError, ValueError):
+                raise ValueError(f"{name}: must be a real number, got {v!r}") from None
+            if not np.isfinite(v):
+                raise ValueError(f"{name}: must be finite, got {v}")
+            object.__setattr__(self, name, v)
+        if self.h0 <= 0:
+            raise ValueError(f"h0: must be > 0, got {self.h0}")
+        if not 0.0 < self.beta < np.pi / 2:
+            raise ValueError(f"beta: must lie in (0, π/2), got {self.beta}")
+        if self.gimbal_rate_limit <= 0:
+            raise ValueError(f"gimbal_rate_limit: must be > 0, got {self.gimbal_rate_limit}")
+        c, s = np.cos(self.beta), np.sin(self.beta)
+        S = np.array([[-c, 0.0, c, 0.0], [0.0, -c, 0.0, c], [s, s, s, s]])
+        C = np.array([[0.0, -1.0, 0.0, 1.0], [1.0, 0.0, -1.0, 0.0], [0.0, 0.0, 0.0, 0.0]])
+        S.setflags(write=False)
+        C.setflags(write=False)
+        object.__setattr__(self, "_S", S)
+        object.__setattr__(self, "_C", C)
+
+    # ------------------------------------------------------------------ geometry
+    @staticmethod
+    def _sincos(delta: object) -> tuple[np.ndarray, np.ndarray]:
+        d = as_array(delta, "delta", (4,))
+        return np.sin(d)[..., None, :], np.cos(d)[..., None, :]
+
+    def gimbal_axes(self) -> np.ndarray:
+        """Unit gimbal axes gᵢ as columns, ``(3, 4)``: g₁ = (s, 0, c), g₂ = (0, s, c),
+        g₃ = (−s, 0, c), g₄ = (0, −s, c) (derived from SPEC §5.2: gᵢ = hᵢ × ∂hᵢ/∂δᵢ)."""
+        c, s = np.cos(self.beta), np.sin(self.beta)
+        return np.array([[s, 0.0, -s, 0.0], [0.0, s, 0.0, -s], [c, c, c, c]])
+
+    def unit_momenta(self, delta: object) -> np.ndarray:
+        """Unit momentum vectors hᵢ(δᵢ) as columns, ``(..., 3, 4)`` (SPEC §5.2)."""
+        sn, cs = self._sincos(delta)
+        return self._S * sn + self._C * cs
+
+    def momentum(self, delta: object) -> np.ndarray:
+        """Total stored momentum h = h₀ Σ hᵢ in body axes, ``(..., 3)`` [N m s]."""
+        return self.h0 * self.unit_momenta(delta).sum(axis=-1)
+
+    def jacobian(self, delta: object) -> np.ndarray:
+        """A = ∂h/∂δ, ``(..., 3, 4)`` [N m s/rad]; column i is h₀ ∂hᵢ/∂δᵢ."""
+        sn, cs = self._sincos(delta)
+        return self.h0 * (self._S * cs - self._C * sn)
+
+    def momentum_and_jacobian(self, delta: object) -> tuple[np.ndarray, np.ndarray]:
+        """``(h, A)`` from one sin/cos evaluation (the plant's hot path)."""
+        sn, cs = self._sincos(delta)
+        h = (self._S * sn + self._C * cs).sum(axis=-1)
+        A = self._S * cs - self._C * sn
+        return self.h0 * h, self.h0 * A
+
+    # ------------------------------------------------------------------ singularity
+    def singularity_measure(self, delta: object) -> np.ndarray:
+        """m = √det(ÂÂᵀ), Â = A/h₀ (SPEC §5.2), shape ``(...)``; 0 at singular gimbal sets."""
+        sn, cs = self._sincos(delta)
+        Ahat = self._S * cs - self._C * sn
+        M = Ahat @ np.swapaxes(Ahat, -1, -2)
+        return np.sqrt(np.maximum(det_sym3(M), 0.0))
+
+    def singularity_measure_and_gradient(self, delta: object) -> tuple[np.ndarray, np.ndarray]:
+        """``(m, ∂m/∂δ)`` with shapes ``(...)`` and ``(..., 4)``; see the module docstring for
+        the adjugate formula. The gradient is finite everywhere (0 at an exact singularity)."""
+        sn, cs = self._sincos(delta)
+        Hhat = self._S * sn + self._C * cs
+        Ahat = self._S * cs - self._C * sn
+        M = Ahat @ np.swapaxes(Ahat, -1, -2)
+        adj = adjugate_sym3(M)
+        m = np.sqrt(np.maximum(det_sym3(M, adj), 0.0))
+        # −âᵢᵀ adj(M) ĥᵢ for every column i at once
+        num = -np.einsum("...ji,...jk,...ki->...i", Ahat, adj, Hhat)
+        return m, num / np.maximum(m, MEASURE_FLOOR)[..., None]
+
+    def singularity_measure_gradient(self, delta: object) -> np.ndarray:
+        """∇_δ m, ``(..., 4)`` [1/rad]; analytic (Jacobi's formula with the adjugate)."""
+        return self.singularity_measure_and_gradient(delta)[1]

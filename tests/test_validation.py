@@ -1,0 +1,84 @@
+"""Bad input → ValueError naming the argument (SPEC §9), for the shared validators."""
+
+import numpy as np
+import pytest
+
+from liecontrol._validation import (
+    as_array,
+    check_inertia,
+    check_nonnegative,
+    check_positive,
+    check_rotation_matrix,
+)
+from liecontrol.control import AttitudeReference, ConstantAttitude
+
+J_SEED000 = np.array([[15053.0, 3000.0, -1000.0], [3000.0, 6510.0, 2000.0], [-1000.0, 2000.0, 11122.0]])
+
+
+def test_rotation_accepts_rotations_and_batches():
+    R = np.broadcast_to(np.eye(3), (2, 4, 3, 3))
+    assert check_rotation_matrix(R, "R").shape == (2, 4, 3, 3)
+
+
+@pytest.mark.parametrize(
+    ("M", "fragment"),
+    [
+        (np.eye(3) * 1.01, "not orthonormal"),
+        (np.diag([1.0, 1.0, -1.0]), "reflection"),
+        (np.full((3, 3), np.nan), "non-finite"),
+        (np.eye(4), "expected shape"),
+        ("abc", "cannot be converted"),
+    ],
+)
+def test_rotation_rejects(M, fragment):
+    with pytest.raises(ValueError, match=rf"^R_target: .*{fragment}"):
+        check_rotation_matrix(M, "R_target")
+
+
+def test_inertia_accepts_seed000():
+    out = check_inertia(J_SEED000, "J")
+    np.testing.assert_array_equal(out, J_SEED000)
+
+
+@pytest.mark.parametrize(
+    ("J", "fragment"),
+    [
+        (np.array([[1.0, 0.1, 0], [0, 1, 0], [0, 0, 1]]), "not symmetric"),
+        (np.diag([1.0, -1.0, 1.0]), "not positive definite"),
+        (np.diag([1.0, 1.0, 3.0]), "triangle inequality"),
+        (np.diag([1.0, np.inf, 1.0]), "non-finite"),
+    ],
+)
+def test_inertia_rejects(J, fragment):
+    with pytest.raises(ValueError, match=rf"^J_plant: .*{fragment}"):
+        check_inertia(J, "J_plant")
+
+
+def test_positive_and_nonnegative():
+    assert check_positive(0.1, "dt") == 0.1
+    assert check_nonnegative(0.0, "zeta") == 0.0
+    with pytest.raises(ValueError, match="^dt: must be > 0"):
+        check_positive(0.0, "dt")
+    with pytest.raises(ValueError, match="^zeta: must be >= 0"):
+        check_nonnegative([0.1, -0.2], "zeta")
+    with pytest.raises(ValueError, match="^dt: contains 1 non-finite"):
+        check_positive(np.nan, "dt")
+
+
+def test_as_array_does_not_mutate_or_copy_needlessly():
+    a = np.arange(6.0).reshape(2, 3)
+    b = as_array(a, "a", (3,))
+    assert b is a
+    with pytest.raises(ValueError, match=r"^a: expected shape \(\.\.\., 4\)"):
+        as_array(a, "a", (4,))
+
+
+def test_constant_reference_validates_and_is_read_only():
+    ref = ConstantAttitude(np.eye(3))
+    sample = ref(12.0)
+    assert isinstance(sample, AttitudeReference)
+    np.testing.assert_array_equal(sample.omega_d, np.zeros(3))
+    with pytest.raises(ValueError):
+        sample.R_d[0, 0] = 2.0
+    with pytest.raises(ValueError, match="^R_d: not orthonormal"):
+        ConstantAttitude(np.eye(3) * 2.0)
