@@ -13,8 +13,8 @@ time, ``T = t_f − t₀``; integrals are trapezoidal over the logged samples):
 - **settling time**: the first time after which ``θ`` never again exceeds the threshold
   (default 0.1°), linearly interpolated between the last sample above and the next one;
   ``t₀`` when ``θ`` never exceeds it; **NaN ("not settled") when the last sample is above it**;
-- **steady-state error**: max and RMS of ``θ`` over the final ``steady_fraction`` (10 %) of the
-  run, ``t ≥ t_f − 0.1 T``;
+- **steady-state error**: max and RMS (``√(∫θ²dt / window)``) of ``θ`` over the final
+  ``steady_fraction`` (10 %) of the run, ``t ≥ t_f − 0.1 T``;
 - **peak / RMS rate**: ``max ‖e_Ω‖`` and ``√(∫‖e_Ω‖²dt / T)``;
 - **overshoot**: with ``â₀`` the initial error axis (``log(E(t₀))^∨ = θ₀ â₀``), the largest
   excursion past the target along that axis, ``max(0, −min_t ⟨log(E(t))^∨, â₀⟩)`` [deg] and in
@@ -224,7 +224,7 @@ def compute_metrics(
         result: a ``SimulationResult`` (or any object with ``t (K,)``, ``R (K,B,3,3)``,
             ``omega (K,B,3)``, ``R_d (K,B,3,3)``, ``omega_d (K,B,3)``, ``u (K,B,3)`` and an
             ``actuator`` dict optionally holding ``delta_dot (K,B,n)``, ``singularity (K,B)``,
-            ``saturated (K,B)``).
+            ``saturated (K,B)`` or per gimbal ``(K,B,n)``).
         settle_threshold_deg: settling threshold on θ [deg] (SPEC §8.2: 0.1°).
         steady_fraction: final fraction of the run used for the steady-state error.
         unwinding_threshold: unwinding ratio from which a run counts as unwound (SPEC §8.1).
@@ -242,9 +242,7 @@ def compute_metrics(
 
     t = np.asarray(result.t, dtype=np.float64)
     R = np.asarray(result.R, dtype=np.float64)
-    R_d = np.broadcast_to(np.asarray(result.R_d, dtype=np.float64), R.shape)
     omega = np.asarray(result.omega, dtype=np.float64)
-    omega_d = np.broadcast_to(np.asarray(result.omega_d, dtype=np.float64), omega.shape)
     u = np.asarray(result.u, dtype=np.float64)
     if t.ndim != 1 or t.shape[0] < 1:
         raise ValueError(f"result: t must be a non-empty 1-D array, got shape {t.shape}")
@@ -255,6 +253,14 @@ def compute_metrics(
     for name, arr, tail in (("omega", omega, (3,)), ("u", u, (3,))):
         if arr.shape != (K, B) + tail:
             raise ValueError(f"result: {name} must have shape {(K, B) + tail}, got {arr.shape}")
+    try:
+        R_d = np.broadcast_to(np.asarray(result.R_d, dtype=np.float64), R.shape)
+        omega_d = np.broadcast_to(np.asarray(result.omega_d, dtype=np.float64), omega.shape)
+    except ValueError:
+        raise ValueError(
+            f"result: R_d/omega_d shapes {np.shape(result.R_d)}/{np.shape(result.omega_d)} "
+            f"do not match R {R.shape} / omega {omega.shape}"
+        ) from None
 
     theta = error_angle(R, R_d)  # (K, B)
     e_omega = rate_error(R, omega, R_d, omega_d)
@@ -267,9 +273,10 @@ def compute_metrics(
 
     t_steady = t[-1] - steady_fraction * T
     win = t >= t_steady - 1e-12 * max(abs(t[-1]), 1.0)
-    th_w = theta[win]
+    th_w, t_w = theta[win], t[win]
     steady_max = th_w.max(axis=0)
-    steady_rms = np.sqrt(np.mean(th_w**2, axis=0))
+    T_w = float(t_w[-1] - t_w[0])
+    steady_rms = np.sqrt(trapezoid(th_w**2, t_w) / T_w) if T_w > 0 else th_w[-1]
 
     peak_rate = rate.max(axis=0)
     rms_rate = np.sqrt(trapezoid(rate**2, t) / T) if T > 0 else rate[0]
@@ -297,6 +304,8 @@ def compute_metrics(
     min_sing = sing.min(axis=0) if sing is not None else np.full(B, np.nan)
     sat = _actuator_array(result, "saturated")
     if sat is not None:
+        # per-gimbal flags (K, B, 4) count when any gimbal of that spacecraft is limited
+        sat = sat.reshape(K, B, -1).any(axis=-1)
         dts = np.diff(t)
         sat_time = (sat[:-1].astype(np.float64) * dts[:, None]).sum(axis=0)
     else:

@@ -153,14 +153,23 @@ class SgcmgPyramid:
     def singularity_measure_and_gradient(self, delta: object) -> tuple[np.ndarray, np.ndarray]:
         """``(m, ∂m/∂δ)`` with shapes ``(...)`` and ``(..., 4)``; see the module docstring for
         the adjugate formula. The gradient is finite everywhere (0 at an exact singularity)."""
-        sn, cs = self._sincos(delta)
-        Hhat = self._S * sn + self._C * cs
-        Ahat = self._S * cs - self._C * sn
-        M = Ahat @ np.swapaxes(Ahat, -1, -2)
-        adj = adjugate_sym3(M)
-        m = np.sqrt(np.maximum(det_sym3(M, adj), 0.0))
+        d = as_array(delta, "delta", (4,))
+        sn, cs = np.sin(d), np.cos(d)
+        S, C = self._S, self._C
+        # Row-wise (x, y, z components as (..., 4) arrays): elementwise ops on flat arrays are
+        # ~2× faster at B = 1000 than batched 3×3 matmuls (measured), at +10 µs for B = 1.
+        hx, hy, hz = S[0] * sn + C[0] * cs, S[1] * sn + C[1] * cs, S[2] * sn
+        ax, ay, az = S[0] * cs - C[0] * sn, S[1] * cs - C[1] * sn, S[2] * cs
+        a, b, c = (ax * ax).sum(-1), (ax * ay).sum(-1), (ax * az).sum(-1)
+        dd, e, f = (ay * ay).sum(-1), (ay * az).sum(-1), (az * az).sum(-1)
+        c00, c01, c02 = dd * f - e * e, c * e - b * f, b * e - c * dd
+        c11, c12, c22 = a * f - c * c, b * c - a * e, a * dd - b * b
+        m = np.sqrt(np.maximum(a * c00 + b * c01 + c * c02, 0.0))
         # −âᵢᵀ adj(M) ĥᵢ for every column i at once
-        num = -np.einsum("...ji,...jk,...ki->...i", Ahat, adj, Hhat)
+        w0 = c00[..., None] * hx + c01[..., None] * hy + c02[..., None] * hz
+        w1 = c01[..., None] * hx + c11[..., None] * hy + c12[..., None] * hz
+        w2 = c02[..., None] * hx + c12[..., None] * hy + c22[..., None] * hz
+        num = -(ax * w0 + ay * w1 + az * w2)
         return m, num / np.maximum(m, MEASURE_FLOOR)[..., None]
 
     def singularity_measure_gradient(self, delta: object) -> np.ndarray:

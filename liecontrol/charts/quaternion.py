@@ -18,7 +18,7 @@ Conventions (``docs/design.md``):
 * kinematics ``q̇ = ½ q ⊗ (0, ω)`` with ω the body angular velocity (``Ṙ = R ω^``).
 
 Unit norm. Functions that interpret q as a rotation (:func:`to_matrix`, :func:`to_rotvec`,
-:func:`rotate`, :func:`slerp`, :func:`error`, :func:`from_quaternion`-style consumers) require
+:func:`rotate`, :func:`slerp`, :func:`error`) require
 ``| |q| − 1 | ≤ norm_tol`` (default :data:`UNIT_TOL` = 1e-6) and raise ``ValueError`` otherwise,
 so a drifting integrator is caught rather than silently rescaled; inside the tolerance they
 renormalise so the result is exact to round-off. :func:`normalize` is the explicit fix.
@@ -62,8 +62,8 @@ UNIT_TOL = 1e-6
 
 # Below this sin(θ/2) the rotation-vector factor θ / sin(θ/2) uses its Taylor series.
 _SMALL_HALF_SINE = 1e-6
-# Above this |cos Ω| slerp falls back to normalised linear interpolation (sin Ω ≈ 0).
-_SLERP_LINEAR_DOT = 1.0 - 1e-10
+# Below this arc angle Ω slerp falls back to normalised linear interpolation (sin Ω ≈ 0).
+_SLERP_LINEAR_ANGLE = 1e-12
 
 
 # --------------------------------------------------------------------------- storage helpers
@@ -261,7 +261,9 @@ def to_rotvec(q: object, scalar_first: bool = True, norm_tol: float = UNIT_TOL) 
     return v * factor[..., None]
 
 
-def rotate(q: object, v: object, scalar_first: bool = True, norm_tol: float = UNIT_TOL):
+def rotate(
+    q: object, v: object, scalar_first: bool = True, norm_tol: float = UNIT_TOL
+) -> np.ndarray:
     """R(q) v = v + 2w (u × v) + 2 u × (u × v) (u the vector part); batch shapes broadcast."""
     a = _take_unit(q, "q", scalar_first, norm_tol)
     vv = as_array(v, "v", (3,))
@@ -298,7 +300,9 @@ def kinematics_matrix(q: object, scalar_first: bool = True) -> np.ndarray:
     return 0.5 * np.stack(rows, axis=-2)
 
 
-def error(q: object, q_d: object, scalar_first: bool = True, norm_tol: float = UNIT_TOL):
+def error(
+    q: object, q_d: object, scalar_first: bool = True, norm_tol: float = UNIT_TOL
+) -> np.ndarray:
     """Attitude error quaternion q_e = q_d⁻¹ ⊗ q (the quaternion of R_dᵀ R), not canonicalised
     (the sign carries the unwinding information controllers may want). Shapes broadcast."""
     a = _take_unit(q, "q", scalar_first, norm_tol)
@@ -317,17 +321,20 @@ def slerp(
     """Spherical linear interpolation along the shorter arc (Shoemake 1985):
     q(t) = [sin((1−t)Ω) q₀ + sin(tΩ) q₁'] / sin Ω, with q₁' = ±q₁ chosen so that q₀·q₁' ≥ 0 and
     cos Ω = q₀·q₁'. t = 0 → q₀, t = 1 → q₁' (the same rotation as q₁); ``to_matrix(slerp)``
-    equals the SO(3) geodesic ``R₀ exp(t log(R₀ᵀR₁))``. When sin Ω ≈ 0 (q₀ ≈ ±q₁) normalised
-    linear interpolation is used. ``t`` broadcasts against the batch shape.
+    equals the SO(3) geodesic ``R₀ exp(t log(R₀ᵀR₁))``. When q₀ ≈ ±q₁ normalised
+    linear interpolation is used (Ω < 1e-12). ``t`` broadcasts against the batch shape.
     """
     a = _take_unit(q0, "q0", scalar_first, norm_tol)
     b = _take_unit(q1, "q1", scalar_first, norm_tol)
     tt = as_array(t, "t")[..., None]
     dot = np.sum(a * b, axis=-1, keepdims=True)
     b = np.where(dot < 0.0, -b, b)
-    dot = np.clip(np.abs(dot), 0.0, 1.0)
-    omega = np.arccos(dot)
-    lin = dot > _SLERP_LINEAR_DOT
+    # Ω = 2 atan2(|a − b|, |a + b|) is accurate for small Ω, unlike arccos(a·b)
+    omega = 2.0 * np.arctan2(
+        np.sqrt(np.sum((a - b) ** 2, axis=-1, keepdims=True)),
+        np.sqrt(np.sum((a + b) ** 2, axis=-1, keepdims=True)),
+    )
+    lin = omega < _SLERP_LINEAR_ANGLE
     s = np.where(lin, 1.0, np.sin(omega))
     c0 = np.where(lin, 1.0 - tt, np.sin((1.0 - tt) * omega) / s)
     c1 = np.where(lin, tt, np.sin(tt * omega) / s)

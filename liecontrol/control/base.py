@@ -71,9 +71,7 @@ class AttitudeController(abc.ABC):
         """Clear internal state before a run starting at ``t0`` for ``batch_size`` spacecraft."""
 
     @abc.abstractmethod
-    def command(
-        self, t: float, state: AttitudeState, reference: AttitudeReference
-    ) -> np.ndarray:
+    def command(self, t: float, state: AttitudeState, reference: AttitudeReference) -> np.ndarray:
         """Body torque command ``(B, 3)`` [N·m]."""
 
     def diagnostics(self) -> dict[str, np.ndarray]:

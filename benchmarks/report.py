@@ -1,0 +1,263 @@
+"""Report folder of a suite run (SPEC §8.4): ``report.md``, ``metrics.csv``, ``metrics.json`` and
+PNG figures (matplotlib, Agg backend).
+
+``report.md`` holds a summary table (controllers × scenarios: settling time or why not) and one
+controllers × scenarios table per metric; cells of failed runs say ``FAILED`` and the error text
+is listed below. Metrics that do not apply to a scenario (NaN for every controller, e.g. the
+unwinding ratio when the run starts at the reference) read ``n/a``; a NaN settling time reads
+``not settled``. Exact definitions: :mod:`benchmarks.metrics` and ``docs/benchmarks.md``.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import platform
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .controllers import CONTROLLERS
+from .metrics import UNITS
+from .runner import RunOutcome, SuiteResult
+
+__all__ = ["TABLE_METRICS", "write_report", "write_csv", "write_json", "write_figures"]
+
+#: (field, column title) of the per-metric tables, in order (SPEC §8.2).
+TABLE_METRICS: tuple[tuple[str, str], ...] = (
+    ("settling_time_s", "Settling time to 0.1° [s]"),
+    ("steady_error_max_deg", "Steady-state error (max over final 10 %) [deg]"),
+    ("peak_rate_deg_s", "Peak rate ‖ω − RᵀR_dω_d‖ [deg/s]"),
+    ("overshoot_deg", "Overshoot along the initial error axis [deg]"),
+    ("effort_Nms", "∫‖u‖dt [N·m·s]"),
+    ("peak_gimbal_rate_rad_s", "Peak gimbal rate [rad/s]"),
+    ("min_singularity", "Minimum singularity measure m"),
+    ("saturation_time_s", "Time in gimbal-rate saturation [s]"),
+    ("unwinding_ratio", "Unwinding ratio (path angle / geodesic angle; ≥ 1.5 unwound)"),
+    ("controller_time_us", "Controller wall time per control step [µs]"),
+)
+
+CSV_LEAD = ("scenario", "controller", "status", "error")
+
+
+def _esc(text: str, limit: int | None = None) -> str:
+    s = " ".join(str(text).split()).replace("|", "\\|")
+    if limit is not None and len(s) > limit:
+        s = s[: limit - 1] + "…"
+    return s
+
+
+def _fmt(x: Any) -> str:
+    if isinstance(x, bool):
+        return "yes" if x else "no"
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "n/a"
+    x = float(x)
+    if x == 0:
+        return "0"
+    ax = abs(x)
+    if ax >= 1e4 or ax < 1e-3:
+        return f"{x:.3g}"
+    if ax >= 100:
+        return f"{x:.0f}"
+    return f"{x:#.3g}"  # '#' keeps trailing zeros: 1.00, not 1
+
+
+def _cell(o: RunOutcome, key: str) -> str:
+    if o.status != "ok":
+        return "FAILED"
+    v = o.metrics.get(key, float("nan"))
+    if key == "settling_time_s" and isinstance(v, float) and math.isnan(v):
+        return f"not settled ({_fmt(o.metrics.get('final_error_deg'))}° at end)"
+    s = _fmt(v)
+    if key == "unwinding_ratio" and o.metrics.get("unwound"):
+        s += " **unwound**"
+    return s
+
+
+def _summary_cell(o: RunOutcome) -> str:
+    if o.status != "ok":
+        return "FAILED: " + _esc(o.error or "", 90)
+    m = o.metrics
+    ts = m["settling_time_s"]
+    if math.isnan(ts):
+        txt = f"not settled; θ_f = {_fmt(m['final_error_deg'])}°"
+    else:
+        txt = f"settled in {_fmt(ts)} s"
+    if m.get("unwound"):
+        txt += ", unwound"
+    return txt
+
+
+def _table(result: SuiteResult, cell: Callable[[RunOutcome], str]) -> list[str]:
+    names = [s.name for s in result.scenarios]
+    rows = []
+    for c in result.controllers:
+        rows.append([f"`{c}`"] + [cell(result.outcome(s, c)) for s in names])
+    lines = [
+        "| controller | " + " | ".join(names) + " |",
+        "|---|" + "---|" * len(names),
+    ]
+    lines += ["| " + " | ".join(r) + " |" for r in rows]
+    return lines
+
+
+def write_report(result: SuiteResult, out_dir: Path, *, figures: bool = True) -> Path:
+    """Write the whole report folder; returns the path of ``report.md``."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    write_csv(result, out_dir / "metrics.csv")
+    write_json(result, out_dir / "metrics.json")
+    figs = write_figures(result, out_dir / "figures") if figures else {}
+
+    lines = [
+        f"# Benchmark report — suite `{result.suite}`",
+        "",
+        f"Generated {time.strftime('%Y-%m-%d %H:%M:%S')} on Python {platform.python_version()}, "
+        f"numpy {np.__version__}; suite wall time {result.wall_time_s:.1f} s; "
+        f"{len(result.outcomes)} runs, {result.n_failed} failed.",
+        "",
+        "Metric definitions: `docs/benchmarks.md` / `benchmarks.metrics`. Angles are the "
+        "geodesic error θ between R and R_d; NaN metrics read *n/a* (not defined for that "
+        "scenario), a run whose final error is above 0.1° is *not settled*.",
+        "",
+        "## Scenarios",
+        "",
+        "| scenario | description | initial error [deg] | duration [s] | dt [s] "
+        "| control period [s] |",
+        "|---|---|---|---|---|---|",
+    ]
+    for s in result.scenarios:
+        lines.append(
+            f"| {s.name} | {_esc(s.description)} | {s.initial_error_deg:.1f} | {s.duration:g} "
+            f"| {s.dt:g} | {s.control_period if s.control_period is not None else s.dt:g} |"
+        )
+    lines += ["", "## Controllers", ""]
+    for c in result.controllers:
+        doc = (CONTROLLERS[c].__doc__ or "").strip().splitlines()
+        lines.append(f"- `{c}`: {_esc(doc[0]) if doc else ''}")
+    lines += ["", "## Summary", ""]
+    lines += _table(result, _summary_cell)
+    for key, title in TABLE_METRICS:
+        lines += ["", f"### {title}", ""]
+        lines += _table(result, lambda o, k=key: _cell(o, k))
+    failed = [o for o in result.outcomes if o.status != "ok"]
+    if failed:
+        lines += ["", "## Failures", ""]
+        for o in failed:
+            lines.append(f"- `{o.controller}` on `{o.scenario}`: {_esc(o.error or '')}")
+    if figs:
+        lines += ["", "## Figures", ""]
+        for name, path in figs.items():
+            rel = path.relative_to(out_dir).as_posix()
+            lines += [f"### {name}", "", f"![{name}]({rel})", ""]
+    path = out_dir / "report.md"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
+
+
+def _metric_keys(result: SuiteResult) -> list[str]:
+    keys = list(UNITS)
+    for o in result.outcomes:
+        for k in o.metrics:
+            if k not in keys:
+                keys.append(k)
+    return keys
+
+
+def write_csv(result: SuiteResult, path: Path) -> None:
+    """One row per (scenario, controller); empty metric cells for failed runs, ``nan`` for
+    undefined metrics."""
+    keys = _metric_keys(result)
+    with open(path, "w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f)
+        w.writerow(list(CSV_LEAD) + keys)
+        for o in result.outcomes:
+            row = [o.scenario, o.controller, o.status, o.error or ""]
+            row += [o.metrics.get(k, "") for k in keys]
+            w.writerow(row)
+
+
+def _json_value(v: Any) -> Any:
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    return v
+
+
+def write_json(result: SuiteResult, path: Path) -> None:
+    """Everything in ``metrics.csv`` plus units, scenarios and run metadata (NaN → null)."""
+    import dataclasses
+
+    keys = _metric_keys(result)
+    units = dict(UNITS)
+    units.update({"controller_time_us": "µs", "sim_wall_time_s": "s"})
+    doc = {
+        "suite": result.suite,
+        "wall_time_s": result.wall_time_s,
+        "units": {k: units.get(k, "") for k in keys},
+        "scenarios": [dataclasses.asdict(s) for s in result.scenarios],
+        "controllers": list(result.controllers),
+        "results": [
+            {
+                "scenario": o.scenario,
+                "controller": o.controller,
+                "status": o.status,
+                "error": o.error,
+                "metrics": {k: _json_value(o.metrics[k]) for k in keys if k in o.metrics},
+            }
+            for o in result.outcomes
+        ],
+    }
+    path.write_text(json.dumps(doc, indent=2, allow_nan=False) + "\n", encoding="utf-8")
+
+
+def write_figures(result: SuiteResult, fig_dir: Path) -> dict[str, Path]:
+    """One 2×2 PNG per scenario, all controllers overlaid: attitude error (log scale), rate
+    error norm, max gimbal rate, singularity measure. Returns ``{scenario: path}``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig_dir = Path(fig_dir)
+    fig_dir.mkdir(parents=True, exist_ok=True)
+    panels = (
+        ("error_deg", "attitude error θ [deg]", True),
+        ("rate_deg_s", "‖ω − RᵀR_dω_d‖ [deg/s]", False),
+        ("gimbal_rate_rad_s", "max |δ̇ᵢ| [rad/s]", False),
+        ("singularity", "singularity measure m", False),
+    )
+    out: dict[str, Path] = {}
+    for s in result.scenarios:
+        fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True, constrained_layout=True)
+        for ax, (key, label, log) in zip(axes.flat, panels, strict=True):
+            for c in result.controllers:
+                o = result.outcome(s.name, c)
+                ser = o.series
+                if key not in ser or "t" not in ser:
+                    continue
+                y = np.asarray(ser[key], dtype=float)
+                if log:
+                    y = np.maximum(y, 1e-6)  # log axis: clip exact zeros
+                lab = c if o.status == "ok" else f"{c} (failed)"
+                ax.plot(ser["t"], y, label=lab, lw=1.2)
+            if log:
+                ax.set_yscale("log")
+                ax.axhline(0.1, color="k", ls=":", lw=0.8, label="0.1° threshold")
+            ax.set_ylabel(label)
+            ax.grid(True, alpha=0.3)
+        for ax in axes[1]:
+            ax.set_xlabel("t [s]")
+        handles, labels = axes[0, 0].get_legend_handles_labels()
+        if handles:
+            axes[0, 0].legend(fontsize=8)
+        fig.suptitle(f"{s.name}: {s.description}", fontsize=10)
+        path = fig_dir / f"{s.name}.png"
+        fig.savefig(path, dpi=100)
+        plt.close(fig)
+        out[s.name] = path
+    return out

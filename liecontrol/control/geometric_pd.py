@@ -1,0 +1,254 @@
+"""Geometric PD attitude controller on SO(3) (SPEC §6 item 1).
+
+Control law (Lee 2012; seed 002 Lemmas 2 and 4 in tracking form)::
+
+    M = −K_R e_R − K_Ω e_Ω + Ω × JΩ − J (Ω^ RᵀR_d Ω_d − RᵀR_d Ω̇_d)
+
+with ``(Ψ, e_R)`` any error function of :mod:`liecontrol.errors` (``"trace"``,
+``"large_angle"``, ``"log"``) and ``e_Ω = Ω − RᵀR_d Ω_d``. On the rigid body
+``J Ω̇ + Ω × JΩ = M`` with the controller's ``J`` equal to the plant's, the feed-forward terms cancel
+the error dynamics exactly (``ė_Ω = Ω̇ + Ω × RᵀR_dΩ_d − RᵀR_dΩ̇_d``) and the closed loop is
+
+    J ė_Ω = −K_R e_R − K_Ω e_Ω,     d/dt R̃ = R̃ e_Ω^.
+
+With scalar gains, ``V = ½ e_Ωᵀ J e_Ω + (k_R / c) Ψ`` (``c`` from
+:data:`liecontrol.errors.DERIVATIVE_FACTOR`) gives ``V̇ = −e_Ωᵀ K_Ω e_Ω ≤ 0``; the regions of
+attraction that follow are in :mod:`liecontrol.control.region_of_attraction`.
+
+Units: ``J`` [kg·m²], ``k_R`` [N·m per unit of e_R], ``k_Omega`` [N·m·s/rad], torque [N·m].
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._validation import as_array, check_inertia, check_positive, check_rotation_matrix
+from ..errors import _KERNELS, DEFAULT_G, _check_kind, check_error_weight
+from .base import AttitudeController, AttitudeReference, AttitudeState
+
+__all__ = ["GeometricPD", "check_gain", "gains_from_bandwidth", "linear_error_slope"]
+
+
+def check_gain(k: object, name: str) -> float | np.ndarray:
+    """Validate a feedback gain: a positive scalar, a positive length-3 vector (diagonal gain) or a
+    symmetric positive-definite 3×3 matrix. Scalars come back as ``float``, the others as 3×3."""
+    a = as_array(k, name)
+    if a.ndim == 0:
+        return check_positive(a, name)
+    if a.shape == (3,):
+        check_positive(a, name)
+        return np.diag(a)
+    if a.shape != (3, 3):
+        raise ValueError(f"{name}: expected a scalar, shape (3,) or (3, 3), got {a.shape}")
+    scale = float(np.abs(a).max())
+    asym = float(np.abs(a - a.T).max())
+    if asym > 1e-9 * max(scale, 1e-300):
+        raise ValueError(f"{name}: gain matrix not symmetric (max |K − Kᵀ| = {asym:.2e})")
+    eig = np.linalg.eigvalsh(a)
+    if eig[0] <= 0:
+        raise ValueError(
+            f"{name}: gain matrix not positive definite (smallest eigenvalue {eig[0]:.3e})"
+        )
+    return a.copy()
+
+
+def linear_error_slope(error: str = "large_angle", G: object = None, which: str = "min") -> float:
+    """Slope of ``e_R ≈ S δθ`` near ``R = R_d`` (``R̃ = exp(δθ^)``): the smallest (``which="min"``)
+    or largest (``"max"``) eigenvalue of ``S``.
+
+    log: ``S = I``; large_angle: ``e_R = sin(θ/2)·axis`` so ``S = ½ I``; trace:
+    ``S = ½ (tr G · I − G)`` (eigenvalues ``½(tr G − g_i)``: 0.95 … 1.05 for the default ``G``).
+    """
+    error = _check_kind(error, "error")
+    if which not in ("min", "max"):
+        raise ValueError(f"which: expected 'min' or 'max', got {which!r}")
+    if error == "log":
+        return 1.0
+    if error == "large_angle":
+        return 0.5
+    G = DEFAULT_G if G is None else check_error_weight(G)
+    g = np.linalg.eigvalsh(G)
+    return float(0.5 * (g.sum() - (g[-1] if which == "min" else g[0])))
+
+
+def gains_from_bandwidth(
+    J: object,
+    omega_n: float,
+    zeta: float = 1.0,
+    error: str = "large_angle",
+    G: object = None,
+    matrix: bool = False,
+) -> tuple[float | np.ndarray, float | np.ndarray]:
+    """PD gains from a desired natural frequency ``ω_n`` [rad/s] and damping ratio ``ζ``.
+
+    Linearising the closed loop about ``R = R_d`` gives ``J δθ̈ + K_Ω δθ̇ + K_R S δθ = 0`` with
+    ``S`` the error's slope, eigenvalues ``s_min ≤ s_max`` (:func:`linear_error_slope`;
+    ``S = s I`` except for the trace error). With ``r = √(s_max / s_min)`` (1 unless trace):
+
+    - ``matrix=False`` (scalar gains): ``k_R = ω_n² λ_max(J) / s_min``,
+      ``k_Ω = 2 ζ ω_n λ_max(J) r``. For log and large-angle, the principal axis of largest
+      inertia gets exactly ``(ω_n, ζ)`` and every other axis is faster and more damped
+      (``ω_i = ω_n √(λ_max/J_i)``, ``ζ_i = ζ √(λ_max/J_i)``). For the trace error (J and G with
+      common principal axes) every axis has natural frequency ≥ ω_n and damping ≥ ζ.
+    - ``matrix=True``: ``K_R = ω_n² J / s_min``, ``K_Ω = 2 ζ ω_n r J``: then
+      ``J⁻¹K_R S = ω_n² S / s_min`` for any J, so log and large-angle get exactly
+      ``(ω_n, ζ)`` on every axis, and the trace error ω ≥ ω_n (equality on the slowest direction)
+      and ζ ≥ ζ.
+
+    The large-angle error saturates (``‖e_R‖ ≤ 1``), so large errors converge more slowly than
+    the linear design suggests; check the regions of attraction of the chosen gains with
+    :mod:`liecontrol.control.region_of_attraction`.
+    """
+    J = check_inertia(J, "J")
+    if J.shape != (3, 3):
+        raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+    omega_n = check_positive(omega_n, "omega_n")
+    zeta = check_positive(zeta, "zeta")
+    s_min = linear_error_slope(error, G, "min")
+    r = float(np.sqrt(linear_error_slope(error, G, "max") / s_min))
+    if matrix:
+        return omega_n**2 * J / s_min, 2.0 * zeta * omega_n * r * J
+    lam = float(np.linalg.eigvalsh(J)[-1])
+    return omega_n**2 * lam / s_min, 2.0 * zeta * omega_n * r * lam
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b for ``(B, 3)`` arrays; np.cross's axis handling dominates the cost at small B."""
+    a0, a1, a2 = a[:, 0], a[:, 1], a[:, 2]
+    b0, b1, b2 = b[:, 0], b[:, 1], b[:, 2]
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[:, 0] = a1 * b2 - a2 * b1
+    out[:, 1] = a2 * b0 - a0 * b2
+    out[:, 2] = a0 * b1 - a1 * b0
+    return out
+
+
+def _apply_gain(K: float | np.ndarray, x: np.ndarray) -> np.ndarray:
+    if isinstance(K, float):
+        return K * x
+    return x @ K.T
+
+
+class GeometricPD(AttitudeController):
+    """Geometric PD / tracking controller on SO(3) (SPEC §6 item 1; seed 002 Lemmas 2, 4).
+
+    ``M = −K_R e_R − K_Ω e_Ω + Ω × JΩ − J (Ω^ RᵀR_d Ω_d − RᵀR_d Ω̇_d)``.
+
+    Args:
+        J: 3×3 inertia the controller assumes [kg·m²] (may differ from the plant's).
+        k_R: attitude gain: positive scalar, positive 3-vector (diagonal) or SPD 3×3 matrix.
+        k_Omega: rate gain, same forms as ``k_R``.
+        error: ``"large_angle"`` (default, Lee 2012), ``"log"`` (Bullo–Murray) or ``"trace"``
+            (Koditschek).
+        G: weight of the trace error (distinct positive eigenvalues; default
+            :data:`liecontrol.errors.DEFAULT_G`); only allowed with ``error="trace"``.
+
+    ``command`` returns ``(B, 3)``; ``diagnostics()`` returns the last ``Psi`` ``(B,)``,
+    ``e_R`` ``(B, 3)`` and ``e_Omega`` ``(B, 3)``.
+    """
+
+    batched = True
+
+    def __init__(
+        self,
+        J: object,
+        k_R: object,
+        k_Omega: object,
+        error: str = "large_angle",
+        G: object = None,
+    ) -> None:
+        J = check_inertia(J, "J")
+        if J.shape != (3, 3):
+            raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+        self.J = J.copy()
+        self.J.setflags(write=False)
+        self.k_R = check_gain(k_R, "k_R")
+        self.k_Omega = check_gain(k_Omega, "k_Omega")
+        self.error = _check_kind(error, "error")
+        if G is not None and self.error != "trace":
+            raise ValueError(f"G: only used by the 'trace' error function, not {self.error!r}")
+        self.G = (
+            None
+            if self.error != "trace"
+            else (DEFAULT_G if G is None else check_error_weight(G).copy())
+        )
+        self._kernel = _KERNELS[self.error]
+        self._t0: float | None = None
+        self._batch: int | None = None
+        self._diag: dict[str, np.ndarray] = {}
+        self._checked_R_d: np.ndarray | None = None
+
+    def __repr__(self) -> str:
+        return (
+            f"GeometricPD(error={self.error!r}, k_R={self.k_R!r}, k_Omega={self.k_Omega!r}, "
+            f"J=diag≈{np.diag(self.J).tolist()})"
+        )
+
+    def reset(self, t0: float, batch_size: int) -> None:
+        """Store the start time and batch size; clear the diagnostics."""
+        if isinstance(batch_size, bool) or not isinstance(batch_size, (int, np.integer)):
+            raise ValueError(f"batch_size: expected a positive int, got {batch_size!r}")
+        if batch_size < 1:
+            raise ValueError(f"batch_size: must be >= 1, got {batch_size}")
+        t0 = float(as_array(t0, "t0"))
+        self._t0 = t0
+        self._batch = int(batch_size)
+        self._diag = {}
+
+    def _reference_arrays(
+        self, reference: AttitudeReference, B: int
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        R_d = reference.R_d
+        # a read-only array owning its data (e.g. ConstantAttitude's R_d) cannot change between
+        # steps, so once validated it is not re-checked on this hot path
+        if not (isinstance(R_d, np.ndarray) and R_d is self._checked_R_d):
+            R_d = check_rotation_matrix(R_d, "R_d")
+            if not R_d.flags.writeable and R_d.base is None:
+                self._checked_R_d = R_d
+        w_d = as_array(reference.omega_d, "omega_d", (3,))
+        dw_d = as_array(reference.omega_dot_d, "omega_dot_d", (3,))
+        for name, a, nd in (("R_d", R_d, 2), ("omega_d", w_d, 1), ("omega_dot_d", dw_d, 1)):
+            if a.ndim == nd + 1 and a.shape[0] != B:
+                raise ValueError(f"{name}: batch size {a.shape[0]} does not match state's {B}")
+            if a.ndim > nd + 1:
+                raise ValueError(f"{name}: expected one sample or a (B, ...) batch, got {a.shape}")
+        return R_d, w_d, dw_d
+
+    def command(self, t: float, state: AttitudeState, reference: AttitudeReference) -> np.ndarray:
+        """Body torque ``(B, 3)`` [N·m] for ``state`` (``R (B,3,3)``, ``omega (B,3)``)."""
+        if self._batch is None:
+            raise RuntimeError("GeometricPD.command: call reset(t0, batch_size) first")
+        R = check_rotation_matrix(state.R, "R")
+        w = as_array(state.omega, "omega", (3,))
+        if R.ndim != 3 or w.shape != (R.shape[0], 3):
+            raise ValueError(
+                f"state: expected R (B, 3, 3) and omega (B, 3), got {R.shape} and {w.shape}"
+            )
+        B = R.shape[0]
+        if B != self._batch:
+            raise ValueError(f"state: batch size {B} differs from reset(batch_size={self._batch})")
+        R_d, w_d, dw_d = self._reference_arrays(reference, B)
+
+        # R̃ᵀ = RᵀR_d maps desired-body vectors into the body frame
+        RtT = np.swapaxes(R, -1, -2) @ R_d
+        Rt = np.swapaxes(RtT, -1, -2)
+        if self.error == "trace":
+            Psi, e_R = self._kernel(Rt, self.G)
+        else:
+            Psi, e_R = self._kernel(Rt)
+        # (3,) references broadcast against the (B, 3, 3) stack as a column
+        w_d_body = (RtT @ w_d[..., None])[..., 0]
+        dw_d_body = (RtT @ dw_d[..., None])[..., 0]
+        e_W = w - w_d_body
+
+        J = self.J
+        Jw = w @ J.T
+        ff = _cross(w, Jw) - (_cross(w, w_d_body) - dw_d_body) @ J.T
+        M = ff - _apply_gain(self.k_R, e_R) - _apply_gain(self.k_Omega, e_W)
+        self._diag = {"Psi": Psi, "e_R": e_R, "e_Omega": e_W}
+        return M
+
+    def diagnostics(self) -> dict[str, np.ndarray]:
+        """Last ``Psi`` ``(B,)``, ``e_R`` ``(B, 3)``, ``e_Omega`` ``(B, 3)`` (empty before the
+        first command)."""
+        return dict(self._diag)

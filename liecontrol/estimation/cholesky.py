@@ -1,0 +1,121 @@
+"""Square-root covariance helpers: Cholesky rank-1 update/downdate and QR "triangularisation".
+
+scipy has no ``cholupdate``; the square-root UKF needs it (Van der Merwe & Wan, "The square-root
+unscented Kalman filter for state and parameter-estimation", ICASSP 2001, eqs. 19–28).
+
+All square roots here are **lower triangular** ``S`` with ``P = S Sᵀ``.
+
+* :func:`cholupdate` — ``S' = chol(S Sᵀ + σ v vᵀ)`` for one or several vectors ``v`` applied in
+  sequence, ``σ = ±1`` (a negative weight is passed as ``sign=-1`` with ``v`` scaled by
+  ``sqrt(|w|)``). The classical O(n²) rotation algorithm (Golub & Van Loan, *Matrix
+  Computations*, 4th ed., §6.5.4; Seeger, "Low rank updates for the Cholesky decomposition",
+  2004), vectorised over leading batch dimensions; the loop runs over the matrix index only.
+* :func:`tria` — lower-triangular ``S`` with ``S Sᵀ = A Aᵀ`` for a wide matrix ``A`` (``n × m``,
+  ``m ≥ n``) via the QR decomposition of ``Aᵀ`` (the "qr{·}" of the SRUKF papers).
+
+A downdate that would make the matrix indefinite raises :class:`NotPositiveDefiniteError`
+(SPEC §9: loss of positive-definiteness is repaired by the caller or raised, never NaN).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._validation import as_array
+
+__all__ = ["NotPositiveDefiniteError", "cholupdate", "tria", "nearest_pd_sqrt"]
+
+
+class NotPositiveDefiniteError(ValueError):
+    """A covariance (or its square root) is not positive definite where it must be."""
+
+
+def cholupdate(S: object, v: object, sign: float = 1.0) -> np.ndarray:
+    """Rank-1 Cholesky update (``sign=+1``) or downdate (``sign=-1``) of a lower factor.
+
+    Parameters
+    ----------
+    S : (..., n, n) lower-triangular with positive diagonal, ``P = S Sᵀ``.
+    v : (..., n) one vector, or (..., n, k) ``k`` vectors (columns) applied in sequence.
+    sign : +1 or -1.
+
+    Returns
+    -------
+    S' : (..., n, n) lower triangular, positive diagonal, ``S' S'ᵀ = S Sᵀ + sign Σ_j v_j v_jᵀ``.
+
+    For each column v, with r = sqrt(S_kk² + σ x_k²), c = r/S_kk, s = x_k/S_kk:
+    ``S'_kk = r``, ``S'_{i>k,k} = (S_ik + σ s x_i)/c``, ``x_i ← c x_i − s S'_ik``.
+    Raises :class:`NotPositiveDefiniteError` (message starts with ``"S:"``) when a downdate
+    would make the result indefinite.
+    """
+    L = np.array(as_array(S, "S"), dtype=np.float64, copy=True)
+    if L.ndim < 2 or L.shape[-1] != L.shape[-2]:
+        raise ValueError(f"S: expected a square (..., n, n) array, got shape {L.shape}")
+    if sign not in (1, -1, 1.0, -1.0):
+        raise ValueError(f"sign: must be +1 or -1, got {sign}")
+    n = L.shape[-1]
+    V = as_array(v, "v")
+    if V.shape == L.shape[:-1]:
+        V = V[..., None]
+    if V.ndim < 2 or V.shape[-2] != n:
+        raise ValueError(f"v: expected shape (..., {n}) or (..., {n}, k), got {V.shape}")
+    batch = np.broadcast_shapes(L.shape[:-2], V.shape[:-2])
+    L = np.array(np.broadcast_to(L, batch + (n, n)), copy=True)
+    V = np.array(np.broadcast_to(V, batch + V.shape[-2:]), copy=True)
+    if np.any(np.diagonal(L, axis1=-2, axis2=-1) <= 0.0):
+        raise ValueError("S: diagonal must be > 0 (not a Cholesky factor)")
+    sg = float(sign)
+    for j in range(V.shape[-1]):
+        x = V[..., :, j]
+        for k in range(n):
+            lkk = L[..., k, k]
+            r2 = lkk * lkk + sg * x[..., k] * x[..., k]
+            if np.any(r2 <= 0.0) or not np.all(np.isfinite(r2)):
+                worst = float(np.min(r2))
+                raise NotPositiveDefiniteError(
+                    f"S: Cholesky downdate makes the matrix indefinite (pivot {k}: "
+                    f"r² = {worst:.3e} ≤ 0)"
+                )
+            r = np.sqrt(r2)
+            c = r / lkk
+            s = x[..., k] / lkk
+            L[..., k, k] = r
+            if k + 1 < n:
+                col = (L[..., k + 1 :, k] + sg * s[..., None] * x[..., k + 1 :]) / c[..., None]
+                x[..., k + 1 :] = c[..., None] * x[..., k + 1 :] - s[..., None] * col
+                L[..., k + 1 :, k] = col
+    return L
+
+
+def tria(A: object) -> np.ndarray:
+    """Lower-triangular S with ``S Sᵀ = A Aᵀ`` and non-negative diagonal (QR of ``Aᵀ``).
+
+    ``A`` : (..., n, m) with m ≥ n. Batched over leading dimensions (numpy's stacked QR).
+    """
+    a = as_array(A, "A")
+    if a.ndim < 2:
+        raise ValueError(f"A: expected shape (..., n, m), got {a.shape}")
+    n, m = a.shape[-2], a.shape[-1]
+    if m < n:
+        # pad with zero columns so the QR of Aᵀ gives an n×n triangle
+        a = np.concatenate((a, np.zeros(a.shape[:-1] + (n - m,))), axis=-1)
+    r = np.linalg.qr(np.swapaxes(a, -1, -2), mode="r")
+    S = np.swapaxes(r[..., :n, :n], -1, -2)
+    # QR leaves signs arbitrary; flip columns so the diagonal is non-negative
+    d = np.sign(np.diagonal(S, axis1=-2, axis2=-1))
+    d = np.where(d == 0.0, 1.0, d)
+    return S * d[..., None, :]
+
+
+def nearest_pd_sqrt(P: object, floor: float = 1e-12) -> np.ndarray:
+    """Repair: lower Cholesky factor of the symmetric part of ``P`` with its eigenvalues clipped
+    at ``floor · max(1, max eigenvalue)`` (Higham's nearest symmetric PSD matrix, then made
+    strictly PD). Used by the filters' ``pd_policy="repair"``.
+    """
+    a = as_array(P, "P")
+    sym = 0.5 * (a + np.swapaxes(a, -1, -2))
+    w, U = np.linalg.eigh(sym)
+    lo = floor * np.maximum(1.0, np.max(np.abs(w), axis=-1, keepdims=True))
+    w = np.maximum(w, lo)
+    fixed = (U * w[..., None, :]) @ np.swapaxes(U, -1, -2)
+    return np.linalg.cholesky(0.5 * (fixed + np.swapaxes(fixed, -1, -2)))

@@ -1,0 +1,106 @@
+"""Additive unscented Kalman filter on the 7-state (q, ω) with quaternion normalisation — the
+seed-001 baseline (SPEC §7 item 1; Julier & Uhlmann 2004; seed eqs. (12)–(22)).
+
+Predict (sigma points from the Cholesky factor of P, all 2n+1 propagated in one batched call)::
+
+    χ = [x, x ± γ sⱼ],  Yᵢ = f(χᵢ, u, T_s),  x⁻ = normalise(Σ Wᵢᵐ Yᵢ),
+    P⁻ = Σ Wᵢᶜ (Yᵢ − x⁻)(Yᵢ − x⁻)ᵀ + Q.
+
+Update (sigma points redrawn from (x⁻, P⁻))::
+
+    Zᵢ = h(χᵢ),  ẑ = Σ Wᵢᵐ Zᵢ (angle-wrapped),  P_zz = Σ Wᵢᶜ ΔZ ΔZᵀ + R,  P_xz = Σ Wᵢᶜ Δχ ΔZᵀ,
+    K = P_xz P_zz⁻¹,  x = normalise(x⁻ + K ν),  P = P⁻ − K P_zz Kᵀ.
+
+With a negative W₀ᶜ (small α) P⁻ or P can become indefinite: the base class's PD policy
+applies (repair or raise).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .base import Filter
+from .unscented import UTWeights, sigma_points, ut_weights
+
+__all__ = ["UKF"]
+
+
+class _AdditiveUT(Filter):
+    """Shared machinery of the additive (7-state) unscented filters."""
+
+    def __init__(
+        self,
+        model: Any,
+        x0: object,
+        P0: object,
+        *,
+        alpha: float = 1.0,
+        beta: float = 2.0,
+        kappa: float | None = None,
+        pd_policy: str = "repair",
+    ) -> None:
+        super().__init__(model, x0, P0, pd_policy=pd_policy)
+        self.weights: UTWeights = ut_weights(int(model.n), alpha, beta, kappa)
+        self._Pf = np.zeros((model.n, model.n))
+
+    def _propagate(self, S: np.ndarray, u: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """Sigma points of (x, S S ᵀ) through f; returns (Y, normalised weighted mean)."""
+        w = self.weights
+        X = sigma_points(self._x, S, w.gamma)
+        Y = self.model.f(X, u, dt)
+        xm = self.model.normalize((w.Wm @ Y)[None, :])[0]
+        return Y, xm
+
+    def _measure(self, x: np.ndarray, S: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Sigma points of (x, S Sᵀ) through h: (X, Z, ẑ, ΔX, ΔZ) with ΔZ wrapped about ẑ."""
+        w = self.weights
+        X = sigma_points(x, S, w.gamma)
+        Z = self.model.h(X)
+        zm = self.model.z_mean(Z, w.Wm)
+        dZ = self.model.z_residual(Z, zm)
+        return X, Z, zm, X - x, dZ
+
+
+class UKF(_AdditiveUT):
+    """Additive UKF with quaternion normalisation (the seed's baseline), covariance form.
+
+    Parameters: ``model`` (e.g. :class:`~liecontrol.estimation.models.GyrolessAttitudeModel`),
+    ``x0`` (7,), ``P0`` (7, 7) SPD, scaled-UT ``alpha`` (> 0), ``beta``, ``kappa`` (default
+    3 − n), ``pd_policy`` ("repair" | "raise").
+    """
+
+    name = "UKF"
+
+    def _predict(self, u: np.ndarray, dt: float) -> None:
+        S = self._sqrt_or_repair(self._P, "P")
+        Y, xm = self._propagate(S, u, dt)
+        dY = Y - xm
+        Pf = (dY * self.weights.Wc[:, None]).T @ dY
+        self._Pf = 0.5 * (Pf + Pf.T)
+        self._x = xm
+        self._P = self._Pf + self.model.Q(dt)
+
+    def _gain_update(self, P: np.ndarray, z: np.ndarray) -> None:
+        """Standard UKF measurement update from prior (self._x, P)."""
+        S = self._sqrt_or_repair(P, "P")
+        _, _, zm, dX, dZ = self._measure(self._x, S)
+        Wc = self.weights.Wc[:, None]
+        Pzz = (dZ * Wc).T @ dZ + self.model.R
+        Pzz = 0.5 * (Pzz + Pzz.T)
+        Pxz = (dX * Wc).T @ dZ
+        Sz = self._sqrt_or_repair(Pzz, "P_zz")
+        Pzz = Sz @ Sz.T
+        K = np.linalg.solve(Pzz, Pxz.T).T
+        nu = self.model.z_residual(z, zm)
+        self._record_innovation(nu, Pzz, Sz)
+        self._x = self.model.normalize((self._x + K @ nu)[None, :])[0]
+        Pn = P - K @ Pzz @ K.T
+        Pn = 0.5 * (Pn + Pn.T)
+        # check now so that a loss of PD is handled where it happens
+        S_new = self._sqrt_or_repair(Pn, "P")
+        self._P = S_new @ S_new.T
+
+    def _update(self, z: np.ndarray) -> None:
+        self._gain_update(self._P, z)

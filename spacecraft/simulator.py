@@ -1,0 +1,504 @@
+"""Fixed-step closed-loop simulator (SPEC §5.8).
+
+One step of length ``dt`` from ``t_k = t0 + k dt``:
+
+1. if ``k`` is a multiple of ``control_period / dt``: the controller is sampled,
+   ``u_cmd = controller.command(t_k, AttitudeState(R, ω, h), reference(t_k))`` and held
+   (zero-order hold) until its next sample;
+2. the actuator turns the held torque command into its hardware command (for the SGCMG cluster:
+   steering law + gimbal-rate limit), held over the step;
+3. the plant ``(R, ω, x_act)`` is advanced with RKMK4 (:meth:`spacecraft.plant.Spacecraft.step`);
+4. a non-finite state (or a non-finite torque command) stops the run with
+   :class:`SimulationDiverged` (partial log attached).
+
+Every ``log_every`` steps (and at the final time) one row is logged: the state at ``t_k`` and
+the commands applied from ``t_k`` on. The controller sees the true state for now (sensors come
+with SPEC §5.7). Batched: ``B`` spacecraft run in lock-step in one set of arrays; controllers with
+``batched = False`` are stepped per spacecraft (one deep copy each).
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import re
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from liecontrol._validation import check_positive
+from liecontrol.control.base import AttitudeController, AttitudeReference, AttitudeState
+from liecontrol.lie import so3
+
+from .disturbances import SumOfDisturbances
+from .plant import PlantState, Spacecraft
+
+__all__ = ["SimulationDiverged", "SimulationResult", "simulate"]
+
+#: relative tolerance on control_period / dt being an integer
+_PERIOD_RTOL = 1e-9
+
+_COLUMN_RE = re.compile(r"^(.*?)((?:\[\d+\])*)$")
+
+
+class SimulationDiverged(RuntimeError):
+    """The plant state became non-finite (SPEC §5.8, §9).
+
+    Attributes:
+        time: simulation time [s] at which the non-finite state appeared.
+        result: :class:`SimulationResult` with every row logged before that time, plus the last
+            finite state.
+    """
+
+    def __init__(self, message: str, time: float, result: SimulationResult) -> None:
+        super().__init__(message)
+        self.time = time
+        self.result = result
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    """Logged closed-loop run: ``K`` samples of ``B`` spacecraft (numpy arrays).
+
+    Attributes:
+        t: ``(K,)`` sample times [s].
+        R: ``(K, B, 3, 3)`` attitude (body → inertial).
+        omega: ``(K, B, 3)`` body rate [rad/s].
+        R_d: ``(K, B, 3, 3)`` desired attitude.
+        omega_d: ``(K, B, 3)`` desired rate (desired body frame) [rad/s].
+        u_cmd: ``(K, B, 3)`` controller torque command held from ``t`` on [N·m].
+        u: ``(K, B, 3)`` internal torque the actuator delivers on the bus at ``t`` [N·m].
+        disturbance: ``(K, B, 3)`` external torque at ``t`` [N·m].
+        actuator: actuator log, ``(K, B, ...)`` arrays — SGCMG: ``delta`` (K,B,4) [rad],
+            ``delta_dot`` (K,B,4) [rad/s], ``singularity`` (K,B), ``saturated`` (K,B) bool,
+            ``h`` (K,B,3) [N·m·s].
+        controller: controller diagnostics at the last control sample, ``(K, B, ...)``.
+        dt: integration step [s].
+        control_period: controller sampling period [s].
+        disturbance_components: per-source torques ``(K, B, 3)`` when the plant's disturbance
+            is a :class:`spacecraft.disturbances.SumOfDisturbances`, else empty.
+    """
+
+    t: np.ndarray
+    R: np.ndarray
+    omega: np.ndarray
+    R_d: np.ndarray
+    omega_d: np.ndarray
+    u_cmd: np.ndarray
+    u: np.ndarray
+    disturbance: np.ndarray
+    actuator: dict[str, np.ndarray]
+    controller: dict[str, np.ndarray]
+    dt: float
+    control_period: float
+    disturbance_components: dict[str, np.ndarray] = field(default_factory=dict)
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.t.shape[0])
+
+    @property
+    def batch_size(self) -> int:
+        return int(self.R.shape[1])
+
+    def attitude_error_angle(self) -> np.ndarray:
+        """Geodesic angle between ``R`` and ``R_d``, ``θ = ‖log(R_dᵀ R)‖`` ∈ [0, π], ``(K, B)``
+        [rad] (atan2 form: accurate near 0 and π)."""
+        return so3.angle(np.swapaxes(self.R_d, -1, -2) @ self.R)
+
+    def select(self, b: int) -> SimulationResult:
+        """Spacecraft ``b`` alone, as a batch of one (arrays are views)."""
+        B = self.batch_size
+        b = int(b)
+        if not -B <= b < B:
+            raise ValueError(f"b: index {b} out of range for a batch of {B}")
+        b %= B
+        s = slice(b, b + 1)
+
+        def sel(d: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+            return {k: v[:, s] for k, v in d.items()}
+
+        return replace(
+            self,
+            R=self.R[:, s],
+            omega=self.omega[:, s],
+            R_d=self.R_d[:, s],
+            omega_d=self.omega_d[:, s],
+            u_cmd=self.u_cmd[:, s],
+            u=self.u[:, s],
+            disturbance=self.disturbance[:, s],
+            actuator=sel(self.actuator),
+            controller=sel(self.controller),
+            disturbance_components=sel(self.disturbance_components),
+        )
+
+    # -- export --------------------------------------------------------------------------------
+
+    def _groups(self) -> list[tuple[str, np.ndarray]]:
+        out = [
+            ("R", self.R),
+            ("omega", self.omega),
+            ("R_d", self.R_d),
+            ("omega_d", self.omega_d),
+            ("u_cmd", self.u_cmd),
+            ("u", self.u),
+            ("disturbance", self.disturbance),
+        ]
+        out += [(f"actuator.{k}", v) for k, v in self.actuator.items()]
+        out += [(f"controller.{k}", v) for k, v in self.controller.items()]
+        out += [(f"disturbance.{k}", v) for k, v in self.disturbance_components.items()]
+        return out
+
+    def columns(self, batch_index: int = 0) -> dict[str, np.ndarray]:
+        """Flat ``name -> (K,)`` columns for spacecraft ``batch_index``: ``t``, then each array
+        with its trailing indices in brackets (``R[0][2]``, ``omega[1]``,
+        ``actuator.delta[3]``), then the derived ``attitude_error`` [rad]."""
+        one = self.select(batch_index)
+        cols: dict[str, np.ndarray] = {"t": self.t}
+        for name, arr in one._groups():
+            a = arr[:, 0]
+            tail = a.shape[1:]
+            flat = a.reshape(a.shape[0], -1)
+            for j, idx in enumerate(np.ndindex(*tail)):
+                cols[name + "".join(f"[{i}]" for i in idx)] = flat[:, j]
+        cols["attitude_error"] = one.attitude_error_angle()[:, 0]
+        return cols
+
+    def to_dataframe(self, batch_index: int = 0) -> Any:
+        """A pandas ``DataFrame`` of :meth:`columns` (pandas is optional, imported here)."""
+        try:
+            import pandas as pd
+        except ImportError as exc:  # pragma: no cover - depends on the environment
+            raise ImportError(
+                "to_dataframe() needs pandas (pip install pandas); to_csv() works without it"
+            ) from exc
+        return pd.DataFrame(self.columns(batch_index))
+
+    def to_csv(self, path: str | Path, batch_index: int = 0) -> None:
+        """Write spacecraft ``batch_index`` to CSV (no pandas needed).
+
+        Line 1 is a ``#`` comment with ``dt``, ``control_period`` and the boolean columns; line
+        2 the column names of :meth:`columns`; then one row per sample at full precision
+        (``%.17g``: floats round-trip exactly). Read back with :meth:`from_csv` (or
+        ``pandas.read_csv(path, comment="#")``).
+        """
+        cols = self.columns(batch_index)
+        bools = sorted({_COLUMN_RE.match(k).group(1) for k, v in cols.items() if v.dtype == bool})
+        data = np.column_stack([v.astype(np.float64) for v in cols.values()])
+        with open(path, "w", encoding="utf-8") as f:
+            f.write(
+                f"# liecontrol SimulationResult dt={self.dt!r} "
+                f"control_period={self.control_period!r} bool={';'.join(bools)}\n"
+            )
+            f.write(",".join(cols) + "\n")
+            np.savetxt(f, data, delimiter=",", fmt="%.17g")
+
+    @classmethod
+    def from_csv(cls, path: str | Path) -> SimulationResult:
+        """Read a file written by :meth:`to_csv` back (a batch of one)."""
+        with open(path, encoding="utf-8") as f:
+            meta = f.readline()
+            names = f.readline().strip().split(",")
+            data = np.loadtxt(f, delimiter=",", ndmin=2)
+        m = re.match(
+            r"# liecontrol SimulationResult dt=(\S+) control_period=(\S+) bool=(\S*)", meta
+        )
+        if m is None or data.shape[1] != len(names):
+            raise ValueError(f"path: {path} is not a SimulationResult CSV")
+        bools = set(filter(None, m.group(3).split(";")))
+        K = data.shape[0]
+        groups: dict[str, list[tuple[tuple[int, ...], np.ndarray]]] = {}
+        for j, name in enumerate(names):
+            base, idx = _COLUMN_RE.match(name).groups()
+            index = tuple(int(i) for i in re.findall(r"\d+", idx))
+            groups.setdefault(base, []).append((index, data[:, j]))
+        arrays: dict[str, np.ndarray] = {}
+        for base, entries in groups.items():
+            if base in ("t", "attitude_error"):
+                continue
+            if entries[0][0]:
+                shape = tuple(max(e[0][d] for e in entries) + 1 for d in range(len(entries[0][0])))
+            else:
+                shape = ()
+            a = np.empty((K, 1) + shape)
+            for index, col in entries:
+                a[(slice(None), 0) + index] = col
+            arrays[base] = a.astype(bool) if base in bools else a
+        sub: dict[str, dict[str, np.ndarray]] = {
+            "actuator": {},
+            "controller": {},
+            "disturbance": {},
+        }
+        for key, arr in arrays.items():
+            prefix, dot, rest = key.partition(".")
+            if dot and prefix in sub:
+                sub[prefix][rest] = arr
+        return cls(
+            t=groups["t"][0][1].copy(),
+            R=arrays["R"],
+            omega=arrays["omega"],
+            R_d=arrays["R_d"],
+            omega_d=arrays["omega_d"],
+            u_cmd=arrays["u_cmd"],
+            u=arrays["u"],
+            disturbance=arrays["disturbance"],
+            actuator=sub["actuator"],
+            controller=sub["controller"],
+            dt=float(m.group(1)),
+            control_period=float(m.group(2)),
+            disturbance_components=sub["disturbance"],
+        )
+
+
+class _Log:
+    """Preallocated ``(K, B, ...)`` log arrays filled row by row."""
+
+    def __init__(self, K: int, B: int) -> None:
+        self.K, self.B = K, B
+        self.t = np.empty(K)
+        self.R = np.empty((K, B, 3, 3))
+        self.omega = np.empty((K, B, 3))
+        self.R_d = np.empty((K, B, 3, 3))
+        self.omega_d = np.empty((K, B, 3))
+        self.u_cmd = np.empty((K, B, 3))
+        self.u = np.empty((K, B, 3))
+        self.disturbance = np.empty((K, B, 3))
+        self.dicts: dict[str, dict[str, np.ndarray]] = {
+            "actuator": {},
+            "controller": {},
+            "disturbance": {},
+        }
+        self.rows = 0
+
+    def put_dict(self, which: str, row: int, values: dict[str, Any]) -> None:
+        store = self.dicts[which]
+        for key, v in values.items():
+            arr = store.get(key)
+            if arr is None:
+                v = np.asarray(v)
+                arr = np.zeros(
+                    (self.K,) + np.broadcast_shapes(v.shape, (self.B,) + v.shape[1:]), dtype=v.dtype
+                )
+                if arr.dtype.kind == "f":
+                    arr[:row] = np.nan  # rows before the key first appeared
+                store[key] = arr
+            arr[row] = v
+
+    def result(self, dt: float, control_period: float) -> SimulationResult:
+        n = self.rows
+        d = {w: {k: v[:n] for k, v in s.items()} for w, s in self.dicts.items()}
+        return SimulationResult(
+            t=self.t[:n],
+            R=self.R[:n],
+            omega=self.omega[:n],
+            R_d=self.R_d[:n],
+            omega_d=self.omega_d[:n],
+            u_cmd=self.u_cmd[:n],
+            u=self.u[:n],
+            disturbance=self.disturbance[:n],
+            actuator=d["actuator"],
+            controller=d["controller"],
+            dt=dt,
+            control_period=control_period,
+            disturbance_components=d["disturbance"],
+        )
+
+
+class _PerSpacecraft:
+    """Steps an unbatched controller (``batched = False``) once per spacecraft."""
+
+    def __init__(self, controller: AttitudeController, B: int) -> None:
+        self.controllers = [controller] + [copy.deepcopy(controller) for _ in range(B - 1)]
+
+    def reset(self, t0: float, batch_size: int) -> None:
+        for c in self.controllers:
+            c.reset(t0, 1)
+
+    def command(self, t: float, state: AttitudeState, ref: AttitudeReference) -> np.ndarray:
+        out = []
+        for b, c in enumerate(self.controllers):
+            s = slice(b, b + 1)
+            st = AttitudeState(
+                R=state.R[s], omega=state.omega[s], h=None if state.h is None else state.h[s]
+            )
+            rf = AttitudeReference(
+                R_d=ref.R_d[s] if np.ndim(ref.R_d) == 3 else ref.R_d,
+                omega_d=ref.omega_d[s] if np.ndim(ref.omega_d) == 2 else ref.omega_d,
+                omega_dot_d=ref.omega_dot_d[s]
+                if np.ndim(ref.omega_dot_d) == 2
+                else ref.omega_dot_d,
+            )
+            out.append(np.asarray(c.command(t, st, rf), dtype=np.float64).reshape(-1, 3))
+        return np.concatenate(out, axis=0)
+
+    def diagnostics(self) -> dict[str, np.ndarray]:
+        diags = [c.diagnostics() for c in self.controllers]
+        if not diags[0]:
+            return {}
+        return {k: np.concatenate([np.asarray(d[k]) for d in diags], axis=0) for k in diags[0]}
+
+
+def _check_controller(controller: Any) -> None:
+    for name in ("reset", "command"):
+        if not callable(getattr(controller, name, None)):
+            raise ValueError(f"controller: has no method {name}() (see liecontrol.control.base)")
+
+
+def simulate(
+    plant: Spacecraft,
+    controller: AttitudeController,
+    reference: Callable[[float], AttitudeReference],
+    initial_state: PlantState,
+    t_final: float,
+    dt: float,
+    control_period: float | None = None,
+    log_every: int = 1,
+    progress: bool = False,
+    t0: float = 0.0,
+) -> SimulationResult:
+    """Run the closed loop from ``t0`` to ``t_final`` with fixed step ``dt`` (SPEC §5.8).
+
+    Args:
+        plant: the :class:`spacecraft.plant.Spacecraft`.
+        controller: an :class:`liecontrol.control.base.AttitudeController`; ``reset(t0, B)`` is
+            called first (controllers with ``batched = False`` are deep-copied per spacecraft).
+        reference: callable ``t -> AttitudeReference`` (e.g. ``ConstantAttitude(R_d)``).
+        initial_state: :class:`PlantState` of ``B`` spacecraft (``plant.initial_state(...)``).
+        t_final: final time [s]; the run takes ``ceil((t_final − t0)/dt)`` steps.
+        dt: integration step [s] > 0.
+        control_period: controller sampling period [s], a positive integer multiple of ``dt``
+            (relative tolerance 1e-9); default ``dt``. Zero-order hold in between.
+        log_every: log one row every ``log_every`` steps (the final time is always logged).
+        progress: show a tqdm progress bar.
+        t0: initial time [s].
+
+    Returns:
+        :class:`SimulationResult`.
+
+    Raises:
+        ValueError: bad arguments (message starts with the argument's name).
+        SimulationDiverged: the state became non-finite; ``.result`` holds the log so far.
+    """
+    if not isinstance(plant, Spacecraft):
+        raise ValueError(f"plant: expected a Spacecraft, got {type(plant).__name__}")
+    _check_controller(controller)
+    if not callable(reference):
+        raise ValueError("reference: must be callable as reference(t) -> AttitudeReference")
+    state = plant.check_state(initial_state, "initial_state")
+    dt = check_positive(dt, "dt")
+    if not isinstance(dt, float):
+        raise ValueError("dt: must be a scalar")
+    t0 = float(t0)
+    t_final = float(t_final)
+    if not math.isfinite(t_final) or t_final <= t0:
+        raise ValueError(f"t_final: must be finite and > t0 = {t0}, got {t_final}")
+    if control_period is None:
+        control_period = dt
+    control_period = check_positive(control_period, "control_period")
+    if not isinstance(control_period, float):
+        raise ValueError("control_period: must be a scalar")
+    ratio = control_period / dt
+    every_ctrl = round(ratio)
+    if every_ctrl < 1 or abs(ratio - every_ctrl) > _PERIOD_RTOL * ratio:
+        raise ValueError(
+            f"control_period: must be a positive integer multiple of dt = {dt!r}, "
+            f"got {control_period!r} (ratio {ratio!r})"
+        )
+    if isinstance(log_every, bool) or int(log_every) != log_every or log_every < 1:
+        raise ValueError(f"log_every: must be a positive integer, got {log_every!r}")
+    log_every = int(log_every)
+
+    n_steps = max(1, math.ceil((t_final - t0) / dt - 1e-9))
+    B = state.batch_size
+    K = n_steps // log_every + 1 + (1 if n_steps % log_every else 0)
+    log = _Log(K, B)
+
+    ctrl: Any = controller
+    if not getattr(controller, "batched", True) and B > 1:
+        ctrl = _PerSpacecraft(controller, B)
+    ctrl.reset(t0, B)
+
+    actuator = plant.actuator
+    has_diag = callable(getattr(ctrl, "diagnostics", None))
+    components = (
+        plant.disturbance.components if isinstance(plant.disturbance, SumOfDisturbances) else None
+    )
+
+    def record(t: float, R: np.ndarray, x: np.ndarray, held: Any, u_cmd: np.ndarray) -> None:
+        row = log.rows
+        omega = x[:, :3]
+        x_act = x[:, 3:]
+        ref = reference(t)
+        log.t[row] = t
+        log.R[row] = R
+        log.omega[row] = omega
+        log.R_d[row] = ref.R_d
+        log.omega_d[row] = ref.omega_d
+        log.u_cmd[row] = u_cmd
+        log.u[row] = actuator.body_torque(omega, x_act, held)
+        log.disturbance[row] = plant.disturbance_torque(t, R, omega)
+        log.put_dict("actuator", row, actuator.log(x_act, held))
+        if has_diag:
+            log.put_dict("controller", row, ctrl.diagnostics())
+        if components is not None:
+            log.put_dict("disturbance", row, components(t, R, omega))
+        log.rows = row + 1
+
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=n_steps, unit="step", desc="simulate")
+    bar_chunk = max(1, n_steps // 200)
+
+    R = state.R
+    x = state.packed()
+    u_cmd = np.zeros((B, 3))
+    step = plant.step_packed
+    try:
+        for k in range(n_steps + 1):
+            t = t0 + k * dt
+            if k % every_ctrl == 0:
+                omega = x[:, :3]
+                h = actuator.momentum(x[:, 3:])
+                u = ctrl.command(t, AttitudeState(R=R, omega=omega, h=h), reference(t))
+                u_cmd = np.asarray(u, dtype=np.float64)
+                if u_cmd.shape != (B, 3):
+                    raise ValueError(
+                        f"controller: command() returned shape {u_cmd.shape}, expected {(B, 3)}"
+                    )
+                if not math.isfinite(u_cmd.sum()):
+                    raise SimulationDiverged(
+                        f"controller returned a non-finite torque at t = {t:.6g} s",
+                        time=t,
+                        result=log.result(dt, control_period),
+                    )
+            held = actuator.command(u_cmd, x[:, :3], x[:, 3:], t)
+            logged = k % log_every == 0 or k == n_steps
+            if logged:
+                record(t, R, x, held, u_cmd)
+            if k == n_steps:
+                break
+            with np.errstate(over="ignore", invalid="ignore"):
+                # a diverging state overflows inside the stages: reported below, not warned
+                R_next, x_next = step(t, R, x, held, dt)
+            # one reduction per array: a NaN/inf anywhere makes the sum non-finite
+            if not (math.isfinite(x_next.sum()) and math.isfinite(R_next.sum())):
+                if not logged:
+                    record(t, R, x, held, u_cmd)  # keep the last finite state
+                t_bad = t0 + (k + 1) * dt
+                raise SimulationDiverged(
+                    f"state became non-finite at t = {t_bad:.6g} s (step {k + 1} of {n_steps})",
+                    time=t_bad,
+                    result=log.result(dt, control_period),
+                )
+            R, x = R_next, x_next
+            if bar is not None and (k + 1) % bar_chunk == 0:
+                bar.update(bar_chunk)
+    finally:
+        if bar is not None:
+            bar.close()
+    return log.result(dt, control_period)

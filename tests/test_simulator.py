@@ -1,0 +1,382 @@
+"""Closed-loop simulator: ZOH sampling, logging, batching, divergence, export, bad input (§5.8)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from liecontrol.control import AttitudeController, AttitudeReference, ConstantAttitude
+from liecontrol.control.geometric_pd import GeometricPD, gains_from_bandwidth
+from liecontrol.lie import so3
+from spacecraft import (
+    ConstantTorque,
+    IdealTorqueActuator,
+    RigidBody,
+    Seed000Disturbance,
+    SgcmgActuator,
+    SimulationDiverged,
+    SimulationResult,
+    SingularityRobust,
+    Spacecraft,
+    SumOfDisturbances,
+    simulate,
+)
+
+J = np.array([[15053.0, 3000.0, -1000.0], [3000.0, 6510.0, 2000.0], [-1000.0, 2000.0, 11122.0]])
+
+
+def _pd(error="large_angle", omega_n=0.03):
+    k_R, k_W = gains_from_bandwidth(J, omega_n, 0.9, error=error, matrix=True)
+    return GeometricPD(J, k_R, k_W, error=error)
+
+
+def _cmg_plant(disturbance=None):
+    return Spacecraft(RigidBody(J), SgcmgActuator(steering=SingularityRobust()), disturbance)
+
+
+class Recording(AttitudeController):
+    """Wraps a controller and records the times at which it is sampled."""
+
+    def __init__(self, inner, batched=True):
+        self.inner = inner
+        self.batched = batched
+        self.times: list[float] = []
+
+    def reset(self, t0, batch_size):
+        if not self.batched:
+            assert batch_size == 1
+        self.times = []
+        self.inner.reset(t0, batch_size)
+
+    def command(self, t, state, reference):
+        if not self.batched:
+            assert state.R.shape[0] == 1
+        self.times.append(t)
+        return self.inner.command(t, state, reference)
+
+    def diagnostics(self):
+        return self.inner.diagnostics()
+
+
+class Constant(AttitudeController):
+    """Returns a fixed torque, optionally NaN from time t_nan on (fault injection)."""
+
+    def __init__(self, u, t_nan=np.inf):
+        self.u = np.asarray(u, float)
+        self.t_nan = t_nan
+
+    def reset(self, t0, batch_size):
+        self.B = batch_size
+
+    def command(self, t, state, reference):
+        u = np.broadcast_to(self.u, (self.B, 3)).copy()
+        if t >= self.t_nan:
+            u[:] = np.nan
+        return u
+
+
+class PositiveFeedback(AttitudeController):
+    """Destabilising rate feedback u = +k ω (negative damping)."""
+
+    def __init__(self, k):
+        self.k = k
+
+    def reset(self, t0, batch_size):
+        pass
+
+    def command(self, t, state, reference):
+        return self.k * state.omega
+
+
+def test_zoh_controller_sampled_at_its_period():
+    plant = _cmg_plant()
+    ctrl = Recording(_pd())
+    Rd = so3.exp(np.array([0.0, 0.0, 0.5]))
+    res = simulate(
+        plant,
+        ctrl,
+        ConstantAttitude(Rd),
+        plant.initial_state(np.eye(3)),
+        20.0,
+        0.1,
+        control_period=0.5,
+    )
+    np.testing.assert_allclose(ctrl.times, np.arange(0.0, 20.0 + 1e-9, 0.5), atol=1e-12)
+    assert res.n_samples == 201 and res.control_period == 0.5
+    # u_cmd is piecewise constant on each control period and changes between periods
+    blocks = res.u_cmd[:200, 0].reshape(40, 5, 3)
+    assert np.all(blocks == blocks[:, :1])
+    assert np.all(np.abs(np.diff(blocks[:, 0], axis=0)).max(axis=-1) > 0)
+    # ... and equals the controller evaluated on the logged state at the sample times
+    check = _pd()
+    check.reset(0.0, 1)
+    from liecontrol.control import AttitudeState
+
+    for k in (0, 5, 100, 200):
+        st = AttitudeState(R=res.R[k], omega=res.omega[k], h=res.actuator["h"][k])
+        u = check.command(res.t[k], st, ConstantAttitude(Rd)(res.t[k]))
+        np.testing.assert_allclose(res.u_cmd[k], u, rtol=1e-12, atol=1e-12)
+    # the actuator is between: delivered torque tracks the command (SR law, far from singular)
+    assert np.abs(res.u - res.u_cmd).max() < 0.01 * np.abs(res.u_cmd).max()
+
+
+def test_logging_layout_and_log_every():
+    plant = _cmg_plant(
+        SumOfDisturbances({"seed": Seed000Disturbance(), "bias": ConstantTorque([0, 0, 0.1])})
+    )
+    res = simulate(
+        plant,
+        _pd(),
+        ConstantAttitude(np.eye(3)),
+        plant.initial_state(np.eye(3), batch=2),
+        2.0,
+        0.1,
+        log_every=7,
+    )
+    np.testing.assert_allclose(res.t, [0.0, 0.7, 1.4, 2.0])
+    K, B = 4, 2
+    assert res.R.shape == (K, B, 3, 3) and res.R_d.shape == (K, B, 3, 3)
+    for a in (res.omega, res.omega_d, res.u_cmd, res.u, res.disturbance):
+        assert a.shape == (K, B, 3)
+    assert res.actuator["delta"].shape == (K, B, 4)
+    assert res.actuator["saturated"].dtype == bool
+    assert res.controller["e_R"].shape == (K, B, 3)
+    assert set(res.disturbance_components) == {"seed", "bias"}
+    np.testing.assert_allclose(
+        res.disturbance, res.disturbance_components["seed"] + res.disturbance_components["bias"]
+    )
+    np.testing.assert_allclose(res.disturbance[0, 0], [0.02, 0.08, 0.12])
+
+
+def test_attitude_error_angle_and_select():
+    rng = np.random.default_rng(5)
+    B = 4
+    plant = _cmg_plant()
+    Rd = so3.random(rng, B)
+    res = simulate(
+        plant, _pd(), ConstantAttitude(Rd), plant.initial_state(so3.random(rng, B)), 1.0, 0.1
+    )
+    ang = res.attitude_error_angle()
+    assert ang.shape == (11, B)
+    ref = Rotation.from_matrix((np.swapaxes(res.R_d, -1, -2) @ res.R).reshape(-1, 3, 3)).magnitude()
+    np.testing.assert_allclose(ang.ravel(), ref, atol=1e-12)
+    one = res.select(2)
+    assert one.batch_size == 1
+    np.testing.assert_array_equal(one.R[:, 0], res.R[:, 2])
+    np.testing.assert_array_equal(one.actuator["delta"][:, 0], res.actuator["delta"][:, 2])
+    np.testing.assert_array_equal(res.select(-1).omega[:, 0], res.omega[:, -1])
+    with pytest.raises(ValueError, match="^b:"):
+        res.select(4)
+
+
+def test_batched_equals_per_spacecraft_runs():
+    """B spacecraft with different initial states and targets in one run == B separate runs."""
+    rng = np.random.default_rng(21)
+    B = 3
+    plant = _cmg_plant(Seed000Disturbance())
+    R0 = so3.random(rng, B)
+    Rd = so3.random(rng, B)
+    w0 = 0.01 * rng.normal(size=(B, 3))
+    x0 = plant.actuator.initial_state(B) + 0.1 * rng.normal(size=(B, 4))
+    batch = simulate(
+        plant,
+        _pd(),
+        ConstantAttitude(Rd),
+        plant.initial_state(R0, w0, x0),
+        60.0,
+        0.1,
+        control_period=0.2,
+        log_every=10,
+    )
+    for b in range(B):
+        one = simulate(
+            plant,
+            _pd(),
+            ConstantAttitude(Rd[b]),
+            plant.initial_state(R0[b], w0[b], x0[b]),
+            60.0,
+            0.1,
+            control_period=0.2,
+            log_every=10,
+        )
+        sel = batch.select(b)
+        for name in ("R", "omega", "u_cmd", "u", "disturbance"):
+            np.testing.assert_allclose(getattr(sel, name), getattr(one, name), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(sel.actuator["delta"], one.actuator["delta"], rtol=0, atol=1e-12)
+
+
+def test_unbatched_controller_is_stepped_per_spacecraft():
+    rng = np.random.default_rng(4)
+    B = 3
+    plant = _cmg_plant()
+    R0, Rd = so3.random(rng, B), so3.random(rng, B)
+    ref = ConstantAttitude(Rd)
+    a = simulate(plant, _pd(), ref, plant.initial_state(R0), 5.0, 0.1)
+    rec = Recording(_pd(), batched=False)
+    b = simulate(plant, rec, ref, plant.initial_state(R0), 5.0, 0.1)
+    np.testing.assert_allclose(b.R, a.R, atol=1e-12)
+    np.testing.assert_allclose(b.controller["e_R"], a.controller["e_R"], atol=1e-12)
+
+
+def test_divergence_raises_with_partial_log():
+    plant = Spacecraft(RigidBody(np.diag([10.0, 12.0, 14.0])), IdealTorqueActuator())
+    state = plant.initial_state(np.eye(3), omega0=[0.1, -0.1, 0.05])
+    with pytest.raises(SimulationDiverged) as info:
+        simulate(
+            plant,
+            PositiveFeedback(1e4),
+            ConstantAttitude(np.eye(3)),
+            state,
+            100.0,
+            0.1,
+            log_every=3,
+        )
+    err = info.value
+    assert isinstance(err, RuntimeError)
+    res = err.result
+    assert 0.0 < err.time < 100.0
+    assert res.n_samples >= 2 and res.t[-1] == pytest.approx(err.time - 0.1)
+    assert np.isfinite(res.omega).all() and np.isfinite(res.R).all()
+    assert np.all(np.diff(np.linalg.norm(res.omega[:, 0], axis=-1)) > 0)  # it was blowing up
+
+
+def test_nan_command_is_caught_as_divergence():
+    plant = _cmg_plant()
+    with pytest.raises(SimulationDiverged) as info:
+        simulate(
+            plant,
+            Constant([0.1, 0.0, 0.0], t_nan=1.0),
+            ConstantAttitude(np.eye(3)),
+            plant.initial_state(np.eye(3)),
+            5.0,
+            0.1,
+        )
+    assert info.value.time == pytest.approx(1.0)
+    np.testing.assert_allclose(info.value.result.t, np.arange(10) * 0.1, atol=1e-12)
+
+
+def test_nan_in_plant_is_caught_as_divergence():
+    """A non-finite disturbance torque (a broken model) poisons the state: caught, not returned."""
+
+    def broken(t, R, omega):
+        return np.full(omega.shape, np.nan if t > 0.45 else 0.0)
+
+    plant = _cmg_plant(broken)
+    with pytest.raises(SimulationDiverged) as info:
+        simulate(
+            plant,
+            _pd(),
+            ConstantAttitude(np.eye(3)),
+            plant.initial_state(np.eye(3)),
+            5.0,
+            0.1,
+            log_every=100,
+        )
+    assert info.value.time == pytest.approx(0.5)
+    np.testing.assert_allclose(info.value.result.t, [0.0, 0.4], atol=1e-12)
+
+
+def test_csv_round_trip(tmp_path):
+    plant = _cmg_plant(Seed000Disturbance())
+    res = simulate(
+        plant,
+        _pd(),
+        ConstantAttitude(so3.exp(np.array([0.3, 0.0, 0.2]))),
+        plant.initial_state(np.eye(3), batch=2),
+        3.0,
+        0.1,
+        control_period=0.3,
+    )
+    path = tmp_path / "run.csv"
+    res.to_csv(path, batch_index=1)
+    back = SimulationResult.from_csv(path)
+    one = res.select(1)
+    assert back.dt == res.dt and back.control_period == res.control_period
+    np.testing.assert_array_equal(back.t, res.t)
+    for name in ("R", "omega", "R_d", "omega_d", "u_cmd", "u", "disturbance"):
+        np.testing.assert_array_equal(getattr(back, name), getattr(one, name))
+    assert set(back.actuator) == set(one.actuator)
+    for k, v in one.actuator.items():
+        np.testing.assert_array_equal(back.actuator[k], v)
+        assert back.actuator[k].dtype == v.dtype
+    for k, v in one.controller.items():
+        np.testing.assert_array_equal(back.controller[k], v)
+    pd = pytest.importorskip("pandas")
+    df = pd.read_csv(path, comment="#")
+    frame = res.to_dataframe(batch_index=1)
+    assert list(df.columns) == list(frame.columns)
+    np.testing.assert_array_equal(df.to_numpy(float), frame.to_numpy(float))
+    assert {"t", "R[0][2]", "actuator.delta[3]", "controller.Psi", "attitude_error"} <= set(
+        df.columns
+    )
+
+
+def test_progress_bar_runs():
+    plant = Spacecraft(RigidBody(np.diag([10.0, 12.0, 14.0])), IdealTorqueActuator())
+    res = simulate(
+        plant,
+        Constant([0.0, 0.0, 0.0]),
+        ConstantAttitude(np.eye(3)),
+        plant.initial_state(np.eye(3)),
+        1.0,
+        0.1,
+        progress=True,
+    )
+    assert res.n_samples == 11
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "name"),
+    [
+        ({"dt": 0.0}, "dt"),
+        ({"dt": -0.1}, "dt"),
+        ({"dt": np.nan}, "dt"),
+        ({"control_period": 0.15}, "control_period"),
+        ({"control_period": 0.05}, "control_period"),
+        ({"control_period": 0.0}, "control_period"),
+        ({"t_final": 0.0}, "t_final"),
+        ({"log_every": 0}, "log_every"),
+        ({"log_every": 1.5}, "log_every"),
+    ],
+)
+def test_bad_arguments(kwargs, name):
+    plant = _cmg_plant()
+    args = dict(t_final=1.0, dt=0.1)
+    args.update(kwargs)
+    with pytest.raises(ValueError, match=f"^{name}:"):
+        simulate(plant, _pd(), ConstantAttitude(np.eye(3)), plant.initial_state(np.eye(3)), **args)
+
+
+def test_bad_objects_and_shapes():
+    plant = _cmg_plant()
+    ref = ConstantAttitude(np.eye(3))
+    s0 = plant.initial_state(np.eye(3))
+    with pytest.raises(ValueError, match="^plant:"):
+        simulate(None, _pd(), ref, s0, 1.0, 0.1)
+    with pytest.raises(ValueError, match="^controller:"):
+        simulate(plant, object(), ref, s0, 1.0, 0.1)
+    with pytest.raises(ValueError, match="^reference:"):
+        simulate(plant, _pd(), 3, s0, 1.0, 0.1)
+    with pytest.raises(ValueError, match="^initial_state"):
+        simulate(plant, _pd(), ref, (np.eye(3), np.zeros(3)), 1.0, 0.1)
+    bad = type(s0)(R=s0.R, omega=np.zeros((1, 4)), x_act=s0.x_act)
+    with pytest.raises(ValueError, match="^initial_state.omega:"):
+        simulate(plant, _pd(), ref, bad, 1.0, 0.1)
+    with pytest.raises(ValueError, match="^controller:"):
+        simulate(plant, Constant(np.zeros(3)).__class__(np.zeros((2, 3))), ref, s0, 1.0, 0.1)
+    # a control period that is an integer multiple up to rounding is accepted
+    res = simulate(plant, _pd(), ref, s0, 1.0, 0.1, control_period=0.30000000000000004)
+    assert res.control_period == pytest.approx(0.3)
+
+
+def test_reference_with_batched_arrays_is_logged():
+    rng = np.random.default_rng(8)
+    plant = _cmg_plant()
+    Rd = so3.random(rng, 2)
+
+    def ref(t):
+        return AttitudeReference(R_d=Rd, omega_d=np.zeros((2, 3)), omega_dot_d=np.zeros((2, 3)))
+
+    res = simulate(plant, _pd(), ref, plant.initial_state(np.eye(3), batch=2), 0.5, 0.1)
+    np.testing.assert_array_equal(res.R_d[3], Rd)
