@@ -8,8 +8,9 @@ One step of length ``dt`` from ``t_k = t0 + k dt``:
 2. the actuator turns the held torque command into its hardware command (for the SGCMG cluster:
    steering law + gimbal-rate limit), held over the step;
 3. the plant ``(R, ω, x_act)`` is advanced with RKMK4 (:meth:`spacecraft.plant.Spacecraft.step`);
-4. a non-finite state (or a non-finite torque command) stops the run with
-   :class:`SimulationDiverged` (partial log attached).
+4. a non-finite state (or a non-finite torque command, or an arithmetic error inside the
+   integration step — overflow, ``math`` domain error — chained as the cause) stops the run
+   with :class:`SimulationDiverged` (partial log attached).
 
 Every ``log_every`` steps (and at the final time) one row is logged: the state at ``t_k`` and
 the commands applied from ``t_k`` on. The controller sees the true state for now (sensors come
@@ -482,19 +483,27 @@ def simulate(
                 record(t, R, x, held, u_cmd)
             if k == n_steps:
                 break
-            with np.errstate(over="ignore", invalid="ignore"):
-                # a diverging state overflows inside the stages: reported below, not warned
-                R_next, x_next = step(t, R, x, held, dt)
+            failure: BaseException | None = None
+            try:
+                with np.errstate(over="ignore", invalid="ignore"):
+                    # a diverging state overflows inside the stages: reported below, not warned
+                    R_next, x_next = step(t, R, x, held, dt)
+            except (ArithmeticError, ValueError) as exc:
+                # scalar math on an overflowed stage (math.sin(inf): "math domain error")
+                failure = exc
             # one reduction per array: a NaN/inf anywhere makes the sum non-finite
-            if not (math.isfinite(x_next.sum()) and math.isfinite(R_next.sum())):
+            if failure is not None or not (
+                math.isfinite(x_next.sum()) and math.isfinite(R_next.sum())
+            ):
                 if not logged:
                     record(t, R, x, held, u_cmd)  # keep the last finite state
                 t_bad = t0 + (k + 1) * dt
+                why = "became non-finite" if failure is None else f"failed ({failure!r})"
                 raise SimulationDiverged(
-                    f"state became non-finite at t = {t_bad:.6g} s (step {k + 1} of {n_steps})",
+                    f"state {why} at t = {t_bad:.6g} s (step {k + 1} of {n_steps})",
                     time=t_bad,
                     result=log.result(dt, control_period),
-                )
+                ) from failure
             R, x = R_next, x_next
             if bar is not None and (k + 1) % bar_chunk == 0:
                 bar.update(bar_chunk)

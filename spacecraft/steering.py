@@ -14,10 +14,14 @@ The plant should pass all of them; each law uses what it needs. Results are ``(.
 
 Laws (SPEC §5.2):
 
-- :class:`PseudoInverse`: δ̇ = Aᵀ(AAᵀ + ε̄ I)⁻¹ ḣ_cmd with ε̄ = ε tr(AAᵀ)/3, ε = 1e-12: the
-  Moore–Penrose solution to ~1e-12 relative accuracy wherever λ_min(AAᵀ) ≫ ε̄, and at an exact
-  singularity the minimum-norm least-squares solution (the unrealisable component of ḣ_cmd
-  along the singular direction is dropped), so never NaN/inf.
+- :class:`PseudoInverse`: δ̇ = Aᵀ(AAᵀ + ε̄ I)⁻¹ ḣ_cmd with ε̄ = ε tr(AAᵀ)/3, ε = 1e-12 (a
+  Tikhonov floor, our choice): the Moore–Penrose solution up to a relative error ≈ ε̄/λ_min(AAᵀ)
+  (< 1e-10 for the pyramid when m ≳ 0.3), and at an exact singularity the minimum-norm
+  least-squares solution (the unrealisable component of ḣ_cmd along the singular direction is
+  dropped), so never NaN/inf. Near a singularity the rates are bounded only by
+  |ḣ_cmd|/(2√ε̄) ≈ 1.4e3 |ḣ_cmd|/h₀ — the plant's rate limit then applies. Exactly at a
+  singularity the rounding residue (~1e-14 h₀) of the zero singular value is amplified by
+  1/ε̄, a noise of ~1e-3 |ḣ_cmd|/h₀ in δ̇.
 - :class:`PseudoInverseNullMotion` (seed 000's law): δ̇ = A⁺ḣ_cmd + k (I − A⁺A) ∇_δ m; the
   second term lies in the null space of A (produces no torque) and climbs m.
 - :class:`SingularityRobust` (Nakamura–Hanafusa / Bedrossian): δ̇ = Âᵀ(ÂÂᵀ + λI)⁻¹ ḣ_cmd / s
@@ -56,9 +60,10 @@ __all__ = [
 #: Relative Tikhonov floor ε of the "exact" pseudo-inverse: ε̄ = ε tr(AAᵀ)/3.
 PINV_EPS = 1e-12
 
-# Batches up to this size use LAPACK (np.linalg.solve); larger ones the closed form, which is
-# faster there (measured: B=1 solve 6 µs vs closed 20 µs; B=1000 solve 200 µs vs closed 100 µs).
-_SMALL_BATCH = 32
+# Batches up to this size use matmul + LAPACK (np.linalg.solve); larger ones the closed form.
+# Measured for _apply_right_inverse (µs, LAPACK / closed): B=1 33/85, B=128 80/161,
+# B=300 160/157, B=1000 475/205.
+_SMALL_BATCH = 256
 # Closed-form results are trusted only if det(M) ≥ this × (tr M / 3)³ (relative rounding error
 # of the cofactor determinant ≲ 1e-5); the rest go through LU with partial pivoting.
 _DET_REL_TRUST = 1e-10

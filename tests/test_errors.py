@@ -395,3 +395,13 @@ def test_se3_bad_input():
         E.se3_error(g, g, np.zeros(6), np.zeros(6), kind="log", G=G_TEST)
     with pytest.raises(ValueError, match="^kind:"):
         E.se3_error(g, g, np.zeros(6), np.zeros(6), kind="mrp")
+
+
+def test_se3_log_error_agrees_with_lie_se3():
+    se3 = pytest.importorskip("liecontrol.lie.se3")
+    rng = np.random.default_rng(12)
+    g = np.stack([random_pose(rng) for _ in range(4)])
+    g_d = np.stack([random_pose(rng) for _ in range(4)])
+    np.testing.assert_allclose(
+        E.se3_log_error(g, g_d), se3.log(se3.compose(se3.inverse(g_d), g)), atol=1e-9
+    )

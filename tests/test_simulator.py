@@ -363,8 +363,13 @@ def test_bad_objects_and_shapes():
     bad = type(s0)(R=s0.R, omega=np.zeros((1, 4)), x_act=s0.x_act)
     with pytest.raises(ValueError, match="^initial_state.omega:"):
         simulate(plant, _pd(), ref, bad, 1.0, 0.1)
+
+    class WrongShape(Constant):
+        def command(self, t, state, reference):
+            return np.zeros(3)
+
     with pytest.raises(ValueError, match="^controller:"):
-        simulate(plant, Constant(np.zeros(3)).__class__(np.zeros((2, 3))), ref, s0, 1.0, 0.1)
+        simulate(plant, WrongShape(np.zeros(3)), ref, s0, 1.0, 0.1)
     # a control period that is an integer multiple up to rounding is accepted
     res = simulate(plant, _pd(), ref, s0, 1.0, 0.1, control_period=0.30000000000000004)
     assert res.control_period == pytest.approx(0.3)

@@ -63,33 +63,51 @@ _HAT9[2, 1], _HAT9[1, 2] = -1.0, 1.0
 _HAT9[2, 3], _HAT9[0, 5] = 1.0, -1.0
 _HAT9[1, 6], _HAT9[0, 7] = -1.0, 1.0
 _HAT9.setflags(write=False)
-_EYE9 = np.eye(3).reshape(9)
-_EYE9.setflags(write=False)
-_P1 = np.array([1, 2, 0])
-_P2 = np.array([2, 0, 1])
 # Below this half-angle sin(x)/x == 1 in double precision; clamping avoids 0/0 at θ = 0 exactly.
 _TINY = 1e-300
 
 
 def _exp(w: np.ndarray) -> np.ndarray:
-    """Rodrigues exp of rotation vectors ``(..., 3) -> (..., 3, 3)``, branch-free (half angle)."""
-    a2 = (w * w).sum(axis=-1, keepdims=True)
+    """Rodrigues exp of rotation vectors ``(..., 3) -> (..., 3, 3)``, branch-free (half angle).
+
+    Component-wise: on (B,) slices this is ~2× faster than (B, 3, 3) broadcasting for B ~ 10³.
+    """
+    x, y, z = w[..., 0], w[..., 1], w[..., 2]
+    a2 = x * x + y * y + z * z
     half = np.sqrt(a2)
     half *= 0.5
     np.maximum(half, _TINY, out=half)
     q = np.sin(half) / half  # sin(θ/2)/(θ/2)
+    a = q * np.cos(half)  # sin θ/θ
     b = 0.5 * q * q  # (1 − cos θ)/θ²
-    out = (b * w)[..., :, None] * w[..., None, :]
-    out += ((q * np.cos(half) * w) @ _HAT9 + (1.0 - b * a2) * _EYE9).reshape(out.shape)
-    return out
+    c = 1.0 - b * a2  # cos θ
+    bx, by = b * x, b * y
+    bxy, bxz, byz = bx * y, bx * z, by * z
+    ax, ay, az = a * x, a * y, a * z
+    R = np.empty(w.shape + (3,))
+    R[..., 0, 0] = c + bx * x
+    R[..., 0, 1] = bxy - az
+    R[..., 0, 2] = bxz + ay
+    R[..., 1, 0] = bxy + az
+    R[..., 1, 1] = c + by * y
+    R[..., 1, 2] = byz - ax
+    R[..., 2, 0] = bxz - ay
+    R[..., 2, 1] = byz + ax
+    R[..., 2, 2] = c + b * z * z
+    return R
 
 
 def _dexpinv(theta: np.ndarray, omega: np.ndarray) -> np.ndarray:
     """J_r(θ)⁻¹ ω truncated after the θ^² term: ω + ½ θ×ω + (1/12)(θ (θ·ω) − ω |θ|²)."""
-    cross = theta[..., _P1] * omega[..., _P2] - theta[..., _P2] * omega[..., _P1]
-    tw = (theta * omega).sum(axis=-1, keepdims=True)
-    tt = (theta * theta).sum(axis=-1, keepdims=True)
-    return omega * (1.0 - tt / 12.0) + 0.5 * cross + theta * (tw / 12.0)
+    t0, t1, t2 = theta[..., 0], theta[..., 1], theta[..., 2]
+    w0, w1, w2 = omega[..., 0], omega[..., 1], omega[..., 2]
+    tw = (t0 * w0 + t1 * w1 + t2 * w2) * (1.0 / 12.0)
+    c = 1.0 - (t0 * t0 + t1 * t1 + t2 * t2) * (1.0 / 12.0)
+    out = np.empty(np.broadcast_shapes(theta.shape, omega.shape))
+    out[..., 0] = c * w0 + 0.5 * (t1 * w2 - t2 * w1) + t0 * tw
+    out[..., 1] = c * w1 + 0.5 * (t2 * w0 - t0 * w2) + t1 * tw
+    out[..., 2] = c * w2 + 0.5 * (t0 * w1 - t1 * w0) + t2 * tw
+    return out
 
 
 def _exp_f(w0: float, w1: float, w2: float) -> np.ndarray:
