@@ -72,11 +72,12 @@ def _settling_time(res, tol_deg=1.0):
     out = []
     for b in range(err.shape[1]):
         above = np.nonzero(err[:, b] > tol_deg)[0]
-        out.append(
-            res.t[above[-1] + 1]
-            if above.size and above[-1] + 1 < res.t.size
-            else (0.0 if not above.size else np.inf)
-        )
+        if above.size == 0:
+            out.append(res.t[0])
+        elif above[-1] + 1 == res.t.size:
+            out.append(np.inf)  # not settled within the horizon
+        else:
+            out.append(res.t[above[-1] + 1])
     return np.array(out)
 
 
@@ -115,7 +116,7 @@ def maneuver_90():
 def test_rest_to_rest_90deg_every_error_function(maneuver_90):
     plant, errors, res = maneuver_90
     final = np.rad2deg(res.attitude_error_angle()[-1])
-    for e, f in zip(errors, final):
+    for e, f in zip(errors, final, strict=True):
         assert f < 0.1, f"{e}: final error {f:.3g} deg"
     np.testing.assert_allclose(res.omega[-1], 0.0, atol=1e-4)
     _check_plant_health(plant, res)

@@ -9,6 +9,7 @@ from hypothesis import strategies as st
 
 from spacecraft.sgcmg import SgcmgPyramid
 from spacecraft.steering import (
+    _SMALL_BATCH,
     PINV_EPS,
     PseudoInverse,
     PseudoInverseNullMotion,
@@ -20,6 +21,7 @@ from spacecraft.steering import (
 )
 
 P = SgcmgPyramid()
+BIG = _SMALL_BATCH + 44  # batches this large take the closed-form (Cramer) route
 LAWS = [PseudoInverse(), PseudoInverseNullMotion(cluster=P), SingularityRobust()]
 LAW_IDS = ["pinv", "pinv_null", "sr"]
 SINGULAR = np.deg2rad(
@@ -47,8 +49,9 @@ def realised(A: np.ndarray, dd: np.ndarray) -> np.ndarray:
 
 # ---------------------------------------------------------------------------- pure inverses
 def test_pseudo_inverse_matches_numpy_pinv_away_from_singularity():
-    d = random_regular(np.random.default_rng(0), 60)
+    d = random_regular(np.random.default_rng(0), BIG)
     A = P.jacobian(d)
+    assert A.shape[0] == BIG
     for sub in (A[:5], A):  # LAPACK path (small batch) and closed-form path (large batch)
         ref = np.linalg.pinv(sub)
         np.testing.assert_allclose(pseudo_inverse(sub), ref, atol=1e-9 * np.abs(ref).max())
@@ -67,7 +70,8 @@ def test_pseudo_inverse_is_least_squares_at_singularity():
     # zero singular value is amplified by σ/ε̄ (ε̄ = PINV_EPS tr(AAᵀ)/3), a 1e-4 relative noise
     ref = np.linalg.pinv(A, rcond=1e-8)
     np.testing.assert_allclose(pseudo_inverse(A), ref, atol=1e-4 / P.h0)
-    np.testing.assert_allclose(pseudo_inverse(np.repeat(A, 20, 0))[::20], ref, atol=1e-4 / P.h0)
+    big = np.repeat(A, BIG // 5 + 1, 0)
+    np.testing.assert_allclose(pseudo_inverse(big)[:: BIG // 5 + 1], ref, atol=1e-4 / P.h0)
     assert np.all(pseudo_inverse(np.zeros((3, 4))) == 0.0)
 
 
@@ -94,7 +98,7 @@ def test_jacobian_measure_equals_cluster_measure():
 @pytest.mark.parametrize("law", LAWS[:2], ids=LAW_IDS[:2])
 def test_pinv_laws_realise_command_away_from_singularity(law):
     rng = np.random.default_rng(3)
-    d = random_regular(rng, 100)
+    d = random_regular(rng, BIG)
     A = P.jacobian(d)
     h = rng.normal(size=(d.shape[0], 3))
     for k in (slice(0, 1), slice(0, 8), slice(None)):
@@ -165,6 +169,7 @@ def constructed_singular(rng: np.random.Generator, n: int) -> np.ndarray:
 def test_all_laws_finite_at_exact_singularities(law):
     rng = np.random.default_rng(5)
     d = np.concatenate([SINGULAR, constructed_singular(rng, 40)])
+    d = np.tile(d, (BIG // d.shape[0] + 1, 1))
     assert np.all(P.singularity_measure(d) < 1e-6)
     A = P.jacobian(d)
     h = rng.normal(scale=10.0, size=(d.shape[0], 3))
@@ -188,7 +193,7 @@ def test_all_laws_finite_at_exact_singularities(law):
 @pytest.mark.parametrize("law", LAWS, ids=LAW_IDS)
 def test_batched_equals_per_element(law):
     rng = np.random.default_rng(6)
-    d = np.concatenate([rng.uniform(-4, 4, (60, 4)), SINGULAR])
+    d = np.concatenate([rng.uniform(-4, 4, (BIG, 4)), SINGULAR])
     A = P.jacobian(d)
     h = rng.normal(scale=3.0, size=(d.shape[0], 3))
     batched = law(A, h, d, 0.0, P)
@@ -197,14 +202,20 @@ def test_batched_equals_per_element(law):
     scale = 1.0 + np.abs(single).max(axis=-1, keepdims=True)
     np.testing.assert_allclose(batched / scale, single / scale, atol=1e-9)
     # extra leading dims
-    nd = law(A[:60].reshape(3, 20, 3, 4), h[:60].reshape(3, 20, 3), d[:60].reshape(3, 20, 4))
-    np.testing.assert_allclose(nd.reshape(60, 4), batched[:60], rtol=1e-12, atol=1e-14)
+    for n in (60, BIG):
+        nd = law(
+            A[:n].reshape(n // 20, 20, 3, 4),
+            h[:n].reshape(n // 20, 20, 3),
+            d[:n].reshape(n // 20, 20, 4),
+        )
+        ref = law(A[:n], h[:n], d[:n])
+        np.testing.assert_allclose(nd.reshape(n, 4), ref, rtol=1e-12, atol=1e-14)
 
 
 # ---------------------------------------------------------------------------- null motion
 def test_null_motion_in_null_space_and_climbs_measure():
     rng = np.random.default_rng(7)
-    d = np.concatenate([rng.uniform(-4, 4, (80, 4)), SINGULAR])
+    d = np.concatenate([rng.uniform(-4, 4, (BIG, 4)), SINGULAR])
     A = P.jacobian(d)
     zero = np.zeros((d.shape[0], 3))
     k = 0.5
@@ -218,9 +229,9 @@ def test_null_motion_in_null_space_and_climbs_measure():
     h = rng.normal(size=(d.shape[0], 3))
     total = PseudoInverseNullMotion(k=k, cluster=P)(A, h, d)
     pinv = PseudoInverse()(A, h)
-    np.testing.assert_allclose(total[:80] - pinv[:80], null[:80], atol=1e-9)
+    np.testing.assert_allclose(total[:BIG] - pinv[:BIG], null[:BIG], atol=1e-9)
     # at exact singularities the two agree up to the regularised inverse's rounding noise
-    np.testing.assert_allclose(total[80:] - pinv[80:], null[80:], atol=1e-2 / P.h0)
+    np.testing.assert_allclose(total[BIG:] - pinv[BIG:], null[BIG:], atol=1e-2 / P.h0)
 
 
 def test_seed000_null_motion_direction():
