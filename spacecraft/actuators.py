@@ -64,7 +64,13 @@ class Actuator(abc.ABC):
         return np.zeros((x_act.shape[0], 3))
 
     def log(self, x_act: np.ndarray, held: Any) -> dict[str, np.ndarray]:
-        """Quantities to log, as ``(B, ...)`` arrays (empty by default)."""
+        """Quantities to log at one sample, as ``(B, ...)`` arrays (empty by default)."""
+        return {}
+
+    def derived_log(self, log: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Quantities computed afterwards from the whole log (``(K, B, ...)`` arrays), added to
+        it by the simulator. Pure functions of logged states (e.g. the CMG singularity measure of
+        the logged gimbal angles) belong here: one vectorized call instead of one per step."""
         return {}
 
 
@@ -195,18 +201,28 @@ class SgcmgActuator(Actuator):
         quarter = np.full(4, np.pi / 2)
         S = 0.5 * (cl.unit_momenta(quarter) - cl.unit_momenta(-quarter))  # exact: cos(±π/2) cancels
         C = cl.unit_momenta(np.zeros(4))
-        M = float(cl.h0) * np.concatenate([S.T, C.T], axis=0)
+        h0 = float(cl.h0)
+        M = h0 * np.concatenate([S.T, C.T], axis=0)
+        self._S0 = h0 * S  # A(δ) = h0 (S ∘ cos δ − C ∘ sin δ), column-wise
+        self._C0 = h0 * C
         d = np.array([[0.3, -1.1, 2.0, 0.7]])
         dd = np.array([[0.2, 0.5, -0.4, 0.1]])
         h_ref, A_ref = cl.momentum_and_jacobian(d)
         sn, cs = np.sin(d), np.cos(d)
-        ok = np.allclose(np.concatenate([sn, cs], axis=-1) @ M, h_ref, rtol=1e-12, atol=0.0)
+        A = self._S0 * cs[:, None, :] - self._C0 * sn[:, None, :]
+        scale = h0 * 4.0
+        ok = np.allclose(np.concatenate([sn, cs], axis=-1) @ M, h_ref, rtol=0, atol=1e-12 * scale)
+        ok &= np.allclose(A, A_ref, rtol=0.0, atol=1e-12 * scale)
         ok &= np.allclose(
-            np.concatenate([cs * dd, -sn * dd], axis=-1) @ M, A_ref @ dd[0], rtol=1e-12, atol=1e-12
+            np.concatenate([cs * dd, -sn * dd], axis=-1) @ M,
+            (A_ref @ dd[0]),
+            rtol=0,
+            atol=1e-12 * scale,
         )
         if not ok:
             return None
-        M.setflags(write=False)
+        for a in (M, self._S0, self._C0):
+            a.setflags(write=False)
         return M
 
     def _momentum_and_rate(
@@ -245,8 +261,18 @@ class SgcmgActuator(Actuator):
     def command(
         self, u_cmd: np.ndarray, omega: np.ndarray, x_act: np.ndarray, t: float
     ) -> CmgCommand:
-        h, A = self.cluster.momentum_and_jacobian(x_act)
-        h_dot_cmd = -u_cmd - _cross(omega, h)
+        if self._fast is None:
+            h, A = self.cluster.momentum_and_jacobian(x_act)
+        else:
+            W = np.empty(x_act.shape[:-1] + (8,))
+            sn = np.sin(x_act, out=W[..., :4])
+            cs = np.cos(x_act, out=W[..., 4:])
+            h = W @ self._fast
+            A = self._S0 * cs[..., None, :]
+            A -= self._C0 * sn[..., None, :]
+        h_dot_cmd = _cross(omega, h)
+        h_dot_cmd += u_cmd
+        np.negative(h_dot_cmd, out=h_dot_cmd)
         kw = {"delta": x_act, "t": t, "cluster": self.cluster}
         delta_dot = self.steering(A, h_dot_cmd, **{k: kw[k] for k in self._steer_kw})
         delta_dot, saturated = self._saturate(delta_dot, self.rate_limit)
@@ -271,10 +297,14 @@ class SgcmgActuator(Actuator):
         return W @ self._fast
 
     def log(self, x_act: np.ndarray, held: CmgCommand) -> dict[str, np.ndarray]:
+        """``delta`` (B,4) [rad], ``delta_dot`` (B,4) [rad/s], ``saturated`` (B,) bool."""
+        return {"delta": x_act, "delta_dot": held.delta_dot, "saturated": held.saturated}
+
+    def derived_log(self, log: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """``singularity`` m = √det(ÂÂᵀ) (K,B) and ``h`` (K,B,3) [N·m·s] of the logged gimbal
+        angles, vectorized over the whole log."""
+        delta = log["delta"]
         return {
-            "delta": x_act,
-            "delta_dot": held.delta_dot,
-            "singularity": self.cluster.singularity_measure(x_act),
-            "saturated": held.saturated,
-            "h": self.momentum(x_act),
+            "singularity": self.cluster.singularity_measure(delta),
+            "h": self.momentum(delta),
         }

@@ -288,9 +288,12 @@ class _Log:
                 store[key] = arr
             arr[row] = v
 
-    def result(self, dt: float, control_period: float) -> SimulationResult:
+    def result(self, dt: float, control_period: float, actuator: Any) -> SimulationResult:
         n = self.rows
         d = {w: {k: v[:n] for k, v in s.items()} for w, s in self.dicts.items()}
+        derived = getattr(actuator, "derived_log", None)
+        if derived is not None and n > 0:
+            d["actuator"].update(derived(d["actuator"]))
         return SimulationResult(
             t=self.t[:n],
             R=self.R[:n],
@@ -475,7 +478,7 @@ def simulate(
                     raise SimulationDiverged(
                         f"controller returned a non-finite torque at t = {t:.6g} s",
                         time=t,
-                        result=log.result(dt, control_period),
+                        result=log.result(dt, control_period, actuator),
                     )
             held = actuator.command(u_cmd, x[:, :3], x[:, 3:], t)
             logged = k % log_every == 0 or k == n_steps
@@ -502,7 +505,7 @@ def simulate(
                 raise SimulationDiverged(
                     f"state {why} at t = {t_bad:.6g} s (step {k + 1} of {n_steps})",
                     time=t_bad,
-                    result=log.result(dt, control_period),
+                    result=log.result(dt, control_period, actuator),
                 ) from failure
             R, x = R_next, x_next
             if bar is not None and (k + 1) % bar_chunk == 0:
@@ -510,4 +513,4 @@ def simulate(
     finally:
         if bar is not None:
             bar.close()
-    return log.result(dt, control_period)
+    return log.result(dt, control_period, actuator)

@@ -34,8 +34,9 @@ def _strict_json(text: str) -> dict:
 
 def test_run_quick_suite_end_to_end(tmp_path, capsys):
     out = tmp_path / "report"
-    code = cli.main(["run", "--suite", "quick", "--out", str(out), "--t-final", "4",
-                     "--no-progress"])
+    code = cli.main(
+        ["run", "--suite", "quick", "--out", str(out), "--t-final", "4", "--no-progress"]
+    )
     assert code == 0
     assert "report:" in capsys.readouterr().out
     md = (out / "report.md").read_text(encoding="utf-8")
@@ -66,8 +67,21 @@ def test_run_quick_suite_end_to_end(tmp_path, capsys):
 
 def test_horizon_scale_and_controller_subset(tmp_path):
     out = tmp_path / "r"
-    code = cli.main(["run", "--out", str(out), "--horizon-scale", "0.005", "--no-progress",
-                     "--no-figures", "--jobs", "1", "--controllers", "geometric-pd-log"])
+    code = cli.main(
+        [
+            "run",
+            "--out",
+            str(out),
+            "--horizon-scale",
+            "0.005",
+            "--no-progress",
+            "--no-figures",
+            "--jobs",
+            "1",
+            "--controllers",
+            "geometric-pd-log",
+        ]
+    )
     assert code == 0
     doc = _strict_json((out / "metrics.json").read_text(encoding="utf-8"))
     assert {s["duration"] for s in doc["scenarios"]} == {3.0}

@@ -70,6 +70,8 @@ def test_exp_kernel_matches_scipy_and_so3(w, scale):
     E = rkmod._exp(w[None])[0]
     assert np.allclose(E, Rotation.from_rotvec(w).as_matrix(), atol=1e-14, rtol=0)
     assert np.allclose(E, so3.exp(w), atol=1e-14, rtol=0)
+    # the single-body (Python float) kernel
+    assert np.allclose(rkmod._exp_f(*w.tolist()), E, atol=1e-15, rtol=0)
 
 
 @settings(max_examples=60, deadline=None)
@@ -78,6 +80,7 @@ def test_truncated_dexpinv_is_third_order_accurate(th, w, scale):
     theta = th / max(np.linalg.norm(th), 1e-12) * scale
     exact = so3.right_jacobian_inv(theta) @ w
     approx = rkmod._dexpinv(theta[None], w[None])[0]
+    assert np.allclose(rkmod._dexpinv_f(*theta.tolist(), w.tolist()), approx, atol=1e-15)
     # the next Bernoulli term is θ⁴/720: the truncation error is O(|θ|⁴ |ω|)
     assert np.linalg.norm(approx - exact) <= 2e-3 * scale**4 * np.linalg.norm(w) + 1e-15
 
@@ -317,6 +320,9 @@ def test_lgvi_free_step_conserves_spatial_momentum_and_casimir(seed):
     R1, Pi1 = lgvi_step(R, Pi, zero, zero, 0.05, J)
     assert np.allclose(R1 @ Pi1, R @ Pi, atol=1e-14)
     assert abs(np.linalg.norm(Pi1) - np.linalg.norm(Pi)) < 1e-14
+    # like the Moser–Veselov map it is equivalent to, it also keeps ½ Πᵀ J⁻¹ Π exactly
+    E = 0.5 * Pi @ np.linalg.solve(J, Pi)
+    assert abs(0.5 * Pi1 @ np.linalg.solve(J, Pi1) - E) < 1e-13 * max(E, 1.0)
 
 
 def test_lgvi_forced_body_agrees_with_rkmk4_second_order():
@@ -355,6 +361,9 @@ def test_lgvi_batched_equals_per_element():
         Ri, Pii = lgvi_step(R[i], Pi[i], M0[i], M1, 0.05, J)  # scalar (Python-float) path
         assert np.allclose(Ri, R1[i], atol=1e-15, rtol=0)
         assert np.allclose(Pii, Pi1[i], atol=1e-15, rtol=0)
+    # the class's step is the same step
+    R1c, Pi1c = RigidBodyLGVI(J).step(R, Pi, M0, M1, 0.05)
+    assert np.array_equal(R1c, R1) and np.array_equal(Pi1c, Pi1)
     # per-spacecraft inertia, batched integrate vs single
     Jb = np.stack([random_inertia(rng) for _ in range(3)])
     w0 = rng.normal(size=(3, 3))
@@ -378,11 +387,19 @@ def test_lgvi_step_does_not_mutate_inputs():
 
 def test_lgvi_nonconvergence_raises():
     with pytest.raises(LGVIConvergenceError, match="did not converge"):
-        lgvi_step(np.eye(3), np.array([1.0, 2.0, 3.0]), np.zeros(3), np.zeros(3), 0.1, J_ASYM,
-                  max_iter=1)
+        lgvi_step(
+            np.eye(3), np.array([1.0, 2.0, 3.0]), np.zeros(3), np.zeros(3), 0.1, J_ASYM, max_iter=1
+        )
     with pytest.raises(LGVIConvergenceError):  # batched path
-        lgvi_step(np.stack([np.eye(3)] * 2), np.array([[1.0, 2.0, 3.0]] * 2), np.zeros(3),
-                  np.zeros(3), 0.1, J_ASYM, max_iter=1)
+        lgvi_step(
+            np.stack([np.eye(3)] * 2),
+            np.array([[1.0, 2.0, 3.0]] * 2),
+            np.zeros(3),
+            np.zeros(3),
+            0.1,
+            J_ASYM,
+            max_iter=1,
+        )
 
 
 # ---------------------------------------------------------------------------------------------

@@ -236,8 +236,9 @@ def test_bad_input_names_the_argument():
         compute_metrics(res, settle_threshold_deg=0.0)
     with pytest.raises(ValueError, match="^steady_fraction"):
         compute_metrics(res, steady_fraction=1.5)
-    bad = FakeResult(t=t, R=res.R, omega=res.omega[:, :, :2], R_d=res.R_d, omega_d=res.omega_d,
-                     u=res.u)
+    bad = FakeResult(
+        t=t, R=res.R, omega=res.omega[:, :, :2], R_d=res.R_d, omega_d=res.omega_d, u=res.u
+    )
     with pytest.raises(ValueError, match="^result: omega"):
         compute_metrics(bad)
     assert isinstance(compute_metrics(res), Metrics)

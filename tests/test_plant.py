@@ -147,8 +147,13 @@ def test_cmg_delivers_commanded_torque_away_from_singularity():
     np.testing.assert_allclose(act.body_torque(w, delta, held), u_cmd, atol=1e-9)
     np.testing.assert_array_equal(act.state_derivative(delta, held), held.delta_dot)
     log = act.log(delta, held)
-    assert set(log) == {"delta", "delta_dot", "singularity", "saturated", "h"}
-    assert log["singularity"].shape == (5,) and log["h"].shape == (5, 3)
+    assert set(log) == {"delta", "delta_dot", "saturated"}
+    derived = act.derived_log({k: v[None] for k, v in log.items()})  # a log with K = 1
+    assert derived["singularity"].shape == (1, 5) and derived["h"].shape == (1, 5, 3)
+    np.testing.assert_allclose(derived["h"][0], act.cluster.momentum(delta), atol=1e-12)
+    np.testing.assert_allclose(
+        derived["singularity"][0], act.cluster.singularity_measure(delta), atol=1e-15
+    )
 
 
 def test_cmg_rate_limit_saturates_and_flags(cmg):

@@ -22,8 +22,12 @@ _AXES = np.vstack([np.eye(3), np.ones(3) / np.sqrt(3.0), _rng.normal(size=(4, 3)
 _AXES /= np.linalg.norm(_AXES, axis=1, keepdims=True)
 _V = _rng.normal(size=(len(_AXES), 3)) * 2.0
 ANGLES = np.concatenate(
-    [[0.0], 10.0 ** np.arange(-12.0, -3.5, 1.0), [0.1, 0.5, 0.999, 1.0, 1.001, 2.0, 3.0],
-     PI - np.array([1e-3, 1e-6, 1e-9, 1e-12])]
+    [
+        [0.0],
+        10.0 ** np.arange(-12.0, -3.5, 1.0),
+        [0.1, 0.5, 0.999, 1.0, 1.001, 2.0, 3.0],
+        PI - np.array([1e-3, 1e-6, 1e-9, 1e-12]),
+    ]
 )
 XI_GRID = np.concatenate(
     [np.hstack([a * _AXES, _V]) for a in ANGLES] + [np.hstack([np.zeros((3, 3)), _V[:3]])]

@@ -133,15 +133,15 @@ def test_log_of_half_turns_has_angle_pi_and_the_right_axis():
     np.testing.assert_allclose(np.linalg.norm(w, axis=1), PI, rtol=0, atol=1e-15)
     n = w / PI
     # the axis is defined up to sign at θ = π
-    np.testing.assert_allclose(np.abs(np.sum(n * np.vstack([np.eye(3), _AXES]), axis=1)), 1.0,
-                               atol=1e-15)
+    np.testing.assert_allclose(
+        np.abs(np.sum(n * np.vstack([np.eye(3), _AXES]), axis=1)), 1.0, atol=1e-15
+    )
 
 
 def test_log_matches_scipy_and_angle_is_accurate():
     rng = np.random.default_rng(3)
     R = so3.random(rng, 5000)
-    np.testing.assert_allclose(so3.log(R), Rotation.from_matrix(R).as_rotvec(), rtol=0,
-                               atol=1e-13)
+    np.testing.assert_allclose(so3.log(R), Rotation.from_matrix(R).as_rotvec(), rtol=0, atol=1e-13)
     w = np.vstack([W_GRID, W_HALF_TURN])
     th = np.linalg.norm(w, axis=1)
     np.testing.assert_allclose(so3.angle(so3.exp(w)), th, rtol=1e-12, atol=1e-15)
@@ -201,8 +201,7 @@ def test_jacobians_against_finite_differences(w):
     np.testing.assert_allclose(so3.left_jacobian(w), so3.right_jacobian(-w), atol=0)
     np.testing.assert_allclose(so3.left_jacobian(w), so3.right_jacobian(w).T, atol=1e-15)
     # J_l = R J_r (Ad_{exp w} J_r)
-    np.testing.assert_allclose(so3.left_jacobian(w), so3.exp(w) @ so3.right_jacobian(w),
-                               atol=1e-14)
+    np.testing.assert_allclose(so3.left_jacobian(w), so3.exp(w) @ so3.right_jacobian(w), atol=1e-14)
 
 
 @HYP

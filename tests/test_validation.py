@@ -12,7 +12,9 @@ from liecontrol._validation import (
 )
 from liecontrol.control import AttitudeReference, ConstantAttitude
 
-J_SEED000 = np.array([[15053.0, 3000.0, -1000.0], [3000.0, 6510.0, 2000.0], [-1000.0, 2000.0, 11122.0]])
+J_SEED000 = np.array(
+    [[15053.0, 3000.0, -1000.0], [3000.0, 6510.0, 2000.0], [-1000.0, 2000.0, 11122.0]]
+)
 
 
 def test_rotation_accepts_rotations_and_batches():

@@ -65,26 +65,65 @@ def cholupdate(S: object, v: object, sign: float = 1.0) -> np.ndarray:
     if np.any(np.diagonal(L, axis1=-2, axis2=-1) <= 0.0):
         raise ValueError("S: diagonal must be > 0 (not a Cholesky factor)")
     sg = float(sign)
+    if L.ndim == 2:
+        return _cholupdate_single(L, V, sg)
+    worst = np.inf
     for j in range(V.shape[-1]):
         x = V[..., :, j]
         for k in range(n):
             lkk = L[..., k, k]
-            r2 = lkk * lkk + sg * x[..., k] * x[..., k]
-            if np.any(r2 <= 0.0) or not np.all(np.isfinite(r2)):
-                worst = float(np.min(r2))
-                raise NotPositiveDefiniteError(
-                    f"S: Cholesky downdate makes the matrix indefinite (pivot {k}: "
-                    f"r² = {worst:.3e} ≤ 0)"
-                )
-            r = np.sqrt(r2)
+            xk = x[..., k]
+            r2 = lkk * lkk + sg * xk * xk
+            # failures are collected and reported once (avoids a reduction per pivot)
+            worst = np.minimum(worst, np.min(r2)) if sg < 0 else worst
+            r = np.sqrt(np.abs(r2))
             c = r / lkk
-            s = x[..., k] / lkk
+            s = xk / lkk
             L[..., k, k] = r
             if k + 1 < n:
                 col = (L[..., k + 1 :, k] + sg * s[..., None] * x[..., k + 1 :]) / c[..., None]
                 x[..., k + 1 :] = c[..., None] * x[..., k + 1 :] - s[..., None] * col
                 L[..., k + 1 :, k] = col
+    if not (worst > 0.0) or not np.all(np.isfinite(L)):
+        raise NotPositiveDefiniteError(
+            f"S: Cholesky downdate makes the matrix indefinite (smallest pivot r² = {worst:.3e})"
+        )
     return L
+
+
+def _cholupdate_single(L: np.ndarray, V: np.ndarray, sg: float) -> np.ndarray:
+    """Unbatched path of :func:`cholupdate` on Python floats (n is small: per-element numpy
+    calls would dominate)."""
+    n = L.shape[0]
+    Ll = L.tolist()
+    worst = np.inf
+    for j in range(V.shape[1]):
+        x = V[:, j].tolist()
+        for k in range(n):
+            lkk = Ll[k][k]
+            xk = x[k]
+            r2 = lkk * lkk + sg * xk * xk
+            if not r2 > 0.0:
+                worst = min(worst, r2)
+                break
+            r = r2**0.5
+            c = r / lkk
+            s = xk / lkk
+            Ll[k][k] = r
+            for i in range(k + 1, n):
+                li = (Ll[i][k] + sg * s * x[i]) / c
+                x[i] = c * x[i] - s * li
+                Ll[i][k] = li
+        if worst <= 0.0:
+            break
+    if worst <= 0.0 or worst != worst:
+        raise NotPositiveDefiniteError(
+            f"S: Cholesky downdate makes the matrix indefinite (pivot r² = {worst:.3e} ≤ 0)"
+        )
+    out = np.array(Ll)
+    if not np.all(np.isfinite(out)):
+        raise NotPositiveDefiniteError("S: Cholesky update produced non-finite entries")
+    return out
 
 
 def tria(A: object) -> np.ndarray:

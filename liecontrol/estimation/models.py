@@ -217,7 +217,16 @@ class GyrolessAttitudeModel(_EulerMeasurement):
             axis=-1,
         )
         Jw = w @ self.J.T
-        wdot = (torque - np.cross(w, Jw)) @ self._Jinv.T
+        # ω × Jω written out (np.cross has a large fixed overhead on small batches)
+        cross = np.stack(
+            (
+                wy * Jw[..., 2] - wz * Jw[..., 1],
+                wz * Jw[..., 0] - wx * Jw[..., 2],
+                wx * Jw[..., 1] - wy * Jw[..., 0],
+            ),
+            axis=-1,
+        )
+        wdot = (torque - cross) @ self._Jinv.T
         return np.concatenate((qdot, wdot), axis=-1)
 
     def f(self, x: np.ndarray, u: np.ndarray, dt: float) -> np.ndarray:

@@ -14,7 +14,7 @@ result is R_k times an exact matrix exponential, R stays on SO(3) to round-off w
 step.
 
 dexp⁻¹ is **truncated**: J_r(θ)⁻¹ ω ≈ ω + ½ θ×ω + (1/12) θ×(θ×ω), i.e. the Bernoulli series
-Σ_k (B_k/k!) ad_{−θ}^k ω cut after k = 2. Munthe-Kaas (1999, Thm. 1) shows that truncating after
+Σ_k (B_k/k!) ad_{−θ}^k ω cut after k = 2. Munthe-Kaas (1999) shows that truncating after
 k = p − 2 keeps order p, because θ = O(h) in every stage; for p = 4 this needs no norm, no
 trigonometry and no small-angle branch, so it is cheaper than ``so3.right_jacobian_inv`` on the
 hot path and still 4th order (checked by ``tests/test_integrators.py``: error ratio ≈ 16 when
@@ -375,7 +375,6 @@ def integrate(
     ts[0], Rs[0], xs[0] = t0, R0, x0
     R, x = R0, x0
     if method == "rk4":
-        m = 9 + n
 
         def fe(t: float, y: np.ndarray) -> np.ndarray:
             Ry = y[..., :9].reshape(batch + (3, 3))
@@ -403,7 +402,7 @@ def integrate(
                 Rs[j], xs[j] = R, x
             else:
                 Rs[j] = y[..., :9].reshape(batch + (3, 3))
-                xs[j] = y[..., 9:m]
+                xs[j] = y[..., 9:]
             j += 1
     return Trajectory(ts, Rs, xs)
 

@@ -1,0 +1,62 @@
+"""Environmental torque sources (SPEC §5.3, §5.4).
+
+Each source fits the disturbance contract of :mod:`spacecraft.disturbances`: a callable
+``source(t, R (B, 3, 3), omega (B, 3)) -> (B, 3)`` body torque [N·m], and composes with
+:class:`spacecraft.disturbances.SumOfDisturbances`.
+
+Gravity-gradient torque on a rigid body in a circular orbit (SPEC §5.3):
+
+    T_gg = 3 n² (ĉ × J ĉ),   ĉ = Rᵀ(−r̂) = nadir unit vector in body axes,
+
+since μ/r³ = n² on a circular orbit (Hughes, *Spacecraft Attitude Dynamics*, §8.2; Wie, *Space
+Vehicle Dynamics and Control*, §6.3). It vanishes when ĉ is a principal axis of J (in particular
+for a principal-axis body aligned with LVLH).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from liecontrol._validation import as_array, check_inertia
+
+from .orbit import CircularOrbit
+
+__all__ = ["GravityGradientTorque", "gravity_gradient_torque"]
+
+
+def gravity_gradient_torque(J: object, c: object, n: float) -> np.ndarray:
+    """3n² (ĉ × Jĉ) for body-axis nadir unit vectors ``c`` ``(..., 3)`` and inertia ``J``
+    ``(3, 3)`` or ``(..., 3, 3)`` [N·m]."""
+    J = as_array(J, "J", (3, 3))
+    c = as_array(c, "c", (3,))
+    Jc = np.einsum("...ij,...j->...i", J, c)
+    return 3.0 * float(n) ** 2 * np.cross(c, Jc)
+
+
+@dataclass(frozen=True)
+class GravityGradientTorque:
+    """Gravity-gradient disturbance source 3n²(ĉ × Jĉ) (SPEC §5.3).
+
+    Args:
+        J: the **true** body inertia ``(3, 3)`` [kg·m²] (validated: symmetric, positive definite,
+            triangle inequality).
+        orbit: the :class:`~spacecraft.orbit.CircularOrbit` giving n and the nadir direction.
+    """
+
+    J: np.ndarray
+    orbit: CircularOrbit
+
+    def __post_init__(self) -> None:
+        J = check_inertia(self.J, "J").copy()
+        if J.shape != (3, 3):
+            raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+        J.setflags(write=False)
+        object.__setattr__(self, "J", J)
+        if not isinstance(self.orbit, CircularOrbit):
+            raise ValueError(f"orbit: expected CircularOrbit, got {type(self.orbit).__name__}")
+
+    def __call__(self, t: float, R: np.ndarray, omega: np.ndarray) -> np.ndarray:
+        c = self.orbit.nadir_in_body(R, t)
+        return gravity_gradient_torque(self.J, c, self.orbit.n)

@@ -1,0 +1,266 @@
+"""Circular orbit, LVLH frame, Earth-pointing reference and point-mass/J2 gravity (SPEC §5.3, §5.6).
+
+Orbit. A circular orbit of radius r and rate n, related by Kepler's third law n = √(μ/r³)
+(μ = :data:`MU_EARTH` = 3.986004418e14 m³/s², WGS-84/EGM-96 value). The orbit plane is placed in
+the inertial (ECI) frame by ``inclination`` and ``raan`` (``R_orb = R_z(raan) R_x(inclination)``)
+and the spacecraft's argument of latitude is u(t) = ``arg_lat0`` + n t, so
+
+    r(t) = r R_orb (cos u, sin u, 0),   ĥ = R_orb e_z   (orbit normal).
+
+LVLH frame (SPEC §5.3): z_L = −r̂ (nadir), y_L = −ĥ (opposite the orbit normal), x_L = y_L × z_L
+(= the velocity direction on a circular orbit). ``C(t) = [x_L y_L z_L]`` maps LVLH → inertial;
+the frame turns at the orbit rate about −y_L: Ċ = C ω_L^ with ω_L = (0, −n, 0) (LVLH axes).
+
+Earth-pointing reference. The desired body frame is the LVLH frame rotated by a constant
+``offset`` (desired body → LVLH): R_d(t) = C(t) O, ω_d = Oᵀ ω_L (constant, desired body axes),
+ω̇_d = 0; indeed Ṙ_d = C ω_L^ O = R_d (Oᵀ ω_L)^.
+
+Gravity (per unit mass, inertial position r, Earth's polar axis = inertial Z):
+
+    two-body:  U₀ = −μ/|r|,                           a₀ = −∇U₀ = −μ r/|r|³
+    J2:        U₂ = (μ J₂ R_e² / (2|r|³)) (3 z²/|r|² − 1),
+               a₂ = −∇U₂ = −(3/2) μ J₂ R_e²/|r|⁵ · (x (1 − 5z²/|r|²), y (1 − 5z²/|r|²),
+                                                   z (3 − 5z²/|r|²))
+
+(Vallado, *Fundamentals of Astrodynamics and Applications*, 4th ed., §8.6.1; Montenbruck & Gill,
+*Satellite Orbits*, §3.2). The SE(3) plant (SPEC §5.6) uses :func:`gravity_acceleration`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from liecontrol._validation import as_array, check_positive, check_rotation_matrix
+from liecontrol.control.base import AttitudeReference
+
+__all__ = [
+    "MU_EARTH",
+    "J2_EARTH",
+    "R_EARTH",
+    "CircularOrbit",
+    "EarthPointingReference",
+    "two_body_acceleration",
+    "two_body_potential",
+    "j2_acceleration",
+    "j2_potential",
+    "gravity_acceleration",
+    "gravity_potential",
+]
+
+#: Earth's gravitational parameter μ [m³/s²] (EGM-96 / WGS-84).
+MU_EARTH = 3.986004418e14
+#: Earth's second zonal harmonic J2 (EGM-96, unnormalised).
+J2_EARTH = 1.08263e-3
+#: Earth's equatorial radius [m] (WGS-84).
+R_EARTH = 6378137.0
+
+
+def _rx(a: float) -> np.ndarray:
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+
+def _rz(a: float) -> np.ndarray:
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+@dataclass(frozen=True)
+class CircularOrbit:
+    """A circular Keplerian orbit (SPEC §5.3).
+
+    Args:
+        n: orbit rate [rad/s] (> 0; default 0.0011, SPEC §5.3 and seeds 000/003).
+        mu: gravitational parameter [m³/s²] (> 0); with ``n`` it fixes the radius
+            r = (μ/n²)^(1/3) through n = √(μ/r³). Use :meth:`from_radius` to give r instead.
+        inclination, raan: orientation of the orbit plane in the inertial frame [rad].
+        arg_lat0: argument of latitude at t = 0 [rad].
+    """
+
+    n: float = 0.0011
+    mu: float = MU_EARTH
+    inclination: float = 0.0
+    raan: float = 0.0
+    arg_lat0: float = 0.0
+    _R_orb: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "n", check_positive(self.n, "n"))
+        object.__setattr__(self, "mu", check_positive(self.mu, "mu"))
+        for name in ("inclination", "raan", "arg_lat0"):
+            object.__setattr__(self, name, float(as_array(getattr(self, name), name, ())))
+        R_orb = _rz(self.raan) @ _rx(self.inclination)
+        R_orb.setflags(write=False)
+        object.__setattr__(self, "_R_orb", R_orb)
+
+    @classmethod
+    def from_radius(cls, radius: float, mu: float = MU_EARTH, **kwargs: float) -> CircularOrbit:
+        """The circular orbit of radius ``radius`` [m]: n = √(μ/r³)."""
+        r = check_positive(radius, "radius")
+        m = check_positive(mu, "mu")
+        return cls(n=float(np.sqrt(m / r**3)), mu=m, **kwargs)
+
+    @property
+    def radius(self) -> float:
+        """Orbit radius r = (μ/n²)^(1/3) [m]."""
+        return float((self.mu / self.n**2) ** (1.0 / 3.0))
+
+    @property
+    def period(self) -> float:
+        """Orbit period 2π/n [s]."""
+        return float(2.0 * np.pi / self.n)
+
+    @property
+    def normal(self) -> np.ndarray:
+        """Unit orbit normal ĥ (inertial)."""
+        return self._R_orb[:, 2].copy()
+
+    def _u(self, t: object) -> np.ndarray:
+        return self.arg_lat0 + self.n * as_array(t, "t")
+
+    def position(self, t: object) -> np.ndarray:
+        """Inertial position r(t) [m]; ``t`` scalar or ``(...,)`` → ``(..., 3)``."""
+        u = self._u(t)
+        p = np.stack((np.cos(u), np.sin(u), np.zeros_like(u)), axis=-1)
+        return self.radius * p @ self._R_orb.T
+
+    def velocity(self, t: object) -> np.ndarray:
+        """Inertial velocity ṙ(t) = n ĥ × r [m/s]; ``(..., 3)``."""
+        u = self._u(t)
+        p = np.stack((-np.sin(u), np.cos(u), np.zeros_like(u)), axis=-1)
+        return self.radius * self.n * p @ self._R_orb.T
+
+    def lvlh_attitude(self, t: object) -> np.ndarray:
+        """C(t) = [x_L y_L z_L], LVLH → inertial; ``t`` scalar → ``(3, 3)``, ``(...,)`` →
+        ``(..., 3, 3)``. z_L = −r̂, y_L = −ĥ, x_L = y_L × z_L (the velocity direction)."""
+        u = self._u(t)
+        c, s = np.cos(u), np.sin(u)
+        zero = np.zeros_like(u)
+        # columns in the orbit-plane frame: x_L = (−s, c, 0), y_L = (0, 0, −1), z_L = (−c, −s, 0)
+        C_orb = np.stack(
+            (
+                np.stack((-s, zero, -c), axis=-1),
+                np.stack((c, zero, -s), axis=-1),
+                np.stack((zero, zero - 1.0, zero), axis=-1),
+            ),
+            axis=-2,
+        )
+        return self._R_orb @ C_orb
+
+    @property
+    def lvlh_rate(self) -> np.ndarray:
+        """Angular velocity of the LVLH frame in LVLH axes, ω_L = (0, −n, 0) [rad/s]."""
+        return np.array([0.0, -self.n, 0.0])
+
+    def nadir_in_body(self, R: object, t: float) -> np.ndarray:
+        """Unit nadir vector in body axes, ĉ = Rᵀ(−r̂(t)); ``R`` ``(..., 3, 3)`` (body →
+        inertial) → ``(..., 3)``."""
+        R = as_array(R, "R", (3, 3))
+        nadir = -self.position(t) / self.radius
+        return np.einsum("...ji,...j->...i", R, nadir)
+
+
+@dataclass(frozen=True)
+class EarthPointingReference:
+    """Earth-pointing attitude reference (SPEC §5.3): desired body = LVLH rotated by ``offset``.
+
+    R_d(t) = C(t) O,  ω_d = Oᵀ (0, −n, 0) (desired body axes),  ω̇_d = 0.
+
+    Args:
+        orbit: the :class:`CircularOrbit`.
+        offset: ``(3, 3)`` or ``(B, 3, 3)`` rotation O, desired body → LVLH (identity = body
+            axes aligned with LVLH: z to nadir, x along the velocity).
+
+    Calling it with ``t`` returns a :class:`liecontrol.control.AttitudeReference`.
+    """
+
+    orbit: CircularOrbit
+    offset: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.orbit, CircularOrbit):
+            raise ValueError(f"orbit: expected CircularOrbit, got {type(self.orbit).__name__}")
+        O = np.eye(3) if self.offset is None else check_rotation_matrix(self.offset, "offset")
+        if O.ndim not in (2, 3):
+            raise ValueError(f"offset: expected shape (3, 3) or (B, 3, 3), got {O.shape}")
+        O = O.copy()
+        O.setflags(write=False)
+        object.__setattr__(self, "offset", O)
+
+    @property
+    def omega_d(self) -> np.ndarray:
+        """Desired angular velocity Oᵀ ω_L in desired body axes, ``(3,)`` or ``(B, 3)``."""
+        return np.einsum("...ji,j->...i", self.offset, self.orbit.lvlh_rate)
+
+    def __call__(self, t: float) -> AttitudeReference:
+        R_d = self.orbit.lvlh_attitude(float(t)) @ self.offset
+        w = self.omega_d
+        return AttitudeReference(R_d=R_d, omega_d=w, omega_dot_d=np.zeros_like(w))
+
+
+def _r_norm(r: object) -> tuple[np.ndarray, np.ndarray]:
+    r = as_array(r, "r", (3,))
+    rn = np.linalg.norm(r, axis=-1)
+    if np.any(rn <= 0.0):
+        raise ValueError("r: zero position vector (gravity is singular at the centre)")
+    return r, rn
+
+
+def two_body_potential(r: object, mu: float = MU_EARTH) -> np.ndarray:
+    """Point-mass gravitational potential energy per unit mass U₀ = −μ/|r| [J/kg]; ``(...,)``."""
+    mu = check_positive(mu, "mu")
+    _, rn = _r_norm(r)
+    return -mu / rn
+
+
+def two_body_acceleration(r: object, mu: float = MU_EARTH) -> np.ndarray:
+    """Point-mass gravity a₀ = −μ r/|r|³ [m/s²] for inertial positions ``(..., 3)``."""
+    mu = check_positive(mu, "mu")
+    r, rn = _r_norm(r)
+    return -mu * r / rn[..., None] ** 3
+
+
+def j2_potential(
+    r: object, mu: float = MU_EARTH, J2: float = J2_EARTH, R_e: float = R_EARTH
+) -> np.ndarray:
+    """J2 part of the potential energy per unit mass, U₂ = μJ₂R_e²/(2|r|³)·(3z²/|r|² − 1)."""
+    mu = check_positive(mu, "mu")
+    R_e = check_positive(R_e, "R_e")
+    J2 = float(as_array(J2, "J2", ()))
+    r, rn = _r_norm(r)
+    z2 = (r[..., 2] / rn) ** 2
+    return 0.5 * mu * J2 * R_e**2 / rn**3 * (3.0 * z2 - 1.0)
+
+
+def j2_acceleration(
+    r: object, mu: float = MU_EARTH, J2: float = J2_EARTH, R_e: float = R_EARTH
+) -> np.ndarray:
+    """J2 **perturbation** a₂ = −∇U₂ [m/s²] (inertial, Earth's pole = Z); ``(..., 3)``.
+
+    a₂ = −(3/2) μ J₂ R_e²/|r|⁵ (x(1 − 5ẑ²), y(1 − 5ẑ²), z(3 − 5ẑ²)), ẑ = z/|r|.
+    Add :func:`two_body_acceleration` for the full field (or use :func:`gravity_acceleration`).
+    """
+    mu = check_positive(mu, "mu")
+    R_e = check_positive(R_e, "R_e")
+    J2 = float(as_array(J2, "J2", ()))
+    r, rn = _r_norm(r)
+    z2 = (r[..., 2] / rn) ** 2
+    k = -1.5 * mu * J2 * R_e**2 / rn**5
+    f = np.stack((1.0 - 5.0 * z2, 1.0 - 5.0 * z2, 3.0 - 5.0 * z2), axis=-1)
+    return k[..., None] * r * f
+
+
+def gravity_potential(
+    r: object, mu: float = MU_EARTH, J2: float = 0.0, R_e: float = R_EARTH
+) -> np.ndarray:
+    """U₀ + U₂ (J2 = 0: point mass only) [J/kg]."""
+    return two_body_potential(r, mu) + j2_potential(r, mu, J2, R_e)
+
+
+def gravity_acceleration(
+    r: object, mu: float = MU_EARTH, J2: float = 0.0, R_e: float = R_EARTH
+) -> np.ndarray:
+    """Total gravity a₀ + a₂ (J2 = 0: point mass only) [m/s²]; ``(..., 3)``."""
+    return two_body_acceleration(r, mu) + j2_acceleration(r, mu, J2, R_e)
