@@ -470,9 +470,7 @@ def _seed003_mount() -> np.ndarray:
 #: :func:`fit_payload_imbalance` for the published amplitudes, rounded to 4 significant digits.
 SEED003_PAYLOAD = RotatingPayload(
     mass=25.0,
-    inertia=np.array(
-        [[2.5, 0.0, -7.529e-3], [0.0, 2.5, 1.631e-2], [-7.529e-3, 1.631e-2, 1.8]]
-    ),
+    inertia=np.array([[2.5, 0.0, -7.529e-3], [0.0, 2.5, 1.631e-2], [-7.529e-3, 1.631e-2, 1.8]]),
     hinge=np.array([0.35, 0.25, 0.60]),
     com_offset=np.array([1.037e-4, 5.452e-4, 0.2]),
     spin_rate=SEED003_SPIN_RATE,
