@@ -310,7 +310,13 @@ class TwoVectorAttitude:
         object.__setattr__(self, "ref1", r1)
         object.__setattr__(self, "ref2", r2)
         if not callable(r1) and not callable(r2):
-            triad(r1, r2, r1, r2)  # refuses parallel references now rather than at run time
+            # refuse parallel references now rather than at the first sample
+            s = float(np.linalg.norm(np.cross(r1, r2)))
+            if s < PARALLEL_TOL:
+                raise ValueError(
+                    f"ref1: parallel to ref2 (sin angle = {s:.1e} < {PARALLEL_TOL:.0e}), "
+                    "attitude undetermined"
+                )
         sig = as_array(self.noise_std, "noise_std")
         if sig.shape not in ((), (2,)):
             raise ValueError(f"noise_std: expected a scalar or a pair, got shape {sig.shape}")

@@ -291,3 +291,27 @@ def test_torque_free_body_matches_quaternion_solve_ivp():
     # energy of the torque-free body is conserved (RKMK4: to integration accuracy)
     body = plant.body
     assert abs(body.kinetic_energy(state.omega)[0] - body.kinetic_energy(w0)) < 1e-9
+
+
+def test_single_body_fast_paths_match_batched_paths():
+    """B = 1 runs on Python floats (speed); it must agree with the numpy path for B > 1."""
+    rng = np.random.default_rng(2)
+    body = RigidBody(J_SEED)
+    act = SgcmgActuator(SgcmgPyramid(), SingularityRobust())
+    w = 0.05 * rng.normal(size=(2, 3))
+    tau = rng.normal(size=(2, 3))
+    delta = rng.uniform(-np.pi, np.pi, size=(2, 4))
+    held = CmgCommand(
+        delta_dot=rng.normal(size=(2, 4)), saturated=np.zeros(2, bool), h_dot_cmd=np.zeros((2, 3))
+    )
+    batched_acc = body.angular_acceleration(w, tau)
+    batched_tau = act.body_torque(w, delta, held)
+    for b in range(2):
+        s = slice(b, b + 1)
+        one = CmgCommand(held.delta_dot[s], held.saturated[s], held.h_dot_cmd[s])
+        np.testing.assert_allclose(
+            body.angular_acceleration(w[s], tau[s]), batched_acc[s], rtol=1e-14, atol=1e-18
+        )
+        np.testing.assert_allclose(
+            act.body_torque(w[s], delta[s], one), batched_tau[s], rtol=1e-13, atol=1e-12
+        )

@@ -274,7 +274,7 @@ def run(cfg: Seed001Config | None = None, quick: bool = False) -> dict:
     ``quick`` keeps the published time line but uses 4 seeds.
     """
     cfg = cfg if cfg is not None else Seed001Config()
-    n_seeds = 4 if quick else cfg.n_seeds
+    n_seeds = min(4, cfg.n_seeds) if quick else cfg.n_seeds
     rng = np.random.default_rng(cfg.seed)
     truth = simulate_truth(cfg, rng, n_seeds)
     res = run_filters(cfg, truth, rng)

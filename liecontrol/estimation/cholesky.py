@@ -76,7 +76,7 @@ def cholupdate(S: object, v: object, sign: float = 1.0) -> np.ndarray:
             r2 = lkk * lkk + sg * xk * xk
             # failures are collected and reported once (avoids a reduction per pivot)
             worst = np.minimum(worst, np.min(r2)) if sg < 0 else worst
-            r = np.sqrt(np.abs(r2))
+            r = np.sqrt(np.where(r2 > 0.0, r2, 1.0))
             c = r / lkk
             s = xk / lkk
             L[..., k, k] = r

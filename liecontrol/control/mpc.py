@@ -1,0 +1,751 @@
+"""Model predictive control on SO(3) (SPEC §6 item 4; Kalabić et al. 2017 style).
+
+Error state (SPEC §4, log error): with ``R̃ = R_dᵀR``,
+
+    x = (ξ, e_Ω) ∈ ℝ⁶,   ξ = log(R̃)^∨,   e_Ω = Ω − R̃ᵀΩ_d,
+
+so that exactly ``d/dt R̃ = R̃ e_Ω^`` and ``ξ̇ = J_r(ξ)⁻¹ e_Ω``. The QP decision variables are the
+**full** body torques ``u_0 … u_{N−1}`` (zero-order held over the MPC period ``T``), so the box
+``|u_i| ≤ u_max`` is the real torque limit.
+
+Prediction model (*reconstructed*; the structure follows Kalabić, Gupta, Di Cairano, Bloch &
+Kolmanovsky, "MPC on manifolds with an application to the control of spacecraft attitude on
+SO(3)", Automatica 76 (2017) 293–300: discrete Lie-group dynamics, error linearised in the Lie
+algebra about the reference). The discrete dynamics are the rigid-body LGVI (SPEC §3 item 1;
+Lee, Leok & McClamroch 2005) with step ``T`` and the held torque ``M_k = M_{k+1} = u_k``:
+
+    T (Π_k + (T/2) u_k)^ = F_k J_d − J_d F_kᵀ,   R_{k+1} = R_k F_k,
+    Π_{k+1} = F_kᵀ (Π_k + (T/2) u_k) + (T/2) u_k.
+
+*Stage 0* is predicted with the **nonlinear** LGVI from the measured state, at the nominal torque
+``ū = clip(u_ref,0)``: ``x_1 = x_1(ū) + B_0 (u_0 − ū)``. This carries the exact gyroscopic
+coupling ``Ω × JΩ`` of the current (possibly large) rate. ``B_0`` is the exact derivative:
+with ``G = Π_0 + (T/2)ū`` and ``K(F) = (tr(F J_d) I − F J_d) F`` (the derivative of
+``(F J_d − J_d Fᵀ)^∨`` under ``F → F exp(δf^)``), ``δf = K⁻¹ (T²/2) δu`` and
+
+    dξ_1 = J_r(ξ_1)⁻¹ δf,
+    de_Ω1 = J⁻¹ [(FᵀG)^ δf + (T/2)(Fᵀ + I) δu] − (R̃_1ᵀΩ_d,1)^ δf.
+
+*Stages k ≥ 1* use the LGVI linearised about the reference (the Kalabić et al. approach): with
+reference knots ``Ω_d,k`` and reference steps ``F_k = R_d,kᵀR_d,k+1`` (from ``reference_preview``
+or, by default, extrapolated from the current sample with constant ``Ω̇_d``), the LGVI equation
+read backwards gives ``G_k = (F_k J_d − J_d F_kᵀ)^∨ / T`` (no Newton solve), the reference
+torque ``u_ref,k = (2/T)(G_k − JΩ_d,k)`` (the discrete analogue of the feed-forward
+``JΩ̇_d + Ω_d × JΩ_d``) and the momentum defect ``d_k = F_kᵀG_k + (T/2)u_ref,k − JΩ_d,k+1``
+(zero for regulation). For right perturbations ``R = R_d exp(ζ^)``, ``Π = JΩ_d + δΠ``:
+
+    δf = K(F_k)⁻¹ T (δΠ_k + (T/2) δu_k),
+    ζ_{k+1} = F_kᵀ ζ_k + δf,
+    δΠ_{k+1} = (F_kᵀG_k)^ δf + F_kᵀ δΠ_k + (T/2)(F_kᵀ + I) δu_k + d_k,
+
+and ``x = S_k (ζ, δΠ)`` with ``S_k = [[I, 0], [−Ω_d,k^, J⁻¹]]`` gives
+``x_{k+1} = A_k x_k + B_k (u_k − u_ref,k) + c_k``. At rest (``Ω_d ≡ 0``) this is the exact
+zero-order-hold double integrator ``A = [[I, T I], [0, I]]``, ``B = [[T²/2 J⁻¹], [T J⁻¹]]``.
+
+QP (horizon ``N``):
+
+    min Σ_{k=1}^{N−1} x_kᵀ Q x_k + x_Nᵀ P x_N + Σ_{k=0}^{N−1} (u_k − u_ref,k)ᵀ R (u_k − u_ref,k)
+    s.t. the model above, −u_max ≤ u_k ≤ u_max, lo ≤ C u_k ≤ hi (optional, every stage),
+
+with ``P`` (default) the solution of the discrete algebraic Riccati equation of the rest model
+(``scipy.linalg.solve_discrete_are``): the unconstrained infinite-horizon cost-to-go for
+regulation (for tracking, the rest model's is used as an approximation). The optional
+``extra_constraints(state) -> (C, lo, hi)`` is evaluated at the current state (e.g. a CMG
+momentum-rate or gimbal-rate limit mapped through the cluster Jacobian, provided by the
+spacecraft side) and imposed on every stage.
+
+Backends: ``"osqp"`` builds the sparse (non-condensed) QP once per spacecraft and each step only
+updates the numerical values in place (``q``, ``l``, ``u``, ``Ax``) and warm-starts;
+``"cvxpy"`` is the readable reference formulation with ``cp.Parameter``s (DPP: compiled once),
+solved by Clarabel (an interior-point method: an independent route to the same minimiser).
+
+Failure: a status other than *solved* (optionally *solved inaccurate*) or a solver exception
+hands the step to the fallback controller (default :class:`GeometricPD` built from the same
+``J``), whose torque is clipped to the box; the status code, the fallback flag and a warning on
+the ``liecontrol.control.mpc`` logger record it.
+"""
+
+from __future__ import annotations
+
+import copy
+import logging
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import scipy.linalg
+import scipy.sparse as sp
+
+from .._validation import as_array, check_inertia, check_positive, check_rotation_matrix
+from ..integrators.lgvi import lgvi_step
+from ..lie import so3
+from .base import AttitudeController, AttitudeReference, AttitudeState
+from .geometric_pd import GeometricPD, gains_from_bandwidth
+
+__all__ = [
+    "SO3MPC",
+    "STATUS_NAMES",
+    "error_state",
+    "reference_model",
+    "stage0_model",
+    "rest_model",
+    "check_weight",
+]
+
+_log = logging.getLogger(__name__)
+
+#: Status codes of :meth:`SO3MPC.diagnostics` ``"status"`` (both backends use the same codes).
+STATUS_NAMES: dict[int, str] = {
+    0: "not run",
+    1: "solved",
+    2: "solved inaccurate",
+    -3: "primal infeasible",
+    -4: "primal infeasible inaccurate",
+    -5: "dual infeasible / unbounded",
+    -6: "dual infeasible inaccurate",
+    -7: "maximum iterations reached",
+    -8: "time limit reached",
+    -9: "non convex",
+    -10: "interrupted",
+    -11: "unsolved",
+    -99: "solver exception",
+}
+
+_CVXPY_STATUS = {
+    "optimal": 1,
+    "optimal_inaccurate": 2,
+    "infeasible": -3,
+    "infeasible_inaccurate": -4,
+    "unbounded": -5,
+    "unbounded_inaccurate": -6,
+    "user_limit": -7,
+}
+
+_OSQP_DEFAULTS: dict[str, Any] = {
+    "eps_abs": 1e-6,
+    "eps_rel": 1e-6,
+    "max_iter": 4000,
+    "polishing": True,
+    "warm_starting": True,
+    "verbose": False,
+}
+
+
+# ------------------------------------------------------------------------------------------------
+# small fast kernels (no validation: callers validate)
+
+
+def _hat(w: np.ndarray) -> np.ndarray:
+    W = np.zeros(w.shape + (3,))
+    W[..., 0, 1] = -w[..., 2]
+    W[..., 0, 2] = w[..., 1]
+    W[..., 1, 0] = w[..., 2]
+    W[..., 1, 2] = -w[..., 0]
+    W[..., 2, 0] = -w[..., 1]
+    W[..., 2, 1] = w[..., 0]
+    return W
+
+
+def _skew_vee(M: np.ndarray) -> np.ndarray:
+    """(M − Mᵀ)^∨ / 1 for a matrix whose skew part is wanted (M − Mᵀ is exactly skew)."""
+    return np.stack(
+        (M[..., 2, 1] - M[..., 1, 2], M[..., 0, 2] - M[..., 2, 0], M[..., 1, 0] - M[..., 0, 1]),
+        axis=-1,
+    )
+
+
+def _mv(A: np.ndarray, v: np.ndarray) -> np.ndarray:
+    return (A @ v[..., None])[..., 0]
+
+
+def _dgdf(F: np.ndarray, Jd: np.ndarray) -> np.ndarray:
+    """K(F) = (tr(F J_d) I − F J_d) F: δ(F J_d − J_d Fᵀ)^∨ = K δf for F → F exp(δf^)."""
+    A = F @ Jd
+    tr = np.trace(A, axis1=-2, axis2=-1)
+    return (tr[..., None, None] * np.eye(3) - A) @ F
+
+
+def _jd(J: np.ndarray) -> np.ndarray:
+    return 0.5 * np.trace(J) * np.eye(3) - J
+
+
+# ------------------------------------------------------------------------------------------------
+# public pure functions: the error coordinates and the prediction model
+
+
+def error_state(R: object, omega: object, R_d: object, omega_d: object) -> np.ndarray:
+    """``x = (log(R_dᵀR)^∨, Ω − R̃ᵀΩ_d)``, ``(..., 6)`` (module docstring; SPEC §4)."""
+    R = check_rotation_matrix(R, "R")
+    R_d = check_rotation_matrix(R_d, "R_d")
+    w = as_array(omega, "omega", (3,))
+    w_d = as_array(omega_d, "omega_d", (3,))
+    Rt = np.swapaxes(R_d, -1, -2) @ R
+    xi = so3.log(Rt)
+    e_w = w - _mv(np.swapaxes(Rt, -1, -2), w_d)
+    return np.concatenate(np.broadcast_arrays(xi, e_w), axis=-1)
+
+
+def reference_model(
+    J: np.ndarray, dt: float, omega_d: np.ndarray, F_ref: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """LGVI linearised about the reference (module docstring), vectorised over the stages.
+
+    Args:
+        J: ``(3, 3)`` inertia. dt: MPC period ``T``.
+        omega_d: ``(n + 1, 3)`` reference rates at the knots ``k = 0 … n``.
+        F_ref: ``(n, 3, 3)`` reference steps ``R_d,kᵀR_d,k+1``.
+
+    Returns:
+        ``A (n, 6, 6)``, ``B (n, 6, 3)``, ``u_ref (n, 3)``, ``c (n, 6)`` with
+        ``x_{k+1} = A_k x_k + B_k (u_k − u_ref,k) + c_k``.
+    """
+    n = F_ref.shape[0]
+    Jd = _jd(J)
+    Jinv = np.linalg.inv(J)
+    T = dt
+    G = _skew_vee(F_ref @ Jd) / T  # F J_d − J_d Fᵀ = M − Mᵀ with M = F J_d
+    Pi = omega_d @ J.T
+    u_ref = (2.0 / T) * (G - Pi[:-1])
+    Ft = np.swapaxes(F_ref, -1, -2)
+    d = _mv(Ft, G) + 0.5 * T * u_ref - Pi[1:]
+    Kinv = np.linalg.inv(_dgdf(F_ref, Jd))
+    I3 = np.eye(3)
+    FtG_hat = _hat(_mv(Ft, G))
+    # (ζ, δΠ) dynamics: δf = T K⁻¹ δΠ + (T²/2) K⁻¹ δu
+    Ahat = np.zeros((n, 6, 6))
+    Ahat[:, :3, :3] = Ft
+    Ahat[:, :3, 3:] = T * Kinv
+    Ahat[:, 3:, :3] = 0.0
+    Ahat[:, 3:, 3:] = T * FtG_hat @ Kinv + Ft
+    Bhat = np.empty((n, 6, 3))
+    Bhat[:, :3] = 0.5 * T * T * Kinv
+    Bhat[:, 3:] = 0.5 * T * T * FtG_hat @ Kinv + 0.5 * T * (Ft + I3)
+    # x = S (ζ, δΠ), S = [[I, 0], [−Ω_d^, J⁻¹]],  S⁻¹ = [[I, 0], [J Ω_d^, J]]
+    Wd = _hat(omega_d)
+    S = np.zeros((n + 1, 6, 6))
+    S[:, :3, :3] = I3
+    S[:, 3:, :3] = -Wd
+    S[:, 3:, 3:] = Jinv
+    Sinv = np.zeros((n + 1, 6, 6))
+    Sinv[:, :3, :3] = I3
+    Sinv[:, 3:, :3] = J @ Wd
+    Sinv[:, 3:, 3:] = J
+    A = S[1:] @ Ahat @ Sinv[:-1]
+    B = S[1:] @ Bhat
+    c = _mv(S[1:, :, 3:], d)
+    return A, B, u_ref, c
+
+
+def rest_model(J: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(A, B)`` of :func:`reference_model` at rest (``Ω_d ≡ 0``): the ZOH double integrator."""
+    A, B, _, _ = reference_model(J, dt, np.zeros((2, 3)), np.eye(3)[None])
+    return A[0], B[0]
+
+
+def stage0_model(
+    J: np.ndarray,
+    dt: float,
+    R: np.ndarray,
+    omega: np.ndarray,
+    R_d1: np.ndarray,
+    omega_d1: np.ndarray,
+    u_bar: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Nonlinear LGVI prediction of stage 0 and its exact input Jacobian (module docstring).
+
+    One spacecraft: ``R (3, 3)``, ``omega (3,)``, next reference knot ``R_d1 (3, 3)``,
+    ``omega_d1 (3,)``, nominal torque ``u_bar (3,)``. Returns ``x1 (6,)`` (the error state at
+    ``t + T`` under ``u_bar``) and ``B0 (6, 3)`` with ``x_1 ≈ x1 + B0 (u_0 − u_bar)``.
+    """
+    T = dt
+    Pi0 = J @ omega
+    R1, Pi1 = lgvi_step(R, Pi0, u_bar, u_bar, T, J)
+    F = R.T @ R1
+    G = Pi0 + 0.5 * T * u_bar
+    Jinv = np.linalg.inv(J)
+    Rt = R_d1.T @ R1
+    xi = so3.log(Rt)
+    wd_body = Rt.T @ omega_d1
+    x1 = np.concatenate([xi, Jinv @ Pi1 - wd_body])
+    Kinv = np.linalg.inv(_dgdf(F, _jd(J)))
+    dfdu = 0.5 * T * T * Kinv
+    dPi = _hat(F.T @ G) @ dfdu + 0.5 * T * (F.T + np.eye(3))
+    B0 = np.empty((6, 3))
+    B0[:3] = so3.right_jacobian_inv(xi) @ dfdu
+    B0[3:] = Jinv @ dPi - _hat(wd_body) @ dfdu
+    return x1, B0
+
+
+def check_weight(W: object, name: str, n: int) -> np.ndarray:
+    """A symmetric positive-definite ``n × n`` weight (a positive ``(n,)`` vector means its
+    diagonal). Raises ``ValueError`` naming ``name`` otherwise."""
+    a = as_array(W, name)
+    if a.shape == (n,):
+        check_positive(a, name)
+        return np.diag(a)
+    if a.shape != (n, n):
+        raise ValueError(f"{name}: expected shape ({n},) or ({n}, {n}), got {a.shape}")
+    scale = float(np.abs(a).max())
+    if float(np.abs(a - a.T).max()) > 1e-9 * max(scale, 1e-300):
+        raise ValueError(f"{name}: not symmetric")
+    eig = np.linalg.eigvalsh(a)
+    if eig[0] <= 1e-12 * max(eig[-1], 1e-300):
+        raise ValueError(f"{name}: not positive definite (smallest eigenvalue {eig[0]:.3e})")
+    return 0.5 * (a + a.T)
+
+
+# ------------------------------------------------------------------------------------------------
+# QP backends (one instance per spacecraft)
+
+
+class _OsqpQP:
+    """Sparse QP in z = (x_1 … x_N, u_0 … u_{N−1}); structure fixed at construction.
+
+    Constraint rows: dynamics (6N, equality), input box (3N), extra (mN). Every entry of the
+    A_k, B_k and C blocks is structurally present (even if zero at build time), so the values can
+    be replaced in place with ``update(Ax=...)``.
+    """
+
+    def __init__(
+        self, N: int, Q: np.ndarray, R: np.ndarray, P: np.ndarray, m: int, settings: dict
+    ) -> None:
+        import osqp
+
+        self.N, self.m = N, m
+        nx, nu = 6 * N, 3 * N
+        self.nx, self.nu = nx, nu
+        Hx = sp.block_diag([Q] * (N - 1) + [P]) if N > 1 else sp.csc_matrix(P)
+        H = sp.block_diag([Hx, sp.kron(sp.eye(N), R)], format="csc")
+        self.R = R
+        # COO triplets of the constraint matrix; `slots` remembers where each block lives
+        rows: list[np.ndarray] = []
+        cols: list[np.ndarray] = []
+        vals: list[np.ndarray] = []
+        self.slot_A: list[slice] = []
+        self.slot_B: list[slice] = []
+        self.slot_C: list[slice] = []
+        count = 0
+
+        def add(r0: int, c0: int, block: np.ndarray) -> slice:
+            nonlocal count
+            nr, nc = block.shape
+            rr, cc = np.meshgrid(np.arange(nr), np.arange(nc), indexing="ij")
+            rows.append((r0 + rr).ravel())
+            cols.append((c0 + cc).ravel())
+            vals.append(block.ravel())
+            s = slice(count, count + nr * nc)
+            count += nr * nc
+            return s
+
+        for k in range(N):
+            add(6 * k, 6 * k, np.eye(6))
+            if k >= 1:
+                self.slot_A.append(add(6 * k, 6 * (k - 1), np.ones((6, 6))))
+            self.slot_B.append(add(6 * k, nx + 3 * k, np.ones((6, 3))))
+        r_box = 6 * N
+        for k in range(N):
+            add(r_box + 3 * k, nx + 3 * k, np.eye(3))
+        r_ext = r_box + 3 * N
+        for k in range(N):
+            if m:
+                self.slot_C.append(add(r_ext + m * k, nx + 3 * k, np.ones((m, 3))))
+        self.vals = np.concatenate(vals)
+        r = np.concatenate(rows)
+        c = np.concatenate(cols)
+        self.n_con = r_ext + m * N
+        ids = np.arange(1, count + 1, dtype=np.float64)
+        Aid = sp.csc_matrix((ids, (r, c)), shape=(self.n_con, nx + nu))
+        Aid.sort_indices()
+        # position p of the CSC data holds COO entry order[p]
+        self.order = Aid.data.astype(np.int64) - 1
+        self.A = Aid
+        self.A.data = self.vals[self.order]
+        self.l = np.zeros(self.n_con)
+        self.u = np.zeros(self.n_con)
+        self.q = np.zeros(nx + nu)
+        self.solver = osqp.OSQP()
+        self.solver.setup(H, self.q, self.A, self.l, self.u, **settings)
+
+    def set_data(
+        self,
+        A: np.ndarray,
+        B: np.ndarray,
+        c: np.ndarray,
+        u_ref: np.ndarray,
+        u_max: np.ndarray,
+        extra: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
+    ) -> None:
+        N, nx = self.N, self.nx
+        vals = self.vals
+        for k in range(1, N):
+            vals[self.slot_A[k - 1]] = -A[k].ravel()
+        for k in range(N):
+            vals[self.slot_B[k]] = -B[k].ravel()
+        self.l[:nx] = c.ravel()
+        self.u[:nx] = c.ravel()
+        self.l[nx : nx + 3 * N] = np.tile(-u_max, N)
+        self.u[nx : nx + 3 * N] = np.tile(u_max, N)
+        if extra is not None:
+            C, lo, hi = extra
+            for k in range(N):
+                vals[self.slot_C[k]] = C.ravel()
+            self.l[nx + 3 * N :] = np.tile(lo, N)
+            self.u[nx + 3 * N :] = np.tile(hi, N)
+        self.q[nx:] = -(u_ref @ self.R).ravel()
+        self.solver.update(q=self.q, l=self.l, u=self.u, Ax=vals[self.order])
+
+    def solve(self) -> tuple[int, np.ndarray | None, int, float]:
+        res = self.solver.solve(raise_error=False)
+        sv = int(res.info.status_val)
+        status = sv if sv in (1, 2) else -sv
+        u = None if res.x is None else np.array(res.x[self.nx :]).reshape(self.N, 3)
+        return status, u, int(res.info.iter), float(res.info.solve_time)
+
+
+class _CvxpyQP:
+    """The same QP written readably with ``cp.Parameter``s (DPP, compiled on the first solve)."""
+
+    def __init__(
+        self, N: int, Q: np.ndarray, R: np.ndarray, P: np.ndarray, m: int, settings: dict
+    ) -> None:
+        import cvxpy as cp
+
+        self.N, self.m = N, m
+        x = cp.Variable((N, 6), name="x")  # x_1 … x_N
+        u = cp.Variable((N, 3), name="u")  # u_0 … u_{N−1}
+        self.A = [cp.Parameter((6, 6), name=f"A{k}") for k in range(1, N)]
+        self.B = [cp.Parameter((6, 3), name=f"B{k}") for k in range(N)]
+        self.c = cp.Parameter((N, 6), name="c")
+        self.u_ref = cp.Parameter((N, 3), name="u_ref")
+        self.u_max = cp.Parameter(3, nonneg=True, name="u_max")
+        # sum_squares(L z) = zᵀ W z with W = L Lᵀ: DPP (quad_form of a parameter-affine argument
+        # is not)
+        Lq, Lp, Lr = (np.linalg.cholesky(W).T for W in (Q, P, R))
+        cost = cp.sum_squares(Lp @ x[N - 1])
+        cost += sum(cp.sum_squares(Lq @ x[k]) for k in range(N - 1))
+        cost += sum(cp.sum_squares(Lr @ (u[k] - self.u_ref[k])) for k in range(N))
+        cons = [x[0] == self.B[0] @ u[0] + self.c[0]]
+        cons += [
+            x[k] == self.A[k - 1] @ x[k - 1] + self.B[k] @ u[k] + self.c[k] for k in range(1, N)
+        ]
+        cons += [cp.abs(u[k]) <= self.u_max for k in range(N)]
+        if m:
+            self.C = cp.Parameter((m, 3), name="C")
+            self.lo = cp.Parameter(m, name="lo")
+            self.hi = cp.Parameter(m, name="hi")
+            cons += [self.C @ u[k] >= self.lo for k in range(N)]
+            cons += [self.C @ u[k] <= self.hi for k in range(N)]
+        self.u = u
+        self.problem = cp.Problem(cp.Minimize(cost), cons)
+        if not self.problem.is_dpp():  # pragma: no cover - a bug in this file
+            raise RuntimeError("SO3MPC: the cvxpy formulation is not DPP")
+        self.settings = dict(settings)
+        self.solver_name = self.settings.pop("solver", "CLARABEL")
+
+    def set_data(self, A, B, c, u_ref, u_max, extra) -> None:
+        for k in range(1, self.N):
+            self.A[k - 1].value = A[k]
+        for k in range(self.N):
+            self.B[k].value = B[k]
+        self.c.value = c
+        self.u_ref.value = u_ref
+        self.u_max.value = u_max
+        if extra is not None:
+            self.C.value, self.lo.value, self.hi.value = extra
+
+    def solve(self) -> tuple[int, np.ndarray | None, int, float]:
+        self.problem.solve(solver=self.solver_name, **self.settings)
+        status = _CVXPY_STATUS.get(self.problem.status, -11)
+        stats = self.problem.solver_stats
+        it = int(stats.num_iters) if stats is not None and stats.num_iters is not None else 0
+        st = float(stats.solve_time) if stats is not None and stats.solve_time else 0.0
+        u = None if self.u.value is None else np.array(self.u.value)
+        return status, u, it, st
+
+
+# ------------------------------------------------------------------------------------------------
+
+
+def _check_int(v: object, name: str, minimum: int) -> int:
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < minimum:
+        raise ValueError(f"{name}: must be an integer >= {minimum}, got {v!r}")
+    return int(v)
+
+
+class SO3MPC(AttitudeController):
+    """Linear MPC on the Lie-algebra error of the LGVI (module docstring; SPEC §6 item 4).
+
+    Args:
+        J: ``(3, 3)`` inertia the controller assumes [kg·m²].
+        horizon: number of stages ``N ≥ 1``.
+        dt: MPC sample time ``T`` > 0 [s] (the controller should be sampled at this period).
+        Q: error-state weight, SPD ``(6, 6)`` or positive ``(6,)`` (on ``(ξ [rad], e_Ω [rad/s])``).
+        R: input weight, SPD ``(3, 3)`` or positive ``(3,)`` [1/(N·m)²].
+        u_max: torque limit, positive scalar or ``(3,)`` [N·m]: ``|u_i| ≤ u_max_i``.
+        P: terminal weight SPD ``(6, 6)``; default: the DARE solution of the rest model.
+        backend: ``"osqp"`` (sparse QP updated in place, warm-started) or ``"cvxpy"``
+            (``cp.Parameter`` formulation, Clarabel).
+        extra_constraints: optional ``f(state) -> (C (m, 3), lo (m,), hi (m,))`` evaluated at
+            the current single-spacecraft state (an :class:`AttitudeState` with ``B = 1``);
+            imposes ``lo ≤ C u_k ≤ hi`` on every stage; ``m`` must not change between calls.
+        reference_preview: optional ``t -> AttitudeReference`` giving the reference at the future
+            knots ``t + kT`` (default: extrapolate from the current sample with constant
+            ``Ω̇_d``).
+        fallback: controller used when the QP fails (default: :class:`GeometricPD` with
+            ``gains_from_bandwidth(J, 0.1/T, 1.0, matrix=True)``); its torque is clipped to the
+            box. One deep copy per spacecraft.
+        solver_settings: backend options (OSQP settings, or ``cvxpy`` ``solve`` keywords incl.
+            ``solver=``), merged over the defaults.
+        accept_inaccurate: also accept *solved inaccurate* (default: fall back).
+
+    Batch handling: ``batched = True``; ``command`` loops over the ``B`` spacecraft internally
+    (one QP instance each, so every spacecraft keeps its own warm start).
+
+    ``diagnostics()``: ``status`` ``(B,)`` int (codes in :data:`STATUS_NAMES`), ``solve_time``
+    ``(B,)`` [s] (solver-reported), ``iterations`` ``(B,)``, ``fallback_active`` ``(B,)`` bool,
+    ``fallback_count`` ``(B,)`` (cumulative), ``xi`` and ``e_Omega`` ``(B, 3)``.
+    """
+
+    batched = True
+
+    def __init__(
+        self,
+        J: object,
+        horizon: int,
+        dt: float,
+        Q: object,
+        R: object,
+        u_max: object,
+        P: object = None,
+        backend: str = "osqp",
+        extra_constraints: Callable[[AttitudeState], tuple] | None = None,
+        reference_preview: Callable[[float], AttitudeReference] | None = None,
+        fallback: AttitudeController | None = None,
+        solver_settings: dict | None = None,
+        accept_inaccurate: bool = False,
+    ) -> None:
+        J = check_inertia(J, "J")
+        if J.shape != (3, 3):
+            raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+        self.J = J.copy()
+        self.J.setflags(write=False)
+        self.N = _check_int(horizon, "horizon", 1)
+        dt = check_positive(dt, "dt")
+        if not isinstance(dt, float):
+            raise ValueError("dt: must be a scalar")
+        self.dt = dt
+        self.Q = check_weight(Q, "Q", 6)
+        self.R = check_weight(R, "R", 3)
+        um = as_array(u_max, "u_max")
+        if um.shape not in ((), (3,)):
+            raise ValueError(f"u_max: expected a scalar or shape (3,), got {um.shape}")
+        check_positive(um, "u_max")
+        self.u_max = np.broadcast_to(um, (3,)).copy()
+        A0, B0 = rest_model(self.J, dt)
+        if P is None:
+            P = scipy.linalg.solve_discrete_are(A0, B0, self.Q, self.R)
+            P = 0.5 * (P + P.T)
+        self.P = check_weight(P, "P", 6)
+        if backend not in ("osqp", "cvxpy"):
+            raise ValueError(f"backend: expected 'osqp' or 'cvxpy', got {backend!r}")
+        self.backend = backend
+        if extra_constraints is not None and not callable(extra_constraints):
+            raise ValueError("extra_constraints: must be callable as f(state) -> (C, lo, hi)")
+        self.extra_constraints = extra_constraints
+        if reference_preview is not None and not callable(reference_preview):
+            raise ValueError("reference_preview: must be callable as f(t) -> AttitudeReference")
+        self.reference_preview = reference_preview
+        if fallback is None:
+            k_R, k_W = gains_from_bandwidth(self.J, 0.1 / dt, 1.0, matrix=True)
+            fallback = GeometricPD(self.J, k_R, k_W)
+        for name in ("reset", "command"):
+            if not callable(getattr(fallback, name, None)):
+                raise ValueError(f"fallback: has no method {name}() (an AttitudeController)")
+        self.fallback = fallback
+        if solver_settings is not None and not isinstance(solver_settings, dict):
+            raise ValueError("solver_settings: must be a dict or None")
+        base = dict(_OSQP_DEFAULTS) if backend == "osqp" else {}
+        self.solver_settings = {**base, **(solver_settings or {})}
+        self.accept_inaccurate = bool(accept_inaccurate)
+        # rest-model stages are constant: cached (regulation never recomputes them)
+        self._rest = reference_model(
+            self.J, dt, np.zeros((self.N + 1, 3)), np.broadcast_to(np.eye(3), (self.N, 3, 3))
+        )
+        self._qps: list[Any] = []
+        self._fallbacks: list[Any] = []
+        self._batch: int | None = None
+        self._diag: dict[str, np.ndarray] = {}
+        self._fallback_count: np.ndarray = np.zeros(0, dtype=np.int64)
+        self._t0 = 0.0
+
+    def __repr__(self) -> str:
+        return (
+            f"SO3MPC(backend={self.backend!r}, horizon={self.N}, dt={self.dt}, "
+            f"u_max={self.u_max.tolist()})"
+        )
+
+    def __deepcopy__(self, memo: dict) -> SO3MPC:
+        # solver objects (C extensions) are not copyable: a copy starts un-reset
+        new = copy.copy(self)
+        new._qps = []
+        new._fallbacks = []
+        new._batch = None
+        new._diag = {}
+        new._fallback_count = np.zeros(0, dtype=np.int64)
+        new.fallback = copy.deepcopy(self.fallback, memo)
+        return new
+
+    # -- interface --------------------------------------------------------------------------
+
+    def reset(self, t0: float, batch_size: int) -> None:
+        """Clear warm starts, counters and diagnostics; QPs are (re)built on the first command."""
+        batch_size = _check_int(batch_size, "batch_size", 1)
+        self._t0 = float(as_array(t0, "t0"))
+        self._batch = batch_size
+        self._qps = [None] * batch_size
+        self._fallbacks = []
+        for _ in range(batch_size):
+            fb = copy.deepcopy(self.fallback)
+            fb.reset(self._t0, 1)
+            self._fallbacks.append(fb)
+        self._fallback_count = np.zeros(batch_size, dtype=np.int64)
+        self._diag = {}
+
+    def _new_qp(self, m: int) -> Any:
+        cls = _OsqpQP if self.backend == "osqp" else _CvxpyQP
+        return cls(self.N, self.Q, self.R, self.P, m, self.solver_settings)
+
+    def _knots(
+        self, t: float, R_d: np.ndarray, w_d: np.ndarray, dw_d: np.ndarray, b: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Reference rates ``(N + 1, 3)`` and steps ``F_k (N, 3, 3)`` over the horizon."""
+        N, T = self.N, self.dt
+        if self.reference_preview is not None:
+            Rs = [R_d]
+            ws = [w_d]
+            for k in range(1, N + 1):
+                ref = self.reference_preview(t + k * T)
+                Rk = check_rotation_matrix(ref.R_d, "reference_preview")
+                wk = as_array(ref.omega_d, "reference_preview", (3,))
+                Rs.append(Rk[b] if Rk.ndim == 3 else Rk)
+                ws.append(wk[b] if wk.ndim == 2 else wk)
+            Rs_a = np.stack(Rs)
+            F = np.swapaxes(Rs_a[:-1], -1, -2) @ Rs_a[1:]
+            return np.stack(ws), F
+        ws = w_d + T * np.arange(N + 1)[:, None] * dw_d
+        F = so3.exp(0.5 * T * (ws[:-1] + ws[1:]))
+        return ws, F
+
+    def _extra(self, state_b: AttitudeState, m_expected: int | None):
+        out = self.extra_constraints(state_b)
+        try:
+            C, lo, hi = out
+        except (TypeError, ValueError):
+            raise ValueError("extra_constraints: must return (C, lo, hi)") from None
+        C = as_array(C, "extra_constraints", (3,))
+        if C.ndim != 2:
+            raise ValueError(f"extra_constraints: C must have shape (m, 3), got {C.shape}")
+        m = C.shape[0]
+        lo = np.broadcast_to(np.asarray(lo, dtype=np.float64), (m,))
+        hi = np.broadcast_to(np.asarray(hi, dtype=np.float64), (m,))
+        if np.isnan(lo).any() or np.isnan(hi).any():
+            raise ValueError("extra_constraints: lo/hi contain NaN")
+        if m_expected is not None and m != m_expected:
+            raise ValueError(f"extra_constraints: number of rows changed from {m_expected} to {m}")
+        return C, lo, hi
+
+    def command(self, t: float, state: AttitudeState, reference: AttitudeReference) -> np.ndarray:
+        """Full body torque ``(B, 3)`` [N·m]; ``|u_i| ≤ u_max_i`` always (fallback included)."""
+        if self._batch is None:
+            raise RuntimeError("SO3MPC.command: call reset(t0, batch_size) first")
+        R = check_rotation_matrix(state.R, "R")
+        w = as_array(state.omega, "omega", (3,))
+        if R.ndim != 3 or w.shape != (R.shape[0], 3):
+            raise ValueError(
+                f"state: expected R (B, 3, 3) and omega (B, 3), got {R.shape} and {w.shape}"
+            )
+        B = R.shape[0]
+        if B != self._batch:
+            raise ValueError(f"state: batch size {B} differs from reset(batch_size={self._batch})")
+        R_d = check_rotation_matrix(reference.R_d, "R_d")
+        w_d = as_array(reference.omega_d, "omega_d", (3,))
+        dw_d = as_array(reference.omega_dot_d, "omega_dot_d", (3,))
+        for name, a, nd in (("R_d", R_d, 2), ("omega_d", w_d, 1), ("omega_dot_d", dw_d, 1)):
+            if a.ndim > nd + 1 or (a.ndim == nd + 1 and a.shape[0] != B):
+                raise ValueError(f"{name}: expected one sample or a batch of {B}, got {a.shape}")
+        out = np.empty((B, 3))
+        status = np.zeros(B, dtype=np.int64)
+        iters = np.zeros(B, dtype=np.int64)
+        stime = np.zeros(B)
+        fb_on = np.zeros(B, dtype=bool)
+        x0s = np.empty((B, 6))
+        h = state.h
+        for b in range(B):
+            Rd_b = R_d[b] if R_d.ndim == 3 else R_d
+            wd_b = w_d[b] if w_d.ndim == 2 else w_d
+            dwd_b = dw_d[b] if dw_d.ndim == 2 else dw_d
+            st_b = AttitudeState(R[b : b + 1], w[b : b + 1], None if h is None else h[b : b + 1])
+            x0s[b] = error_state(R[b], w[b], Rd_b, wd_b)
+            u_b, status[b], iters[b], stime[b] = self._solve_one(
+                t, b, R[b], w[b], Rd_b, wd_b, dwd_b, st_b
+            )
+            if u_b is None:
+                fb_on[b] = True
+                self._fallback_count[b] += 1
+                ref_b = AttitudeReference(Rd_b, wd_b, dwd_b)
+                u_fb = np.asarray(self._fallbacks[b].command(t, st_b, ref_b), dtype=np.float64)
+                u_b = np.clip(u_fb.reshape(3), -self.u_max, self.u_max)
+                _log.warning(
+                    "SO3MPC: QP %s (status %d) at t=%.6g for spacecraft %d; fallback %s used",
+                    STATUS_NAMES.get(int(status[b]), "?"),
+                    status[b],
+                    t,
+                    b,
+                    type(self.fallback).__name__,
+                )
+            out[b] = u_b
+        self._diag = {
+            "status": status,
+            "solve_time": stime,
+            "iterations": iters,
+            "fallback_active": fb_on,
+            "fallback_count": self._fallback_count.copy(),
+            "xi": x0s[:, :3],
+            "e_Omega": x0s[:, 3:],
+        }
+        return out
+
+    def _solve_one(self, t, b, R, w, R_d, w_d, dw_d, st_b):
+        """Linearise, update and solve one spacecraft's QP: ``(u or None, status, iters, time)``."""
+        ws, F = self._knots(t, R_d, w_d, dw_d, b)
+        if not ws.any():
+            A, Bm, u_ref, c = self._rest
+        else:
+            A, Bm, u_ref, c = reference_model(self.J, self.dt, ws, F)
+        u_bar = np.clip(u_ref[0], -self.u_max, self.u_max)
+        x1, B0 = stage0_model(self.J, self.dt, R, w, R_d @ F[0], ws[1], u_bar)
+        Bm = Bm.copy()
+        Bm[0] = B0
+        c = c - _mv(Bm, u_ref)  # x_{k+1} = A_k x_k + B_k u_k + c̃_k
+        c[0] = x1 - B0 @ u_bar
+        extra = None
+        qp = self._qps[b]
+        if self.extra_constraints is not None:
+            extra = self._extra(st_b, None if qp is None else qp.m)
+        if qp is None:
+            qp = self._qps[b] = self._new_qp(0 if extra is None else extra[0].shape[0])
+        try:
+            qp.set_data(A, Bm, c, u_ref, self.u_max, extra)
+            status, u, iters, stime = qp.solve()
+        except Exception as exc:  # solver errors must not stop the loop: fall back, log it
+            _log.warning("SO3MPC: solver raised %r", exc)
+            return None, -99, 0, 0.0
+        ok = status == 1 or (status == 2 and self.accept_inaccurate)
+        if not ok or u is None or not np.all(np.isfinite(u[0])):
+            return None, status if status != 1 else -11, iters, stime
+        # the solver's tolerance may overshoot the box by ~eps: the limit is a hard one
+        return np.clip(u[0], -self.u_max, self.u_max), status, iters, stime
+
+    def diagnostics(self) -> dict[str, np.ndarray]:
+        """Last step's solver status, timing, iterations, fallback flags, error state."""
+        return dict(self._diag)

@@ -1,0 +1,506 @@
+"""Terminal sliding mode on Euler angles with feedback linearisation (SPEC §6.2; seed 004).
+
+Source: Liu Luhua, Tang Guojian, Yu Menglun, "Space RVD terminal approach to attitude tracking
+by terminal sliding mode control", J. National Univ. of Defense Technology 30(2), 2008 (seed 004),
+eqs. (1)–(19); the feedback linearisation follows Isidori's relative-degree construction.
+
+**Feedback linearisation** (seed §2, eqs. (9)–(12)). Output y = a = (a1, a2, a3), the Euler
+angles of the body (R body → inertial, any of scipy's 12 sequences; the seed uses the 3-2-1
+sequence ``"ZYX"``). With ω = M(a) ȧ (:func:`liecontrol.charts.euler.rates_matrix_inv`) and
+B(a) = M(a)⁻¹ (ȧ = B ω), differentiating ω = M ȧ once more gives
+
+    ä = B(a) (ω̇ − Ṁ(a, ȧ) ȧ),      ω̇ = J⁻¹(−ω × Jω + L),
+
+so with the control input u = J⁻¹L (angular-acceleration input; for principal J this is the
+seed's u = (L_x/J_x, L_y/J_y, L_z/J_z)) the output has relative degree (2, 2, 2) and
+
+    ÿ = b(x) + A(x) u,   A = B(a) = ∂ẏ/∂ω,   b = L_f²h = B(a) (J⁻¹(−ω × Jω) − Ṁ(a, ȧ) ȧ).
+
+This holds for a **general full (symmetric positive-definite) inertia J**, not only principal.
+For an intrinsic sequence of axes (i, j, k), M = [R_kᵀ(a3) R_jᵀ(a2) e_i, R_kᵀ(a3) e_j, e_k] and
+Ṁ ȧ = ȧ1 (−ȧ3 e_k × m1 − ȧ2 R_kᵀ(e_j × R_jᵀ e_i)) + ȧ2 (−ȧ3 e_k × m2) (m1, m2 the first two
+columns); an extrinsic sequence is the reversed intrinsic one with reversed angles. For ``"ZYX"``
+and principal J this reproduces the seed's closed form eq. (12) (tested).
+
+**Time-shaping polynomial** (seed eqs. (16), (18)–(19)). With τ = t/T,
+
+    p(t) = e₀(1 − 10τ³ + 15τ⁴ − 6τ⁵) + ė₀T(τ − 6τ³ + 8τ⁴ − 3τ⁵)
+           + ë₀T²(τ²/2 − 1.5τ³ + 1.5τ⁴ − 0.5τ⁵)   for 0 ≤ t ≤ T,   p(t) = 0 for t > T,
+
+the coefficients being the seed's R = M⁻¹S (eq. (19)): p, ṗ, p̈ equal e, ė, ë at t = 0 and vanish
+at t = T.
+
+**Sliding surface and control** (seed eqs. (14)–(17), smoothed as in its §3.2). e = y − y_d
+(first and third angles wrapped to (−π, π]),
+
+    σ = C₁(e − p) + C₂(ė − ṗ)                    (σ(0) = 0 by construction of p),
+    u = −A⁻¹{ b − ÿ_d − p̈ + C₂⁻¹C₁(ė − ṗ) + S_δ (F + D + K) },
+    S_δ = C₂ᵀσ / (‖C₂ᵀσ‖ + δ),   δ = δ₀ + δ₁‖e‖,
+
+and the body torque is L = J u. With ÿ = b + Δb + Au + d, ‖Δb‖ ≤ F, ‖d‖ ≤ D and the unsmoothed
+unit vector, V = ½σᵀσ gives V̇ ≤ −K‖C₂ᵀσ‖ < 0 (seed §3.2), so the state stays on σ = 0 from t = 0
+and e(t) follows the homogeneous solution that ends at 0 at t = T; with the smoothing the
+error stays in a boundary layer of width ≈ δ·(F + D)/(F + D + K).
+
+*Reconstructed / our choices* (the seed leaves them open):
+
+- ë₀ is the **drift** error acceleration ë₀ = b(x₀) − ÿ_d(t₀) (what the error acceleration is
+  with u = 0), which makes the commanded torque start at exactly 0 (no initial jump);
+- the seed's "‖C_n^Tσ‖₊" is read as ‖C₂ᵀσ‖ + δ (SPEC §6.2);
+- F, D, K are constants (the seed gives no values).
+
+Gimbal lock: B(a) and b contain 1/cos a2 (Tait–Bryan) or 1/sin a2 (proper Euler); the law raises
+:class:`~liecontrol.exceptions.ChartSingularityError` when |cos a2| (|sin a2|) < ``lock_tol``,
+never NaN. Near lock (not at it) b grows like 1/cos²a2 and so does the torque: the SO(3) adapter
+refuses earlier with its own, wider guard.
+
+Units: J [kg·m²], angles [rad], T [s], C₁ [1/s relative to C₂], δ₀ [rad/s], δ₁ [1/s],
+F, D, K [rad/s²], torque [N·m].
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._validation import as_array, check_inertia, check_nonnegative, check_positive
+from ..charts.euler import LOCK_TOL, _elem, _parse, rates_matrix, rates_matrix_inv
+
+__all__ = [
+    "TSMParams",
+    "TerminalSlidingMode",
+    "euler_angle_acceleration",
+    "euler_feedback_linearisation",
+    "euler_reference",
+    "time_shaping_polynomial",
+    "sliding_surface",
+    "tsm_control",
+    "wrap_error",
+    "SHAPING_COEFFICIENTS",
+]
+
+#: The seed's r_jl (eq. (19), R = M⁻¹S with M = [[1,1,1],[3,4,5],[6,12,20]],
+#: S = [[−1,−1,−0.5],[0,−1,−1],[0,0,−1]]): the coefficient of e^{(l)}(0) T^l τ^{j+3} in p(t).
+SHAPING_COEFFICIENTS: np.ndarray = np.array(
+    [[-10.0, -6.0, -1.5], [15.0, 8.0, 1.5], [-6.0, -3.0, -0.5]]
+)
+SHAPING_COEFFICIENTS.setflags(write=False)
+
+
+# -- feedback linearisation ---------------------------------------------------------------------
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.cross(a, b)
+
+
+def _mdot_adot_intrinsic(
+    a: np.ndarray, ad: np.ndarray, axes: tuple[int, int, int]
+) -> np.ndarray:
+    """Ṁ(a, ȧ) ȧ for an intrinsic sequence (module docstring), ``(..., 3)``."""
+    i, j, k = axes
+    Rk3T = np.swapaxes(_elem(k, a[..., 2]), -1, -2)
+    Rj2T = np.swapaxes(_elem(j, a[..., 1]), -1, -2)
+    ek = np.zeros(3)
+    ek[k] = 1.0
+    ej = np.zeros(3)
+    ej[j] = 1.0
+    Rj2T_ei = Rj2T[..., :, i]
+    m1 = np.einsum("...ab,...b->...a", Rk3T, Rj2T_ei)
+    m2 = Rk3T[..., :, j]
+    ek_b = np.broadcast_to(ek, m1.shape)
+    dm1 = -ad[..., 2:3] * _cross(ek_b, m1) - ad[..., 1:2] * np.einsum(
+        "...ab,...b->...a", Rk3T, _cross(np.broadcast_to(ej, m1.shape), Rj2T_ei)
+    )
+    dm2 = -ad[..., 2:3] * _cross(ek_b, m2)
+    return ad[..., 0:1] * dm1 + ad[..., 1:2] * dm2
+
+
+def _mdot_adot(a: np.ndarray, ad: np.ndarray, seq: str) -> np.ndarray:
+    axes, ext = _parse(seq)
+    if ext:
+        # extrinsic "ijk" = intrinsic "KJI" with reversed angles; M's columns reverse too, so the
+        # vector Ṁȧ is the intrinsic one evaluated at the reversed angles and rates
+        return _mdot_adot_intrinsic(a[..., ::-1], ad[..., ::-1], axes)
+    return _mdot_adot_intrinsic(a, ad, axes)
+
+
+def euler_angle_acceleration(
+    angles: object,
+    omega: object,
+    omega_dot: object,
+    seq: str = "ZYX",
+    lock_tol: float = LOCK_TOL,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Euler-angle rates and accelerations from body rate and body angular acceleration.
+
+    ȧ = B(a) ω,  ä = B(a) (ω̇ − Ṁ(a, ȧ) ȧ)   (differentiate ω = M(a) ȧ; module docstring).
+
+    Args:
+        angles: ``(..., 3)`` Euler angles [rad] of ``seq``.
+        omega: ``(..., 3)`` body angular velocity [rad/s].
+        omega_dot: ``(..., 3)`` its time derivative [rad/s²].
+        seq: scipy Euler sequence (default ``"ZYX"``, aerospace 3-2-1).
+        lock_tol: gimbal-lock threshold on |cos a2| (|sin a2|).
+
+    Returns:
+        ``(adot, addot)``, each ``(..., 3)`` (batch shapes broadcast).
+
+    Raises:
+        ChartSingularityError: at gimbal lock.
+    """
+    a = as_array(angles, "angles", (3,))
+    w = as_array(omega, "omega", (3,))
+    wd = as_array(omega_dot, "omega_dot", (3,))
+    B = rates_matrix(a, seq, lock_tol)
+    adot = np.einsum("...ij,...j->...i", B, w)
+    a_b = np.broadcast_to(a, adot.shape)
+    addot = np.einsum("...ij,...j->...i", B, wd - _mdot_adot(a_b, adot, seq))
+    return adot, addot
+
+
+def euler_feedback_linearisation(
+    angles: object,
+    omega: object,
+    J: object,
+    seq: str = "ZYX",
+    lock_tol: float = LOCK_TOL,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Feedback-linearised Euler-angle dynamics ÿ = b + A u with u = J⁻¹L (seed eqs. (10)–(12)).
+
+    A = B(a) (= ∂ẏ/∂ω = ∂ÿ/∂u), b = L_f²h = B(a)(J⁻¹(−ω × Jω) − Ṁ(a, ȧ) ȧ), for a general
+    full inertia ``J`` (principal J gives the seed's u = (L_x/J_x, L_y/J_y, L_z/J_z)).
+
+    Args:
+        angles: ``(..., 3)`` Euler angles [rad] of ``seq``.
+        omega: ``(..., 3)`` body angular velocity [rad/s].
+        J: ``(3, 3)`` inertia [kg·m²] (symmetric positive definite).
+        seq: scipy Euler sequence (default ``"ZYX"``, the seed's 3-2-1).
+        lock_tol: gimbal-lock threshold on |cos a2| (|sin a2|).
+
+    Returns:
+        ``(A, b)``: ``(..., 3, 3)`` and ``(..., 3)``.
+
+    Raises:
+        ValueError: bad shapes, non-finite input, invalid ``J`` or ``seq``.
+        ChartSingularityError: at gimbal lock (instead of NaN/inf).
+    """
+    J = check_inertia(J, "J")
+    if J.shape != (3, 3):
+        raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+    w = as_array(omega, "omega", (3,))
+    a = as_array(angles, "angles", (3,))
+    Jw = w @ J.T
+    drift = np.linalg.solve(J, -_cross(w, Jw)[..., None])[..., 0]
+    _, b = euler_angle_acceleration(a, w, drift, seq, lock_tol)
+    A = np.broadcast_to(rates_matrix(a, seq, lock_tol), b.shape + (3,)).copy()
+    return A, b
+
+
+def euler_reference(
+    R_d: object,
+    omega_d: object,
+    omega_dot_d: object,
+    seq: str = "ZYX",
+    lock_tol: float = LOCK_TOL,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Euler-angle reference (y_d, ẏ_d, ÿ_d) of an SO(3) reference (R_d, ω_d, ω̇_d) — ω_d in the
+    desired body frame — by :func:`liecontrol.charts.euler.from_matrix` and
+    :func:`euler_angle_acceleration`. Raises ChartSingularityError if R_d is at gimbal lock."""
+    from ..charts.euler import from_matrix
+
+    a_d = from_matrix(R_d, seq, warn=False)
+    ad, add = euler_angle_acceleration(a_d, omega_d, omega_dot_d, seq, lock_tol)
+    return np.broadcast_to(a_d, ad.shape).copy(), ad, add
+
+
+# -- time shaping ---------------------------------------------------------------------------------
+
+
+def _basis(tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Shape functions P_l(τ) (l = 0, 1, 2) and their τ-derivatives, each ``(..., 3)``."""
+    powers = np.stack([tau**m for m in range(6)], axis=-1)  # τ^0 … τ^5
+    # coefficients of τ^m in P_l: Taylor part τ^l / l!, then the seed's r_jl on τ^{j+3}
+    C = np.zeros((3, 6))
+    for ell in range(3):
+        C[ell, ell] = 1.0 / math.factorial(ell)
+        C[ell, 3:] = SHAPING_COEFFICIENTS[:, ell]
+    D1 = C[:, 1:] * np.arange(1, 6)  # coefficients of τ^0 … τ^4
+    D2 = D1[:, 1:] * np.arange(1, 5)  # coefficients of τ^0 … τ^3
+    P = powers @ C.T
+    dP = powers[..., :5] @ D1.T
+    ddP = powers[..., :4] @ D2.T
+    return P, dP, ddP
+
+
+def time_shaping_polynomial(
+    t: object, T: float, e0: object, edot0: object, eddot0: object
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The seed's time-shaping function p(t) and its first two time derivatives (eq. (16)).
+
+    p(t) = e₀P₀(τ) + ė₀T P₁(τ) + ë₀T² P₂(τ), τ = t/T, for 0 ≤ t ≤ T; 0 for t > T (module
+    docstring). p(0) = e₀, ṗ(0) = ė₀, p̈(0) = ë₀; p = ṗ = p̈ = 0 at t = T.
+
+    Args:
+        t: time since the start [s], ≥ 0: a scalar, or an array broadcasting against the batch
+            shape of ``e0`` (``e0.shape[:-1]``).
+        T: prescribed convergence time [s], > 0.
+        e0, edot0, eddot0: ``(..., 3)`` initial error, rate and acceleration.
+
+    Returns:
+        ``(p, pdot, pddot)``, each with the broadcast shape ``(..., 3)``.
+
+    Raises:
+        ValueError: ``T ≤ 0``, ``t < 0``, non-finite input or shape mismatch.
+    """
+    T = check_positive(T, "T")
+    if not isinstance(T, float):
+        raise ValueError("T: must be a scalar")
+    t = check_nonnegative(t, "t")
+    e0 = as_array(e0, "e0", (3,))
+    e1 = as_array(edot0, "edot0", (3,))
+    e2 = as_array(eddot0, "eddot0", (3,))
+    t = np.asarray(t, dtype=np.float64)
+    tau = np.minimum(t / T, 1.0)
+    P, dP, ddP = _basis(tau[..., None])  # (..., 1, 3)
+    P, dP, ddP = P[..., 0, :], dP[..., 0, :], ddP[..., 0, :]
+    active = (t <= T)[..., None]
+
+    def comb(S: np.ndarray, scale: float) -> np.ndarray:
+        v = (e0 * S[..., 0:1] + e1 * (T * S[..., 1:2]) + e2 * (T * T * S[..., 2:3])) * scale
+        return np.where(active, v, 0.0)
+
+    return comb(P, 1.0), comb(dP, 1.0 / T), comb(ddP, 1.0 / (T * T))
+
+
+# -- sliding surface and control ------------------------------------------------------------------
+
+
+def wrap_error(e: object) -> np.ndarray:
+    """Wrap angle differences to (−π, π] (Euler angles a1, a3 live on circles)."""
+    e = as_array(e, "e")
+    return np.pi - np.mod(np.pi - e, 2.0 * np.pi)
+
+
+def _apply(C: np.ndarray, x: np.ndarray) -> np.ndarray:
+    return x @ C.T
+
+
+def sliding_surface(
+    e: object, edot: object, p: object, pdot: object, C1: object, C2: object
+) -> np.ndarray:
+    """σ = C₁(e − p) + C₂(ė − ṗ) (seed eq. (15) for n = 2), ``(..., 3)``; ``C1, C2`` 3×3."""
+    C1 = np.asarray(C1, dtype=np.float64)
+    C2 = np.asarray(C2, dtype=np.float64)
+    e, edot = as_array(e, "e", (3,)), as_array(edot, "edot", (3,))
+    p, pdot = as_array(p, "p", (3,)), as_array(pdot, "pdot", (3,))
+    return _apply(C1, e - p) + _apply(C2, edot - pdot)
+
+
+def tsm_control(
+    e: np.ndarray,
+    edot: np.ndarray,
+    p: np.ndarray,
+    pdot: np.ndarray,
+    pddot: np.ndarray,
+    A: np.ndarray,
+    b: np.ndarray,
+    yddot_d: np.ndarray,
+    params: TSMParams,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Seed eq. (17) with the smoothed switching term (SPEC §6.2):
+
+    u = −A⁻¹{ b − ÿ_d − p̈ + C₂⁻¹C₁(ė − ṗ) + S_δ (F + D + K) },
+    S_δ = C₂ᵀσ / (‖C₂ᵀσ‖ + δ), δ = δ₀ + δ₁‖e‖.
+
+    Arrays ``(..., 3)`` (``A`` ``(..., 3, 3)``); returns ``(u, sigma)``. No validation (hot path;
+    :class:`TerminalSlidingMode` validates).
+    """
+    sigma = _apply(params.C1, e - p) + _apply(params.C2, edot - pdot)
+    c2s = _apply(params.C2.T, sigma)
+    delta = params.delta0 + params.delta1 * np.linalg.norm(e, axis=-1, keepdims=True)
+    s_delta = c2s / (np.linalg.norm(c2s, axis=-1, keepdims=True) + delta)
+    v = b - yddot_d - pddot + _apply(params.C2invC1, edot - pdot) + s_delta * params.gain
+    u = -np.linalg.solve(A, v[..., None])[..., 0]
+    return u, sigma
+
+
+def _check_weight(C: object, name: str) -> np.ndarray:
+    """Positive scalar, positive (3,) (diagonal) or symmetric positive-definite 3×3 → 3×3."""
+    a = as_array(C, name)
+    if a.ndim == 0 or a.shape == (3,):
+        check_positive(a, name)
+        return np.diag(np.broadcast_to(a, (3,))).astype(np.float64)
+    if a.shape != (3, 3):
+        raise ValueError(f"{name}: expected a scalar, shape (3,) or (3, 3), got {a.shape}")
+    if np.abs(a - a.T).max() > 1e-12 * max(float(np.abs(a).max()), 1e-300):
+        raise ValueError(f"{name}: not symmetric")
+    lo = float(np.linalg.eigvalsh(a)[0])
+    if lo <= 0:
+        raise ValueError(f"{name}: must be positive definite (smallest eigenvalue {lo:.3e})")
+    return a.copy()
+
+
+@dataclass(frozen=True)
+class TSMParams:
+    """Terminal-sliding-mode parameters (seed §3; SPEC §6.2).
+
+    Attributes:
+        T: prescribed convergence time [s], > 0.
+        C1, C2: surface weights, positive scalar / (3,) / SPD 3×3 (stored 3×3); the sliding
+            dynamics ė − ṗ = −C₂⁻¹C₁(e − p) are stable because C₂⁻¹C₁ has positive eigenvalues.
+        delta0: smoothing floor δ₀ [rad/s], > 0 (seed 0.03).
+        delta1: smoothing slope δ₁ [1/s], ≥ 0 (seed 5).
+        F: bound on ‖Δb‖ (model error) [rad/s²], ≥ 0.
+        D: bound on ‖d‖ (external disturbance) [rad/s²], ≥ 0.
+        K: reaching gain [rad/s²], > 0.
+    """
+
+    T: float
+    C1: np.ndarray
+    C2: np.ndarray
+    delta0: float
+    delta1: float
+    F: float
+    D: float
+    K: float
+
+    def __post_init__(self) -> None:
+        for name in ("T", "delta0", "K"):
+            v = check_positive(getattr(self, name), name)
+            if not isinstance(v, float):
+                raise ValueError(f"{name}: must be a scalar")
+            object.__setattr__(self, name, v)
+        for name in ("delta1", "F", "D"):
+            v = check_nonnegative(getattr(self, name), name)
+            if not isinstance(v, float):
+                raise ValueError(f"{name}: must be a scalar")
+            object.__setattr__(self, name, v)
+        for name in ("C1", "C2"):
+            C = _check_weight(getattr(self, name), name)
+            C.setflags(write=False)
+            object.__setattr__(self, name, C)
+
+    @property
+    def C2invC1(self) -> np.ndarray:
+        return np.linalg.solve(self.C2, self.C1)
+
+    @property
+    def gain(self) -> float:
+        """F + D + K, the switching-term magnitude."""
+        return self.F + self.D + self.K
+
+
+class TerminalSlidingMode:
+    """Chart-level terminal sliding mode law on Euler angles (seed 004; SPEC §6.2).
+
+    Works on Euler angles of ``seq`` directly (no SO(3) objects): ``command(t, angles, omega,
+    angles_d, rates_d, accels_d)`` returns the body torque L = J u. The first ``command`` after
+    :meth:`reset` fixes the shaping polynomial's initial conditions e₀ = e(t₀), ė₀ = ė(t₀),
+    ë₀ = b(x₀) − ÿ_d(t₀) (module docstring). Use
+    :func:`liecontrol.control.adapters` (the Euler chart adapter) for an SO(3)
+    :class:`~liecontrol.control.base.AttitudeController`; see :func:`terminal_sliding_mode_so3`.
+
+    Args:
+        J: ``(3, 3)`` inertia the controller assumes [kg·m²] (full inertia allowed).
+        T: prescribed time [s] (> 0).
+        C1, C2, delta0, delta1, F, D, K: see :class:`TSMParams` (defaults: the seed's C₁ = C₂ =
+            I, δ₀ = 0.03, δ₁ = 5; F = D = 0; K = 0.1 as in our seed-004 reproduction).
+        seq: Euler sequence (default ``"ZYX"``, the seed's 3-2-1).
+        lock_tol: |cos a2| (|sin a2|) below which :class:`ChartSingularityError` is raised.
+    """
+
+    def __init__(
+        self,
+        J: object,
+        T: float,
+        C1: object = 1.0,
+        C2: object = 1.0,
+        delta0: float = 0.03,
+        delta1: float = 5.0,
+        F: float = 0.0,
+        D: float = 0.0,
+        K: float = 0.1,
+        seq: str = "ZYX",
+        lock_tol: float = LOCK_TOL,
+    ) -> None:
+        J = check_inertia(J, "J")
+        if J.shape != (3, 3):
+            raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+        self.J = J.copy()
+        self.J.setflags(write=False)
+        self.params = TSMParams(T=T, C1=C1, C2=C2, delta0=delta0, delta1=delta1, F=F, D=D, K=K)
+        _parse(seq)
+        self.seq = seq
+        self.lock_tol = float(check_positive(lock_tol, "lock_tol"))
+        self._t0: float | None = None
+        self._init: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._diag: dict[str, np.ndarray] = {}
+
+    def __repr__(self) -> str:
+        p = self.params
+        return (
+            f"TerminalSlidingMode(T={p.T}, delta0={p.delta0}, delta1={p.delta1}, F={p.F}, "
+            f"D={p.D}, K={p.K}, seq={self.seq!r})"
+        )
+
+    def reset(self, t0: float, batch_size: int | None = None) -> None:
+        """Forget the shaping polynomial's initial conditions; the next command at time ``t``
+        restarts the prescribed-time manoeuvre from ``t`` (normally ``t0``)."""
+        self._t0 = None
+        self._init = None
+        self._diag = {}
+
+    @property
+    def initial_conditions(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """(e₀, ė₀, ë₀) captured at the first command after reset, or ``None``."""
+        return self._init
+
+    def command(
+        self,
+        t: float,
+        angles: object,
+        omega: object,
+        angles_d: object,
+        rates_d: object,
+        accels_d: object,
+    ) -> np.ndarray:
+        """Body torque ``(..., 3)`` [N·m].
+
+        Args:
+            t: time [s].
+            angles: ``(..., 3)`` Euler angles of the body [rad].
+            omega: ``(..., 3)`` body angular velocity [rad/s].
+            angles_d, rates_d, accels_d: ``(..., 3)`` or ``(3,)`` reference y_d, ẏ_d, ÿ_d.
+
+        Raises:
+            ChartSingularityError: state at gimbal lock.
+            ValueError: bad shapes / non-finite input, or ``t`` before the capture time.
+        """
+        t = float(as_array(t, "t"))
+        a = as_array(angles, "angles", (3,))
+        w = as_array(omega, "omega", (3,))
+        y_d = as_array(angles_d, "angles_d", (3,))
+        yd_d = as_array(rates_d, "rates_d", (3,))
+        ydd_d = as_array(accels_d, "accels_d", (3,))
+        A, b = euler_feedback_linearisation(a, w, self.J, self.seq, self.lock_tol)
+        ydot = np.einsum("...ij,...j->...i", A, w)
+        e = wrap_error(a - y_d)
+        edot = ydot - yd_d
+        e, edot = np.broadcast_arrays(e, edot)
+        if self._init is None or self._init[0].shape != e.shape:
+            self._t0 = t
+            self._init = (e.copy(), edot.copy(), np.broadcast_to(b - ydd_d, e.shape).copy())
+        assert self._t0 is not None
+        if t < self._t0:
+            raise ValueError(f"t: {t} is before the manoeuvre start {self._t0} (call reset)")
+        p, pdot, pddot = time_shaping_polynomial(t - self._t0, self.params.T, *self._init)
+        u, sigma = tsm_control(e, edot, p, pdot, pddot, A, b, ydd_d, self.params)
+        self._diag = {"sigma": sigma, "e": e, "edot": edot, "p": p, "u": u}
+        return u @ self.J.T
+
+    def diagnostics(self) -> dict[str, np.ndarray]:
+        """Last σ, e, ė, p and u = J⁻¹L, each ``(..., 3)``."""
+        return dict(self._diag)
