@@ -15,6 +15,7 @@ for a principal-axis body aligned with LVLH).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -58,5 +59,15 @@ class GravityGradientTorque:
             raise ValueError(f"orbit: expected CircularOrbit, got {type(self.orbit).__name__}")
 
     def __call__(self, t: float, R: np.ndarray, omega: np.ndarray) -> np.ndarray:
-        c = self.orbit.nadir_in_body(R, t)
-        return gravity_gradient_torque(self.J, c, self.orbit.n)
+        # hot path (every integration stage): inputs trusted, nadir from the orbit-plane angle
+        o = self.orbit
+        u = o.arg_lat0 + o.n * float(t)
+        nadir = -(math.cos(u) * o._R_orb[:, 0] + math.sin(u) * o._R_orb[:, 1])
+        c = np.asarray(R).swapaxes(-1, -2) @ nadir
+        Jc = c @ self.J.T
+        out = np.empty(c.shape)
+        out[..., 0] = c[..., 1] * Jc[..., 2] - c[..., 2] * Jc[..., 1]
+        out[..., 1] = c[..., 2] * Jc[..., 0] - c[..., 0] * Jc[..., 2]
+        out[..., 2] = c[..., 0] * Jc[..., 1] - c[..., 1] * Jc[..., 0]
+        out *= 3.0 * o.n * o.n
+        return out

@@ -33,6 +33,7 @@ open-loop amplitudes match the published ones; see ``docs/environment.md`` for t
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
@@ -244,6 +245,45 @@ class RotatingPayload:
         """Total payload torque T_p on the bus (sum of :meth:`torque_terms`)."""
         return sum(self.torque_terms(t, omega).values())
 
+    def _torque_at(self, t: float, omega: np.ndarray) -> np.ndarray:
+        """Fast path of :meth:`torque` for a scalar ``t`` and ``omega`` ``(..., 3)`` (the plant
+        calls the source at every integration stage): the same four terms with 3-vector algebra
+        in Python floats; inputs are trusted (the plant has validated the state)."""
+        if isinstance(self._profile, ConstantSpin):
+            rate, acc = self._profile.rate, 0.0
+            alpha = self.phase + rate * t
+        else:
+            ang, r_, a_ = self._profile.state(np.float64(t))
+            alpha, rate, acc = self.phase + float(ang), float(r_), float(a_)
+        c, s = math.cos(alpha), math.sin(alpha)
+        M = self.mount
+        # R_A = M R_z(α): only its first two columns change with α
+        a0 = c * M[:, 0] + s * M[:, 1]
+        a1 = -s * M[:, 0] + c * M[:, 1]
+        a2 = M[:, 2]
+        I_A, rho, m = self.inertia, self.com_offset, self.mass
+        Ie = a0 * I_A[0, 2] + a1 * I_A[1, 2] + a2 * I_A[2, 2]  # R_A I_A e_z
+        ez_x_Ie = a0 * (-I_A[1, 2]) + a1 * I_A[0, 2]  # R_A (e_z × I_A e_z)
+        rc = self.hinge + a0 * rho[0] + a1 * rho[1] + a2 * rho[2]
+        rdd = a0 * (-rate * rate * rho[0] - acc * rho[1]) + a1 * (
+            -rate * rate * rho[1] + acc * rho[0]
+        )
+        rc_x_rdd = np.array(
+            (
+                rc[1] * rdd[2] - rc[2] * rdd[1],
+                rc[2] * rdd[0] - rc[0] * rdd[2],
+                rc[0] * rdd[1] - rc[1] * rdd[0],
+            )
+        )
+        const = -acc * Ie - rate * rate * ez_x_Ie - m * rc_x_rdd
+        h = rate * Ie
+        gyro = np.empty(np.shape(omega))
+        wx, wy, wz = omega[..., 0], omega[..., 1], omega[..., 2]
+        gyro[..., 0] = const[0] - (wy * h[2] - wz * h[1])
+        gyro[..., 1] = const[1] - (wz * h[0] - wx * h[2])
+        gyro[..., 2] = const[2] - (wx * h[1] - wy * h[0])
+        return gyro
+
 
 @dataclass(frozen=True)
 class RotatingPayloadTorque:
@@ -270,7 +310,11 @@ class RotatingPayloadTorque:
         return out
 
     def __call__(self, t: float, R: np.ndarray, omega: np.ndarray) -> np.ndarray:
-        return sum(p.torque(t, omega) for p in self.payloads)
+        omega = np.asarray(omega, dtype=np.float64)
+        total = self.payloads[0]._torque_at(float(t), omega)
+        for p in self.payloads[1:]:
+            total += p._torque_at(float(t), omega)
+        return total
 
 
 # ---------------------------------------------------------------------------------------------

@@ -152,6 +152,11 @@ def test_speed_change_plus_dynamic_is_minus_rate_of_payload_momentum():
     )
     assert np.abs(terms["speed_change"][1]).max() > 0.1  # the ramp does produce T_pw
     np.testing.assert_allclose(terms["speed_change"][[0, 4]], 0.0, atol=1e-15)  # constant speed
+    # the disturbance-source fast path (scalar t) agrees with the general one, through the ramp
+    src = RotatingPayloadTorque([p])
+    wb = np.array([[0.01, -0.02, 0.03], [0.0, 0.0, 0.0]])
+    for tk in t:
+        np.testing.assert_allclose(src(tk, None, wb), p.torque(tk, wb), rtol=1e-12, atol=1e-15)
     # gyroscopic term: −ω × h_p
     w = np.array([0.01, -0.02, 0.03])
     np.testing.assert_allclose(p.torque_terms(t, w)["gyroscopic"], -np.cross(w, h_p(t)), atol=1e-15)
@@ -275,10 +280,11 @@ def test_jitter_estimate_vs_rigid_body_simulation():
     w_n, zeta = 0.5, 0.7
     Kp, Kd = J * w_n**2, J * 2 * zeta * w_n
     p = SEED003_PAYLOAD
+    src = RotatingPayloadTorque([p])
 
     def f(t, y):
         th, w = y[:3], y[3:]
-        Tp = p.torque(t, w)
+        Tp = src(t, None, w[None])[0]
         dw = np.linalg.solve(J, -np.cross(w, J @ w) - Kp @ th - Kd @ w + Tp)
         return np.concatenate((w, dw))
 

@@ -270,9 +270,7 @@ class IntrinsicPID(_IntegralController):
         torque_limit: object = None,
         conditional: bool = True,
     ) -> None:
-        super().__init__(
-            J, k_R, k_Omega, k_I, error, G, integral_limit, torque_limit, conditional
-        )
+        super().__init__(J, k_R, k_Omega, k_I, error, G, integral_limit, torque_limit, conditional)
         if connection not in CONNECTIONS:
             raise ValueError(f"connection: expected one of {CONNECTIONS}, got {connection!r}")
         self.connection = connection
@@ -313,9 +311,7 @@ class IntegralPD(_IntegralController):
         torque_limit: object = None,
         conditional: bool = True,
     ) -> None:
-        super().__init__(
-            J, k_R, k_Omega, k_I, error, G, integral_limit, torque_limit, conditional
-        )
+        super().__init__(J, k_R, k_Omega, k_I, error, G, integral_limit, torque_limit, conditional)
         c = check_positive(c, "c")
         if not isinstance(c, float) or not math.isfinite(c):
             raise ValueError("c: must be a finite scalar [1/s]")

@@ -122,12 +122,23 @@ _CVXPY_STATUS = {
 }
 
 _OSQP_DEFAULTS: dict[str, Any] = {
-    "eps_abs": 1e-6,
-    "eps_rel": 1e-6,
+    "eps_abs": 1e-5,
+    "eps_rel": 1e-5,
     "max_iter": 4000,
     "polishing": True,
     "warm_starting": True,
     "verbose": False,
+}
+
+# Clarabel's default gap tolerance (1e-8, relative to a large objective) leaves ~5e-5 N·m in the
+# torques of this badly scaled QP (inertia ~1e4); tighter tolerances make the reference
+# formulation an accurate yardstick.
+_CVXPY_DEFAULTS: dict[str, Any] = {
+    "solver": "CLARABEL",
+    "tol_gap_abs": 1e-10,
+    "tol_gap_rel": 1e-10,
+    "tol_feas": 1e-10,
+    "tol_ktratio": 1e-8,
 }
 
 
@@ -250,23 +261,27 @@ def stage0_model(
     R_d1: np.ndarray,
     omega_d1: np.ndarray,
     u_bar: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray]:
+    jacobian: bool = True,
+) -> tuple[np.ndarray, np.ndarray | None]:
     """Nonlinear LGVI prediction of stage 0 and its exact input Jacobian (module docstring).
 
     One spacecraft: ``R (3, 3)``, ``omega (3,)``, next reference knot ``R_d1 (3, 3)``,
     ``omega_d1 (3,)``, nominal torque ``u_bar (3,)``. Returns ``x1 (6,)`` (the error state at
-    ``t + T`` under ``u_bar``) and ``B0 (6, 3)`` with ``x_1 ≈ x1 + B0 (u_0 − u_bar)``.
+    ``t + T`` under ``u_bar``) and ``B0 (6, 3)`` with ``x_1 ≈ x1 + B0 (u_0 − u_bar)`` (``None``
+    if ``jacobian=False``).
     """
     T = dt
     Pi0 = J @ omega
     R1, Pi1 = lgvi_step(R, Pi0, u_bar, u_bar, T, J)
-    F = R.T @ R1
-    G = Pi0 + 0.5 * T * u_bar
-    Jinv = np.linalg.inv(J)
     Rt = R_d1.T @ R1
     xi = so3.log(Rt)
     wd_body = Rt.T @ omega_d1
+    Jinv = np.linalg.inv(J)
     x1 = np.concatenate([xi, Jinv @ Pi1 - wd_body])
+    if not jacobian:
+        return x1, None
+    F = R.T @ R1
+    G = Pi0 + 0.5 * T * u_bar
     Kinv = np.linalg.inv(_dgdf(F, _jd(J)))
     dfdu = 0.5 * T * T * Kinv
     dPi = _hat(F.T @ G) @ dfdu + 0.5 * T * (F.T + np.eye(3))
@@ -392,7 +407,13 @@ class _OsqpQP:
             self.l[nx + 3 * N :] = np.tile(lo, N)
             self.u[nx + 3 * N :] = np.tile(hi, N)
         self.q[nx:] = -(u_ref @ self.R).ravel()
-        self.solver.update(q=self.q, l=self.l, u=self.u, Ax=vals[self.order])
+        Ax = vals[self.order]
+        if np.array_equal(Ax, self.A.data):
+            # unchanged matrix (regulation): no KKT refactorisation, vectors only
+            self.solver.update(q=self.q, l=self.l, u=self.u)
+        else:
+            self.A.data = Ax
+            self.solver.update(q=self.q, l=self.l, u=self.u, Ax=Ax)
 
     def solve(self) -> tuple[int, np.ndarray | None, int, float]:
         res = self.solver.solve(raise_error=False)
@@ -497,6 +518,11 @@ class SO3MPC(AttitudeController):
         solver_settings: backend options (OSQP settings, or ``cvxpy`` ``solve`` keywords incl.
             ``solver=``), merged over the defaults.
         accept_inaccurate: also accept *solved inaccurate* (default: fall back).
+        exact_stage0_jacobian: use the exact input Jacobian ``B_0`` of the nonlinear stage-0
+            prediction instead of the reference linearisation's (the affine term is the
+            nonlinear prediction either way). Changes the QP matrix every step, so OSQP
+            refactorises its KKT system every step (slower); the difference is second order
+            (``δu`` × state error).
 
     Batch handling: ``batched = True``; ``command`` loops over the ``B`` spacecraft internally
     (one QP instance each, so every spacecraft keeps its own warm start).
@@ -523,6 +549,7 @@ class SO3MPC(AttitudeController):
         fallback: AttitudeController | None = None,
         solver_settings: dict | None = None,
         accept_inaccurate: bool = False,
+        exact_stage0_jacobian: bool = False,
     ) -> None:
         J = check_inertia(J, "J")
         if J.shape != (3, 3):
@@ -564,13 +591,17 @@ class SO3MPC(AttitudeController):
         self.fallback = fallback
         if solver_settings is not None and not isinstance(solver_settings, dict):
             raise ValueError("solver_settings: must be a dict or None")
-        base = dict(_OSQP_DEFAULTS) if backend == "osqp" else {}
+        base = dict(_OSQP_DEFAULTS if backend == "osqp" else _CVXPY_DEFAULTS)
+        if backend == "cvxpy" and solver_settings and "solver" in solver_settings:
+            base = {}  # the Clarabel tolerances below are not other solvers' keywords
         self.solver_settings = {**base, **(solver_settings or {})}
         self.accept_inaccurate = bool(accept_inaccurate)
+        self.exact_stage0_jacobian = bool(exact_stage0_jacobian)
         # rest-model stages are constant: cached (regulation never recomputes them)
         self._rest = reference_model(
             self.J, dt, np.zeros((self.N + 1, 3)), np.broadcast_to(np.eye(3), (self.N, 3, 3))
         )
+        self._eye_N = np.broadcast_to(np.eye(3), (self.N, 3, 3))
         self._qps: list[Any] = []
         self._fallbacks: list[Any] = []
         self._batch: int | None = None
@@ -633,6 +664,8 @@ class SO3MPC(AttitudeController):
             F = np.swapaxes(Rs_a[:-1], -1, -2) @ Rs_a[1:]
             return np.stack(ws), F
         ws = w_d + T * np.arange(N + 1)[:, None] * dw_d
+        if not ws.any():
+            return ws, self._eye_N
         F = so3.exp(0.5 * T * (ws[:-1] + ws[1:]))
         return ws, F
 
@@ -723,9 +756,14 @@ class SO3MPC(AttitudeController):
         else:
             A, Bm, u_ref, c = reference_model(self.J, self.dt, ws, F)
         u_bar = np.clip(u_ref[0], -self.u_max, self.u_max)
-        x1, B0 = stage0_model(self.J, self.dt, R, w, R_d @ F[0], ws[1], u_bar)
-        Bm = Bm.copy()
-        Bm[0] = B0
+        x1, B0 = stage0_model(
+            self.J, self.dt, R, w, R_d @ F[0], ws[1], u_bar, self.exact_stage0_jacobian
+        )
+        if self.exact_stage0_jacobian:
+            Bm = Bm.copy()
+            Bm[0] = B0
+        else:
+            B0 = Bm[0]
         c = c - _mv(Bm, u_ref)  # x_{k+1} = A_k x_k + B_k u_k + c̃_k
         c[0] = x1 - B0 @ u_bar
         extra = None

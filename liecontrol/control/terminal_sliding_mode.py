@@ -93,7 +93,14 @@ SHAPING_COEFFICIENTS.setflags(write=False)
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.cross(a, b)
+    """a × b on the last axis (broadcasting); np.cross's axis handling dominates at small sizes."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack((a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), axis=-1)
+
+
+def _mv(M: np.ndarray, v: np.ndarray) -> np.ndarray:
+    return (M @ v[..., None])[..., 0]
 
 
 def _mdot_adot_intrinsic(
@@ -102,19 +109,16 @@ def _mdot_adot_intrinsic(
     """Ṁ(a, ȧ) ȧ for an intrinsic sequence (module docstring), ``(..., 3)``."""
     i, j, k = axes
     Rk3T = np.swapaxes(_elem(k, a[..., 2]), -1, -2)
-    Rj2T = np.swapaxes(_elem(j, a[..., 1]), -1, -2)
+    Rj2T_ei = np.swapaxes(_elem(j, a[..., 1]), -1, -2)[..., :, i]
     ek = np.zeros(3)
     ek[k] = 1.0
     ej = np.zeros(3)
     ej[j] = 1.0
-    Rj2T_ei = Rj2T[..., :, i]
-    m1 = np.einsum("...ab,...b->...a", Rk3T, Rj2T_ei)
+    m1 = _mv(Rk3T, Rj2T_ei)
     m2 = Rk3T[..., :, j]
-    ek_b = np.broadcast_to(ek, m1.shape)
-    dm1 = -ad[..., 2:3] * _cross(ek_b, m1) - ad[..., 1:2] * np.einsum(
-        "...ab,...b->...a", Rk3T, _cross(np.broadcast_to(ej, m1.shape), Rj2T_ei)
-    )
-    dm2 = -ad[..., 2:3] * _cross(ek_b, m2)
+    # d/da R_k(a)ᵀ = −ê_k R_k(a)ᵀ, hence the two cross-product terms of ṁ1 and the one of ṁ2
+    dm1 = -ad[..., 2:3] * _cross(ek, m1) - ad[..., 1:2] * _mv(Rk3T, _cross(ej, Rj2T_ei))
+    dm2 = -ad[..., 2:3] * _cross(ek, m2)
     return ad[..., 0:1] * dm1 + ad[..., 1:2] * dm2
 
 
@@ -125,6 +129,30 @@ def _mdot_adot(a: np.ndarray, ad: np.ndarray, seq: str) -> np.ndarray:
         # vector Ṁȧ is the intrinsic one evaluated at the reversed angles and rates
         return _mdot_adot_intrinsic(a[..., ::-1], ad[..., ::-1], axes)
     return _mdot_adot_intrinsic(a, ad, axes)
+
+
+def _rates(a: np.ndarray, seq: str, lock_tol: float) -> np.ndarray:
+    """B(a) = M(a)⁻¹ (ChartSingularityError at lock), without re-validating ``a``."""
+    (i, _, k), _ = _parse(seq)
+    f = np.cos if i != k else np.sin
+    if np.any(np.abs(f(a[..., 1])) < lock_tol):
+        return rates_matrix(a, seq, lock_tol)  # raises the chart's own ChartSingularityError
+    M = rates_matrix_inv(a, seq)
+    c1, c2, c3 = M[..., :, 0], M[..., :, 1], M[..., :, 2]
+    rows = np.stack((_cross(c2, c3), _cross(c3, c1), _cross(c1, c2)), axis=-2)
+    det = np.sum(c1 * rows[..., 0, :], axis=-1)
+    return rows / det[..., None, None]
+
+
+def _accel_core(
+    a: np.ndarray, w: np.ndarray, wd: np.ndarray, seq: str, lock_tol: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(B, ȧ, ä) without input validation (hot path)."""
+    B = _rates(a, seq, lock_tol)
+    adot = _mv(B, w)
+    a_b = np.broadcast_to(a, adot.shape)
+    addot = _mv(B, wd - _mdot_adot(a_b, adot, seq))
+    return B, adot, addot
 
 
 def euler_angle_acceleration(
@@ -154,11 +182,18 @@ def euler_angle_acceleration(
     a = as_array(angles, "angles", (3,))
     w = as_array(omega, "omega", (3,))
     wd = as_array(omega_dot, "omega_dot", (3,))
-    B = rates_matrix(a, seq, lock_tol)
-    adot = np.einsum("...ij,...j->...i", B, w)
-    a_b = np.broadcast_to(a, adot.shape)
-    addot = np.einsum("...ij,...j->...i", B, wd - _mdot_adot(a_b, adot, seq))
-    return adot, addot
+    _parse(seq)
+    _, adot, addot = _accel_core(a, w, wd, seq, lock_tol)
+    return np.broadcast_arrays(adot, addot)
+
+
+def _fl_core(
+    a: np.ndarray, w: np.ndarray, J: np.ndarray, J_inv: np.ndarray, seq: str, lock_tol: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(A, b, ȧ) without input validation (hot path)."""
+    drift = -_cross(w, w @ J.T) @ J_inv.T
+    B, adot, b = _accel_core(a, w, drift, seq, lock_tol)
+    return B, b, adot
 
 
 def euler_feedback_linearisation(
@@ -181,7 +216,8 @@ def euler_feedback_linearisation(
         lock_tol: gimbal-lock threshold on |cos a2| (|sin a2|).
 
     Returns:
-        ``(A, b)``: ``(..., 3, 3)`` and ``(..., 3)``.
+        ``(A, b)``: ``(..., 3, 3)`` and ``(..., 3)`` (batch shapes of angles and omega
+        broadcast).
 
     Raises:
         ValueError: bad shapes, non-finite input, invalid ``J`` or ``seq``.
@@ -190,12 +226,11 @@ def euler_feedback_linearisation(
     J = check_inertia(J, "J")
     if J.shape != (3, 3):
         raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
-    w = as_array(omega, "omega", (3,))
     a = as_array(angles, "angles", (3,))
-    Jw = w @ J.T
-    drift = np.linalg.solve(J, -_cross(w, Jw)[..., None])[..., 0]
-    _, b = euler_angle_acceleration(a, w, drift, seq, lock_tol)
-    A = np.broadcast_to(rates_matrix(a, seq, lock_tol), b.shape + (3,)).copy()
+    w = as_array(omega, "omega", (3,))
+    _parse(seq)
+    B, b, _ = _fl_core(a, w, J, np.linalg.inv(J), seq, lock_tol)
+    A = np.broadcast_to(B, b.shape + (3,)).copy()
     return A, b
 
 

@@ -27,10 +27,9 @@ import logging
 from typing import Any
 
 import numpy as np
-from scipy.linalg import solve_triangular
 
 from .._validation import as_array, check_positive
-from .cholesky import NotPositiveDefiniteError, nearest_pd_sqrt
+from .cholesky import NotPositiveDefiniteError, chol_solve, nearest_pd_sqrt, solve_lower
 from .unscented import cholesky_or_raise
 
 __all__ = ["Filter", "logger", "psd_sqrt"]
@@ -53,8 +52,7 @@ def psd_sqrt(Q: np.ndarray) -> np.ndarray:
 
 def tri_solve_gain(Pxz: np.ndarray, Sz: np.ndarray) -> np.ndarray:
     """K = P_xz (S_z S_zᵀ)⁻¹ by two triangular solves (Van der Merwe & Wan 2001, eq. 27)."""
-    tmp = solve_triangular(Sz, Pxz.T, lower=True, check_finite=False)
-    return solve_triangular(Sz.T, tmp, lower=False, check_finite=False).T
+    return chol_solve(Sz, np.ascontiguousarray(Pxz.T)).T
 
 
 class Filter(abc.ABC):
@@ -148,6 +146,8 @@ class Filter(abc.ABC):
             raise ValueError(f"z: cannot be converted to a float array ({exc})") from None
         if zz.shape != (m,):
             raise ValueError(f"z: expected shape ({m},), got {zz.shape}")
+        self._diag["update_rejected"] = False
+        self._diag["reason"] = ""
         if not np.all(np.isfinite(zz)):
             reason = f"z: non-finite measurement {zz.tolist()} rejected; prediction kept"
             logger.warning("%s: %s", self.name, reason)
@@ -176,7 +176,7 @@ class Filter(abc.ABC):
         """Normalised estimation error squared eᵀ P⁻¹ e."""
         e = self.error(x_true)
         S = self.S
-        y = solve_triangular(S, e, lower=True)
+        y = solve_lower(S, e)
         return float(y @ y)
 
     # ------------------------------------------------------------------ helpers
@@ -200,7 +200,7 @@ class Filter(abc.ABC):
         self._innovation_cov = Pzz
         if Sz is None:
             Sz = np.linalg.cholesky(Pzz)
-        y = solve_triangular(Sz, nu, lower=True, check_finite=False)
+        y = solve_lower(Sz, nu)
         self._diag["nis"] = float(y @ y)
 
     def _repair(self, P: np.ndarray, name: str, why: str) -> np.ndarray:

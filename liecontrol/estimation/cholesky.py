@@ -20,10 +20,18 @@ A downdate that would make the matrix indefinite raises :class:`NotPositiveDefin
 from __future__ import annotations
 
 import numpy as np
+from scipy.linalg.lapack import dtrtrs
 
 from .._validation import as_array
 
-__all__ = ["NotPositiveDefiniteError", "cholupdate", "tria", "nearest_pd_sqrt"]
+__all__ = [
+    "NotPositiveDefiniteError",
+    "cholupdate",
+    "tria",
+    "nearest_pd_sqrt",
+    "solve_lower",
+    "chol_solve",
+]
 
 
 class NotPositiveDefiniteError(ValueError):
@@ -158,3 +166,18 @@ def nearest_pd_sqrt(P: object, floor: float = 1e-12) -> np.ndarray:
     w = np.maximum(w, lo)
     fixed = (U * w[..., None, :]) @ np.swapaxes(U, -1, -2)
     return np.linalg.cholesky(0.5 * (fixed + np.swapaxes(fixed, -1, -2)))
+
+
+def solve_lower(L: np.ndarray, B: np.ndarray, transpose: bool = False) -> np.ndarray:
+    """Solve L X = B (or Lᵀ X = B with ``transpose``) for a lower-triangular 2-D ``L`` by
+    forward/back substitution (LAPACK ``dtrtrs``; called directly because scipy's
+    ``solve_triangular`` has a large overhead on small, non-contiguous operands)."""
+    X, info = dtrtrs(L, B, lower=1, trans=1 if transpose else 0)
+    if info != 0:
+        raise NotPositiveDefiniteError(f"L: singular triangular factor (zero pivot {info})")
+    return X
+
+
+def chol_solve(L: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """(L Lᵀ)⁻¹ B by two triangular solves."""
+    return solve_lower(L, solve_lower(L, B), transpose=True)

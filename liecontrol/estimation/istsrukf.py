@@ -30,10 +30,9 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from scipy.linalg import solve_triangular
 
 from .base import psd_sqrt, tri_solve_gain
-from .cholesky import tria
+from .cholesky import chol_solve, tria
 from .stukf import FadingState, StrongTrackingParams, fading_factors
 from .ukf import _AdditiveUT
 
@@ -104,7 +103,7 @@ class ISTSRUKF(_AdditiveUT):
         Pxz = self._central_cross(dX, Z)
         K = tri_solve_gain(Pxz, Sz)
         # equivalent measurement matrix H = (P⁻¹ P_xz)ᵀ from the faded prior
-        H = solve_triangular(Sp.T, solve_triangular(Sp, Pxz, lower=True), lower=False).T
+        H = chol_solve(Sp, Pxz).T
         nu = model.z_residual(z, zm)
         self._record_innovation(nu, Sz @ Sz.T, Sz)
         A = np.eye(model.n) - K @ H

@@ -23,9 +23,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.linalg import cho_solve
 
 from .._validation import as_array
+from .cholesky import chol_solve
 from .ukf import UKF
 
 __all__ = ["StrongTrackingParams", "FadingState", "fading_factors", "STUKF"]
@@ -92,7 +92,7 @@ def fading_factors(
     V = gg if state.V is None else (params.rho * state.V + gg) / (1.0 + params.rho)
     state.V = V
     state.steps += 1
-    H = cho_solve((Pbar_chol, True), Pxz).T
+    H = chol_solve(Pbar_chol, Pxz).T
     N = V - params.softening * R - H @ Q @ H.T
     M = Pf @ H.T @ H
     alphas = params.alpha_vector(Pf.shape[0])

@@ -103,7 +103,7 @@ def _advance(
     hh = 0.5 * h
     gamma_half = gamma + hh * f0
     x1 = x + (h / m) * gamma_half
-    # M_{k+1} = 0 here: lgvi_step then returns F_kᵀ(Π_k + (h/2)M_k), see the module docstring
+    # M_{k+1} = 0 here: the SO(3) step then returns F_kᵀ(Π_k + (h/2)M_k), see the module docstring
     R1, Pi_half = rot.step(R, Pi, M0, np.zeros_like(M0), h)
     f1, M1 = _eval_fm(fm, t + h, R1, x1)
     return R1, x1, Pi_half + hh * M1, gamma_half + hh * f1, f1, M1
@@ -261,12 +261,22 @@ class SE3RigidBodyLGVI:
         Pi: np.ndarray,
         gamma: np.ndarray,
         h: float,
+        force_and_moment: ForceAndMoment | None = None,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """One validated step with this body's mass, inertia and field (:func:`lgvi_se3_step`)."""
-        return lgvi_se3_step(
-            R, x, Pi, gamma, h, self._m, self._J, self._fm, t, tol=self.tol,
-            max_iter=self.max_iter,
-        )
+        """One validated step with this body's mass and inertia (:func:`lgvi_se3_step`).
+
+        ``force_and_moment`` overrides the body's field for this step (e.g. a field plus a
+        held body-fixed command); ``None`` uses the field given to the constructor.
+        """
+        R, x, Pi, gamma = _check_state(R, x, Pi, gamma, ("R", "x", "Pi", "gamma"))
+        h = _check_h(h)
+        t = float(as_array(t, "t", ()))
+        fm = self._fm if force_and_moment is None else force_and_moment
+        if not callable(fm):
+            raise ValueError("force_and_moment: must be callable or None")
+        f0, M0 = _eval_fm(fm, t, R, x)
+        out = _advance(t, R, x, Pi, gamma, f0, M0, h, self._m, self._rot, fm)
+        return out[0], out[1], out[2], out[3]
 
     def integrate(
         self,

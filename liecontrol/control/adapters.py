@@ -1,0 +1,775 @@
+"""Chart-based adapters: wrap a control law written in chart coordinates as an SO(3) controller
+(SPEC §1, §6 item 6).
+
+A *chart law* is written in the coordinates of one chart — Euler angles of a given sequence,
+modified Rodrigues parameters (MRP) or a unit quaternion — of the body **relative to a base
+frame**. The adapter is an :class:`~liecontrol.control.base.AttitudeController`: at each sample
+it converts the measured state ``(R, ω)`` and the reference ``(R_d, ω_d, ω̇_d)`` into the chart
+(:class:`ChartState`), calls the law, checks its body torque and returns it. The adapter owns the
+chart's singularities:
+
+* Euler angles (:class:`EulerChartAdapter`): gimbal lock (|cos a2| < ``lock_tol`` for
+  Tait–Bryan, |sin a2| < ``lock_tol`` for proper Euler sequences) of the state **or** of the
+  reference raises :class:`~liecontrol.exceptions.ChartSingularityError` — no switch, no NaN.
+  The wrap of a1, a3 at ±π is handled: ``y_d`` is unwrapped continuously in time and ``y`` is
+  reported as ``y_d + wrap(y − y_d)``, so ``y − y_d`` is the short error in (−π, π].
+* MRP (:class:`MrpChartAdapter`): shadow-set switching. The MRP is tracked continuously in time
+  (of ``p`` and its shadow ``p_s = −p/|p|²`` the one closer to the previous sample) and switched
+  to the shadow when ``|p| > threshold`` (1 = the classical switch, > 1 adds hysteresis). On a
+  switch the law's ``on_shadow_switch(state_mask, desired_mask)`` hook is called **before** the
+  law sees the new coordinates, so a stateful law (ESO, TD) can map its internal states with
+  :func:`mrp_shadow_map` (p, ṗ, p̈ ↦ p_s, ṗ_s, p̈_s — exact, see there).
+* Quaternion (:class:`QuaternionChartAdapter`): the sign (double cover). ``sign_mode``:
+  ``"continuous"`` (q follows continuously from the start, the initial sign taken from
+  ``q_hint``: unwinding-prone), ``"switched"`` (memoryless, w ≥ 0 — the short rotation, may
+  chatter at 180° under noise), ``"hysteretic"`` (Mayhew, Sanfelice & Teel 2011: the sign is
+  kept until w < −``hysteresis``, then flipped).
+
+Base frames (``base=``): ``"reference"`` (default: the chart is the attitude *error*, body
+relative to R_d(t); then y_d is the chart's identity and ẏ_d = ÿ_d = 0), ``"inertial"``
+(identity frame), or any callable ``base(t)`` returning an object with attributes ``R_d``
+(base → inertial, ``(3, 3)`` or ``(B, 3, 3)``), ``omega_d`` (the base frame's inertial angular
+velocity in base axes) and ``omega_dot_d`` — e.g. ``spacecraft.orbit.EarthPointingReference``
+for the orbit (LVLH) frame of seed 000, or :class:`RotatingFrame`.
+
+Kinematics used (R: body → inertial, R_b: base → inertial, ω_b its rate in base axes):
+
+    R_rel = R_bᵀ R (body → base),  C_bo = R_relᵀ (base → body),
+    ω_rel = ω − C_bo ω_b   (body rate relative to the base, body axes; seed 000 eq. (8)),
+    R_d,rel = R_bᵀ R_d,  ω_d,rel = ω_d − R_d,relᵀ ω_b,
+    ω̇_d,rel = ω̇_d + ω_d × (R_d,relᵀ ω_b) − R_d,relᵀ ω̇_b,
+    ẏ = B(y) ω_rel,   ÿ_d = B(y_d)(ω̇_d,rel − Ṁ(y_d, ẏ_d) ẏ_d)   with ω_rel = M(y) ẏ, B = M⁻¹.
+
+Ṁ ẏ (the derivative of M along ẏ) is taken by a central difference along ẏ (step 1e-6 rad
+in the chart; error ~1e-12 relative), which keeps one code path for every chart.
+
+The chart-law protocol (what the wrapped ``law`` must provide)::
+
+    class MyLaw:
+        batched = True                     # optional; False → the simulator steps per spacecraft
+        def reset(self, t0: float, batch_size: int) -> None: ...
+        def __call__(self, t: float, s: ChartState) -> np.ndarray:   # body torque (B, 3) [N m]
+            ...
+        def diagnostics(self) -> dict[str, np.ndarray]: ...           # optional, (B, ...) arrays
+        def on_shadow_switch(self, state_mask, desired_mask) -> None: ...  # optional, MRP only
+
+Euler-angle laws (e.g. seed 004's terminal sliding mode, sequence ``"ZYX"`` = 3-2-1,
+y = (a1, a2, a3), R = Rz(a1) Ry(a2) Rx(a3)) are wrapped as::
+
+    ctrl = EulerChartAdapter(law, seq="ZYX", base="inertial", lock_tol=1e-2)
+
+and the law reads ``s.y`` (angles of the body relative to the base), ``s.y_dot`` (their rates,
+``= B(y) ω_rel``), ``s.y_d``, ``s.y_d_dot``, ``s.y_d_ddot`` (desired), ``s.omega`` (inertial
+body rate, body axes — what a gyro measures), ``s.omega_rel``, and the kinematic matrices
+``s.chart.rates_matrix(y)`` (B = ∂ẏ/∂ω) and ``s.chart.rates_matrix_inv(y)`` (M). A law may
+return a chart acceleration instead of a torque by calling
+``s.torque_from_chart_acceleration(y_ddot, J)`` (exact inverse dynamics of the rigid body).
+
+Sources: Schaub & Junkins, *Analytical Mechanics of Space Systems*, §3.8 (MRP shadow set) and
+§8 (MRP feedback); Mayhew, Sanfelice & Teel, "Quaternion-based hybrid control for robust global
+attitude tracking", IEEE TAC 56(11), 2011; Bhat & Bernstein, "A topological obstruction to
+continuous global stabilization of rotational motion and the unwinding phenomenon", Systems &
+Control Letters 39(1), 2000.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .._validation import as_array, check_inertia, check_positive, check_rotation_matrix
+from ..charts import euler as _euler
+from ..charts import mrp as _mrp
+from ..charts import quaternion as _quat
+from ..exceptions import ChartSingularityError
+from .base import AttitudeController, AttitudeReference, AttitudeState
+
+__all__ = [
+    "ChartState",
+    "EulerChart",
+    "MrpChart",
+    "QuaternionChart",
+    "RotatingFrame",
+    "ChartAdapter",
+    "EulerChartAdapter",
+    "MrpChartAdapter",
+    "QuaternionChartAdapter",
+    "mrp_shadow_jacobian",
+    "mrp_shadow_map",
+    "SIGN_MODES",
+]
+
+#: Quaternion sign modes of :class:`QuaternionChartAdapter`.
+SIGN_MODES = ("continuous", "switched", "hysteretic")
+
+# chart step of the central difference for Ṁ ẏ
+_FD_STEP = 1e-6
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.cross(a, b)
+
+
+def _mv(M: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Batched matrix–vector product ``M @ v``."""
+    return np.einsum("...ij,...j->...i", M, v)
+
+
+def _mtv(M: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Batched ``Mᵀ @ v``."""
+    return np.einsum("...ji,...j->...i", M, v)
+
+
+# --------------------------------------------------------------------------- MRP shadow maps
+
+
+def mrp_shadow_jacobian(p: object) -> np.ndarray:
+    """D(p) = ∂p_s/∂p = (−I + 2 p̂ p̂ᵀ)/|p|² for the shadow p_s = −p/|p|², ``(..., 3, 3)``.
+
+    Raises ``ValueError`` (naming ``p``) at p = 0, whose shadow is at infinity.
+    """
+    p = as_array(p, "p", (3,))
+    n2 = np.sum(p * p, axis=-1)[..., None, None]
+    if np.any(n2 == 0.0):
+        raise ValueError("p: the shadow of the zero MRP (identity rotation) is at infinity")
+    return (-np.eye(3) + 2.0 * p[..., :, None] * p[..., None, :] / n2) / n2
+
+
+def mrp_shadow_map(
+    p: object, p_dot: object | None = None, p_ddot: object | None = None
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """Map an MRP and its first two time derivatives to the shadow set.
+
+    With n² = pᵀp, p_s = −p/n², D = ∂p_s/∂p (:func:`mrp_shadow_jacobian`):
+
+        ṗ_s = D ṗ,
+        p̈_s = D p̈ + Ḋ ṗ,   Ḋ ṗ = [4 (pᵀṗ) ṗ + 2 (ṗᵀṗ) p]/n⁴ − 8 (pᵀṗ)² p / n⁶.
+
+    Both follow from differentiating p_s(t) = −p(t)/|p(t)|² (chain rule; derived here, checked
+    against finite differences in the tests). Because ω̇ enters p̈ only through G(p) ω̇ and
+    G(p_s) = D G(p), the ESO's total disturbance f = p̈ − G J⁻¹ τ maps with the same formula
+    (f_s = D f + Ḋ ṗ), independently of τ. Returns ``(p_s, ṗ_s, p̈_s)`` (``None`` where the
+    input is ``None``; ``p_ddot`` needs ``p_dot``).
+    """
+    p = as_array(p, "p", (3,))
+    D = mrp_shadow_jacobian(p)
+    ps = -p / np.sum(p * p, axis=-1, keepdims=True)
+    if p_dot is None:
+        if p_ddot is not None:
+            raise ValueError("p_dot: required when p_ddot is given")
+        return ps, None, None
+    pd = as_array(p_dot, "p_dot", (3,))
+    pd_s = _mv(D, pd)
+    if p_ddot is None:
+        return ps, pd_s, None
+    pdd = as_array(p_ddot, "p_ddot", (3,))
+    n2 = np.sum(p * p, axis=-1, keepdims=True)
+    ppd = np.sum(p * pd, axis=-1, keepdims=True)
+    pdpd = np.sum(pd * pd, axis=-1, keepdims=True)
+    Ddot_pd = (4.0 * ppd * pd + 2.0 * pdpd * p) / n2**2 - 8.0 * ppd**2 * p / n2**3
+    return ps, pd_s, _mv(D, pdd) + Ddot_pd
+
+
+# --------------------------------------------------------------------------- charts
+
+
+class _Chart3:
+    """A 3-parameter chart: coordinates y, ω_rel = M(y) ẏ, ẏ = B(y) ω_rel."""
+
+    name = ""
+    dim = 3
+
+    def from_matrix(self, R: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def rates_matrix(self, y: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def rates_matrix_inv(self, y: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def identity(self, batch: int) -> np.ndarray:
+        return np.zeros((batch, 3))
+
+    def rates(self, y: np.ndarray, omega_rel: np.ndarray) -> np.ndarray:
+        """ẏ = B(y) ω_rel."""
+        return _mv(self.rates_matrix(y), omega_rel)
+
+    def M_dot_times(self, y: np.ndarray, y_dot: np.ndarray) -> np.ndarray:
+        """Ṁ ẏ = (dM/dt along ẏ) ẏ, central difference along ẏ (module docstring)."""
+        n = np.linalg.norm(y_dot, axis=-1, keepdims=True)
+        safe = np.where(n > 0.0, n, 1.0)
+        d = y_dot / safe * _FD_STEP
+        dM = self.rates_matrix_inv(y + d) - self.rates_matrix_inv(y - d)
+        return _mv(dM, y_dot) * (n / (2.0 * _FD_STEP))
+
+    def acceleration(
+        self, y: np.ndarray, y_dot: np.ndarray, omega_dot_rel: np.ndarray
+    ) -> np.ndarray:
+        """ÿ = B(y)(ω̇_rel − Ṁ ẏ) (from ω_rel = M ẏ)."""
+        return _mv(self.rates_matrix(y), omega_dot_rel - self.M_dot_times(y, y_dot))
+
+
+class EulerChart(_Chart3):
+    """Euler angles of sequence ``seq`` (scipy notation, :mod:`liecontrol.charts.euler`).
+
+    ``rates_matrix`` raises :class:`ChartSingularityError` when |cos a2| (Tait–Bryan) or
+    |sin a2| (proper Euler) < ``lock_tol``.
+    """
+
+    name = "euler"
+
+    def __init__(self, seq: str = "ZYX", lock_tol: float = 1e-2) -> None:
+        _euler.is_tait_bryan(seq)  # validates seq (ValueError naming seq)
+        lock_tol = check_positive(lock_tol, "lock_tol")
+        if not isinstance(lock_tol, float) or lock_tol >= 1.0:
+            raise ValueError(f"lock_tol: must be a scalar in (0, 1), got {lock_tol}")
+        self.seq = seq
+        self.lock_tol = lock_tol
+        self.tait_bryan = _euler.is_tait_bryan(seq)
+
+    def __repr__(self) -> str:
+        return f"EulerChart(seq={self.seq!r}, lock_tol={self.lock_tol!r})"
+
+    def from_matrix(self, R: np.ndarray) -> np.ndarray:
+        # gimbal lock is reported by check_lock with the adapter's tolerance, not as a warning
+        return _euler.from_matrix(R, self.seq, warn=False)
+
+    def check_lock(self, y: np.ndarray, name: str) -> None:
+        """Raise :class:`ChartSingularityError` naming ``name`` near gimbal lock."""
+        lock = _euler.near_gimbal_lock(y, self.seq, self.lock_tol)
+        if np.any(lock):
+            f = np.cos if self.tait_bryan else np.sin
+            fn = "cos" if self.tait_bryan else "sin"
+            worst = float(np.abs(f(y[..., 1])).min())
+            raise ChartSingularityError(
+                f"{name}: gimbal lock of Euler sequence {self.seq!r} (|{fn} a2| = {worst:.2e} < "
+                f"lock_tol = {self.lock_tol:.1e}, a2 = {np.degrees(y[lock][0, 1]):.3f}°); the "
+                "Euler-angle law is undefined there — use a geometric controller or another "
+                "sequence"
+            )
+
+    def rates_matrix(self, y: np.ndarray) -> np.ndarray:
+        return _euler.rates_matrix(y, self.seq, self.lock_tol)
+
+    def rates_matrix_inv(self, y: np.ndarray) -> np.ndarray:
+        return _euler.rates_matrix_inv(y, self.seq)
+
+    def identity(self, batch: int) -> np.ndarray:
+        return self.from_matrix(np.broadcast_to(np.eye(3), (batch, 3, 3)))
+
+    def wrapped_components(self) -> np.ndarray:
+        """Mask of the angles that wrap at ±π (a1, a3; a2 is bounded)."""
+        return np.array([True, False, True])
+
+
+class MrpChart(_Chart3):
+    """Modified Rodrigues parameters (:mod:`liecontrol.charts.mrp`): M = G⁻¹, B = G(p)."""
+
+    name = "mrp"
+
+    def __repr__(self) -> str:
+        return "MrpChart()"
+
+    def from_matrix(self, R: np.ndarray) -> np.ndarray:
+        return _mrp.from_matrix(R)
+
+    def rates_matrix(self, y: np.ndarray) -> np.ndarray:
+        return _mrp.kinematics_matrix(y)
+
+    def rates_matrix_inv(self, y: np.ndarray) -> np.ndarray:
+        return _mrp.kinematics_matrix_inv(y)
+
+
+class QuaternionChart:
+    """Unit quaternion, scalar-first ``(w, x, y, z)``: q̇ = ½ q ⊗ (0, ω_rel) (4 coordinates, so
+    no square M; :meth:`ChartState.torque_from_chart_acceleration` is not available)."""
+
+    name = "quaternion"
+    dim = 4
+
+    def __repr__(self) -> str:
+        return "QuaternionChart()"
+
+    def from_matrix(self, R: np.ndarray) -> np.ndarray:
+        return _quat.from_matrix(R)
+
+    def identity(self, batch: int) -> np.ndarray:
+        return _quat.identity((batch,))
+
+    def rates(self, y: np.ndarray, omega_rel: np.ndarray) -> np.ndarray:
+        return _quat.kinematics(y, omega_rel)
+
+    def acceleration(
+        self, y: np.ndarray, y_dot: np.ndarray, omega_dot_rel: np.ndarray
+    ) -> np.ndarray:
+        """q̈ = ½ q̇ ⊗ (0, ω) + ½ q ⊗ (0, ω̇) with ω = 2 (q* ⊗ q̇)_v."""
+        qc = y * np.array([1.0, -1.0, -1.0, -1.0])
+        w = 2.0 * _quat._mul(qc, y_dot)[..., 1:]
+        return _quat.kinematics(y_dot, w) + _quat.kinematics(y, omega_dot_rel)
+
+
+# --------------------------------------------------------------------------- base frames
+
+
+@dataclass(frozen=True)
+class RotatingFrame:
+    """A frame turning at a constant rate: R_b(t) = R0 exp((t − t0) ω^) (base → inertial),
+    ω_b = ``omega`` (base axes), ω̇_b = 0. Calling it returns an
+    :class:`~liecontrol.control.base.AttitudeReference` (usable as ``base=`` of an adapter and
+    as a reference trajectory)."""
+
+    R0: np.ndarray
+    omega: np.ndarray
+    t0: float = 0.0
+
+    def __post_init__(self) -> None:
+        R0 = check_rotation_matrix(self.R0, "R0")
+        if R0.shape != (3, 3):
+            raise ValueError(f"R0: expected shape (3, 3), got {R0.shape}")
+        w = as_array(self.omega, "omega")
+        if w.shape != (3,):
+            raise ValueError(f"omega: expected shape (3,), got {w.shape}")
+        object.__setattr__(self, "R0", R0.copy())
+        object.__setattr__(self, "omega", w.copy())
+        object.__setattr__(self, "t0", float(as_array(self.t0, "t0", ())))
+
+    def __call__(self, t: float) -> AttitudeReference:
+        from ..lie import so3
+
+        R = self.R0 @ so3.exp((float(t) - self.t0) * self.omega)
+        return AttitudeReference(R_d=R, omega_d=self.omega.copy(), omega_dot_d=np.zeros(3))
+
+
+# --------------------------------------------------------------------------- chart state
+
+
+@dataclass(frozen=True)
+class ChartState:
+    """Everything a chart law sees at one sample (``B`` spacecraft; arrays are ``(B, ...)``).
+
+    Attributes:
+        t: time [s].
+        chart: the chart object (:class:`EulerChart`, :class:`MrpChart`, :class:`QuaternionChart`).
+        y: chart coordinates of the body relative to the base frame, ``(B, n)`` (n = 3, or 4 for
+            the quaternion).
+        y_dot: their rates ``B(y) ω_rel``.
+        y_d, y_d_dot, y_d_ddot: desired coordinates (the reference relative to the base frame)
+            and their first two derivatives.
+        R_rel: ``(B, 3, 3)`` body → base.  R_d_rel: desired body → base.
+        omega: ``(B, 3)`` inertial body rate in body axes (the gyro's quantity) [rad/s].
+        omega_rel: body rate relative to the base frame, body axes, ``ω − C_bo ω_b``.
+        omega_base: the base frame's inertial rate in body axes, ``C_bo ω_b`` (seed 000's
+            ``C_bo ω_io``).
+        omega_dot_base: ``C_bo ω̇_b`` (body axes).
+        omega_d_rel, omega_dot_d_rel: desired rate relative to the base (desired-body axes) and
+            its derivative.
+        h: stored actuator momentum in body axes, or ``None``.
+        switched: ``(B,)`` bool — MRP: the state switched to its shadow at this sample;
+            quaternion: the sign of ``y`` was flipped by the sign mode; Euler: all False.
+    """
+
+    t: float
+    chart: Any
+    y: np.ndarray
+    y_dot: np.ndarray
+    y_d: np.ndarray
+    y_d_dot: np.ndarray
+    y_d_ddot: np.ndarray
+    R_rel: np.ndarray
+    R_d_rel: np.ndarray
+    omega: np.ndarray
+    omega_rel: np.ndarray
+    omega_base: np.ndarray
+    omega_dot_base: np.ndarray
+    omega_d_rel: np.ndarray
+    omega_dot_d_rel: np.ndarray
+    h: np.ndarray | None
+    switched: np.ndarray
+
+    @property
+    def batch_size(self) -> int:
+        return int(self.y.shape[0])
+
+    def torque_from_chart_acceleration(self, y_ddot: object, J: object) -> np.ndarray:
+        """Body torque that produces the chart acceleration ``y_ddot`` on the rigid body
+        ``J ω̇ + ω × Jω = u`` (exact inverse dynamics, 3-parameter charts only):
+
+            ω̇_rel = M(y) ÿ + Ṁ ẏ,   ω̇ = ω̇_rel − ω_rel × (C_bo ω_b) + C_bo ω̇_b,
+            u = J ω̇ + ω × J ω.
+
+        (d/dt (C_bo ω_b) = −ω_rel × C_bo ω_b + C_bo ω̇_b since Ċ_bo = −ω^C_bo + C_bo ω_b^.)
+        """
+        if self.chart.dim != 3:
+            raise ValueError(
+                f"y_ddot: chart {self.chart.name!r} has no square kinematic matrix; "
+                "torque_from_chart_acceleration needs a 3-parameter chart"
+            )
+        J = check_inertia(J, "J")
+        if J.shape != (3, 3):
+            raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+        ydd = as_array(y_ddot, "y_ddot", (3,))
+        M = self.chart.rates_matrix_inv(self.y)
+        w_rel_dot = _mv(M, ydd) + self.chart.M_dot_times(self.y, self.y_dot)
+        w_dot = w_rel_dot - _cross(self.omega_rel, self.omega_base) + self.omega_dot_base
+        w = self.omega
+        return w_dot @ J.T + _cross(w, w @ J.T)
+
+
+# --------------------------------------------------------------------------- adapters
+
+
+def _check_law(law: object) -> None:
+    for name in ("reset", "__call__"):
+        if not callable(getattr(law, name, None)):
+            raise ValueError(
+                f"law: has no method {name}() (chart-law protocol: reset(t0, batch_size), "
+                "__call__(t, chart_state) -> (B, 3) torque)"
+            )
+
+
+def _check_base(base: object) -> object:
+    if isinstance(base, str):
+        if base not in ("reference", "inertial"):
+            raise ValueError(
+                f"base: expected 'reference', 'inertial' or a callable frame, got {base!r}"
+            )
+        return base
+    if not callable(base):
+        raise ValueError("base: expected 'reference', 'inertial' or a callable t -> frame sample")
+    return base
+
+
+def _as_batch(a: np.ndarray, B: int, tail: tuple[int, ...], name: str) -> np.ndarray:
+    nd = len(tail)
+    if a.ndim == nd:
+        return np.broadcast_to(a, (B,) + tail)
+    if a.ndim == nd + 1 and a.shape[0] == B:
+        return a
+    raise ValueError(f"{name}: expected shape {tail} or {(B,) + tail}, got {a.shape}")
+
+
+class ChartAdapter(AttitudeController):
+    """Common machinery of the chart adapters (use the subclasses).
+
+    Args:
+        law: the chart law (module docstring protocol).
+        chart: the chart object.
+        base: ``"reference"`` (default), ``"inertial"`` or a callable frame (module docstring).
+    """
+
+    def __init__(self, law: Any, chart: Any, base: object = "reference") -> None:
+        _check_law(law)
+        self.law = law
+        self.chart = chart
+        self.base = _check_base(base)
+        self.batched = bool(getattr(law, "batched", True))
+        self._batch: int | None = None
+        self._diag: dict[str, np.ndarray] = {}
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(law={self.law!r}, chart={self.chart!r}, base={self.base!r})"
+
+    # -- hooks for the subclasses ---------------------------------------------------------------
+
+    def _reset_memory(self) -> None:
+        """Clear the chart memory (continuity, sign, unwrap)."""
+
+    def _coords(self, R_rel: np.ndarray, R_d_rel: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Chart coordinates ``(y, y_d, switched_state, switched_desired)``."""
+        raise NotImplementedError  # pragma: no cover
+
+    def _before_law(self, switched: np.ndarray, switched_d: np.ndarray) -> None:
+        """Called after the chart conversion, before the law (MRP shadow-switch hook)."""
+
+    # -- controller interface -------------------------------------------------------------------
+
+    def reset(self, t0: float, batch_size: int) -> None:
+        """Clear the chart memory and reset the law."""
+        if isinstance(batch_size, bool) or not isinstance(batch_size, (int, np.integer)):
+            raise ValueError(f"batch_size: expected a positive int, got {batch_size!r}")
+        if batch_size < 1:
+            raise ValueError(f"batch_size: must be >= 1, got {batch_size}")
+        t0 = float(as_array(t0, "t0", ()))
+        self._batch = int(batch_size)
+        self._diag = {}
+        self._reset_memory()
+        self.law.reset(t0, int(batch_size))
+
+    def _base_sample(
+        self, t: float, reference: AttitudeReference, B: int
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if self.base == "inertial":
+            return np.broadcast_to(np.eye(3), (B, 3, 3)), np.zeros((B, 3)), np.zeros((B, 3))
+        ref = reference if self.base == "reference" else self.base(t)
+        for attr in ("R_d", "omega_d", "omega_dot_d"):
+            if not hasattr(ref, attr):
+                raise ValueError(
+                    f"base: the frame sample has no attribute {attr!r} (expected an "
+                    "AttitudeReference-like object)"
+                )
+        name = "R_d" if self.base == "reference" else "base"
+        R_b = _as_batch(check_rotation_matrix(ref.R_d, name), B, (3, 3), name)
+        w_b = _as_batch(as_array(ref.omega_d, name), B, (3,), name)
+        dw_b = _as_batch(as_array(ref.omega_dot_d, name), B, (3,), name)
+        return R_b, w_b, dw_b
+
+    def chart_state(
+        self, t: float, state: AttitudeState, reference: AttitudeReference
+    ) -> ChartState:
+        """Convert ``(state, reference)`` into the chart (advances the chart memory)."""
+        if self._batch is None:
+            raise RuntimeError(f"{type(self).__name__}.command: call reset(t0, batch_size) first")
+        R = check_rotation_matrix(state.R, "R")
+        w = as_array(state.omega, "omega", (3,))
+        if R.ndim != 3 or w.shape != (R.shape[0], 3):
+            raise ValueError(
+                f"state: expected R (B, 3, 3) and omega (B, 3), got {R.shape} and {w.shape}"
+            )
+        B = R.shape[0]
+        if B != self._batch:
+            raise ValueError(f"state: batch size {B} differs from reset(batch_size={self._batch})")
+        R_d = _as_batch(check_rotation_matrix(reference.R_d, "R_d"), B, (3, 3), "R_d")
+        w_d = _as_batch(as_array(reference.omega_d, "omega_d"), B, (3,), "omega_d")
+        dw_d = _as_batch(as_array(reference.omega_dot_d, "omega_dot_d"), B, (3,), "omega_dot_d")
+        R_b, w_b, dw_b = self._base_sample(t, reference, B)
+
+        R_bT = np.swapaxes(R_b, -1, -2)
+        R_rel = R_bT @ R
+        R_d_rel = R_bT @ R_d
+        w_base = _mtv(R_rel, w_b)  # C_bo ω_b
+        dw_base = _mtv(R_rel, dw_b)
+        w_rel = w - w_base
+        wb_d = _mtv(R_d_rel, w_b)  # the base rate in desired-body axes
+        w_d_rel = w_d - wb_d
+        dw_d_rel = dw_d + _cross(w_d, wb_d) - _mtv(R_d_rel, dw_b)
+
+        y, y_d, sw, sw_d = self._coords(R_rel, R_d_rel)
+        y_dot = self.chart.rates(y, w_rel)
+        y_d_dot = self.chart.rates(y_d, w_d_rel)
+        y_d_ddot = self.chart.acceleration(y_d, y_d_dot, dw_d_rel)
+        self._before_law(sw, sw_d)
+        h = None if state.h is None else as_array(state.h, "h", (3,))
+        return ChartState(
+            t=float(t),
+            chart=self.chart,
+            y=y,
+            y_dot=y_dot,
+            y_d=y_d,
+            y_d_dot=y_d_dot,
+            y_d_ddot=y_d_ddot,
+            R_rel=R_rel,
+            R_d_rel=R_d_rel,
+            omega=w,
+            omega_rel=w_rel,
+            omega_base=w_base,
+            omega_dot_base=dw_base,
+            omega_d_rel=w_d_rel,
+            omega_dot_d_rel=dw_d_rel,
+            h=h,
+            switched=sw,
+        )
+
+    def command(self, t: float, state: AttitudeState, reference: AttitudeReference) -> np.ndarray:
+        """Body torque ``(B, 3)`` [N·m] from the chart law."""
+        s = self.chart_state(t, state, reference)
+        u = np.asarray(self.law(float(t), s), dtype=np.float64)
+        B = s.batch_size
+        if u.shape != (B, 3):
+            raise ValueError(f"law: returned torque of shape {u.shape}, expected {(B, 3)}")
+        if not np.all(np.isfinite(u)):
+            raise ValueError(f"law: returned a non-finite torque at t = {t:.6g} s")
+        law_diag = getattr(self.law, "diagnostics", None)
+        diag = dict(law_diag()) if callable(law_diag) else {}
+        diag.update({"chart_y": s.y, "chart_y_d": s.y_d, "chart_switched": s.switched})
+        self._diag = diag
+        return u
+
+    def diagnostics(self) -> dict[str, np.ndarray]:
+        """The law's diagnostics plus ``chart_y``, ``chart_y_d`` ``(B, n)`` and
+        ``chart_switched`` ``(B,)`` of the last sample."""
+        return dict(self._diag)
+
+
+class EulerChartAdapter(ChartAdapter):
+    """Wrap an Euler-angle law (module docstring) as an SO(3) controller.
+
+    Args:
+        law: chart law; receives ``s.y = (a1, a2, a3)`` of the body relative to ``base``.
+        seq: Euler sequence, scipy notation (``"ZYX"`` = aerospace 3-2-1, the default).
+        base: ``"inertial"`` (default here, seed 004), ``"reference"`` or a callable frame.
+        lock_tol: gimbal-lock tolerance on |cos a2| (Tait–Bryan) or |sin a2| (proper Euler);
+            below it (state or reference) :class:`ChartSingularityError` is raised. Default
+            1e-2, i.e. |a2| > 89.43° for ``"ZYX"``.
+        unwrap: keep a1, a3 continuous across ±π (``y_d`` unwrapped in time, ``y`` reported
+            within π of ``y_d``).
+    """
+
+    def __init__(
+        self,
+        law: Any,
+        seq: str = "ZYX",
+        base: object = "inertial",
+        lock_tol: float = 1e-2,
+        unwrap: bool = True,
+    ) -> None:
+        super().__init__(law, EulerChart(seq, lock_tol), base)
+        self.unwrap = bool(unwrap)
+        self._y_d_prev: np.ndarray | None = None
+
+    def _reset_memory(self) -> None:
+        self._y_d_prev = None
+
+    def _coords(self, R_rel: np.ndarray, R_d_rel: np.ndarray) -> tuple[np.ndarray, ...]:
+        ch = self.chart
+        y = ch.from_matrix(R_rel)
+        y_d = ch.from_matrix(R_d_rel)
+        ch.check_lock(y, "R")
+        ch.check_lock(y_d, "R_d")
+        if self.unwrap:
+            wrap = ch.wrapped_components()
+            two_pi = 2.0 * np.pi
+            if self._y_d_prev is not None:
+                k = np.round((self._y_d_prev - y_d) / two_pi)
+                y_d = y_d + np.where(wrap, k, 0.0) * two_pi
+            e = y - y_d
+            e_w = e - two_pi * np.round(e / two_pi)
+            y = np.where(wrap, y_d + e_w, y)
+            self._y_d_prev = y_d.copy()
+        B = y.shape[0]
+        no = np.zeros(B, dtype=bool)
+        return y, y_d, no, no
+
+
+class MrpChartAdapter(ChartAdapter):
+    """Wrap an MRP law (module docstring) as an SO(3) controller, with shadow-set switching.
+
+    Args:
+        law: chart law; may implement ``on_shadow_switch(state_mask, desired_mask)``.
+        base: ``"reference"`` (default: p is the attitude-error MRP, p_d = 0), ``"inertial"``
+            or a callable frame (seed 000: the orbit frame).
+        threshold: switch to the shadow when |p| > threshold (≥ 1; 1 = classical switch).
+    """
+
+    def __init__(self, law: Any, base: object = "reference", threshold: float = 1.0) -> None:
+        super().__init__(law, MrpChart(), base)
+        thr = float(as_array(threshold, "threshold", ()))
+        if thr < 1.0:
+            raise ValueError(f"threshold: must be >= 1 (got {thr}); below 1 the switch chatters")
+        self.threshold = thr
+        self._p_prev: np.ndarray | None = None
+        self._pd_prev: np.ndarray | None = None
+        self.n_switches = 0
+
+    def _reset_memory(self) -> None:
+        self._p_prev = None
+        self._pd_prev = None
+        self.n_switches = 0
+
+    def _track(self, p_can: np.ndarray, prev: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """Continuous continuation of ``prev`` among {p_can, shadow(p_can)}, then the switch."""
+        if prev is None:
+            return p_can, np.zeros(p_can.shape[0], dtype=bool)
+        n2 = np.sum(p_can * p_can, axis=-1, keepdims=True)
+        nz = n2[..., 0] > 0.0
+        shadow = -p_can / np.where(nz[:, None], n2, 1.0)
+        d_can = np.sum((p_can - prev) ** 2, axis=-1)
+        d_sh = np.sum((shadow - prev) ** 2, axis=-1)
+        use_shadow = nz & (d_sh < d_can)
+        p_cont = np.where(use_shadow[:, None], shadow, p_can)
+        p, mask = _mrp.switch(p_cont, self.threshold)
+        return p, mask
+
+    def _coords(self, R_rel: np.ndarray, R_d_rel: np.ndarray) -> tuple[np.ndarray, ...]:
+        p, sw = self._track(self.chart.from_matrix(R_rel), self._p_prev)
+        p_d, sw_d = self._track(self.chart.from_matrix(R_d_rel), self._pd_prev)
+        self._p_prev, self._pd_prev = p.copy(), p_d.copy()
+        self.n_switches += int(np.count_nonzero(sw))
+        return p, p_d, sw, sw_d
+
+    def _before_law(self, switched: np.ndarray, switched_d: np.ndarray) -> None:
+        hook = getattr(self.law, "on_shadow_switch", None)
+        if callable(hook) and (np.any(switched) or np.any(switched_d)):
+            hook(switched.copy(), switched_d.copy())
+
+
+class QuaternionChartAdapter(ChartAdapter):
+    """Wrap a quaternion law (module docstring) as an SO(3) controller, owning the sign.
+
+    Args:
+        law: chart law; receives ``s.y = q`` (scalar-first) of the body relative to ``base``.
+        base: ``"reference"`` (default: q is the error quaternion of R_dᵀR), ``"inertial"`` or a
+            callable frame.
+        sign_mode: ``"continuous"`` (q continuous in time from the start; unwinding-prone),
+            ``"switched"`` (w ≥ 0 always) or ``"hysteretic"`` (flip when w < −hysteresis).
+        hysteresis: δ ∈ (0, 1) of the hysteretic mode.
+        q_hint: ``(4,)`` or ``(B, 4)`` quaternion whose sign picks the sign of the first sample
+            (``+q`` if q·q_hint ≥ 0, else ``−q``); default identity (w ≥ 0). A −q start of the
+            unwinding benchmark is ``q_hint = −q₀``.
+
+    The desired quaternion ``y_d`` is tracked continuously (identity with ``base="reference"``).
+    """
+
+    def __init__(
+        self,
+        law: Any,
+        base: object = "reference",
+        sign_mode: str = "continuous",
+        hysteresis: float = 0.2,
+        q_hint: object = None,
+    ) -> None:
+        super().__init__(law, QuaternionChart(), base)
+        if sign_mode not in SIGN_MODES:
+            raise ValueError(f"sign_mode: expected one of {SIGN_MODES}, got {sign_mode!r}")
+        self.sign_mode = sign_mode
+        hyst = check_positive(hysteresis, "hysteresis")
+        if not isinstance(hyst, float) or hyst >= 1.0:
+            raise ValueError(f"hysteresis: must be a scalar in (0, 1), got {hysteresis}")
+        self.hysteresis = hyst
+        if q_hint is None:
+            self.q_hint = None
+        else:
+            qh = _quat.normalize(as_array(q_hint, "q_hint", (4,)))
+            if qh.ndim not in (1, 2):
+                raise ValueError(f"q_hint: expected shape (4,) or (B, 4), got {qh.shape}")
+            self.q_hint = qh
+        self._q_prev: np.ndarray | None = None
+        self._qd_prev: np.ndarray | None = None
+
+    def _reset_memory(self) -> None:
+        self._q_prev = None
+        self._qd_prev = None
+
+    @staticmethod
+    def _continue(q: np.ndarray, prev: np.ndarray) -> np.ndarray:
+        return np.where(np.sum(q * prev, axis=-1, keepdims=True) < 0.0, -q, q)
+
+    def _coords(self, R_rel: np.ndarray, R_d_rel: np.ndarray) -> tuple[np.ndarray, ...]:
+        q_can = self.chart.from_matrix(R_rel)  # w ≥ 0
+        B = q_can.shape[0]
+        if self.sign_mode == "switched":
+            q = q_can
+            flip = (
+                np.zeros(B, dtype=bool)
+                if self._q_prev is None
+                else np.sum(q * self._q_prev, axis=-1) < 0.0
+            )
+        else:
+            prev = self._q_prev
+            if prev is None:
+                prev = (
+                    _quat.identity((B,))
+                    if self.q_hint is None
+                    else np.broadcast_to(self.q_hint, (B, 4))
+                )
+            q = self._continue(q_can, prev)
+            flip = np.zeros(B, dtype=bool)
+            if self.sign_mode == "hysteretic":
+                flip = q[:, 0] < -self.hysteresis
+                q = np.where(flip[:, None], -q, q)
+        qd_can = self.chart.from_matrix(R_d_rel)
+        q_d = qd_can if self._qd_prev is None else self._continue(qd_can, self._qd_prev)
+        self._q_prev, self._qd_prev = q.copy(), q_d.copy()
+        return q, q_d, flip, np.zeros(B, dtype=bool)
