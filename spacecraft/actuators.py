@@ -34,7 +34,17 @@ from liecontrol._validation import as_array, check_positive
 
 from .rigid_body import _cross
 
-__all__ = ["Actuator", "IdealTorqueActuator", "SgcmgActuator", "CmgCommand"]
+__all__ = [
+    "Actuator",
+    "IdealTorqueActuator",
+    "SgcmgActuator",
+    "CmgCommand",
+    "FirstOrderServo",
+    "ReactionWheelAssembly",
+    "WheelCommand",
+    "orthogonal_wheel_axes",
+    "pyramid_wheel_axes",
+]
 
 
 class Actuator(abc.ABC):
@@ -126,6 +136,38 @@ class CmgCommand:
     h_dot_cmd: np.ndarray
 
 
+@dataclass(frozen=True)
+class FirstOrderServo:
+    """First-order gimbal-rate servo (SPEC §5.2 "gimbal servo ideal or first-order lag")::
+
+        δ̈ = (δ̇_cmd − δ̇) / τ,
+
+    i.e. the actual gimbal rate δ̇ follows the commanded (steered, rate-limited) rate with time
+    constant τ: after a step in δ̇_cmd from rest, δ̇(t) = δ̇_cmd (1 − e^{−t/τ}) and
+    δ(t) = δ(0) + δ̇_cmd (t − τ (1 − e^{−t/τ})). A first-order lag is the usual reduced model
+    of a gimbal rate loop (Wie, *Space Vehicle Dynamics and Control*, 2nd ed., §7.3; the
+    gimbal inertia is neglected in the bus dynamics). With it the actuator state is
+    ``(δ, δ̇_actual)`` ``(B, 8)``. Since δ̇ is a convex combination of past commands, the rate
+    limit on δ̇_cmd also bounds the actual rates.
+
+    Args:
+        time_constant: τ > 0 [s].
+    """
+
+    time_constant: float
+
+    def __post_init__(self) -> None:
+        tau = _positive_scalar(self.time_constant, "time_constant")
+        object.__setattr__(self, "time_constant", tau)
+
+
+def _positive_scalar(v: object, name: str) -> float:
+    a = check_positive(v, name)
+    if not isinstance(a, float):
+        raise ValueError(f"{name}: must be a scalar, got shape {np.shape(a)}")
+    return a
+
+
 def _default_steering() -> Any:
     from .steering import SingularityRobust
 
@@ -141,6 +183,15 @@ class SgcmgActuator(Actuator):
     ``u = −A(δ) δ̇ − ω × h(δ)`` (SPEC §5.1) — which conserves the total inertial momentum
     ``R (J ω + h)`` exactly in continuous time, whatever the steering does.
 
+    Gimbal servo: ``"ideal"`` (the gimbals turn at the commanded rate; state ``δ`` ``(B, 4)``)
+    or a :class:`FirstOrderServo` (state ``(δ, δ̇)`` ``(B, 8)``, δ̈ = (δ̇_cmd − δ̇)/τ, and the bus
+    feels ``−A(δ) δ̇ − ω × h(δ)`` with the *actual* rate δ̇). The steering law and the rate
+    limit act on the command; ``t`` is passed to the law (time-varying laws such as
+    :class:`spacecraft.steering.GeneralizedSingularityRobust`).
+
+    Hot path: laws derived from :class:`spacecraft.steering.SteeringLaw` are called through
+    their unchecked ``steer`` (validated once here), other callables through the keyword API.
+
     Args:
         cluster: an :class:`spacecraft.sgcmg.SgcmgPyramid` (default: ``h0 = 300`` N·m·s,
             β = 54.73°, rate limit 1 rad/s).
@@ -148,6 +199,7 @@ class SgcmgActuator(Actuator):
             (default: :class:`spacecraft.steering.SingularityRobust` with its defaults).
         delta0: initial gimbal angles ``(4,)`` or ``(B, 4)`` [rad] (default (45°, −45°, 45°,
             −45°): zero stored momentum, seed 000).
+        servo: ``"ideal"`` (default) or :class:`FirstOrderServo` ``(time_constant)``.
     """
 
     n_states = 4
@@ -157,6 +209,7 @@ class SgcmgActuator(Actuator):
         cluster: Any = None,
         steering: Any = None,
         delta0: object = (np.pi / 4, -np.pi / 4, np.pi / 4, -np.pi / 4),
+        servo: str | FirstOrderServo = "ideal",
     ) -> None:
         if cluster is None:
             from .sgcmg import SgcmgPyramid
@@ -170,13 +223,28 @@ class SgcmgActuator(Actuator):
         if d0.ndim not in (1, 2):
             raise ValueError(f"delta0: expected shape (4,) or (B, 4), got {d0.shape}")
         d0.setflags(write=False)
+        if isinstance(servo, str) and servo == "ideal":
+            self.servo: str | FirstOrderServo = "ideal"
+            self._tau: float | None = None
+            self.n_states = 4
+        elif isinstance(servo, FirstOrderServo):
+            self.servo = servo
+            self._tau = servo.time_constant
+            self.n_states = 8  # (δ, δ̇_actual)
+        else:
+            raise ValueError(f"servo: expected 'ideal' or a FirstOrderServo, got {servo!r}")
         self.cluster = cluster
         self.steering = steering
         self.delta0 = d0
         self.rate_limit = float(cluster.gimbal_rate_limit)
-        from .steering import saturate_gimbal_rates
+        from .steering import SteeringLaw, _saturate_unchecked
 
-        self._saturate = saturate_gimbal_rates
+        own = getattr(steering, "cluster", None)
+        if own is not None and own != cluster:
+            raise ValueError("steering: its own cluster differs from the actuator's cluster")
+        self._saturate = _saturate_unchecked
+        # validated laws have an unchecked entry point; other callables get the keyword API
+        self._steer = steering.steer if isinstance(steering, SteeringLaw) else None
         self._fast = self._build_fast_path()
         # pass only the keyword arguments the steering law accepts (stateless laws need none)
         try:
@@ -243,50 +311,76 @@ class SgcmgActuator(Actuator):
         np.multiply(cs, delta_dot, out=W[..., 1, :4])
         np.multiply(sn, delta_dot, out=W[..., 1, 4:])
         np.negative(W[..., 1, 4:], out=W[..., 1, 4:])
-        Y = W @ M
+        # one (2B, 8) @ (8, 3) product: a stacked (B, 2, 8) @ (8, 3) matmul loops over B
+        # small products (measured ~8× slower at B = 1000)
+        Y = (W.reshape(-1, 8) @ M).reshape(W.shape[:-1] + (3,))
         return Y[..., 0, :], Y[..., 1, :]
 
     def __repr__(self) -> str:
         return (
             f"SgcmgActuator(cluster={self.cluster!r}, steering={self.steering!r}, "
-            f"delta0={self.delta0.tolist()})"
+            f"delta0={self.delta0.tolist()}, servo={self.servo!r})"
         )
 
     def initial_state(self, batch: int) -> np.ndarray:
+        """Gimbal angles ``(batch, 4)``; with a :class:`FirstOrderServo` ``(batch, 8)``: the
+        angles then the actual gimbal rates (initially 0)."""
         batch = int(batch)
         if self.delta0.ndim == 2 and self.delta0.shape[0] != batch:
             raise ValueError(
                 f"delta0: has {self.delta0.shape[0]} rows but the batch has {batch} spacecraft"
             )
-        return np.broadcast_to(self.delta0, (batch, 4)).copy()
+        x = np.zeros((batch, self.n_states))
+        x[:, :4] = self.delta0
+        return x
+
+    def _rates(self, x_act: np.ndarray, held: CmgCommand) -> np.ndarray:
+        """The gimbal rates that move the gimbals: commanded (ideal) or the servo state."""
+        return held.delta_dot if self._tau is None else x_act[:, 4:]
 
     def command(
         self, u_cmd: np.ndarray, omega: np.ndarray, x_act: np.ndarray, t: float
     ) -> CmgCommand:
+        delta = x_act if self._tau is None else x_act[:, :4]
         if self._fast is None:
-            h, A = self.cluster.momentum_and_jacobian(x_act)
+            h, A = self.cluster.momentum_and_jacobian(delta)
         else:
-            W = np.empty(x_act.shape[:-1] + (8,))
-            sn = np.sin(x_act, out=W[..., :4])
-            cs = np.cos(x_act, out=W[..., 4:])
+            W = np.empty(delta.shape[:-1] + (8,))
+            sn = np.sin(delta, out=W[..., :4])
+            cs = np.cos(delta, out=W[..., 4:])
             h = W @ self._fast
             A = self._S0 * cs[..., None, :]
             A -= self._C0 * sn[..., None, :]
         h_dot_cmd = _cross(omega, h)
         h_dot_cmd += u_cmd
         np.negative(h_dot_cmd, out=h_dot_cmd)
-        kw = {"delta": x_act, "t": t, "cluster": self.cluster}
-        delta_dot = self.steering(A, h_dot_cmd, **{k: kw[k] for k in self._steer_kw})
+        if self._steer is not None:
+            delta_dot = self._steer(A, h_dot_cmd, delta, float(t), self.cluster)
+        else:
+            kw = {"delta": delta, "t": t, "cluster": self.cluster}
+            delta_dot = np.asarray(
+                self.steering(A, h_dot_cmd, **{k: kw[k] for k in self._steer_kw}),
+                dtype=np.float64,
+            )
         delta_dot, saturated = self._saturate(delta_dot, self.rate_limit)
         return CmgCommand(delta_dot=delta_dot, saturated=saturated, h_dot_cmd=h_dot_cmd)
 
     def state_derivative(self, x_act: np.ndarray, held: CmgCommand) -> np.ndarray:
-        return held.delta_dot
+        if self._tau is None:
+            return held.delta_dot
+        rates = x_act[:, 4:]
+        out = np.empty(x_act.shape)
+        out[:, :4] = rates
+        np.subtract(held.delta_dot, rates, out=out[:, 4:])
+        out[:, 4:] /= self._tau
+        return out
 
     def body_torque(self, omega: np.ndarray, x_act: np.ndarray, held: CmgCommand) -> np.ndarray:
-        if x_act.shape == (1, 4) and self._fast is not None:
-            return self._body_torque_one(omega, x_act, held.delta_dot)
-        h, h_dot = self._momentum_and_rate(x_act, held.delta_dot)
+        rates = self._rates(x_act, held)
+        delta = x_act if self._tau is None else x_act[:, :4]
+        if delta.shape == (1, 4) and self._fast is not None:
+            return self._body_torque_one(omega, delta, rates)
+        h, h_dot = self._momentum_and_rate(delta, rates)
         tau = _cross(omega, h)
         tau += h_dot
         np.negative(tau, out=tau)
@@ -318,16 +412,26 @@ class SgcmgActuator(Actuator):
         )
 
     def momentum(self, x_act: np.ndarray) -> np.ndarray:
+        delta = x_act[..., :4]
         if self._fast is None:
-            return self.cluster.momentum(x_act)
-        W = np.empty(x_act.shape[:-1] + (8,))
-        np.sin(x_act, out=W[..., :4])
-        np.cos(x_act, out=W[..., 4:])
+            return self.cluster.momentum(delta)
+        W = np.empty(delta.shape[:-1] + (8,))
+        np.sin(delta, out=W[..., :4])
+        np.cos(delta, out=W[..., 4:])
         return W @ self._fast
 
     def log(self, x_act: np.ndarray, held: CmgCommand) -> dict[str, np.ndarray]:
-        """``delta`` (B,4) [rad], ``delta_dot`` (B,4) [rad/s], ``saturated`` (B,) bool."""
-        return {"delta": x_act, "delta_dot": held.delta_dot, "saturated": held.saturated}
+        """``delta`` (B,4) [rad], ``delta_dot`` (B,4) [rad/s] (the rates that move the gimbals),
+        ``saturated`` (B,) bool (the commanded rate vector was scaled to the limit); with a
+        :class:`FirstOrderServo` also ``delta_dot_cmd`` (B,4), the commanded rates."""
+        if self._tau is None:
+            return {"delta": x_act, "delta_dot": held.delta_dot, "saturated": held.saturated}
+        return {
+            "delta": x_act[:, :4],
+            "delta_dot": x_act[:, 4:],
+            "delta_dot_cmd": held.delta_dot,
+            "saturated": held.saturated,
+        }
 
     def derived_log(self, log: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """``singularity`` m = √det(ÂÂᵀ) (K,B) and ``h`` (K,B,3) [N·m·s] of the logged gimbal
@@ -337,3 +441,231 @@ class SgcmgActuator(Actuator):
             "singularity": self.cluster.singularity_measure(delta),
             "h": self.momentum(delta),
         }
+
+
+# ---------------------------------------------------------------------------- reaction wheels
+#: Default pyramid half-cone angle: arctan √2 ≈ 54.7356°, where the four axes give AAᵀ = (4/3) I
+#: (the same torque capability about every body axis).
+PYRAMID_ISOTROPIC_BETA = math.atan(math.sqrt(2.0))
+
+
+def orthogonal_wheel_axes() -> np.ndarray:
+    """Three wheels along the body axes: ``I₃`` (columns = spin axes)."""
+    return np.eye(3)
+
+
+def pyramid_wheel_axes(beta: float = PYRAMID_ISOTROPIC_BETA) -> np.ndarray:
+    """Four wheels in a pyramid about body +z, ``(3, 4)`` unit columns::
+
+        aᵢ = (sin β cos φᵢ, sin β sin φᵢ, cos β),   φᵢ = 0°, 90°, 180°, 270°,
+
+    with β the half-cone angle from +z (0 < β < π/2). AAᵀ = diag(2 sin²β, 2 sin²β, 4 cos²β);
+    the default β = arctan √2 makes it isotropic, (4/3) I. Any three of the four axes span
+    ℝ³, so the assembly survives one wheel failure (Markley & Crassidis 2014, §7.8).
+    """
+    b = float(as_array(beta, "beta"))
+    if not 0.0 < b < math.pi / 2:
+        raise ValueError(f"beta: must lie in (0, π/2), got {beta!r}")
+    phi = np.arange(4) * (math.pi / 2)
+    s = math.sin(b)
+    axes = np.stack([s * np.cos(phi), s * np.sin(phi), np.full(4, math.cos(b))])
+    axes[np.abs(axes) < 1e-16] = 0.0  # cos(90°) rounding
+    return axes
+
+
+def _per_wheel(v: object, name: str, n: int) -> np.ndarray:
+    """Positive scalar or ``(n,)`` → read-only ``(n,)``."""
+    a = np.array(check_positive(v, name), dtype=np.float64)
+    if a.ndim == 0:
+        a = np.full(n, float(a))
+    elif a.shape != (n,):
+        raise ValueError(f"{name}: expected a scalar or shape ({n},) (per wheel), got {a.shape}")
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True)
+class WheelCommand:
+    """What the reaction-wheel assembly holds over one integration step (all ``(B, N)``
+    except ``h_dot_cmd``).
+
+    Attributes:
+        torque: motor torques on the wheels after the limits, τᵢ = I_w Ω̇ᵢ [N·m].
+        torque_cmd: the minimum-norm distribution A⁺ ḣ_cmd before the limits [N·m].
+        torque_saturated: |τ_cmd,ᵢ| > max_torque (clipped).
+        speed_saturated: the wheel was at max speed and τ_cmd would have pushed it further
+            (torque set to 0).
+        h_dot_cmd: ``(B, 3)`` momentum rate asked for [N·m].
+    """
+
+    torque: np.ndarray
+    torque_cmd: np.ndarray
+    torque_saturated: np.ndarray
+    speed_saturated: np.ndarray
+    h_dot_cmd: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class ReactionWheelAssembly(Actuator):
+    """N reaction wheels on fixed spin axes (SPEC §5.1–5.2; seed 003's satellite).
+
+    State: the wheel speeds Ω ``(B, N)`` [rad/s]. Stored momentum and dynamics::
+
+        h = Σᵢ I_w,ᵢ Ωᵢ aᵢ = A (I_w ∘ Ω),    I_w,ᵢ Ω̇ᵢ = τᵢ,    ḣ = A τ,
+        body torque u = −ḣ − ω × h = −A τ − ω × h       (SPEC §5.1)
+
+    with A = [a₁ … a_N] the ``axes``. Ωᵢ is the wheel's axial spin rate such that its axial
+    momentum is I_w Ωᵢ (Markley & Crassidis 2014, §3.3.5: J is then the spacecraft inertia
+    without the wheels' axial inertia; the rate relative to the bus differs by aᵢ·ω, ≪ Ω).
+
+    Per step (ZOH of wheel torques): ḣ_cmd = −u_cmd − ω × h; minimum-norm distribution
+    τ_cmd = A⁺ ḣ_cmd, A⁺ = Aᵀ(AAᵀ)⁻¹ (precomputed); per-wheel torque limit
+    τ = clip(τ_cmd, ±max_torque) (flagged; clipping one wheel changes the torque direction,
+    as real wheel electronics do); speed limit: a wheel at |Ωᵢ| ≥ max_speed gets no torque that
+    would speed it up further (flagged). The speed gate is also applied inside every
+    integration stage (to the held τ, with the same τ on the wheel and on the bus, so momentum
+    exchange stays exact), so a wheel overshoots max_speed by at most max_torque·dt/I_w.
+
+    Args:
+        axes: ``(3, N)`` unit spin axes (N ≥ 3, spanning ℝ³): :func:`orthogonal_wheel_axes`,
+            :func:`pyramid_wheel_axes` (or the :meth:`orthogonal`/:meth:`pyramid` constructors).
+        wheel_inertia: axial inertia I_w > 0 [kg·m²], scalar or ``(N,)``.
+        max_torque: motor torque limit > 0 [N·m], scalar or ``(N,)``.
+        max_speed: wheel speed limit > 0 [rad/s], scalar or ``(N,)``.
+        initial_speeds: Ω(0) ``(N,)`` or ``(B, N)`` [rad/s], |Ω(0)| ≤ max_speed (default 0).
+
+    Logged: ``wheel_speed``, ``wheel_torque`` (delivered τ at the step start),
+    ``wheel_torque_cmd``, ``torque_saturated``, ``speed_saturated`` and ``saturated`` (either),
+    all ``(B, N)``; derived ``h`` ``(K, B, 3)``.
+    """
+
+    axes: np.ndarray
+    wheel_inertia: float | np.ndarray = 0.05
+    max_torque: float | np.ndarray = 0.2
+    max_speed: float | np.ndarray = 600.0
+    initial_speeds: object = None
+    n_states: int = field(default=0, init=False)
+    _pinv: np.ndarray = field(init=False, repr=False)
+    _AI: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        A = np.array(as_array(self.axes, "axes"), dtype=np.float64)
+        if A.ndim != 2 or A.shape[0] != 3 or A.shape[1] < 3:
+            raise ValueError(f"axes: expected shape (3, N) with N >= 3 wheels, got {A.shape}")
+        n = A.shape[1]
+        norms = np.linalg.norm(A, axis=0)
+        bad = np.flatnonzero(np.abs(norms - 1.0) > 1e-9)
+        if bad.size:
+            raise ValueError(
+                f"axes: column {int(bad[0])} has norm {norms[bad[0]]:.6g}, expected unit vectors"
+            )
+        sv = np.linalg.svd(A, compute_uv=False)
+        if sv[-1] < 1e-6 * sv[0]:
+            raise ValueError(
+                f"axes: the spin axes do not span 3-D space (singular values {sv.tolist()})"
+            )
+        A.setflags(write=False)
+        Iw = _per_wheel(self.wheel_inertia, "wheel_inertia", n)
+        tmax = _per_wheel(self.max_torque, "max_torque", n)
+        wmax = _per_wheel(self.max_speed, "max_speed", n)
+        if self.initial_speeds is None:
+            w0 = np.zeros(n)
+        else:
+            w0 = np.array(as_array(self.initial_speeds, "initial_speeds", (n,)))
+            if w0.ndim not in (1, 2):
+                raise ValueError(
+                    f"initial_speeds: expected shape ({n},) or (B, {n}), got {w0.shape}"
+                )
+            if np.any(np.abs(w0) > wmax):
+                raise ValueError(
+                    f"initial_speeds: |Ω| = {np.abs(w0).max():.6g} rad/s exceeds max_speed"
+                )
+        w0.setflags(write=False)
+        pinv = A.T @ np.linalg.inv(A @ A.T)
+        AI = A * Iw  # h = Ω @ (A ∘ I_w)ᵀ
+        for arr in (pinv, AI):
+            arr.setflags(write=False)
+        for name, v in (
+            ("axes", A),
+            ("wheel_inertia", Iw),
+            ("max_torque", tmax),
+            ("max_speed", wmax),
+            ("initial_speeds", w0),
+            ("n_states", n),
+            ("_pinv", pinv),
+            ("_AI", AI),
+        ):
+            object.__setattr__(self, name, v)
+
+    @classmethod
+    def orthogonal(cls, **kwargs: Any) -> ReactionWheelAssembly:
+        """Three wheels along the body axes (keyword arguments as the constructor's)."""
+        return cls(orthogonal_wheel_axes(), **kwargs)
+
+    @classmethod
+    def pyramid(cls, beta: float = PYRAMID_ISOTROPIC_BETA, **kwargs: Any) -> ReactionWheelAssembly:
+        """Four wheels in a pyramid (:func:`pyramid_wheel_axes`)."""
+        return cls(pyramid_wheel_axes(beta), **kwargs)
+
+    @property
+    def n_wheels(self) -> int:
+        return int(self.n_states)
+
+    def initial_state(self, batch: int) -> np.ndarray:
+        batch = int(batch)
+        w0 = self.initial_speeds
+        if w0.ndim == 2 and w0.shape[0] != batch:
+            raise ValueError(
+                f"initial_speeds: has {w0.shape[0]} rows but the batch has {batch} spacecraft"
+            )
+        return np.broadcast_to(w0, (batch, self.n_states)).copy()
+
+    def _speed_gate(self, speed: np.ndarray, torque: np.ndarray) -> np.ndarray:
+        """True where a wheel at/over max speed would be pushed further by ``torque``."""
+        return (np.abs(speed) >= self.max_speed) & (speed * torque > 0.0)
+
+    def command(
+        self, u_cmd: np.ndarray, omega: np.ndarray, x_act: np.ndarray, t: float
+    ) -> WheelCommand:
+        h = x_act @ self._AI.T
+        h_dot_cmd = _cross(omega, h)
+        h_dot_cmd += u_cmd
+        np.negative(h_dot_cmd, out=h_dot_cmd)
+        tau_cmd = h_dot_cmd @ self._pinv.T
+        tau = np.clip(tau_cmd, -self.max_torque, self.max_torque)
+        torque_sat = np.abs(tau_cmd) > self.max_torque
+        speed_sat = self._speed_gate(x_act, tau)
+        tau[speed_sat] = 0.0
+        return WheelCommand(tau, tau_cmd, torque_sat, speed_sat, h_dot_cmd)
+
+    def _torque(self, x_act: np.ndarray, held: WheelCommand) -> np.ndarray:
+        tau = held.torque
+        gate = self._speed_gate(x_act, tau)
+        return np.where(gate, 0.0, tau) if gate.any() else tau
+
+    def state_derivative(self, x_act: np.ndarray, held: WheelCommand) -> np.ndarray:
+        return self._torque(x_act, held) / self.wheel_inertia
+
+    def body_torque(self, omega: np.ndarray, x_act: np.ndarray, held: WheelCommand) -> np.ndarray:
+        tau = _cross(omega, x_act @ self._AI.T)
+        tau += self._torque(x_act, held) @ self.axes.T
+        np.negative(tau, out=tau)
+        return tau
+
+    def momentum(self, x_act: np.ndarray) -> np.ndarray:
+        return x_act @ self._AI.T
+
+    def log(self, x_act: np.ndarray, held: WheelCommand) -> dict[str, np.ndarray]:
+        """Wheel speeds, delivered and commanded torques and the limit flags, ``(B, N)``."""
+        return {
+            "wheel_speed": x_act,
+            "wheel_torque": held.torque,
+            "wheel_torque_cmd": held.torque_cmd,
+            "torque_saturated": held.torque_saturated,
+            "speed_saturated": held.speed_saturated,
+            "saturated": held.torque_saturated | held.speed_saturated,
+        }
+
+    def derived_log(self, log: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """``h`` (K, B, 3) [N·m·s] from the logged wheel speeds."""
+        return {"h": log["wheel_speed"] @ self._AI.T}

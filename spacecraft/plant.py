@@ -1,7 +1,10 @@
-"""The attitude plant: rigid body + actuator + disturbances, RKMK4-integrated (SPEC §5.1, §5.8).
+"""The attitude plant: rigid body + actuator + disturbances (+ flexible modes), RKMK4-integrated
+(SPEC §5.1, §5.4, §5.8).
 
-State ``(R, ω, x_act)`` with ``R ∈ SO(3)`` (body → inertial), body rate ``ω`` and the actuator's
-states ``x_act`` (gimbal angles for the SGCMG pyramid). Equations (SPEC §5.1):
+State ``(R, ω, x_act[, q, q̇])`` with ``R ∈ SO(3)`` (body → inertial), body rate ``ω``, the
+actuator's states ``x_act`` (gimbal angles for the SGCMG pyramid) and, with flexible appendages
+(:class:`spacecraft.flexible.FlexibleModes`), the modal coordinates ``q`` and rates ``q̇``.
+Rigid equations (SPEC §5.1):
 
     Ṙ = R ω^,
     J ω̇ = −ω × J ω + u(ω, x_act, held) + T_d(t, R, ω),
@@ -9,13 +12,18 @@ states ``x_act`` (gimbal angles for the SGCMG pyramid). Equations (SPEC §5.1):
 
 with ``u`` the actuator's internal torque on the bus (for the CMG cluster ``u = −A(δ) δ̇ − ω ×
 h(δ)``, which is the momentum form ``J ω̇ + ω × (J ω + h) = −ḣ + T_d``). ``held`` is the actuator
-command held over the step (see :mod:`spacecraft.actuators`). The Lie-group integrator RKMK4
+command held over the step (see :mod:`spacecraft.actuators`). With flexible modes the body
+equation becomes the hybrid-coordinate pair of SPEC §5.4 (see :mod:`spacecraft.flexible`),
+solved through the Schur complement ``J − BᵀB`` precomputed here. The Lie-group integrator RKMK4
 (SPEC §3.3) keeps ``R`` on SO(3) to round-off.
+
+Packed ℝⁿ state of the integrator (:meth:`PlantState.packed`): ``(ω, x_act, q, q̇)``, i.e. columns
+``[0:3]``, ``Spacecraft.act_slice``, ``Spacecraft.q_slice``, ``Spacecraft.q_dot_slice``.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -25,6 +33,7 @@ from liecontrol.integrators.rk import rkmk4_step, rkmk4_step_unchecked
 
 from .actuators import Actuator
 from .disturbances import DisturbanceSource
+from .flexible import FlexibleModes
 from .rigid_body import RigidBody
 
 __all__ = ["PlantState", "Spacecraft"]
@@ -38,35 +47,51 @@ class PlantState:
         R: ``(B, 3, 3)`` attitude, body → inertial.
         omega: ``(B, 3)`` body angular velocity [rad/s].
         x_act: ``(B, n)`` actuator states (``n = actuator.n_states``; gimbal angles [rad]).
+        q: ``(B, N)`` modal coordinates of the flexible appendages [√(kg)·m], or ``None``
+            (no modes; for a plant with modes ``None`` means undeformed, ``q = 0``).
+        q_dot: ``(B, N)`` modal rates, or ``None`` (zero).
     """
 
     R: np.ndarray
     omega: np.ndarray
     x_act: np.ndarray
+    q: np.ndarray | None = None
+    q_dot: np.ndarray | None = None
 
     @property
     def batch_size(self) -> int:
         return int(self.R.shape[0])
 
     def packed(self) -> np.ndarray:
-        """``(B, 3 + n)``: ``ω`` then ``x_act`` — the ℝⁿ part of the integrator's state."""
-        return np.concatenate([self.omega, self.x_act], axis=-1)
+        """``(B, 3 + n [+ 2N])``: ``ω``, ``x_act``, then ``q`` and ``q̇`` if present — the ℝⁿ
+        part of the integrator's state."""
+        parts = [self.omega, self.x_act]
+        if self.q is not None or self.q_dot is not None:
+            ref = self.q if self.q is not None else self.q_dot
+            parts.append(np.zeros(ref.shape) if self.q is None else self.q)
+            parts.append(np.zeros(ref.shape) if self.q_dot is None else self.q_dot)
+        return np.concatenate(parts, axis=-1)
 
 
 @dataclass(frozen=True, eq=False)
 class Spacecraft:
-    """Rigid spacecraft with one actuator and optional disturbance torque (SPEC §5.1).
+    """Rigid spacecraft with one actuator, optional disturbance torque and optional flexible
+    appendage modes (SPEC §5.1, §5.4).
 
     Args:
-        body: the rigid body (inertia).
+        body: the rigid body (inertia ``J`` of the whole spacecraft).
         actuator: e.g. :class:`spacecraft.actuators.SgcmgActuator` or
             :class:`spacecraft.actuators.IdealTorqueActuator`.
         disturbance: a callable ``(t, R, omega) -> (B, 3)`` body torque [N·m], or ``None``.
+        modes: :class:`spacecraft.flexible.FlexibleModes`, or ``None`` (rigid). Validated
+            against ``body``: ``J − BᵀB`` must be positive definite.
     """
 
     body: RigidBody
     actuator: Actuator
     disturbance: DisturbanceSource | None = None
+    modes: FlexibleModes | None = None
+    _Js_inv: np.ndarray | None = field(init=False, repr=False, default=None)
 
     def __post_init__(self) -> None:
         if not isinstance(self.body, RigidBody):
@@ -76,10 +101,55 @@ class Spacecraft:
                 raise ValueError(f"actuator: has no method {name}() (see spacecraft.actuators)")
         if self.disturbance is not None and not callable(self.disturbance):
             raise ValueError("disturbance: must be callable as (t, R, omega) -> (B, 3)")
+        if self.modes is not None:
+            if not isinstance(self.modes, FlexibleModes):
+                raise ValueError(
+                    f"modes: expected FlexibleModes or None, got {type(self.modes).__name__}"
+                )
+            Js_inv = np.linalg.inv(self.modes.schur_inertia(self.body.J))
+            Js_inv = 0.5 * (Js_inv + Js_inv.T)
+            Js_inv.setflags(write=False)
+            object.__setattr__(self, "_Js_inv", Js_inv)
 
     @property
     def n_act(self) -> int:
         return int(self.actuator.n_states)
+
+    @property
+    def n_modes(self) -> int:
+        """Number of flexible modes ``N`` (0 for a rigid spacecraft)."""
+        return 0 if self.modes is None else self.modes.n_modes
+
+    @property
+    def n_x(self) -> int:
+        """Width of the packed ℝⁿ state ``(ω, x_act, q, q̇)``: ``3 + n_act + 2 N``."""
+        return 3 + self.n_act + 2 * self.n_modes
+
+    @property
+    def act_slice(self) -> slice:
+        return slice(3, 3 + self.n_act)
+
+    @property
+    def q_slice(self) -> slice:
+        a = 3 + self.n_act
+        return slice(a, a + self.n_modes)
+
+    @property
+    def q_dot_slice(self) -> slice:
+        a = 3 + self.n_act + self.n_modes
+        return slice(a, a + self.n_modes)
+
+    def unpack(self, R: np.ndarray, x: np.ndarray) -> PlantState:
+        """:class:`PlantState` of the packed arrays (views into ``x``)."""
+        if self.modes is None:
+            return PlantState(R=R, omega=x[:, :3], x_act=x[:, self.act_slice])
+        return PlantState(
+            R=R,
+            omega=x[:, :3],
+            x_act=x[:, self.act_slice],
+            q=x[:, self.q_slice],
+            q_dot=x[:, self.q_dot_slice],
+        )
 
     # -- states --------------------------------------------------------------------------------
 
@@ -89,11 +159,14 @@ class Spacecraft:
         omega0: object | None = None,
         x_act0: object | None = None,
         batch: int | None = None,
+        q0: object | None = None,
+        q_dot0: object | None = None,
     ) -> PlantState:
         """Validated initial state.
 
         ``R0`` is ``(3, 3)`` or ``(B, 3, 3)``; ``omega0`` ``(3,)`` or ``(B, 3)`` (default zero);
-        ``x_act0`` ``(n,)`` or ``(B, n)`` (default ``actuator.initial_state``). The batch size is
+        ``x_act0`` ``(n,)`` or ``(B, n)`` (default ``actuator.initial_state``); with flexible
+        modes ``q0`` and ``q_dot0`` ``(N,)`` or ``(B, N)`` (default zero). The batch size is
         ``batch`` if given, else the largest leading dimension found; single arrays broadcast.
         """
         R0 = check_rotation_matrix(R0, "R0")
@@ -106,12 +179,27 @@ class Spacecraft:
         xa = None if x_act0 is None else as_array(x_act0, "x_act0", (n,))
         if xa is not None and xa.ndim not in (1, 2):
             raise ValueError(f"x_act0: expected shape ({n},) or (B, {n}), got {xa.shape}")
+        N = self.n_modes
+        modal = {}
+        for name, v in (("q0", q0), ("q_dot0", q_dot0)):
+            if v is None:
+                modal[name] = None
+                continue
+            if N == 0:
+                raise ValueError(f"{name}: the spacecraft has no flexible modes")
+            a = as_array(v, name, (N,))
+            if a.ndim not in (1, 2):
+                raise ValueError(f"{name}: expected shape ({N},) or (B, {N}), got {a.shape}")
+            modal[name] = a
         sizes = {R0.shape[0]} if R0.ndim == 3 else set()
-        sizes |= {a.shape[0] for a in (w0, xa) if a is not None and a.ndim == 2}
+        arrays = (w0, xa, modal["q0"], modal["q_dot0"])
+        sizes |= {a.shape[0] for a in arrays if a is not None and a.ndim == 2}
         if batch is not None:
             sizes.add(int(batch))
         if len(sizes) > 1:
-            raise ValueError(f"R0: batch sizes of R0/omega0/x_act0/batch disagree: {sorted(sizes)}")
+            raise ValueError(
+                f"R0: batch sizes of R0/omega0/x_act0/q0/q_dot0/batch disagree: {sorted(sizes)}"
+            )
         B = sizes.pop() if sizes else 1
         if B < 1:
             raise ValueError(f"batch: must be >= 1, got {B}")
@@ -125,10 +213,17 @@ class Spacecraft:
                 )
         else:
             xa = np.broadcast_to(xa, (B, n)).copy()
-        return PlantState(R=R, omega=w, x_act=xa)
+        if N == 0:
+            return PlantState(R=R, omega=w, x_act=xa)
+        q, qd = (
+            np.zeros((B, N)) if a is None else np.broadcast_to(a, (B, N)).copy()
+            for a in (modal["q0"], modal["q_dot0"])
+        )
+        return PlantState(R=R, omega=w, x_act=xa, q=q, q_dot=qd)
 
     def check_state(self, state: PlantState, name: str = "initial_state") -> PlantState:
-        """Validate a :class:`PlantState` (shapes, finiteness, rotation matrices)."""
+        """Validate a :class:`PlantState` (shapes, finiteness, rotation matrices). With flexible
+        modes, missing ``q``/``q_dot`` are filled with zeros."""
         if not isinstance(state, PlantState):
             raise ValueError(f"{name}: expected a PlantState, got {type(state).__name__}")
         R = check_rotation_matrix(state.R, f"{name}.R")
@@ -141,7 +236,21 @@ class Spacecraft:
         xa = as_array(state.x_act, f"{name}.x_act")
         if xa.shape != (B, self.n_act):
             raise ValueError(f"{name}.x_act: expected shape {(B, self.n_act)}, got {xa.shape}")
-        return PlantState(R=R, omega=w, x_act=xa)
+        N = self.n_modes
+        if N == 0:
+            for attr in ("q", "q_dot"):
+                v = getattr(state, attr)
+                if v is not None and np.size(v) > 0:
+                    raise ValueError(f"{name}.{attr}: the spacecraft has no flexible modes")
+            return PlantState(R=R, omega=w, x_act=xa)
+        modal = []
+        for attr in ("q", "q_dot"):
+            v = getattr(state, attr)
+            a = np.zeros((B, N)) if v is None else as_array(v, f"{name}.{attr}")
+            if a.shape != (B, N):
+                raise ValueError(f"{name}.{attr}: expected shape {(B, N)}, got {a.shape}")
+            modal.append(a)
+        return PlantState(R=R, omega=w, x_act=xa, q=modal[0], q_dot=modal[1])
 
     # -- physics -------------------------------------------------------------------------------
 
@@ -149,10 +258,28 @@ class Spacecraft:
         """Stored actuator momentum ``h`` in body axes ``(B, 3)`` [N·m·s]."""
         return self.actuator.momentum(state.x_act)
 
+    def body_frame_momentum(self, state: PlantState) -> np.ndarray:
+        """Total angular momentum in body axes ``J ω + Bᵀ q̇ + h`` ``(B, 3)`` [N·m·s]."""
+        H = self.body.body_momentum(state.omega, self.actuator_momentum(state))
+        if self.modes is not None and state.q_dot is not None:
+            H = H + self.modes.momentum(state.q_dot)
+        return H
+
     def inertial_momentum(self, state: PlantState) -> np.ndarray:
-        """Total angular momentum in inertial axes ``R (J ω + h)`` ``(B, 3)`` [N·m·s] — constant
-        without disturbance, whatever the controller and steering law do."""
-        return self.body.inertial_momentum(state.R, state.omega, self.actuator_momentum(state))
+        """Total angular momentum in inertial axes ``R (J ω + Bᵀ q̇ + h)`` ``(B, 3)`` [N·m·s] —
+        constant without disturbance, whatever the controller and steering law do."""
+        return np.einsum("...ij,...j->...i", state.R, self.body_frame_momentum(state))
+
+    def mechanical_energy(self, state: PlantState) -> np.ndarray:
+        """Body + appendage energy ``½ωᵀJω + ωᵀBᵀq̇ + ½|q̇|² + ½qᵀΛ²q`` ``(B,)`` [J] (without
+        the actuator's rotor energy). Without actuator torque and disturbance it only decreases,
+        by ``2 q̇ᵀζΛq̇`` per second (:mod:`spacecraft.flexible`)."""
+        E = self.body.kinetic_energy(state.omega)
+        if self.modes is not None and state.q is not None:
+            qd = state.q_dot
+            E = E + np.einsum("...i,...i->...", state.omega, self.modes.momentum(qd))
+            E = E + self.modes.modal_energy(state.q, qd).sum(axis=-1)
+        return E
 
     def disturbance_torque(self, t: float, R: np.ndarray, omega: np.ndarray) -> np.ndarray:
         """External torque ``T_d`` ``(B, 3)`` [N·m] (zeros without a disturbance model)."""
@@ -163,20 +290,33 @@ class Spacecraft:
     def derivatives(
         self, t: float, R: np.ndarray, x: np.ndarray, held: Any
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Right-hand side for RKMK4: ``(ω, ẋ)`` with ``Ṙ = R ω^`` and ``x = (ω, x_act)``.
+        """Right-hand side for RKMK4: ``(ω, ẋ)`` with ``Ṙ = R ω^`` and ``x = (ω, x_act, q, q̇)``.
 
-        ``x`` is ``(B, 3 + n)``; returns body rate ``(B, 3)`` and ``ẋ = (ω̇, ẋ_act)``.
+        ``x`` is ``(B, n_x)``; returns body rate ``(B, 3)`` and ``ẋ = (ω̇, ẋ_act, q̇, q̈)``.
         """
         omega = x[:, :3]
-        x_act = x[:, 3:]
         act = self.actuator
+        modes = self.modes
+        if modes is None:
+            x_act = x[:, 3:]
+        else:
+            x_act = x[:, self.act_slice]
         tau = act.body_torque(omega, x_act, held)
         if self.disturbance is not None:
             tau = tau + self.disturbance(t, R, omega)
         x_dot = np.empty(x.shape)
-        x_dot[:, :3] = self.body.angular_acceleration(omega, tau)
-        if x.shape[1] > 3:
-            x_dot[:, 3:] = act.state_derivative(x_act, held)
+        if modes is None:
+            x_dot[:, :3] = self.body.angular_acceleration(omega, tau)
+        else:
+            q_dot = x[:, self.q_dot_slice]
+            w_dot, q_ddot = modes.accelerations(
+                omega, x[:, self.q_slice], q_dot, tau, self.body.J, self._Js_inv
+            )
+            x_dot[:, :3] = w_dot
+            x_dot[:, self.q_slice] = q_dot
+            x_dot[:, self.q_dot_slice] = q_ddot
+        if x_act.shape[1] > 0:
+            x_dot[:, 3 : 3 + x_act.shape[1]] = act.state_derivative(x_act, held)
         return omega, x_dot
 
     def command(self, u_cmd: np.ndarray, state: PlantState, t: float) -> Any:
@@ -186,8 +326,8 @@ class Spacecraft:
     def step_packed(
         self, t: float, R: np.ndarray, x: np.ndarray, held: Any, h: float
     ) -> tuple[np.ndarray, np.ndarray]:
-        """One RKMK4 step on packed arrays ``x = (ω, x_act)`` — the simulator's hot path: no
-        validation, and a non-finite state is returned as is (the simulator checks)."""
+        """One RKMK4 step on packed arrays ``x = (ω, x_act, q, q̇)`` — the simulator's hot path:
+        no validation, and a non-finite state is returned as is (the simulator checks)."""
         derivatives = self.derivatives
 
         def f(tt: float, RR: np.ndarray, xx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -207,5 +347,6 @@ class Spacecraft:
         def f(tt: float, RR: np.ndarray, xx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             return derivatives(tt, RR, xx, held)
 
+        state = self.check_state(state, "state")
         R, x = rkmk4_step(f, t, state.R, state.packed(), h)
-        return PlantState(R=R, omega=x[:, :3], x_act=x[:, 3:])
+        return self.unpack(R, x)

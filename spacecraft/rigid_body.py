@@ -16,9 +16,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from liecontrol._validation import as_array, check_inertia
+from liecontrol._validation import as_array, check_inertia, check_nonnegative, check_positive
+from liecontrol.lie import so3
 
-__all__ = ["RigidBody"]
+__all__ = ["RigidBody", "perturbed_inertia"]
 
 
 _P1 = np.array([1, 2, 0])
@@ -155,3 +156,92 @@ class RigidBody:
         """Rotational kinetic energy of the bus ``½ ωᵀ J ω`` [J], shape ``(...)``."""
         omega = as_array(omega, "omega", (3,))
         return 0.5 * np.einsum("...i,...i->...", omega @ self.J, omega)
+
+
+# -- parameter uncertainty (SPEC §5.4) -------------------------------------------------------------
+
+
+def _physical(lam: np.ndarray, rtol: float = 1e-9) -> np.ndarray:
+    """Which principal-moment triples ``(..., 3)`` are positive and satisfy the triangle
+    inequality (each moment ≤ the sum of the other two)."""
+    s = lam.sum(axis=-1, keepdims=True)
+    return np.all(lam > 0, axis=-1) & np.all(2.0 * lam <= s * (1.0 + rtol), axis=-1)
+
+
+def perturbed_inertia(
+    J: object,
+    rng: np.random.Generator,
+    scale_std: float = 0.0,
+    axis_std: float = 0.0,
+    scale: float = 1.0,
+    size: int | None = None,
+    max_tries: int = 100,
+) -> np.ndarray:
+    """An inertia the controller believes in, differing from the plant's ``J`` (SPEC §5.4,
+    parameter uncertainty).
+
+    With ``J = Q diag(λ) Qᵀ`` (principal axes ``Q``, moments ``λ``):
+
+        Ĵ = scale · Q_δ Q diag(λ ∘ (1 + ε)) Qᵀ Q_δᵀ,   ε_i ~ N(0, scale_std²),
+        Q_δ = exp(δ^), δ ~ N(0, axis_std² I)
+
+    i.e. each principal moment is scaled by an independent factor, the principal axes are
+    turned by a random rotation of about ``axis_std`` [rad] per axis, and the whole matrix is
+    scaled by ``scale`` (a deterministic bias, e.g. 1.1 for a 10 % overestimate). Draws whose
+    moments are not physical (non-positive or violating the triangle inequality) are redrawn,
+    so for large ``scale_std`` the distribution is truncated (documented, not silent:
+    ``ValueError`` if ``max_tries`` rounds do not suffice).
+
+    Args:
+        J: the true inertia ``(3, 3)`` [kg·m²] (validated).
+        rng: seeded ``numpy.random.Generator``.
+        scale_std: std of the relative error of each principal moment (≥ 0, < 1).
+        axis_std: std of the principal-axis misalignment per axis [rad] (≥ 0).
+        scale: overall factor (> 0).
+        size: ``None`` for one ``(3, 3)`` matrix, else the number of draws ``(size, 3, 3)``.
+        max_tries: redraw rounds for unphysical draws.
+
+    Returns:
+        Symmetric positive-definite inertia(s) satisfying the triangle inequality.
+
+    Example:
+        >>> J_hat = perturbed_inertia(np.diag([520.0, 450.0, 660.0]),
+        ...                           np.random.default_rng(0), scale_std=0.1)
+        >>> J_hat.shape
+        (3, 3)
+    """
+    J = check_inertia(J, "J")
+    if J.shape != (3, 3):
+        raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+    if not isinstance(rng, np.random.Generator):
+        raise ValueError(f"rng: expected numpy.random.Generator, got {type(rng).__name__}")
+    scale_std = check_nonnegative(scale_std, "scale_std")
+    axis_std = check_nonnegative(axis_std, "axis_std")
+    scale = check_positive(scale, "scale")
+    for name, v in (("scale_std", scale_std), ("axis_std", axis_std), ("scale", scale)):
+        if not isinstance(v, float):
+            raise ValueError(f"{name}: expected a scalar, got shape {np.shape(v)}")
+    if scale_std >= 1.0:
+        raise ValueError(f"scale_std: must be < 1 (a relative error), got {scale_std}")
+    if size is not None and (isinstance(size, bool) or int(size) != size or size < 1):
+        raise ValueError(f"size: must be None or a positive integer, got {size!r}")
+    if isinstance(max_tries, bool) or int(max_tries) != max_tries or max_tries < 1:
+        raise ValueError(f"max_tries: must be a positive integer, got {max_tries!r}")
+    n = 1 if size is None else int(size)
+    lam, Q = np.linalg.eigh(0.5 * (J + J.T))
+    factors = 1.0 + scale_std * rng.standard_normal((n, 3))
+    bad = ~_physical(lam * factors)
+    tries = 1
+    while np.any(bad):
+        if tries >= int(max_tries):
+            raise ValueError(
+                f"scale_std: {scale_std} too large for J, {int(bad.sum())} draw(s) still "
+                f"unphysical after {tries} tries"
+            )
+        factors[bad] = 1.0 + scale_std * rng.standard_normal((int(bad.sum()), 3))
+        bad = ~_physical(lam * factors)
+        tries += 1
+    Qd = so3.exp(axis_std * rng.standard_normal((n, 3))) @ Q
+    out = scale * np.einsum("bij,bj,bkj->bik", Qd, lam * factors, Qd)
+    out = 0.5 * (out + np.swapaxes(out, -1, -2))
+    return out[0] if size is None else out

@@ -57,7 +57,7 @@ from liecontrol.integrators.lgvi_se3 import SE3RigidBodyLGVI
 from liecontrol.integrators.rkmk_se3 import rkmk4_se3_step_unchecked
 from liecontrol.lie import se3, so3
 
-from .orbit import MU_EARTH, R_EARTH, CircularOrbit, gravity_acceleration, gravity_potential
+from .orbit import MU_EARTH, R_EARTH, CircularOrbit, gravity_potential, j2_acceleration
 
 try:  # the attitude simulator's exception, so callers catch one type for both loops
     from .simulator import SimulationDiverged
@@ -99,6 +99,13 @@ def _mtv(A: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.einsum("...ji,...j->...i", A, b)
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b on ``(..., 3)`` arrays without np.cross's axis handling (hot path)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack((a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), axis=-1)
+
+
 def full_body_gravity(
     R: np.ndarray,
     p: np.ndarray,
@@ -111,19 +118,24 @@ def full_body_gravity(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Gravity on a rigid body: inertial force f_g ``(..., 3)`` [N] and body torque τ_g
     ``(..., 3)`` [N·m] (module docstring). ``R`` ``(..., 3, 3)``, ``p`` ``(..., 3)`` inertial."""
-    p = as_array(p, "p", (3,))
-    f = m * gravity_acceleration(p, mu, J2, R_e)
+    p = np.asarray(p, dtype=np.float64)
+    r = np.sqrt(np.sum(p * p, axis=-1))[..., None]
+    if np.any(r <= 0.0):
+        raise ValueError("p: zero position vector (gravity is singular at the centre)")
+    # point mass inline (the simulator's hot path); J2 from spacecraft.orbit
+    f = (-mu * m) * p / r**3
+    if J2 != 0.0:
+        f = f + m * j2_acceleration(p, mu, J2, R_e)
     if not gravity_gradient:
         return f, np.zeros(f.shape)
     R = np.asarray(R, dtype=np.float64)
-    r = np.linalg.norm(p, axis=-1)[..., None]
     c = _mtv(R, p) / r  # unit position in body axes
     Jc = c @ J.T
     JIp = _mv(R, Jc) * r  # J_I p = R J Rᵀ p
     cJc = np.sum(c * Jc, axis=-1)[..., None]  # pᵀJ_I p / r²
     k = mu / r**5
     f = f - 1.5 * k * np.trace(J) * p - 3.0 * k * JIp + 7.5 * k * cJc * p
-    tau = 3.0 * mu / r**3 * np.cross(c, Jc)
+    tau = (3.0 * mu) / r**3 * _cross(c, Jc)
     return f, tau
 
 
@@ -257,7 +269,13 @@ class SE3Plant:
         """U(p, R) [J], ``(...)``."""
         g = se3.validate(g, "g")
         return full_body_potential(
-            g[..., :3, :3], g[..., :3, 3], self.m, self.J, self.mu, self.J2, self.R_e,
+            g[..., :3, :3],
+            g[..., :3, 3],
+            self.m,
+            self.J,
+            self.mu,
+            self.J2,
+            self.R_e,
             self.gravity_gradient,
         )
 
@@ -273,7 +291,7 @@ class SE3Plant:
         g = se3.validate(g, "g")
         xi = as_array(xi, "xi", (6,))
         R, p = g[..., :3, :3], g[..., :3, 3]
-        return np.cross(p, self.m * _mv(R, xi[..., 3:])) + _mv(R, xi[..., :3] @ self.J.T)
+        return _cross(p, self.m * _mv(R, xi[..., 3:])) + _mv(R, xi[..., :3] @ self.J.T)
 
     # -- dynamics ------------------------------------------------------------------------------
 
@@ -330,8 +348,10 @@ class SE3Plant:
         g = se3.validate(g, "g")
         xi = as_array(xi, "xi", (6,))
         if g.ndim != 3 or xi.shape != (g.shape[0], 6):
-            raise ValueError(f"xi: expected shape ({g.shape[0] if g.ndim == 3 else 'B'}, 6) "
-                             f"with g (B, 4, 4), got g {g.shape}, xi {xi.shape}")
+            raise ValueError(
+                f"xi: expected shape ({g.shape[0] if g.ndim == 3 else 'B'}, 6) "
+                f"with g (B, 4, 4), got g {g.shape}, xi {xi.shape}"
+            )
         return g, xi
 
     def step(
@@ -403,9 +423,7 @@ class DockingReference:
 
     def __call__(self, t: float) -> PoseReference:
         xi_d = self.xi_d
-        return PoseReference(
-            g_d=self.target.pose(t) @ self.g_rel, xi_d=xi_d, xi_dot_d=np.zeros(6)
-        )
+        return PoseReference(g_d=self.target.pose(t) @ self.g_rel, xi_d=xi_d, xi_dot_d=np.zeros(6))
 
     def offset_state(
         self, t: float, rotvec: object, position: object
@@ -571,8 +589,9 @@ def simulate_pose(
             if k < n_steps or cmd is None:
                 cmd = np.asarray(controller.command(t, PoseState(g, xi), ref), dtype=np.float64)
                 if cmd.shape != (B, 6):
-                    raise ValueError(f"controller: command returned shape {cmd.shape}, "
-                                     f"expected {(B, 6)}")
+                    raise ValueError(
+                        f"controller: command returned shape {cmd.shape}, expected {(B, 6)}"
+                    )
                 u, sat = plant.actuator.apply(cmd)
                 diag = controller.diagnostics()
         if k % log_every == 0 or k == n_steps:
@@ -591,7 +610,8 @@ def simulate_pose(
             ) from exc
         if not (np.isfinite(g_new).all() and np.isfinite(xi_new).all()):
             raise SimulationDiverged(
-                f"simulate_pose: non-finite state at t = {t + dt!r}", t + dt,
+                f"simulate_pose: non-finite state at t = {t + dt!r}",
+                t + dt,
                 log.result(dt, period),
             )
         g, xi = g_new, xi_new

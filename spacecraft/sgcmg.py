@@ -153,7 +153,11 @@ class SgcmgPyramid:
     def singularity_measure_and_gradient(self, delta: object) -> tuple[np.ndarray, np.ndarray]:
         """``(m, ∂m/∂δ)`` with shapes ``(...)`` and ``(..., 4)``; see the module docstring for
         the adjugate formula. The gradient is finite everywhere (0 at an exact singularity)."""
-        d = as_array(delta, "delta", (4,))
+        return self._measure_and_gradient(as_array(delta, "delta", (4,)))
+
+    def _measure_and_gradient(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`singularity_measure_and_gradient` without validation (steering hot path):
+        ``d`` a finite float64 ``(..., 4)`` array."""
         sn, cs = np.sin(d), np.cos(d)
         S, C = self._S, self._C
         # Row-wise (x, y, z components as (..., 4) arrays): elementwise ops on flat arrays are

@@ -1,10 +1,16 @@
-"""Fixed-step closed-loop simulator (SPEC §5.8).
+"""Fixed-step multi-rate closed-loop simulator (SPEC §5.8).
 
 One step of length ``dt`` from ``t_k = t0 + k dt``:
 
-1. if ``k`` is a multiple of ``control_period / dt``: the controller is sampled,
-   ``u_cmd = controller.command(t_k, AttitudeState(R, ω, h), reference(t_k))`` and held
+0. every sensor whose period divides ``k dt`` (``k`` a multiple of ``sensor.period / dt``) is
+   sampled, ``y = sensor.measure(t_k, R, ω, rng)`` on the true state, and its output is held
    (zero-order hold) until its next sample;
+1. if ``k`` is a multiple of ``control_period / dt``: the controller is sampled,
+   ``u_cmd = controller.command(t_k, state, reference(t_k))`` and held (zero-order hold) until
+   its next sample. ``state`` is the true ``AttitudeState(R, ω, h)``, or, with a
+   ``measurement`` hook, ``measurement(t_k, held sensor outputs, truth)`` (e.g.
+   :class:`StarTrackerGyro`: attitude from the star tracker, rate from the gyro). Sensors
+   sampled at ``t_k`` are seen by the controller at ``t_k`` (no extra latency);
 2. the actuator turns the held torque command into its hardware command (for the SGCMG cluster:
    steering law + gimbal-rate limit), held over the step;
 3. the plant ``(R, ω, x_act)`` is advanced with RKMK4 (:meth:`spacecraft.plant.Spacecraft.step`);
@@ -12,10 +18,11 @@ One step of length ``dt`` from ``t_k = t0 + k dt``:
    integration step — overflow, ``math`` domain error — chained as the cause) stops the run
    with :class:`SimulationDiverged` (partial log attached).
 
-Every ``log_every`` steps (and at the final time) one row is logged: the state at ``t_k`` and
-the commands applied from ``t_k`` on. The controller sees the true state for now (sensors come
-with SPEC §5.7). Batched: ``B`` spacecraft run in lock-step in one set of arrays; controllers with
-``batched = False`` are stepped per spacecraft (one deep copy each).
+Every ``log_every`` steps (and at the final time) one row is logged: the state at ``t_k`` (with
+flexible modes: ``q``, ``q̇`` and the modal energies), the held sensor outputs, the state the
+controller was given and the commands applied from ``t_k`` on. Batched: ``B`` spacecraft run in
+lock-step in one set of arrays; controllers with ``batched = False`` are stepped per spacecraft
+(one deep copy each).
 """
 
 from __future__ import annotations
@@ -23,7 +30,7 @@ from __future__ import annotations
 import copy
 import math
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -31,18 +38,30 @@ from typing import Any
 import numpy as np
 
 from liecontrol._validation import check_positive
+from liecontrol.charts import euler, quaternion
 from liecontrol.control.base import AttitudeController, AttitudeReference, AttitudeState
 from liecontrol.lie import so3
 
 from .disturbances import SumOfDisturbances
 from .plant import PlantState, Spacecraft
 
-__all__ = ["SimulationDiverged", "SimulationResult", "simulate"]
+__all__ = ["SimulationDiverged", "SimulationResult", "StarTrackerGyro", "simulate"]
 
 #: relative tolerance on control_period / dt being an integer
 _PERIOD_RTOL = 1e-9
 
 _COLUMN_RE = re.compile(r"^(.*?)((?:\[\d+\])*)$")
+_NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+
+#: dictionary groups of the log: (SimulationResult attribute, CSV column prefix)
+_DICT_GROUPS = (
+    ("actuator", "actuator"),
+    ("controller", "controller"),
+    ("disturbance_components", "disturbance"),
+    ("modes", "modes"),
+    ("sensors", "sensor"),
+    ("estimate", "estimate"),
+)
 
 
 class SimulationDiverged(RuntimeError):
@@ -81,6 +100,11 @@ class SimulationResult:
         control_period: controller sampling period [s].
         disturbance_components: per-source torques ``(K, B, 3)`` when the plant's disturbance
             is a :class:`spacecraft.disturbances.SumOfDisturbances`, else empty.
+        modes: with flexible modes: ``q``, ``q_dot`` ``(K, B, N)`` and the per-mode energy
+            ``energy`` ``(K, B, N)`` [J] (``½(q̇² + λ²q²)``), else empty.
+        sensors: each sensor's held output ``(K, B, ...)`` by name, else empty.
+        estimate: with a ``measurement`` hook, the state the controller was last given:
+            ``R`` ``(K, B, 3, 3)``, ``omega`` ``(K, B, 3)``; else empty (it saw the truth).
     """
 
     t: np.ndarray
@@ -96,6 +120,9 @@ class SimulationResult:
     dt: float
     control_period: float
     disturbance_components: dict[str, np.ndarray] = field(default_factory=dict)
+    modes: dict[str, np.ndarray] = field(default_factory=dict)
+    sensors: dict[str, np.ndarray] = field(default_factory=dict)
+    estimate: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def n_samples(self) -> int:
@@ -131,9 +158,7 @@ class SimulationResult:
             u_cmd=self.u_cmd[:, s],
             u=self.u[:, s],
             disturbance=self.disturbance[:, s],
-            actuator=sel(self.actuator),
-            controller=sel(self.controller),
-            disturbance_components=sel(self.disturbance_components),
+            **{attr: sel(getattr(self, attr)) for attr, _ in _DICT_GROUPS},
         )
 
     # -- export --------------------------------------------------------------------------------
@@ -148,9 +173,8 @@ class SimulationResult:
             ("u", self.u),
             ("disturbance", self.disturbance),
         ]
-        out += [(f"actuator.{k}", v) for k, v in self.actuator.items()]
-        out += [(f"controller.{k}", v) for k, v in self.controller.items()]
-        out += [(f"disturbance.{k}", v) for k, v in self.disturbance_components.items()]
+        for attr, prefix in _DICT_GROUPS:
+            out += [(f"{prefix}.{k}", v) for k, v in getattr(self, attr).items()]
         return out
 
     def columns(self, batch_index: int = 0) -> dict[str, np.ndarray]:
@@ -228,11 +252,7 @@ class SimulationResult:
             for index, col in entries:
                 a[(slice(None), 0) + index] = col
             arrays[base] = a.astype(bool) if base in bools else a
-        sub: dict[str, dict[str, np.ndarray]] = {
-            "actuator": {},
-            "controller": {},
-            "disturbance": {},
-        }
+        sub: dict[str, dict[str, np.ndarray]] = {prefix: {} for _, prefix in _DICT_GROUPS}
         for key, arr in arrays.items():
             prefix, dot, rest = key.partition(".")
             if dot and prefix in sub:
@@ -246,11 +266,9 @@ class SimulationResult:
             u_cmd=arrays["u_cmd"],
             u=arrays["u"],
             disturbance=arrays["disturbance"],
-            actuator=sub["actuator"],
-            controller=sub["controller"],
             dt=float(m.group(1)),
             control_period=float(m.group(2)),
-            disturbance_components=sub["disturbance"],
+            **{attr: sub[prefix] for attr, prefix in _DICT_GROUPS},
         )
 
 
@@ -267,11 +285,7 @@ class _Log:
         self.u_cmd = np.empty((K, B, 3))
         self.u = np.empty((K, B, 3))
         self.disturbance = np.empty((K, B, 3))
-        self.dicts: dict[str, dict[str, np.ndarray]] = {
-            "actuator": {},
-            "controller": {},
-            "disturbance": {},
-        }
+        self.dicts: dict[str, dict[str, np.ndarray]] = {attr: {} for attr, _ in _DICT_GROUPS}
         self.rows = 0
 
     def put_dict(self, which: str, row: int, values: dict[str, Any]) -> None:
@@ -288,12 +302,15 @@ class _Log:
                 store[key] = arr
             arr[row] = v
 
-    def result(self, dt: float, control_period: float, actuator: Any) -> SimulationResult:
+    def result(self, dt: float, control_period: float, plant: Spacecraft) -> SimulationResult:
         n = self.rows
         d = {w: {k: v[:n] for k, v in s.items()} for w, s in self.dicts.items()}
-        derived = getattr(actuator, "derived_log", None)
+        derived = getattr(plant.actuator, "derived_log", None)
         if derived is not None and n > 0:
             d["actuator"].update(derived(d["actuator"]))
+        if plant.modes is not None and "q" in d["modes"]:
+            m = d["modes"]
+            m["energy"] = plant.modes.modal_energy(m["q"], m["q_dot"])
         return SimulationResult(
             t=self.t[:n],
             R=self.R[:n],
@@ -303,11 +320,9 @@ class _Log:
             u_cmd=self.u_cmd[:n],
             u=self.u[:n],
             disturbance=self.disturbance[:n],
-            actuator=d["actuator"],
-            controller=d["controller"],
             dt=dt,
             control_period=control_period,
-            disturbance_components=d["disturbance"],
+            **d,
         )
 
 
@@ -351,6 +366,101 @@ def _check_controller(controller: Any) -> None:
             raise ValueError(f"controller: has no method {name}() (see liecontrol.control.base)")
 
 
+# -- sensors in the loop -----------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class StarTrackerGyro:
+    """Measurement hook: attitude from one attitude sensor, rate from a gyro (SPEC §5.7, §5.8).
+
+    ``hook(t, outputs, truth) -> AttitudeState(R, omega, h)`` with ``R`` from
+    ``outputs[attitude]`` and ``omega`` from ``outputs[rate]`` (the held, i.e. zero-order-held,
+    sensor outputs) and ``h`` from ``truth.h`` (the actuator's own telemetry, e.g. gimbal
+    encoders). The attitude output may be a matrix ``(B, 3, 3)``, a scalar-first quaternion
+    ``(B, 4)`` or Euler angles ``(B, 3)`` in sequence ``seq`` — the forms of
+    :class:`spacecraft.sensors.StarTracker` and :class:`spacecraft.sensors.TwoVectorAttitude`.
+    No filtering: a raw-measurement loop (an estimator from :mod:`liecontrol.estimation` can be
+    wrapped as any callable with the same signature).
+
+    Args:
+        attitude: name of the attitude sensor in ``simulate(..., sensors=...)``.
+        rate: name of the rate gyro.
+        seq: Euler sequence for ``(B, 3)`` attitude outputs (scipy notation).
+    """
+
+    attitude: str = "star_tracker"
+    rate: str = "gyro"
+    seq: str = "ZYX"
+
+    def __post_init__(self) -> None:
+        for name in ("attitude", "rate"):
+            if not isinstance(getattr(self, name), str):
+                raise ValueError(f"{name}: expected a sensor name (str)")
+        euler.to_matrix(np.zeros(3), self.seq)  # validates seq
+
+    def required(self) -> tuple[str, ...]:
+        """Sensor names this hook reads (checked by :func:`simulate`)."""
+        return (self.attitude, self.rate)
+
+    def __call__(
+        self, t: float, outputs: Mapping[str, np.ndarray], truth: AttitudeState
+    ) -> AttitudeState:
+        y = np.asarray(outputs[self.attitude])
+        if y.shape[-2:] == (3, 3):
+            R = y
+        elif y.shape[-1] == 4:
+            R = quaternion.to_matrix(y, norm_tol=1e-6)
+        elif y.shape[-1] == 3:
+            R = euler.to_matrix(y, self.seq)
+        else:
+            raise ValueError(
+                f"outputs: {self.attitude!r} has shape {y.shape}, not an attitude "
+                "(B, 3, 3) matrix, (B, 4) quaternion or (B, 3) Euler angles"
+            )
+        return AttitudeState(R=R, omega=np.asarray(outputs[self.rate]), h=truth.h)
+
+
+def _check_sensors(
+    sensors: Mapping[str, Any] | None, dt: float
+) -> tuple[tuple[str, Any, int], ...]:
+    """Validate ``sensors`` and return ``(name, sensor, steps per sample)`` triples.
+
+    Rule: every sensor's ``period`` must be a positive integer multiple of ``dt`` within a
+    relative tolerance of 1e-9 (as ``control_period``), so sample times fall on steps.
+    """
+    if sensors is None:
+        return ()
+    if not isinstance(sensors, Mapping):
+        raise ValueError(
+            f"sensors: expected a mapping name -> sensor, got {type(sensors).__name__}"
+        )
+    out = []
+    for name, sensor in sensors.items():
+        if not isinstance(name, str) or not _NAME_RE.match(name):
+            raise ValueError(
+                f"sensors: name {name!r} must be an identifier (letters, digits, _): it names "
+                "the log columns"
+            )
+        if not callable(getattr(sensor, "measure", None)):
+            raise ValueError(f"sensors: {name!r} has no measure(t, R, omega, rng) method")
+        period = getattr(sensor, "period", None)
+        try:
+            period = float(period)
+        except (TypeError, ValueError):
+            raise ValueError(f"sensors: {name!r} has no numeric period (got {period!r})") from None
+        if not math.isfinite(period) or period <= 0:
+            raise ValueError(f"sensors: {name!r} period must be finite and > 0, got {period!r}")
+        ratio = period / dt
+        every = round(ratio)
+        if every < 1 or abs(ratio - every) > _PERIOD_RTOL * ratio:
+            raise ValueError(
+                f"sensors: {name!r} period {period!r} is not a positive integer multiple of "
+                f"dt = {dt!r} (ratio {ratio!r})"
+            )
+        out.append((name, sensor, every))
+    return tuple(out)
+
+
 def simulate(
     plant: Spacecraft,
     controller: AttitudeController,
@@ -362,11 +472,15 @@ def simulate(
     log_every: int = 1,
     progress: bool = False,
     t0: float = 0.0,
+    sensors: Mapping[str, Any] | None = None,
+    measurement: Callable[[float, Mapping[str, np.ndarray], AttitudeState], AttitudeState]
+    | None = None,
+    rng: np.random.Generator | None = None,
 ) -> SimulationResult:
     """Run the closed loop from ``t0`` to ``t_final`` with fixed step ``dt`` (SPEC §5.8).
 
     Args:
-        plant: the :class:`spacecraft.plant.Spacecraft`.
+        plant: the :class:`spacecraft.plant.Spacecraft` (rigid or with flexible modes).
         controller: an :class:`liecontrol.control.base.AttitudeController`; ``reset(t0, B)`` is
             called first (controllers with ``batched = False`` are deep-copied per spacecraft).
         reference: callable ``t -> AttitudeReference`` (e.g. ``ConstantAttitude(R_d)``).
@@ -378,6 +492,17 @@ def simulate(
         log_every: log one row every ``log_every`` steps (the final time is always logged).
         progress: show a tqdm progress bar.
         t0: initial time [s].
+        sensors: mapping ``name -> sensor`` (e.g. :class:`spacecraft.sensors.StarTracker`,
+            :class:`~spacecraft.sensors.RateGyro`); each has ``measure(t, R, omega, rng)`` and a
+            ``period`` that must be a positive integer multiple of ``dt`` (relative tolerance
+            1e-9), and optionally ``reset(batch_size, rng)`` (called first). Sampled at
+            ``t0 + j·period`` on the true state, zero-order hold in between, logged in
+            ``result.sensors``.
+        measurement: hook ``(t, held sensor outputs, truth: AttitudeState) -> AttitudeState``
+            turning the sensor outputs into what the controller sees (e.g.
+            :class:`StarTrackerGyro`), called at each control sample; optional ``reset(t0, B)``
+            and ``required() -> names``. Default: the controller sees the true state.
+        rng: seeded ``numpy.random.Generator`` for the sensor noise (required with sensors).
 
     Returns:
         :class:`SimulationResult`.
@@ -414,6 +539,21 @@ def simulate(
     if isinstance(log_every, bool) or int(log_every) != log_every or log_every < 1:
         raise ValueError(f"log_every: must be a positive integer, got {log_every!r}")
     log_every = int(log_every)
+    sensor_list = _check_sensors(sensors, dt)
+    if sensor_list and not isinstance(rng, np.random.Generator):
+        raise ValueError(
+            f"rng: a seeded numpy.random.Generator is required with sensors, got {rng!r}"
+        )
+    if rng is not None and not isinstance(rng, np.random.Generator):
+        raise ValueError(f"rng: expected numpy.random.Generator, got {type(rng).__name__}")
+    if measurement is not None:
+        if not callable(measurement):
+            raise ValueError("measurement: must be callable as (t, outputs, truth) -> state")
+        required = getattr(measurement, "required", None)
+        names = {n for n, _, _ in sensor_list}
+        for need in required() if callable(required) else ():
+            if need not in names:
+                raise ValueError(f"measurement: needs sensor {need!r}, sensors has {sorted(names)}")
 
     n_steps = max(1, math.ceil((t_final - t0) / dt - 1e-9))
     B = state.batch_size
@@ -424,17 +564,27 @@ def simulate(
     if not getattr(controller, "batched", True) and B > 1:
         ctrl = _PerSpacecraft(controller, B)
     ctrl.reset(t0, B)
+    for _, sensor, _ in sensor_list:
+        if callable(getattr(sensor, "reset", None)):
+            sensor.reset(B, rng)
+    if measurement is not None and callable(getattr(measurement, "reset", None)):
+        measurement.reset(t0, B)
 
     actuator = plant.actuator
+    a_sl = plant.act_slice
+    has_modes = plant.modes is not None
+    q_sl, qd_sl = plant.q_slice, plant.q_dot_slice
     has_diag = callable(getattr(ctrl, "diagnostics", None))
     components = (
         plant.disturbance.components if isinstance(plant.disturbance, SumOfDisturbances) else None
     )
+    outputs: dict[str, np.ndarray] = {}
+    seen: AttitudeState | None = None
 
     def record(t: float, R: np.ndarray, x: np.ndarray, held: Any, u_cmd: np.ndarray) -> None:
         row = log.rows
         omega = x[:, :3]
-        x_act = x[:, 3:]
+        x_act = x[:, a_sl]
         ref = reference(t)
         log.t[row] = t
         log.R[row] = R
@@ -448,7 +598,13 @@ def simulate(
         if has_diag:
             log.put_dict("controller", row, ctrl.diagnostics())
         if components is not None:
-            log.put_dict("disturbance", row, components(t, R, omega))
+            log.put_dict("disturbance_components", row, components(t, R, omega))
+        if has_modes:
+            log.put_dict("modes", row, {"q": x[:, q_sl], "q_dot": x[:, qd_sl]})
+        if outputs:
+            log.put_dict("sensors", row, outputs)
+        if seen is not None:
+            log.put_dict("estimate", row, {"R": seen.R, "omega": seen.omega})
         log.rows = row + 1
 
     bar = None
@@ -465,10 +621,17 @@ def simulate(
     try:
         for k in range(n_steps + 1):
             t = t0 + k * dt
+            for name, sensor, every in sensor_list:
+                if k % every == 0:
+                    outputs[name] = np.asarray(sensor.measure(t, R, x[:, :3], rng))
             if k % every_ctrl == 0:
                 omega = x[:, :3]
-                h = actuator.momentum(x[:, 3:])
-                u = ctrl.command(t, AttitudeState(R=R, omega=omega, h=h), reference(t))
+                h = actuator.momentum(x[:, a_sl])
+                st = AttitudeState(R=R, omega=omega, h=h)
+                if measurement is not None:
+                    st = measurement(t, outputs, st)
+                    seen = st
+                u = ctrl.command(t, st, reference(t))
                 u_cmd = np.asarray(u, dtype=np.float64)
                 if u_cmd.shape != (B, 3):
                     raise ValueError(
@@ -478,9 +641,9 @@ def simulate(
                     raise SimulationDiverged(
                         f"controller returned a non-finite torque at t = {t:.6g} s",
                         time=t,
-                        result=log.result(dt, control_period, actuator),
+                        result=log.result(dt, control_period, plant),
                     )
-            held = actuator.command(u_cmd, x[:, :3], x[:, 3:], t)
+            held = actuator.command(u_cmd, x[:, :3], x[:, a_sl], t)
             logged = k % log_every == 0 or k == n_steps
             if logged:
                 record(t, R, x, held, u_cmd)
@@ -505,7 +668,7 @@ def simulate(
                 raise SimulationDiverged(
                     f"state {why} at t = {t_bad:.6g} s (step {k + 1} of {n_steps})",
                     time=t_bad,
-                    result=log.result(dt, control_period, actuator),
+                    result=log.result(dt, control_period, plant),
                 ) from failure
             R, x = R_next, x_next
             if bar is not None and (k + 1) % bar_chunk == 0:
@@ -513,4 +676,4 @@ def simulate(
     finally:
         if bar is not None:
             bar.close()
-    return log.result(dt, control_period, actuator)
+    return log.result(dt, control_period, plant)

@@ -30,14 +30,22 @@ Laws (SPEC §5.2):
   s = h₀ exactly and m = √det(ÂÂᵀ) is the SPEC's singularity measure; λ₀ is therefore
   dimensionless and the defaults do not depend on h₀.
 
-The generalized SR inverse (Wie: Aᵀ(AAᵀ + λE(t))⁻¹ with a time-varying off-diagonal dither E)
-is a later issue; it fits this signature (``t`` is passed to every law) and reuses
-:func:`_solve_spd3` (batched SPD 3×3 solve) with AAᵀ + λE(t) in place of AAᵀ + λI.
+- :class:`GeneralizedSingularityRobust` (Wie 2005): δ̇ = Aᵀ(AAᵀ + λ s² E(t))⁻¹ ḣ_cmd with the
+  time-varying off-diagonal dither E (see the class); unlike the SR inverse it drives the
+  gimbals off (and through) a singularity whose singular direction ḣ_cmd is aligned with.
+
+Hot path: every law has an unchecked entry point ``law.steer(A, hdot_cmd, delta, t, cluster)``
+(float64 arrays of matching batch shapes, no validation, no broadcasting) used by
+:class:`spacecraft.actuators.SgcmgActuator` at every step; ``law(...)`` validates its arguments
+and then calls it. For one spacecraft (batch size 1) the 3×3 solve runs on Python floats
+(Cramer's rule, ~5× faster than numpy on 1-element arrays), with LAPACK for a determinant too
+small to trust. Likewise :func:`_saturate_unchecked` behind :func:`saturate_gimbal_rates`.
 """
 
 from __future__ import annotations
 
 import abc
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -50,6 +58,7 @@ __all__ = [
     "PseudoInverse",
     "PseudoInverseNullMotion",
     "SingularityRobust",
+    "GeneralizedSingularityRobust",
     "pseudo_inverse",
     "singularity_robust_inverse",
     "jacobian_singularity_measure",
@@ -96,31 +105,53 @@ def _floor(tr3: np.ndarray, lam: np.ndarray | float, eps: float) -> np.ndarray:
     return np.where(reg > 0.0, reg, 1.0)
 
 
+def _off_matrix(off: tuple[float, float, float]) -> np.ndarray:
+    """Symmetric 3×3 with zero diagonal and upper entries (0,1), (0,2), (1,2) = ``off``."""
+    e01, e02, e12 = off
+    return np.array([[0.0, e01, e02], [e01, 0.0, e12], [e02, e12, 0.0]])
+
+
 def _apply_right_inverse_small(
-    A: np.ndarray, R: np.ndarray, lam: np.ndarray | float, eps: float
+    A: np.ndarray,
+    R: np.ndarray,
+    lam: np.ndarray | float,
+    eps: float,
+    off: tuple[float, float, float] | None = None,
 ) -> np.ndarray:
     M = A @ np.swapaxes(A, -1, -2)
     reg = _floor(np.trace(M, axis1=-2, axis2=-1) / 3.0, lam, eps)
     Mr = M + reg[..., None, None] * np.eye(3)
+    if off is not None:
+        Mr += np.asarray(lam)[..., None, None] * _off_matrix(off)
     return np.swapaxes(A, -1, -2) @ _solve_spd3(Mr, R)
 
 
 def _apply_right_inverse(
-    A: np.ndarray, R: np.ndarray, lam: np.ndarray | float = 0.0, eps: float = PINV_EPS
+    A: np.ndarray,
+    R: np.ndarray,
+    lam: np.ndarray | float = 0.0,
+    eps: float = PINV_EPS,
+    off: tuple[float, float, float] | None = None,
 ) -> np.ndarray:
-    """Aᵀ(AAᵀ + (λ + ε tr(AAᵀ)/3) I)⁻¹ R for ``A (..., 3, n)``, ``R (..., 3, k)`` → ``(..., n, k)``.
+    """Aᵀ(AAᵀ + λ E + ε tr(AAᵀ)/3 I)⁻¹ R for ``A (..., 3, n)``, ``R (..., 3, k)`` → ``(..., n, k)``.
 
-    Small batches: batched matmul + LAPACK. Large batches: Cramer's rule on the symmetric 3×3
-    in row-wise elementwise form (measured ~2× faster at B = 1000), with the LAPACK route for
-    the elements whose cofactor determinant is too small to trust.
+    ``E`` is the identity, or (``off`` given) the unit-diagonal symmetric matrix with upper
+    off-diagonal entries ``off = (E01, E02, E12)`` (the generalized SR dither, shared by the
+    whole batch). Small batches: batched matmul + LAPACK. Large batches: Cramer's rule on the
+    symmetric 3×3 in row-wise elementwise form (measured ~2× faster at B = 1000), with the
+    LAPACK route for the elements whose cofactor determinant is too small to trust.
     """
     batch = A.shape[:-2]
     if int(np.prod(batch, dtype=np.int64)) <= _SMALL_BATCH:
-        return _apply_right_inverse_small(A, R, lam, eps)
+        return _apply_right_inverse_small(A, R, lam, eps, off)
     a, b, c, d, e, f = _gram_entries(A)
     tr3 = (a + d + f) / 3.0
     reg = _floor(tr3, lam, eps)
     a, d, f = a + reg, d + reg, f + reg
+    if off is not None:
+        b = b + lam * off[0]
+        c = c + lam * off[1]
+        e = e + lam * off[2]
     c00, c01, c02 = d * f - e * e, c * e - b * f, b * e - c * d
     c11, c12, c22 = a * f - c * c, b * c - a * e, a * d - b * b
     det = a * c00 + b * c01 + c * c02
@@ -140,8 +171,97 @@ def _apply_right_inverse(
         bad = ~ok
         lam_bad = np.broadcast_to(lam, batch)[bad]
         R_bad = np.broadcast_to(R, batch + R.shape[-2:])[bad]
-        out[bad] = _apply_right_inverse_small(A[bad], R_bad, lam_bad, eps)
+        out[bad] = _apply_right_inverse_small(A[bad], R_bad, lam_bad, eps, off)
     return out
+
+
+# ---------------------------------------------------------------------------- one spacecraft
+def _gram_one(rows: list[list[float]]) -> tuple[float, float, float, float, float, float]:
+    """Upper triangle of AAᵀ for one ``A`` given as its 3 rows of Python floats."""
+    r0, r1, r2 = rows
+    a = b = c = d = e = f = 0.0
+    for x, y, z in zip(r0, r1, r2, strict=True):
+        a += x * x
+        b += x * y
+        c += x * z
+        d += y * y
+        e += y * z
+        f += z * z
+    return a, b, c, d, e, f
+
+
+def _solve_one(
+    rows: list[list[float]],
+    g: tuple[float, float, float, float, float, float],
+    rhs: list[tuple[float, float, float]],
+    lam: float,
+    eps: float,
+    off: tuple[float, float, float] | None,
+) -> list[list[float]] | None:
+    """:func:`_apply_right_inverse` for one spacecraft on Python floats: ``Aᵀ(·)⁻¹ r`` for each
+    right-hand side ``r`` in ``rhs`` (a list of n-lists), or ``None`` if the cofactor determinant
+    is too small to trust (the caller then takes the LAPACK route). Same formula as the
+    closed-form batched route."""
+    a, b, c, d, e, f = g
+    tr3 = (a + d + f) / 3.0
+    reg = lam + eps * tr3
+    if not reg > 0.0:
+        reg = 1.0
+    a += reg
+    d += reg
+    f += reg
+    if off is not None:
+        b += lam * off[0]
+        c += lam * off[1]
+        e += lam * off[2]
+    c00, c01, c02 = d * f - e * e, c * e - b * f, b * e - c * d
+    c11, c12, c22 = a * f - c * c, b * c - a * e, a * d - b * b
+    det = a * c00 + b * c01 + c * c02
+    tr3 += reg
+    if not det >= _DET_REL_TRUST * tr3 * tr3 * tr3:
+        return None
+    inv = 1.0 / det
+    r0, r1, r2 = rows
+    out = []
+    for q0, q1, q2 in rhs:
+        x0 = (c00 * q0 + c01 * q1 + c02 * q2) * inv
+        x1 = (c01 * q0 + c11 * q1 + c12 * q2) * inv
+        x2 = (c02 * q0 + c12 * q1 + c22 * q2) * inv
+        out.append([u * x0 + v * x1 + w * x2 for u, v, w in zip(r0, r1, r2, strict=True)])
+    return out
+
+
+def _is_single(A: np.ndarray) -> bool:
+    """One spacecraft: ``A`` of shape ``(3, n)`` or ``(1, 3, n)`` (the float route applies)."""
+    return A.ndim == 2 or (A.ndim == 3 and A.shape[0] == 1)
+
+
+def _measure2_one(g: tuple[float, ...], n: int) -> tuple[float, float]:
+    """(m², s²) of :func:`_measure_and_scale` from the Gram entries of one ``A``."""
+    a, b, c, d, e, f = g
+    det = a * (d * f - e * e) + b * (c * e - b * f) + c * (b * e - c * d)
+    s2 = (a + d + f) / n
+    s2_safe = s2 if s2 > 0.0 else 1.0
+    return max(det, 0.0) / (s2_safe * s2_safe * s2_safe), s2
+
+
+def _steer_one(
+    A: np.ndarray,
+    h: np.ndarray,
+    lam_fn: object,
+    eps: float,
+    off: tuple[float, float, float] | None,
+) -> np.ndarray:
+    """Regularised right inverse applied to ``h`` for one spacecraft; ``lam_fn(m², s²) -> λ``
+    (in the units of AAᵀ). Falls back to LAPACK when Cramer's rule cannot be trusted."""
+    n = A.shape[-1]
+    rows = A.reshape(3, n).tolist()
+    g = _gram_one(rows)
+    lam = lam_fn(*_measure2_one(g, n))
+    sol = _solve_one(rows, g, [tuple(h.reshape(3).tolist())], lam, eps, off)
+    if sol is None:
+        return _apply_right_inverse_small(A, h[..., None], lam, eps, off)[..., 0]
+    return np.array(sol[0]).reshape(A.shape[:-2] + (n,))
 
 
 def _check_jacobian(A: object) -> np.ndarray:
@@ -211,7 +331,8 @@ def saturate_gimbal_rates(delta_dot: object, limit: object) -> tuple[np.ndarray,
     direction — and hence the direction of the delivered torque A δ̇ — is kept (clipping each
     gimbal separately would change the torque direction). Returns ``(delta_dot_sat, saturated)``
     with ``saturated`` a boolean ``(...)`` flag per spacecraft (True where scaling happened).
-    ``limit`` > 0 is a scalar or broadcastable to the batch shape ``(...)``.
+    ``limit`` > 0 is a scalar or broadcastable to the batch shape ``(...)``. Validates, then
+    calls :func:`_saturate_unchecked` (the simulator's hot path).
     """
     dd = as_array(delta_dot, "delta_dot")
     if dd.ndim < 1:
@@ -219,6 +340,19 @@ def saturate_gimbal_rates(delta_dot: object, limit: object) -> tuple[np.ndarray,
     lim = as_array(limit, "limit")
     if np.any(lim <= 0):
         raise ValueError(f"limit: must be > 0, got {lim.min()}")
+    return _saturate_unchecked(dd, float(lim) if lim.ndim == 0 else lim)
+
+
+def _saturate_unchecked(dd: np.ndarray, lim: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`saturate_gimbal_rates` without validation: ``dd`` float64 ``(..., n)``, ``lim`` a
+    positive float or a positive array broadcastable to ``(...)``. Same arithmetic (one IEEE
+    division and one product per element) on both routes, so the results are identical."""
+    if isinstance(lim, float) and dd.size == dd.shape[-1]:
+        # one spacecraft: a Python max over ≤ 4 floats instead of three numpy reductions
+        peak = max(map(abs, dd.reshape(-1).tolist()), default=0.0)
+        flag = peak > lim
+        out = dd * (lim / peak) if flag else dd.copy()
+        return out, np.full(dd.shape[:-1], flag)
     peak = np.abs(dd).max(axis=-1)
     saturated = peak > lim
     scale = np.where(saturated, lim / np.where(saturated, peak, 1.0), 1.0)
@@ -241,10 +375,23 @@ def _check_inputs(A: object, hdot_cmd: object) -> tuple[np.ndarray, np.ndarray]:
     return a, h
 
 
-class SteeringLaw(abc.ABC):
-    """Interface of a steering law: ``law(A, hdot_cmd, delta, t, cluster) -> delta_dot``."""
+def _check_float(v: object, name: str, lo: float = 0.0, hi: float = np.inf) -> float:
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: must be a real number, got {v!r}") from None
+    if not (np.isfinite(x) and lo <= x < hi):
+        raise ValueError(f"{name}: must be finite and in [{lo}, {hi}), got {v!r}")
+    return x
 
-    @abc.abstractmethod
+
+class SteeringLaw(abc.ABC):
+    """Interface of a steering law: ``law(A, hdot_cmd, delta, t, cluster) -> delta_dot``.
+
+    Subclasses implement :meth:`steer` (unchecked); ``__call__`` validates ``A`` and
+    ``hdot_cmd`` (broadcasting their batch shapes), then calls it.
+    """
+
     def __call__(
         self,
         A: np.ndarray,
@@ -254,6 +401,20 @@ class SteeringLaw(abc.ABC):
         cluster: SgcmgPyramid | None = None,
     ) -> np.ndarray:
         """Gimbal rates δ̇ ``(..., n)`` [rad/s] realising ḣ_cmd as closely as the law allows."""
+        a, h = _check_inputs(A, hdot_cmd)
+        return self.steer(a, h, delta, float(t), cluster)
+
+    @abc.abstractmethod
+    def steer(
+        self,
+        A: np.ndarray,
+        hdot_cmd: np.ndarray,
+        delta: np.ndarray | None = None,
+        t: float = 0.0,
+        cluster: SgcmgPyramid | None = None,
+    ) -> np.ndarray:
+        """Unchecked entry point (hot path): ``A`` float64 ``(..., 3, n)``, ``hdot_cmd`` float64
+        ``(..., 3)`` with the same batch shape, ``t`` a float; no validation."""
 
 
 @dataclass(frozen=True)
@@ -266,9 +427,14 @@ class PseudoInverse(SteeringLaw):
     def __post_init__(self) -> None:
         object.__setattr__(self, "eps", _check_eps(self.eps))
 
-    def __call__(self, A, hdot_cmd, delta=None, t=0.0, cluster=None) -> np.ndarray:
-        a, h = _check_inputs(A, hdot_cmd)
-        return _apply_right_inverse(a, h[..., None], 0.0, self.eps)[..., 0]
+    def steer(self, A, hdot_cmd, delta=None, t=0.0, cluster=None) -> np.ndarray:
+        if _is_single(A):
+            return _steer_one(A, hdot_cmd, _zero_lambda, self.eps, None)
+        return _apply_right_inverse(A, hdot_cmd[..., None], 0.0, self.eps)[..., 0]
+
+
+def _zero_lambda(m2: float, s2: float) -> float:
+    return 0.0
 
 
 @dataclass(frozen=True)
@@ -307,15 +473,33 @@ class PseudoInverseNullMotion(SteeringLaw):
         if delta is None:
             raise ValueError("delta: PseudoInverseNullMotion needs the gimbal angles")
         a, h = _check_inputs(A, hdot_cmd)
-        _, grad = cl.singularity_measure_and_gradient(delta)
-        if grad.shape[-1] != a.shape[-1] or grad.shape[:-1] != a.shape[:-2]:
+        d = as_array(delta, "delta", (4,))
+        if d.shape != a.shape[:-2] + a.shape[-1:]:
             raise ValueError(
                 f"delta: shape {np.shape(delta)} does not match A's {a.shape} (expected "
                 f"{a.shape[:-2] + a.shape[-1:]})"
             )
+        return self.steer(a, h, d, float(t), cl)
+
+    def steer(self, A, hdot_cmd, delta=None, t=0.0, cluster=None) -> np.ndarray:
+        cl = cluster if cluster is not None else self.cluster
+        _, grad = cl._measure_and_gradient(delta)
+        if _is_single(A):
+            n = A.shape[-1]
+            rows = A.reshape(3, n).tolist()
+            gl = grad.reshape(n).tolist()
+            Ag = tuple(sum(x * y for x, y in zip(r, gl, strict=True)) for r in rows)
+            sol = _solve_one(
+                rows, _gram_one(rows), [tuple(hdot_cmd.reshape(3).tolist()), Ag], 0.0,
+                self.eps, None,
+            )  # fmt: skip
+            if sol is not None:
+                k = self.k
+                out = [p + k * (gi - q) for p, gi, q in zip(sol[0], gl, sol[1], strict=True)]
+                return np.array(out).reshape(A.shape[:-2] + (n,))
         # One solve for both right-hand sides: A⁺ḣ_cmd and A⁺(A ∇m).
-        rhs = np.stack([h, (a * grad[..., None, :]).sum(-1)], axis=-1)
-        x = _apply_right_inverse(a, rhs, 0.0, self.eps)
+        rhs = np.stack([hdot_cmd, (A * grad[..., None, :]).sum(-1)], axis=-1)
+        x = _apply_right_inverse(A, rhs, 0.0, self.eps)
         return x[..., 0] + self.k * (grad - x[..., 1])
 
 
@@ -330,7 +514,7 @@ class SingularityRobust(SteeringLaw):
     λ ≈ 1e-2 at m = 0, 8e-4 at m = 0.5, 5e-7 at m = 1 (the pyramid's m ≤ 1.54), so the law is
     ≈ the pseudo-inverse away from singularities and bounded (|δ̇| ≤ |ḣ|/(2 s √λ)) near them.
     Trades a torque error for bounded rates; it does not escape an exact singularity whose
-    singular direction ḣ_cmd is aligned with (use the generalized SR inverse for that).
+    singular direction ḣ_cmd is aligned with (use :class:`GeneralizedSingularityRobust`).
     """
 
     lambda0: float = 0.01
@@ -343,8 +527,95 @@ class SingularityRobust(SteeringLaw):
                 raise ValueError(f"{name}: must be finite and >= 0, got {getattr(self, name)}")
             object.__setattr__(self, name, v)
 
-    def __call__(self, A, hdot_cmd, delta=None, t=0.0, cluster=None) -> np.ndarray:
-        a, h = _check_inputs(A, hdot_cmd)
-        m, s2 = _measure_and_scale(a)
+    def _lam(self, m2: float, s2: float) -> float:
+        return self.lambda0 * math.exp(-self.mu * m2) * s2
+
+    def steer(self, A, hdot_cmd, delta=None, t=0.0, cluster=None) -> np.ndarray:
+        if _is_single(A):
+            return _steer_one(A, hdot_cmd, self._lam, PINV_EPS, None)
+        m, s2 = _measure_and_scale(A)
         lam = self.lambda0 * np.exp(-self.mu * m * m) * s2
-        return _apply_right_inverse(a, h[..., None], lam, PINV_EPS)[..., 0]
+        return _apply_right_inverse(A, hdot_cmd[..., None], lam, PINV_EPS)[..., 0]
+
+
+@dataclass(frozen=True)
+class GeneralizedSingularityRobust(SteeringLaw):
+    """Generalized singularity-robust inverse with a deterministic dither (Wie 2005)::
+
+        δ̇ = Aᵀ(AAᵀ + λ s² E(t))⁻¹ ḣ_cmd,   λ = λ₀ exp(−μ m²),
+
+              ⎡ 1   ε₃  ε₂ ⎤
+        E  =  ⎢ ε₃  1   ε₁ ⎥,   εᵢ = ε₀ sin(ω_ε t + φᵢ),
+              ⎣ ε₂  ε₁  1  ⎦
+
+    with s, m as in :class:`SingularityRobust` (λ₀ dimensionless; Wie writes λ for the
+    normalised Jacobian, which is λ s² here). Why it escapes: at a singularity with
+    singular direction u (Aᵀu = 0) and ḣ_cmd ∥ u, the SR inverse returns δ̇ = 0 (the gimbals
+    never move); the off-diagonal εᵢ couple u into the range of A, so (AAᵀ + λE)⁻¹u has a
+    component in range(A) of order εᵢ/σ² and δ̇ ≠ 0: the gimbals move, m grows and the
+    momentum passes through. The price is a small, bounded, deliberate torque error
+    (λE ≠ 0 everywhere, ~λ₀ exp(−μ m²) relative), which vanishes away from singularities.
+
+    |εᵢ| ≤ ε₀ < ½ keeps E positive definite (Gershgorin: λ_min(E) ≥ 1 − 2ε₀), so AAᵀ + λE is
+    always invertible and δ̇ is finite for every finite input (never NaN). ``t`` [s] must be
+    passed (the plant passes the simulation time).
+
+    Defaults are Wie's (2005, §IV): λ₀ = 0.01, μ = 10, ε₀ = 0.01, ω_ε = π/2 rad/s,
+    φ = (0, π/2, π).
+
+    Args:
+        lambda0: λ₀ ≥ 0 (dimensionless).
+        mu: μ ≥ 0.
+        epsilon0: dither amplitude ε₀ ∈ [0, 0.5).
+        omega_eps: dither frequency ω_ε [rad/s], finite.
+        phases: (φ₁, φ₂, φ₃) [rad].
+    """
+
+    lambda0: float = 0.01
+    mu: float = 10.0
+    epsilon0: float = 0.01
+    omega_eps: float = math.pi / 2
+    phases: tuple[float, float, float] = (0.0, math.pi / 2, math.pi)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "lambda0", _check_float(self.lambda0, "lambda0"))
+        object.__setattr__(self, "mu", _check_float(self.mu, "mu"))
+        object.__setattr__(self, "epsilon0", _check_float(self.epsilon0, "epsilon0", 0.0, 0.5))
+        object.__setattr__(
+            self, "omega_eps", _check_float(self.omega_eps, "omega_eps", -np.inf, np.inf)
+        )
+        ph = np.asarray(self.phases, dtype=np.float64) if _is_real_seq(self.phases) else None
+        if ph is None or ph.shape != (3,) or not np.all(np.isfinite(ph)):
+            raise ValueError(f"phases: expected 3 finite angles [rad], got {self.phases!r}")
+        object.__setattr__(self, "phases", tuple(ph.tolist()))
+
+    def dither(self, t: float) -> tuple[float, float, float]:
+        """(ε₁, ε₂, ε₃) at time ``t`` [s]."""
+        w, e0 = self.omega_eps, self.epsilon0
+        p1, p2, p3 = self.phases
+        return (e0 * math.sin(w * t + p1), e0 * math.sin(w * t + p2), e0 * math.sin(w * t + p3))
+
+    def dither_matrix(self, t: float) -> np.ndarray:
+        """E(t), ``(3, 3)``."""
+        e1, e2, e3 = self.dither(float(t))
+        return np.eye(3) + _off_matrix((e3, e2, e1))
+
+    def _lam(self, m2: float, s2: float) -> float:
+        return self.lambda0 * math.exp(-self.mu * m2) * s2
+
+    def steer(self, A, hdot_cmd, delta=None, t=0.0, cluster=None) -> np.ndarray:
+        e1, e2, e3 = self.dither(t)
+        off = (e3, e2, e1)  # E01, E02, E12
+        if _is_single(A):
+            return _steer_one(A, hdot_cmd, self._lam, PINV_EPS, off)
+        m, s2 = _measure_and_scale(A)
+        lam = self.lambda0 * np.exp(-self.mu * m * m) * s2
+        return _apply_right_inverse(A, hdot_cmd[..., None], lam, PINV_EPS, off)[..., 0]
+
+
+def _is_real_seq(x: object) -> bool:
+    try:
+        np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError):
+        return False
+    return True

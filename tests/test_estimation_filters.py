@@ -308,7 +308,7 @@ def test_bad_input(cls, P0, caplog):
 def test_seed001_ranking_quick(tmp_path):
     from benchmarks.reproductions import seed001
 
-    cfg = seed001.Seed001Config(n_seeds=3, filters=seed001.RANKED)
+    cfg = seed001.Seed001Config(n_seeds=3, substeps=5, filters=seed001.RANKED)
     result = seed001.run(cfg, quick=True)
     failed = [c for c in result["checks"] if c["result"] != "PASS"]
     assert not failed, failed

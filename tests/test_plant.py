@@ -315,3 +315,87 @@ def test_single_body_fast_paths_match_batched_paths():
         np.testing.assert_allclose(
             act.body_torque(w[s], delta[s], one), batched_tau[s], rtol=1e-13, atol=1e-12
         )
+
+
+# ---------------------------------------------------------------- parameter uncertainty (§5.4)
+J_003 = np.diag([520.0, 450.0, 660.0])
+
+
+def test_perturbed_inertia_statistics_and_reproducibility():
+    from spacecraft import perturbed_inertia
+
+    rng = np.random.default_rng(11)
+    Js = perturbed_inertia(J_SEED, rng, scale_std=0.05, size=4000)
+    assert Js.shape == (4000, 3, 3)
+    np.testing.assert_allclose(Js, np.swapaxes(Js, -1, -2), atol=0)
+    lam_true, Q = np.linalg.eigh(J_SEED)
+    # no axis error: J_hat keeps J's principal axes, each moment scaled by 1 + N(0, 0.05²)
+    ratios = np.einsum("ji,bjk,ki->bi", Q, Js, Q) / lam_true
+    off = np.einsum("ji,bjk,kl->bil", Q, Js, Q) - ratios[:, :, None] * np.eye(3) * lam_true
+    assert np.abs(off).max() < 1e-9 * lam_true.max()
+    np.testing.assert_allclose(ratios.mean(axis=0), 1.0, atol=0.005)
+    np.testing.assert_allclose(ratios.std(axis=0), 0.05, rtol=0.05)
+    # same seed, same draws; a single draw is (3, 3) and a valid inertia
+    a = perturbed_inertia(J_003, np.random.default_rng(3), 0.1, axis_std=0.05)
+    b = perturbed_inertia(J_003, np.random.default_rng(3), 0.1, axis_std=0.05)
+    np.testing.assert_array_equal(a, b)
+    RigidBody(a)
+
+
+def test_perturbed_inertia_axis_error_and_scale():
+    from spacecraft import perturbed_inertia
+
+    rng = np.random.default_rng(4)
+    Js = perturbed_inertia(J_003, rng, axis_std=0.02, size=500)
+    # a pure axis rotation keeps the principal moments (scipy-independent check: eigvalsh)
+    np.testing.assert_allclose(np.linalg.eigvalsh(Js), np.broadcast_to([450, 520, 660], (500, 3)))
+    # and the misalignment angle is ~ axis_std·√3 on average (Maxwell χ with 3 d.o.f.)
+    _, V = np.linalg.eigh(Js)
+    ang = np.arccos(np.clip(np.abs(V[:, 2, 2]), 0.0, 1.0))  # tilt of the z principal axis
+    assert 0.01 < np.median(ang) < 0.05
+    np.testing.assert_allclose(perturbed_inertia(J_003, rng, scale=1.1), 1.1 * J_003)
+    # large errors are truncated to physical inertias, never returned unphysical
+    wild = perturbed_inertia(np.diag([1.0, 1.0, 1.9]), rng, scale_std=0.5, size=300)
+    RigidBody(wild[0])
+    lam = np.linalg.eigvalsh(wild)
+    assert np.all(lam > 0) and np.all(lam[:, 0] + lam[:, 1] >= lam[:, 2] * (1 - 1e-9))
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "name"),
+    [
+        ({"J": np.diag([1.0, 1.0, 3.0])}, "J"),
+        ({"rng": 3}, "rng"),
+        ({"scale_std": -0.1}, "scale_std"),
+        ({"scale_std": 1.0}, "scale_std"),
+        ({"axis_std": np.nan}, "axis_std"),
+        ({"scale": 0.0}, "scale"),
+        ({"scale": [1.0, 2.0]}, "scale"),
+        ({"size": 0}, "size"),
+        ({"max_tries": 0}, "max_tries"),
+    ],
+)
+def test_perturbed_inertia_bad_input(kwargs, name):
+    from spacecraft import perturbed_inertia
+
+    args = {"J": J_003, "rng": np.random.default_rng(0)}
+    args.update(kwargs)
+    with pytest.raises(ValueError, match=f"^{name}:"):
+        perturbed_inertia(**args)
+
+
+def test_controller_with_perturbed_inertia_still_regulates():
+    """Parameter uncertainty in the loop: a PD designed on a 15 %-wrong inertia (seeded draw)
+    still brings the true plant to the target."""
+    from liecontrol.control import ConstantAttitude
+    from liecontrol.control.geometric_pd import GeometricPD, gains_from_bandwidth
+    from spacecraft import perturbed_inertia, simulate
+
+    J_hat = perturbed_inertia(J_003, np.random.default_rng(9), 0.15, axis_std=0.1)
+    assert np.abs(J_hat - J_003).max() > 0.05 * 660
+    k_R, k_W = gains_from_bandwidth(J_hat, 0.2, 0.9, error="large_angle", matrix=True)
+    ctrl = GeometricPD(J_hat, k_R, k_W, error="large_angle")
+    plant = Spacecraft(RigidBody(J_003), IdealTorqueActuator())
+    R_d = so3.exp(np.array([0.5, -0.3, 0.4]))
+    res = simulate(plant, ctrl, ConstantAttitude(R_d), plant.initial_state(np.eye(3)), 60.0, 0.1)
+    assert res.attitude_error_angle()[-1, 0] < 1e-3

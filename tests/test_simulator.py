@@ -6,12 +6,14 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from liecontrol.charts import quaternion
 from liecontrol.control import AttitudeController, AttitudeReference, ConstantAttitude
 from liecontrol.control.geometric_pd import GeometricPD, gains_from_bandwidth
 from liecontrol.lie import so3
 from spacecraft import (
     ConstantTorque,
     IdealTorqueActuator,
+    RateGyro,
     RigidBody,
     Seed000Disturbance,
     SgcmgActuator,
@@ -19,6 +21,8 @@ from spacecraft import (
     SimulationResult,
     SingularityRobust,
     Spacecraft,
+    StarTracker,
+    StarTrackerGyro,
     SumOfDisturbances,
     simulate,
 )
@@ -385,3 +389,194 @@ def test_reference_with_batched_arrays_is_logged():
 
     res = simulate(plant, _pd(), ref, plant.initial_state(np.eye(3), batch=2), 0.5, 0.1)
     np.testing.assert_array_equal(res.R_d[3], Rd)
+
+
+# --------------------------------------------------------------- sensors in the loop (§5.7)
+class RecordingSensor:
+    """Noise-free sensor that records its sample times and returns ω (B, 3)."""
+
+    def __init__(self, period):
+        self.period = period
+        self.times: list[float] = []
+
+    def measure(self, t, R, omega, rng):
+        self.times.append(t)
+        return np.array(omega, copy=True)
+
+
+def _sensor_plant():
+    return Spacecraft(RigidBody(J), IdealTorqueActuator(), ConstantTorque([0.5, -0.3, 0.2]))
+
+
+def test_multirate_sensors_sampled_and_held():
+    """Each sensor is sampled at t0 + j·period on the true state and held (ZOH) in between."""
+    plant = _sensor_plant()
+    fast, slow = RecordingSensor(0.2), RecordingSensor(0.5)
+    tracker = StarTracker(period=0.3, output="quaternion")
+    res = simulate(
+        plant,
+        _pd(),
+        ConstantAttitude(so3.exp(np.array([0.2, -0.1, 0.3]))),
+        plant.initial_state(np.eye(3), omega0=[0.01, 0.02, -0.01], batch=2),
+        3.0,
+        0.1,
+        t0=1.0,
+        control_period=0.2,
+        sensors={"fast": fast, "slow": slow, "tracker": tracker},
+        rng=np.random.default_rng(0),
+    )
+    np.testing.assert_allclose(fast.times, 1.0 + 0.2 * np.arange(11), atol=1e-12)
+    np.testing.assert_allclose(slow.times, 1.0 + 0.5 * np.arange(5), atol=1e-12)
+    assert res.sensors["fast"].shape == (res.n_samples, 2, 3)
+    assert res.sensors["tracker"].shape == (res.n_samples, 2, 4)
+    k = np.arange(res.n_samples)  # log every step: row k is t = 1 + 0.1 k
+    for name, every in (("fast", 2), ("slow", 5)):
+        last = (k // every) * every  # the row of the most recent sample
+        np.testing.assert_array_equal(res.sensors[name], res.omega[last])
+    q_true = quaternion.from_matrix(res.R[(k // 3) * 3])
+    np.testing.assert_allclose(res.sensors["tracker"], q_true, atol=1e-12)
+    assert not res.estimate  # no measurement hook: the controller saw the truth
+
+
+def test_star_tracker_gyro_hook_with_perfect_sensors_equals_truth():
+    """Noise-free sensors at the control rate: the measured loop is the true-state loop."""
+    plant = _sensor_plant()
+    args = (ConstantAttitude(so3.exp(np.array([0.4, 0.1, -0.2]))), plant.initial_state(np.eye(3)))
+    truth = simulate(plant, _pd(), *args, 20.0, 0.1, control_period=0.2)
+    for output in ("quaternion", "matrix", "euler"):
+        sensed = simulate(
+            plant,
+            _pd(),
+            *args,
+            20.0,
+            0.1,
+            control_period=0.2,
+            sensors={
+                "star_tracker": StarTracker(output=output, period=0.2),
+                "gyro": RateGyro(period=0.2),
+            },
+            measurement=StarTrackerGyro(),
+            rng=np.random.default_rng(1),
+        )
+        np.testing.assert_allclose(sensed.R, truth.R, atol=1e-10)
+        np.testing.assert_allclose(sensed.u_cmd, truth.u_cmd, rtol=1e-8, atol=1e-10)
+        rows = np.arange(0, sensed.n_samples, 2)
+        np.testing.assert_allclose(sensed.estimate["R"][rows], truth.R[rows], atol=1e-10)
+        np.testing.assert_allclose(sensed.estimate["omega"][rows], truth.omega[rows], atol=1e-15)
+
+
+def test_noisy_sensors_are_seeded_and_felt_by_the_loop():
+    plant = _sensor_plant()
+    ref = ConstantAttitude(np.eye(3))
+    s0 = plant.initial_state(np.eye(3), batch=3)
+
+    def run(seed):
+        sensors = {
+            "star_tracker": StarTracker(noise_std=1e-4, period=0.5),
+            "gyro": RateGyro(white_std=1e-5, bias_rw_std=1e-7, period=0.1),
+        }
+        return simulate(
+            plant,
+            _pd(omega_n=0.1),
+            ref,
+            s0,
+            60.0,
+            0.1,
+            sensors=sensors,
+            measurement=StarTrackerGyro(),
+            rng=np.random.default_rng(seed),
+            log_every=10,
+        )
+
+    a, b, c = run(5), run(5), run(6)
+    np.testing.assert_array_equal(a.R, b.R)
+    np.testing.assert_array_equal(a.sensors["gyro"], b.sensors["gyro"])
+    assert np.abs(a.R - c.R).max() > 0
+    # spacecraft in one batch draw different noise
+    assert np.abs(a.sensors["gyro"][:, 0] - a.sensors["gyro"][:, 1]).max() > 0
+    # the loop settles to the noise level (PD under a constant torque keeps a small offset)
+    err = a.attitude_error_angle()[-20:]
+    assert 1e-6 < err.min() and err.max() < 0.02
+    # what the controller saw differs from the truth by the sensor noise
+    diff = so3.angle(np.swapaxes(a.estimate["R"], -1, -2) @ a.R)
+    assert 1e-6 < np.median(diff) < 1e-3
+
+
+def test_sensor_arguments_validated():
+    plant = _sensor_plant()
+    base = (plant, _pd(), ConstantAttitude(np.eye(3)), plant.initial_state(np.eye(3)), 1.0, 0.1)
+    rng = np.random.default_rng(0)
+    with pytest.raises(ValueError, match="^sensors: 'gyro' period 0.15"):
+        simulate(*base, sensors={"gyro": RateGyro(period=0.15)}, rng=rng)
+    with pytest.raises(ValueError, match="^sensors:"):
+        simulate(*base, sensors={"gyro": RateGyro(period=0.05)}, rng=rng)
+    with pytest.raises(ValueError, match="^sensors:"):
+        simulate(*base, sensors={"bad name": StarTracker(period=0.1)}, rng=rng)
+    with pytest.raises(ValueError, match="^sensors:"):
+        simulate(*base, sensors={"x": object()}, rng=rng)
+    with pytest.raises(ValueError, match="^sensors:"):
+        simulate(*base, sensors=[StarTracker()], rng=rng)
+    with pytest.raises(ValueError, match="^rng:"):
+        simulate(*base, sensors={"st": StarTracker(period=0.1)})
+    with pytest.raises(ValueError, match="^rng:"):
+        simulate(*base, rng=42)
+    with pytest.raises(ValueError, match="^measurement:"):
+        simulate(
+            *base,
+            sensors={"star_tracker": StarTracker(period=0.1)},
+            rng=rng,
+            measurement=StarTrackerGyro(),
+        )
+    with pytest.raises(ValueError, match="^measurement:"):
+        simulate(*base, measurement="gyro")
+    # a period equal to an integer multiple up to rounding is accepted
+    res = simulate(*base, sensors={"g": RateGyro(period=0.30000000000000004)}, rng=rng)
+    assert res.sensors["g"].shape == (11, 1, 3)
+
+
+def test_unstable_measured_loop_diverges_with_sensor_log():
+    """A deliberately unstable loop closed through the sensors raises SimulationDiverged with
+    the partial log, sensor and estimate columns included."""
+    plant = Spacecraft(RigidBody(np.diag([10.0, 12.0, 14.0])), IdealTorqueActuator())
+    with pytest.raises(SimulationDiverged) as info:
+        simulate(
+            plant,
+            PositiveFeedback(1e4),
+            ConstantAttitude(np.eye(3)),
+            plant.initial_state(np.eye(3), omega0=[0.1, -0.1, 0.05]),
+            100.0,
+            0.1,
+            sensors={"star_tracker": StarTracker(period=0.2), "gyro": RateGyro(period=0.1)},
+            measurement=StarTrackerGyro(),
+            rng=np.random.default_rng(0),
+        )
+    res = info.value.result
+    assert 0.0 < info.value.time < 100.0
+    assert res.sensors["gyro"].shape[0] == res.n_samples >= 2
+    assert np.isfinite(res.sensors["gyro"]).all() and np.isfinite(res.estimate["omega"]).all()
+
+
+def test_csv_round_trip_with_sensors_and_estimate(tmp_path):
+    plant = _sensor_plant()
+    res = simulate(
+        plant,
+        _pd(),
+        ConstantAttitude(np.eye(3)),
+        plant.initial_state(np.eye(3)),
+        1.0,
+        0.1,
+        sensors={
+            "star_tracker": StarTracker(noise_std=1e-3, period=0.2),
+            "gyro": RateGyro(white_std=1e-4, period=0.1),
+        },
+        measurement=StarTrackerGyro(),
+        rng=np.random.default_rng(3),
+    )
+    path = tmp_path / "sensed.csv"
+    res.to_csv(path)
+    back = SimulationResult.from_csv(path)
+    for k in ("star_tracker", "gyro"):
+        np.testing.assert_array_equal(back.sensors[k], res.sensors[k])
+    for k in ("R", "omega"):
+        np.testing.assert_array_equal(back.estimate[k], res.estimate[k])
+    assert "sensor.gyro[2]" in res.columns() and "estimate.R[2][2]" in res.columns()

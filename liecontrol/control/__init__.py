@@ -1,8 +1,21 @@
-"""Controllers (SPEC §6) behind the common seam of :mod:`liecontrol.control.base`."""
+"""Controllers (SPEC §6) behind the common seams.
+
+Attitude controllers implement :class:`~liecontrol.control.base.AttitudeController` (body torque);
+pose controllers implement :class:`~liecontrol.control.se3_control.PoseController` (body wrench).
+"""
 
 from .base import AttitudeController, AttitudeReference, AttitudeState
 from .geometric_pd import GeometricPD, gains_from_bandwidth
 from .reference import ConstantAttitude
+from .se3_control import (
+    BulloMurrayPD,
+    ConstantPose,
+    PoseController,
+    PoseReference,
+    PoseState,
+    SE3TrackingController,
+    pose_gains_from_bandwidth,
+)
 
 __all__ = [
     "AttitudeController",
@@ -11,4 +24,11 @@ __all__ = [
     "ConstantAttitude",
     "GeometricPD",
     "gains_from_bandwidth",
+    "PoseController",
+    "PoseReference",
+    "PoseState",
+    "ConstantPose",
+    "BulloMurrayPD",
+    "SE3TrackingController",
+    "pose_gains_from_bandwidth",
 ]

@@ -109,7 +109,10 @@ _FD_STEP = 1e-6
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.cross(a, b)
+    """a × b on the last axis (np.cross's axis handling dominates at small batch sizes)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack((a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), axis=-1)
 
 
 def _mv(M: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -120,6 +123,31 @@ def _mv(M: np.ndarray, v: np.ndarray) -> np.ndarray:
 def _mtv(M: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Batched ``Mᵀ @ v``."""
     return np.einsum("...ji,...j->...i", M, v)
+
+
+def _quat_trusted(R: np.ndarray) -> np.ndarray:
+    """Scalar-first quaternion (w ≥ 0) of rotation matrices the adapter has already validated:
+    Shepperd's method as :func:`liecontrol.charts.quaternion.from_matrix`, without re-checking R
+    (the hot path of every chart adapter)."""
+    r00, r01, r02 = R[..., 0, 0], R[..., 0, 1], R[..., 0, 2]
+    r10, r11, r12 = R[..., 1, 0], R[..., 1, 1], R[..., 1, 2]
+    r20, r21, r22 = R[..., 2, 0], R[..., 2, 1], R[..., 2, 2]
+    tr = r00 + r11 + r22
+    k = np.argmax(np.stack((tr, r00, r11, r22), axis=-1), axis=-1)
+    q = np.empty(R.shape[:-2] + (4,))
+    for i, row in enumerate(
+        (
+            (1.0 + tr, r21 - r12, r02 - r20, r10 - r01),
+            (r21 - r12, 1.0 + 2.0 * r00 - tr, r01 + r10, r02 + r20),
+            (r02 - r20, r01 + r10, 1.0 + 2.0 * r11 - tr, r12 + r21),
+            (r10 - r01, r02 + r20, r12 + r21, 1.0 + 2.0 * r22 - tr),
+        )
+    ):
+        sel = k == i
+        if np.any(sel):
+            q[sel] = np.stack(row, axis=-1)[sel]
+    q /= np.sqrt(np.sum(q * q, axis=-1, keepdims=True))
+    return _quat._canon(q)
 
 
 # --------------------------------------------------------------------------- MRP shadow maps
@@ -237,6 +265,8 @@ class EulerChart(_Chart3):
         # gimbal lock is reported by check_lock with the adapter's tolerance, not as a warning
         return _euler.from_matrix(R, self.seq, warn=False)
 
+    from_matrix_trusted = from_matrix
+
     def check_lock(self, y: np.ndarray, name: str) -> None:
         """Raise :class:`ChartSingularityError` naming ``name`` near gimbal lock."""
         lock = _euler.near_gimbal_lock(y, self.seq, self.lock_tol)
@@ -276,6 +306,17 @@ class MrpChart(_Chart3):
     def from_matrix(self, R: np.ndarray) -> np.ndarray:
         return _mrp.from_matrix(R)
 
+    def from_matrix_trusted(self, R: np.ndarray) -> np.ndarray:
+        """As :meth:`from_matrix` for an already validated R (no re-check)."""
+        q = _quat_trusted(R)
+        return q[..., 1:] / (1.0 + q[..., :1])
+
+    def rates(self, y: np.ndarray, omega_rel: np.ndarray) -> np.ndarray:
+        """ṗ = G(p) ω = ½[(1 − pᵀp)/2 ω + p × ω + p (pᵀω)] (closed form of G(p) ω)."""
+        n2 = np.sum(y * y, axis=-1, keepdims=True)
+        pw = np.sum(y * omega_rel, axis=-1, keepdims=True)
+        return 0.5 * (0.5 * (1.0 - n2) * omega_rel + _cross(y, omega_rel) + y * pw)
+
     def rates_matrix(self, y: np.ndarray) -> np.ndarray:
         return _mrp.kinematics_matrix(y)
 
@@ -296,11 +337,17 @@ class QuaternionChart:
     def from_matrix(self, R: np.ndarray) -> np.ndarray:
         return _quat.from_matrix(R)
 
+    def from_matrix_trusted(self, R: np.ndarray) -> np.ndarray:
+        """As :meth:`from_matrix` for an already validated R (no re-check)."""
+        return _quat_trusted(R)
+
     def identity(self, batch: int) -> np.ndarray:
         return _quat.identity((batch,))
 
     def rates(self, y: np.ndarray, omega_rel: np.ndarray) -> np.ndarray:
-        return _quat.kinematics(y, omega_rel)
+        """q̇ = ½ q ⊗ (0, ω_rel)."""
+        zero = np.zeros(omega_rel.shape[:-1] + (1,))
+        return 0.5 * _quat._mul(y, np.concatenate((zero, omega_rel), axis=-1))
 
     def acceleration(
         self, y: np.ndarray, y_dot: np.ndarray, omega_dot_rel: np.ndarray
@@ -308,7 +355,12 @@ class QuaternionChart:
         """q̈ = ½ q̇ ⊗ (0, ω) + ½ q ⊗ (0, ω̇) with ω = 2 (q* ⊗ q̇)_v."""
         qc = y * np.array([1.0, -1.0, -1.0, -1.0])
         w = 2.0 * _quat._mul(qc, y_dot)[..., 1:]
-        return _quat.kinematics(y_dot, w) + _quat.kinematics(y, omega_dot_rel)
+        zero = np.zeros(w.shape[:-1] + (1,))
+        # the algebraic product: q̇ may be zero, which quaternion.kinematics would refuse
+        return 0.5 * (
+            _quat._mul(y_dot, np.concatenate((zero, w), axis=-1))
+            + _quat._mul(y, np.concatenate((zero, omega_dot_rel), axis=-1))
+        )
 
 
 # --------------------------------------------------------------------------- base frames
@@ -468,6 +520,8 @@ class ChartAdapter(AttitudeController):
         self.batched = bool(getattr(law, "batched", True))
         self._batch: int | None = None
         self._diag: dict[str, np.ndarray] = {}
+        self._checked: tuple[np.ndarray, ...] = ()
+        self._identity: np.ndarray | None = None
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(law={self.law!r}, chart={self.chart!r}, base={self.base!r})"
@@ -477,9 +531,15 @@ class ChartAdapter(AttitudeController):
     def _reset_memory(self) -> None:
         """Clear the chart memory (continuity, sign, unwrap)."""
 
-    def _coords(self, R_rel: np.ndarray, R_d_rel: np.ndarray) -> tuple[np.ndarray, ...]:
+    def _coords(self, R_rel: np.ndarray, R_d_rel: np.ndarray | None) -> tuple[np.ndarray, ...]:
         """Chart coordinates ``(y, y_d, switched_state, switched_desired)``."""
         raise NotImplementedError  # pragma: no cover
+
+    def _identity_coords(self, B: int) -> np.ndarray:
+        """The chart's coordinates of the identity (the desired point when base = reference)."""
+        if self._identity is None or self._identity.shape[0] != B:
+            self._identity = self.chart.identity(B)
+        return self._identity.copy()
 
     def _before_law(self, switched: np.ndarray, switched_d: np.ndarray) -> None:
         """Called after the chart conversion, before the law (MRP shadow-switch hook)."""
@@ -498,6 +558,16 @@ class ChartAdapter(AttitudeController):
         self._reset_memory()
         self.law.reset(t0, int(batch_size))
 
+    def _rotation(self, R: object, name: str) -> np.ndarray:
+        """Validated rotation; a read-only array owning its data (e.g. ConstantAttitude's R_d)
+        cannot change between samples, so it is checked once (as GeometricPD does)."""
+        if isinstance(R, np.ndarray) and any(R is c for c in self._checked):
+            return R
+        R = check_rotation_matrix(R, name)
+        if isinstance(R, np.ndarray) and not R.flags.writeable and R.base is None:
+            self._checked = (self._checked + (R,))[-4:]
+        return R
+
     def _base_sample(
         self, t: float, reference: AttitudeReference, B: int
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -511,7 +581,7 @@ class ChartAdapter(AttitudeController):
                     "AttitudeReference-like object)"
                 )
         name = "R_d" if self.base == "reference" else "base"
-        R_b = _as_batch(check_rotation_matrix(ref.R_d, name), B, (3, 3), name)
+        R_b = _as_batch(self._rotation(ref.R_d, name), B, (3, 3), name)
         w_b = _as_batch(as_array(ref.omega_d, name), B, (3,), name)
         dw_b = _as_batch(as_array(ref.omega_dot_d, name), B, (3,), name)
         return R_b, w_b, dw_b
@@ -531,25 +601,35 @@ class ChartAdapter(AttitudeController):
         B = R.shape[0]
         if B != self._batch:
             raise ValueError(f"state: batch size {B} differs from reset(batch_size={self._batch})")
-        R_d = _as_batch(check_rotation_matrix(reference.R_d, "R_d"), B, (3, 3), "R_d")
+        R_d = _as_batch(self._rotation(reference.R_d, "R_d"), B, (3, 3), "R_d")
         w_d = _as_batch(as_array(reference.omega_d, "omega_d"), B, (3,), "omega_d")
         dw_d = _as_batch(as_array(reference.omega_dot_d, "omega_dot_d"), B, (3,), "omega_dot_d")
-        R_b, w_b, dw_b = self._base_sample(t, reference, B)
-
-        R_bT = np.swapaxes(R_b, -1, -2)
-        R_rel = R_bT @ R
-        R_d_rel = R_bT @ R_d
-        w_base = _mtv(R_rel, w_b)  # C_bo ω_b
-        dw_base = _mtv(R_rel, dw_b)
-        w_rel = w - w_base
-        wb_d = _mtv(R_d_rel, w_b)  # the base rate in desired-body axes
-        w_d_rel = w_d - wb_d
-        dw_d_rel = dw_d + _cross(w_d, wb_d) - _mtv(R_d_rel, dw_b)
-
-        y, y_d, sw, sw_d = self._coords(R_rel, R_d_rel)
-        y_dot = self.chart.rates(y, w_rel)
-        y_d_dot = self.chart.rates(y_d, w_d_rel)
-        y_d_ddot = self.chart.acceleration(y_d, y_d_dot, dw_d_rel)
+        if self.base == "reference":
+            # the desired frame is the base: R_d,rel = I, ω_d,rel = ω̇_d,rel = 0 exactly
+            R_rel = np.swapaxes(R_d, -1, -2) @ R
+            w_base = _mtv(R_rel, w_d)
+            dw_base = _mtv(R_rel, dw_d)
+            w_rel = w - w_base
+            R_d_rel = np.broadcast_to(np.eye(3), (B, 3, 3))
+            w_d_rel = dw_d_rel = np.zeros((B, 3))
+            y, y_d, sw, sw_d = self._coords(R_rel, None)
+            y_dot = self.chart.rates(y, w_rel)
+            y_d_dot = y_d_ddot = np.zeros_like(y_d)
+        else:
+            R_b, w_b, dw_b = self._base_sample(t, reference, B)
+            R_bT = np.swapaxes(R_b, -1, -2)
+            R_rel = R_bT @ R
+            R_d_rel = R_bT @ R_d
+            w_base = _mtv(R_rel, w_b)  # C_bo ω_b
+            dw_base = _mtv(R_rel, dw_b)
+            w_rel = w - w_base
+            wb_d = _mtv(R_d_rel, w_b)  # the base rate in desired-body axes
+            w_d_rel = w_d - wb_d
+            dw_d_rel = dw_d + _cross(w_d, wb_d) - _mtv(R_d_rel, dw_b)
+            y, y_d, sw, sw_d = self._coords(R_rel, R_d_rel)
+            y_dot = self.chart.rates(y, w_rel)
+            y_d_dot = self.chart.rates(y_d, w_d_rel)
+            y_d_ddot = self.chart.acceleration(y_d, y_d_dot, dw_d_rel)
         self._before_law(sw, sw_d)
         h = None if state.h is None else as_array(state.h, "h", (3,))
         return ChartState(
@@ -622,10 +702,10 @@ class EulerChartAdapter(ChartAdapter):
     def _reset_memory(self) -> None:
         self._y_d_prev = None
 
-    def _coords(self, R_rel: np.ndarray, R_d_rel: np.ndarray) -> tuple[np.ndarray, ...]:
+    def _coords(self, R_rel: np.ndarray, R_d_rel: np.ndarray | None) -> tuple[np.ndarray, ...]:
         ch = self.chart
         y = ch.from_matrix(R_rel)
-        y_d = ch.from_matrix(R_d_rel)
+        y_d = self._identity_coords(y.shape[0]) if R_d_rel is None else ch.from_matrix(R_d_rel)
         ch.check_lock(y, "R")
         ch.check_lock(y_d, "R_d")
         if self.unwrap:
@@ -682,9 +762,12 @@ class MrpChartAdapter(ChartAdapter):
         p, mask = _mrp.switch(p_cont, self.threshold)
         return p, mask
 
-    def _coords(self, R_rel: np.ndarray, R_d_rel: np.ndarray) -> tuple[np.ndarray, ...]:
-        p, sw = self._track(self.chart.from_matrix(R_rel), self._p_prev)
-        p_d, sw_d = self._track(self.chart.from_matrix(R_d_rel), self._pd_prev)
+    def _coords(self, R_rel: np.ndarray, R_d_rel: np.ndarray | None) -> tuple[np.ndarray, ...]:
+        p, sw = self._track(self.chart.from_matrix_trusted(R_rel), self._p_prev)
+        if R_d_rel is None:
+            p_d, sw_d = self._identity_coords(p.shape[0]), np.zeros(p.shape[0], dtype=bool)
+        else:
+            p_d, sw_d = self._track(self.chart.from_matrix_trusted(R_d_rel), self._pd_prev)
         self._p_prev, self._pd_prev = p.copy(), p_d.copy()
         self.n_switches += int(np.count_nonzero(sw))
         return p, p_d, sw, sw_d
@@ -746,8 +829,8 @@ class QuaternionChartAdapter(ChartAdapter):
     def _continue(q: np.ndarray, prev: np.ndarray) -> np.ndarray:
         return np.where(np.sum(q * prev, axis=-1, keepdims=True) < 0.0, -q, q)
 
-    def _coords(self, R_rel: np.ndarray, R_d_rel: np.ndarray) -> tuple[np.ndarray, ...]:
-        q_can = self.chart.from_matrix(R_rel)  # w ≥ 0
+    def _coords(self, R_rel: np.ndarray, R_d_rel: np.ndarray | None) -> tuple[np.ndarray, ...]:
+        q_can = self.chart.from_matrix_trusted(R_rel)  # w ≥ 0
         B = q_can.shape[0]
         if self.sign_mode == "switched":
             q = q_can
@@ -769,7 +852,10 @@ class QuaternionChartAdapter(ChartAdapter):
             if self.sign_mode == "hysteretic":
                 flip = q[:, 0] < -self.hysteresis
                 q = np.where(flip[:, None], -q, q)
-        qd_can = self.chart.from_matrix(R_d_rel)
-        q_d = qd_can if self._qd_prev is None else self._continue(qd_can, self._qd_prev)
+        if R_d_rel is None:
+            q_d = self._identity_coords(B)
+        else:
+            qd_can = self.chart.from_matrix_trusted(R_d_rel)
+            q_d = qd_can if self._qd_prev is None else self._continue(qd_can, self._qd_prev)
         self._q_prev, self._qd_prev = q.copy(), q_d.copy()
         return q, q_d, flip, np.zeros(B, dtype=bool)

@@ -20,9 +20,17 @@ Units: ``J`` [kg·m²], ``k_R`` [N·m per unit of e_R], ``k_Omega`` [N·m·s/rad
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from .._validation import as_array, check_inertia, check_positive, check_rotation_matrix
+from .._validation import (
+    ROTATION_ATOL,
+    as_array,
+    check_inertia,
+    check_positive,
+    check_rotation_matrix,
+)
 from ..errors import _KERNELS, DEFAULT_G, _check_kind, check_error_weight
 from .base import AttitudeController, AttitudeReference, AttitudeState
 
@@ -129,6 +137,76 @@ def _apply_gain(K: float | np.ndarray, x: np.ndarray) -> np.ndarray:
     return x @ K.T
 
 
+# ----------------------------------------------------------------------------------- hot path
+# The simulator calls ``command`` at every control sample. Validation stays (the API promises
+# it), but the common case — float64 arrays of the right shape that pass — is checked with a
+# few cheap operations; anything that fails them goes through the canonical validators, which
+# raise the usual messages (or convert, e.g. lists). One spacecraft runs on Python floats.
+
+_F64 = np.dtype(np.float64)
+# so3.log switches to the symmetric-part axis below this cos θ; the float route defers to it
+_LOG_NEAR_PI_COS = -0.999
+
+
+def _rotations_pass(R: np.ndarray) -> bool:
+    """True iff ``check_rotation_matrix(R)`` would accept ``R`` (finite, ``max |RᵀR − I| ≤
+    ROTATION_ATOL``, det ≥ 0) — NaN/inf make the comparison False, so they are rejected too.
+    The determinant is the triple product instead of ``np.linalg.det`` (near-orthonormal
+    matrices have det ≈ ±1: the sign is unambiguous)."""
+    if R.shape == (1, 3, 3):
+        a, b, c, d, e, f, g, h, k = R.ravel().tolist()
+        err = max(
+            abs(a * a + d * d + g * g - 1.0),
+            abs(b * b + e * e + h * h - 1.0),
+            abs(c * c + f * f + k * k - 1.0),
+            abs(a * b + d * e + g * h),
+            abs(a * c + d * f + g * k),
+            abs(b * c + e * f + h * k),
+        )
+        det = a * (e * k - f * h) - b * (d * k - f * g) + c * (d * h - e * g)
+        return err <= ROTATION_ATOL and det >= 0.0
+    err = np.abs(np.swapaxes(R, -1, -2) @ R - np.eye(3)).max() if R.size else 0.0
+    if not err <= ROTATION_ATOL:
+        return False
+    c0, c1, c2 = R[..., :, 0], R[..., :, 1], R[..., :, 2]
+    det = (
+        c0[..., 0] * (c1[..., 1] * c2[..., 2] - c1[..., 2] * c2[..., 1])
+        - c0[..., 1] * (c1[..., 0] * c2[..., 2] - c1[..., 2] * c2[..., 0])
+        + c0[..., 2] * (c1[..., 0] * c2[..., 1] - c1[..., 1] * c2[..., 0])
+    )
+    return bool(np.all(det >= 0.0))
+
+
+def _vectors_pass(x: object, shape: tuple[int, ...]) -> bool:
+    """A float64 ndarray of exactly ``shape`` with finite entries (one reduction)."""
+    return (
+        isinstance(x, np.ndarray)
+        and x.dtype == _F64
+        and x.shape == shape
+        and math.isfinite(float(x.sum()))
+    )
+
+
+def _mat_rows(K: float | np.ndarray) -> float | tuple[tuple[float, ...], ...]:
+    return K if isinstance(K, float) else tuple(map(tuple, K.tolist()))
+
+
+def _gain_one(K: float | tuple, x0: float, x1: float, x2: float) -> tuple[float, float, float]:
+    """``K x`` (``_apply_gain`` for one vector on floats)."""
+    if isinstance(K, float):
+        return K * x0, K * x1, K * x2
+    (a, b, c), (d, e, f), (g, h, k) = K
+    return a * x0 + b * x1 + c * x2, d * x0 + e * x1 + f * x2, g * x0 + h * x1 + k * x2
+
+
+def _half_sinc_one(theta: float) -> float:
+    """``errors._half_sinc`` on a float: sin(θ/2)/θ with its Taylor branch below 1e-3."""
+    if theta < 1e-3:
+        t2 = theta * theta
+        return 0.5 * (1.0 - t2 / 24.0 * (1.0 - t2 / 80.0))
+    return math.sin(0.5 * theta) / theta
+
+
 class GeometricPD(AttitudeController):
     """Geometric PD / tracking controller on SO(3) (SPEC §6 item 1; seed 002 Lemmas 2, 4).
 
@@ -173,6 +251,12 @@ class GeometricPD(AttitudeController):
             else (DEFAULT_G if G is None else check_error_weight(G).copy())
         )
         self._kernel = _KERNELS[self.error]
+        # the same parameters as Python floats for the single-spacecraft route
+        self._J_rows = _mat_rows(self.J)
+        self._kR_rows = _mat_rows(self.k_R)
+        self._kW_rows = _mat_rows(self.k_Omega)
+        self._G_rows = None if self.G is None else _mat_rows(self.G)
+        self._trG = None if self.G is None else float(np.trace(self.G))
         self._t0: float | None = None
         self._batch: int | None = None
         self._diag: dict[str, np.ndarray] = {}
@@ -202,11 +286,22 @@ class GeometricPD(AttitudeController):
         # a read-only array owning its data (e.g. ConstantAttitude's R_d) cannot change between
         # steps, so once validated it is not re-checked on this hot path
         if not (isinstance(R_d, np.ndarray) and R_d is self._checked_R_d):
-            R_d = check_rotation_matrix(R_d, "R_d")
+            if not (
+                isinstance(R_d, np.ndarray)
+                and R_d.dtype == _F64
+                and R_d.ndim in (2, 3)
+                and R_d.shape[-2:] == (3, 3)
+                and _rotations_pass(R_d.reshape(-1, 3, 3))
+            ):
+                R_d = check_rotation_matrix(R_d, "R_d")
             if not R_d.flags.writeable and R_d.base is None:
                 self._checked_R_d = R_d
-        w_d = as_array(reference.omega_d, "omega_d", (3,))
-        dw_d = as_array(reference.omega_dot_d, "omega_dot_d", (3,))
+        w_d = reference.omega_d
+        if not _vectors_pass(w_d, np.shape(w_d)[:-1] + (3,)):
+            w_d = as_array(w_d, "omega_d", (3,))
+        dw_d = reference.omega_dot_d
+        if not _vectors_pass(dw_d, np.shape(dw_d)[:-1] + (3,)):
+            dw_d = as_array(dw_d, "omega_dot_d", (3,))
         for name, a, nd in (("R_d", R_d, 2), ("omega_d", w_d, 1), ("omega_dot_d", dw_d, 1)):
             if a.ndim == nd + 1 and a.shape[0] != B:
                 raise ValueError(f"{name}: batch size {a.shape[0]} does not match state's {B}")
@@ -218,8 +313,17 @@ class GeometricPD(AttitudeController):
         """Body torque ``(B, 3)`` [N·m] for ``state`` (``R (B,3,3)``, ``omega (B,3)``)."""
         if self._batch is None:
             raise RuntimeError("GeometricPD.command: call reset(t0, batch_size) first")
-        R = check_rotation_matrix(state.R, "R")
-        w = as_array(state.omega, "omega", (3,))
+        R, w = state.R, state.omega
+        if not (
+            isinstance(R, np.ndarray)
+            and R.dtype == _F64
+            and R.ndim == 3
+            and R.shape[1:] == (3, 3)
+            and _vectors_pass(w, (R.shape[0], 3))
+            and _rotations_pass(R)
+        ):
+            R = check_rotation_matrix(R, "R")
+            w = as_array(w, "omega", (3,))
         if R.ndim != 3 or w.shape != (R.shape[0], 3):
             raise ValueError(
                 f"state: expected R (B, 3, 3) and omega (B, 3), got {R.shape} and {w.shape}"
@@ -228,6 +332,10 @@ class GeometricPD(AttitudeController):
         if B != self._batch:
             raise ValueError(f"state: batch size {B} differs from reset(batch_size={self._batch})")
         R_d, w_d, dw_d = self._reference_arrays(reference, B)
+        if B == 1:
+            M = self._command_one(R, w, R_d, w_d, dw_d)
+            if M is not None:
+                return M
 
         # R̃ᵀ = RᵀR_d maps desired-body vectors into the body frame
         RtT = np.swapaxes(R, -1, -2) @ R_d
@@ -247,6 +355,86 @@ class GeometricPD(AttitudeController):
         M = ff - _apply_gain(self.k_R, e_R) - _apply_gain(self.k_Omega, e_W)
         self._diag = {"Psi": Psi, "e_R": e_R, "e_Omega": e_W}
         return M
+
+    def _command_one(
+        self, R: np.ndarray, w: np.ndarray, R_d: np.ndarray, w_d: np.ndarray, dw_d: np.ndarray
+    ) -> np.ndarray | None:
+        """:meth:`command` for one spacecraft on Python floats — the same formulas (and, for the
+        log, the same branch structure as ``so3.log``) evaluated in the same order, so results
+        agree with the batched route to round-off (checked by the tests). ``None`` near θ = π,
+        where the batched route (``so3.log``'s symmetric-part axis) is used instead."""
+        r = R.ravel().tolist()
+        q = R_d.ravel().tolist()
+        # RtT = Rᵀ R_d (row i, column j: Σ_k R_ki R_d,kj)
+        T = [
+            [r[i] * q[j] + r[3 + i] * q[3 + j] + r[6 + i] * q[6 + j] for j in range(3)]
+            for i in range(3)
+        ]
+        # Rt = RtT ᵀ; so3.log(Rt) with v = (Rt − Rtᵀ)^∨ written in RtT's entries
+        v0 = T[1][2] - T[2][1]
+        v1 = T[2][0] - T[0][2]
+        v2 = T[0][1] - T[1][0]
+        if self.error == "trace":
+            G = self._G_rows
+            # (G Rt)_ij = Σ_m G_im Rt_mj with Rt_mj = T_jm
+            GR = [
+                [G[i][0] * T[j][0] + G[i][1] * T[j][1] + G[i][2] * T[j][2] for j in range(3)]
+                for i in range(3)
+            ]
+            Psi = self._trG - (GR[0][0] + GR[1][1] + GR[2][2])
+            e0 = 0.5 * (GR[2][1] - GR[1][2])
+            e1 = 0.5 * (GR[0][2] - GR[2][0])
+            e2 = 0.5 * (GR[1][0] - GR[0][1])
+        else:
+            sn = v0 * v0
+            sn += v1 * v1
+            sn += v2 * v2
+            sn = math.sqrt(sn) * 0.5
+            cs = T[0][0] + T[1][1]
+            cs += T[2][2]
+            cs = (cs - 1.0) * 0.5
+            if cs < _LOG_NEAR_PI_COS:
+                return None
+            theta = math.atan2(sn, cs)
+            zero = 1.0 if sn == 0.0 else 0.0
+            fac = (theta + zero) / ((sn + zero) + (sn + zero))
+            p0, p1, p2 = v0 * fac, v1 * fac, v2 * fac
+            sq = p0 * p0 + p1 * p1 + p2 * p2
+            if self.error == "log":
+                Psi = 0.5 * sq
+                e0, e1, e2 = p0, p1, p2
+            else:
+                th = math.sqrt(sq)
+                if th < 0.5 * math.pi:
+                    sq4 = math.sin(0.25 * th)
+                    Psi = 4.0 * sq4 * sq4
+                else:
+                    Psi = 2.0 - 2.0 * math.cos(0.5 * th)
+                hs = _half_sinc_one(th)
+                e0, e1, e2 = hs * p0, hs * p1, hs * p2
+        wd = w_d.ravel().tolist()
+        dwd = dw_d.ravel().tolist()
+        wb = [T[i][0] * wd[0] + T[i][1] * wd[1] + T[i][2] * wd[2] for i in range(3)]
+        dwb = [T[i][0] * dwd[0] + T[i][1] * dwd[1] + T[i][2] * dwd[2] for i in range(3)]
+        x0, x1, x2 = w.ravel().tolist()
+        E0, E1, E2 = x0 - wb[0], x1 - wb[1], x2 - wb[2]
+        j0, j1, j2 = _gain_one(self._J_rows, x0, x1, x2)
+        # ω × Jω − J (ω × ω_d,body − ω̇_d,body)
+        c0 = x1 * wb[2] - x2 * wb[1] - dwb[0]
+        c1 = x2 * wb[0] - x0 * wb[2] - dwb[1]
+        c2 = x0 * wb[1] - x1 * wb[0] - dwb[2]
+        k0, k1, k2 = _gain_one(self._J_rows, c0, c1, c2)
+        f0 = (x1 * j2 - x2 * j1) - k0
+        f1 = (x2 * j0 - x0 * j2) - k1
+        f2 = (x0 * j1 - x1 * j0) - k2
+        a0, a1, a2 = _gain_one(self._kR_rows, e0, e1, e2)
+        b0, b1, b2 = _gain_one(self._kW_rows, E0, E1, E2)
+        self._diag = {
+            "Psi": np.array([Psi]),
+            "e_R": np.array([[e0, e1, e2]]),
+            "e_Omega": np.array([[E0, E1, E2]]),
+        }
+        return np.array([[f0 - a0 - b0, f1 - a1 - b1, f2 - a2 - b2]])
 
     def diagnostics(self) -> dict[str, np.ndarray]:
         """Last ``Psi`` ``(B,)``, ``e_R`` ``(B, 3)``, ``e_Omega`` ``(B, 3)`` (empty before the

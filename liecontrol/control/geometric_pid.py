@@ -168,7 +168,6 @@ class _IntegralController(AttitudeController):
         self._pd.reset(t0, batch_size)
         B = int(batch_size)
         self._batch = B
-        self._t0 = float(as_array(t0, "t0"))
         self._t_prev: float | None = None
         self.z = np.zeros((B, 3))
         self._f_prev = np.zeros((B, 3))
@@ -263,6 +262,7 @@ class IntrinsicPID(_IntegralController):
         k_R: object,
         k_Omega: object,
         k_I: object,
+        *,
         error: str = "log",
         G: object = None,
         connection: str = "survey",
@@ -304,6 +304,7 @@ class IntegralPD(_IntegralController):
         k_R: object,
         k_Omega: object,
         k_I: object,
+        *,
         c: float = 0.03,
         error: str = "large_angle",
         G: object = None,

@@ -18,9 +18,11 @@ Lee, Leok & McClamroch 2005) with step ``T`` and the held torque ``M_k = M_{k+1}
     Π_{k+1} = F_kᵀ (Π_k + (T/2) u_k) + (T/2) u_k.
 
 *Stage 0* is predicted with the **nonlinear** LGVI from the measured state, at the nominal torque
-``ū = clip(u_ref,0)``: ``x_1 = x_1(ū) + B_0 (u_0 − ū)``. This carries the exact gyroscopic
-coupling ``Ω × JΩ`` of the current (possibly large) rate. ``B_0`` is the exact derivative:
-with ``G = Π_0 + (T/2)ū`` and ``K(F) = (tr(F J_d) I − F J_d) F`` (the derivative of
+``ū = clip(u_ref,0)``: ``x_1 = x_1(ū) + B_0 (u_0 − ū)``. The affine term carries the exact
+gyroscopic coupling ``Ω × JΩ`` of the current (possibly large) rate. ``B_0`` is, by default, the
+reference linearisation's (below), which keeps the QP matrix constant for regulation; with
+``exact_stage0_jacobian=True`` it is the exact derivative at the measured state: with
+``G = Π_0 + (T/2)ū`` and ``K(F) = (tr(F J_d) I − F J_d) F`` (the derivative of
 ``(F J_d − J_d Fᵀ)^∨`` under ``F → F exp(δf^)``), ``δf = K⁻¹ (T²/2) δu`` and
 
     dξ_1 = J_r(ξ_1)⁻¹ δf,
@@ -77,7 +79,7 @@ import scipy.linalg
 import scipy.sparse as sp
 
 from .._validation import as_array, check_inertia, check_positive, check_rotation_matrix
-from ..integrators.lgvi import lgvi_step
+from ..integrators.lgvi import RigidBodyLGVI
 from ..lie import so3
 from .base import AttitudeController, AttitudeReference, AttitudeState
 from .geometric_pd import GeometricPD, gains_from_bandwidth
@@ -190,6 +192,10 @@ def error_state(R: object, omega: object, R_d: object, omega_d: object) -> np.nd
     R_d = check_rotation_matrix(R_d, "R_d")
     w = as_array(omega, "omega", (3,))
     w_d = as_array(omega_d, "omega_d", (3,))
+    return _error_unchecked(R, w, R_d, w_d)
+
+
+def _error_unchecked(R: np.ndarray, w: np.ndarray, R_d: np.ndarray, w_d: np.ndarray) -> np.ndarray:
     Rt = np.swapaxes(R_d, -1, -2) @ R
     xi = so3.log(Rt)
     e_w = w - _mv(np.swapaxes(Rt, -1, -2), w_d)
@@ -270,13 +276,20 @@ def stage0_model(
     ``t + T`` under ``u_bar``) and ``B0 (6, 3)`` with ``x_1 ≈ x1 + B0 (u_0 − u_bar)`` (``None``
     if ``jacobian=False``).
     """
+    J = check_inertia(J, "J")
+    return _stage0(
+        RigidBodyLGVI(J), np.linalg.inv(J), dt, R, omega, R_d1, omega_d1, u_bar, jacobian
+    )
+
+
+def _stage0(lgvi, Jinv, dt, R, omega, R_d1, omega_d1, u_bar, jacobian):
     T = dt
+    J = lgvi.J
     Pi0 = J @ omega
-    R1, Pi1 = lgvi_step(R, Pi0, u_bar, u_bar, T, J)
+    R1, Pi1 = lgvi.step(R, Pi0, u_bar, u_bar, T)
     Rt = R_d1.T @ R1
     xi = so3.log(Rt)
     wd_body = Rt.T @ omega_d1
-    Jinv = np.linalg.inv(J)
     x1 = np.concatenate([xi, Jinv @ Pi1 - wd_body])
     if not jacobian:
         return x1, None
@@ -377,6 +390,14 @@ class _OsqpQP:
         self.A.data = self.vals[self.order]
         self.l = np.zeros(self.n_con)
         self.u = np.zeros(self.n_con)
+        self._box_set = False
+
+        def idx(slots: list[slice]) -> np.ndarray:
+            return np.array([np.arange(s.start, s.stop) for s in slots], dtype=np.int64)
+
+        self.idx_A = idx(self.slot_A)
+        self.idx_B = idx(self.slot_B)
+        self.idx_C = idx(self.slot_C).ravel() if m else np.zeros(0, dtype=np.int64)
         self.q = np.zeros(nx + nu)
         self.solver = osqp.OSQP()
         self.solver.setup(H, self.q, self.A, self.l, self.u, **settings)
@@ -392,18 +413,19 @@ class _OsqpQP:
     ) -> None:
         N, nx = self.N, self.nx
         vals = self.vals
-        for k in range(1, N):
-            vals[self.slot_A[k - 1]] = -A[k].ravel()
-        for k in range(N):
-            vals[self.slot_B[k]] = -B[k].ravel()
-        self.l[:nx] = c.ravel()
-        self.u[:nx] = c.ravel()
-        self.l[nx : nx + 3 * N] = np.tile(-u_max, N)
-        self.u[nx : nx + 3 * N] = np.tile(u_max, N)
+        if N > 1:
+            vals[self.idx_A] = -A[1:].reshape(N - 1, 36)
+        vals[self.idx_B] = -B.reshape(N, 18)
+        cr = c.ravel()
+        self.l[:nx] = cr
+        self.u[:nx] = cr
+        if not self._box_set:
+            self.l[nx : nx + 3 * N] = np.tile(-u_max, N)
+            self.u[nx : nx + 3 * N] = np.tile(u_max, N)
+            self._box_set = True
         if extra is not None:
             C, lo, hi = extra
-            for k in range(N):
-                vals[self.slot_C[k]] = C.ravel()
+            vals[self.idx_C] = np.tile(C.ravel(), N)
             self.l[nx + 3 * N :] = np.tile(lo, N)
             self.u[nx + 3 * N :] = np.tile(hi, N)
         self.q[nx:] = -(u_ref @ self.R).ravel()
@@ -420,7 +442,7 @@ class _OsqpQP:
         sv = int(res.info.status_val)
         status = sv if sv in (1, 2) else -sv
         u = None if res.x is None else np.array(res.x[self.nx :]).reshape(self.N, 3)
-        return status, u, int(res.info.iter), float(res.info.solve_time)
+        return status, u, int(res.info.iter), float(res.info.run_time)
 
 
 class _CvxpyQP:
@@ -525,11 +547,13 @@ class SO3MPC(AttitudeController):
             (``δu`` × state error).
 
     Batch handling: ``batched = True``; ``command`` loops over the ``B`` spacecraft internally
-    (one QP instance each, so every spacecraft keeps its own warm start).
+    (OSQP: one QP instance each, so every spacecraft keeps its own warm start; cvxpy: one
+    compiled problem shared by the batch).
 
-    ``diagnostics()``: ``status`` ``(B,)`` int (codes in :data:`STATUS_NAMES`), ``solve_time``
-    ``(B,)`` [s] (solver-reported), ``iterations`` ``(B,)``, ``fallback_active`` ``(B,)`` bool,
-    ``fallback_count`` ``(B,)`` (cumulative), ``xi`` and ``e_Omega`` ``(B, 3)``.
+    ``diagnostics()``: ``status`` ``(B,)`` int (codes in :data:`STATUS_NAMES`); ``solve_time``
+    ``(B,)`` [s] (solver-reported: OSQP run time incl. polishing, or cvxpy's solver time);
+    ``iterations`` ``(B,)``; ``fallback_active`` ``(B,)`` bool; ``fallback_count`` ``(B,)``
+    (cumulative since ``reset``); ``xi`` and ``e_Omega`` ``(B, 3)`` (error state at the sample).
     """
 
     batched = True
@@ -601,6 +625,11 @@ class SO3MPC(AttitudeController):
         self._rest = reference_model(
             self.J, dt, np.zeros((self.N + 1, 3)), np.broadcast_to(np.eye(3), (self.N, 3, 3))
         )
+        self._checked_R_d: np.ndarray | None = None
+        self._lgvi = RigidBodyLGVI(self.J)
+        self._Jinv = np.linalg.inv(self.J)
+        self._knot_cache: tuple[np.ndarray, np.ndarray] | None = None
+        self._model_cache: tuple | None = None
         self._eye_N = np.broadcast_to(np.eye(3), (self.N, 3, 3))
         self._qps: list[Any] = []
         self._fallbacks: list[Any] = []
@@ -666,7 +695,11 @@ class SO3MPC(AttitudeController):
         ws = w_d + T * np.arange(N + 1)[:, None] * dw_d
         if not ws.any():
             return ws, self._eye_N
+        cached = self._knot_cache
+        if cached is not None and np.array_equal(ws, cached[0]):
+            return cached
         F = so3.exp(0.5 * T * (ws[:-1] + ws[1:]))
+        self._knot_cache = (ws, F)
         return ws, F
 
     def _extra(self, state_b: AttitudeState, m_expected: int | None):
@@ -700,7 +733,12 @@ class SO3MPC(AttitudeController):
         B = R.shape[0]
         if B != self._batch:
             raise ValueError(f"state: batch size {B} differs from reset(batch_size={self._batch})")
-        R_d = check_rotation_matrix(reference.R_d, "R_d")
+        R_d = reference.R_d
+        # a read-only array owning its data (ConstantAttitude's R_d) cannot change: checked once
+        if not (isinstance(R_d, np.ndarray) and R_d is self._checked_R_d):
+            R_d = check_rotation_matrix(R_d, "R_d")
+            if not R_d.flags.writeable and R_d.base is None:
+                self._checked_R_d = R_d
         w_d = as_array(reference.omega_d, "omega_d", (3,))
         dw_d = as_array(reference.omega_dot_d, "omega_dot_d", (3,))
         for name, a, nd in (("R_d", R_d, 2), ("omega_d", w_d, 1), ("omega_dot_d", dw_d, 1)):
@@ -711,14 +749,13 @@ class SO3MPC(AttitudeController):
         iters = np.zeros(B, dtype=np.int64)
         stime = np.zeros(B)
         fb_on = np.zeros(B, dtype=bool)
-        x0s = np.empty((B, 6))
+        x0s = _error_unchecked(R, w, R_d, w_d)
         h = state.h
         for b in range(B):
             Rd_b = R_d[b] if R_d.ndim == 3 else R_d
             wd_b = w_d[b] if w_d.ndim == 2 else w_d
             dwd_b = dw_d[b] if dw_d.ndim == 2 else dw_d
             st_b = AttitudeState(R[b : b + 1], w[b : b + 1], None if h is None else h[b : b + 1])
-            x0s[b] = error_state(R[b], w[b], Rd_b, wd_b)
             u_b, status[b], iters[b], stime[b] = self._solve_one(
                 t, b, R[b], w[b], Rd_b, wd_b, dwd_b, st_b
             )
@@ -751,13 +788,30 @@ class SO3MPC(AttitudeController):
     def _solve_one(self, t, b, R, w, R_d, w_d, dw_d, st_b):
         """Linearise, update and solve one spacecraft's QP: ``(u or None, status, iters, time)``."""
         ws, F = self._knots(t, R_d, w_d, dw_d, b)
+        cached = self._model_cache
         if not ws.any():
             A, Bm, u_ref, c = self._rest
+        elif (
+            cached is not None
+            and np.array_equal(ws, cached[0])
+            and (F is cached[1] or np.array_equal(F, cached[1]))
+        ):
+            # constant-rate references give the same stages every step: reuse them
+            A, Bm, u_ref, c = cached[2]
         else:
-            A, Bm, u_ref, c = reference_model(self.J, self.dt, ws, F)
+            A, Bm, u_ref, c = model = reference_model(self.J, self.dt, ws, F)
+            self._model_cache = (ws, F, model)
         u_bar = np.clip(u_ref[0], -self.u_max, self.u_max)
-        x1, B0 = stage0_model(
-            self.J, self.dt, R, w, R_d @ F[0], ws[1], u_bar, self.exact_stage0_jacobian
+        x1, B0 = _stage0(
+            self._lgvi,
+            self._Jinv,
+            self.dt,
+            R,
+            w,
+            R_d @ F[0],
+            ws[1],
+            u_bar,
+            self.exact_stage0_jacobian,
         )
         if self.exact_stage0_jacobian:
             Bm = Bm.copy()
@@ -771,7 +825,17 @@ class SO3MPC(AttitudeController):
         if self.extra_constraints is not None:
             extra = self._extra(st_b, None if qp is None else qp.m)
         if qp is None:
-            qp = self._qps[b] = self._new_qp(0 if extra is None else extra[0].shape[0])
+            m = 0 if extra is None else extra[0].shape[0]
+            if self.backend == "cvxpy" and b > 0 and self._qps[0] is not None:
+                # no warm start to keep: the batch shares one compiled problem
+                qp = self._qps[0]
+                if qp.m != m:
+                    raise ValueError(
+                        f"extra_constraints: number of rows changed from {qp.m} to {m}"
+                    )
+            else:
+                qp = self._new_qp(m)
+            self._qps[b] = qp
         try:
             qp.set_data(A, Bm, c, u_ref, self.u_max, extra)
             status, u, iters, stime = qp.solve()

@@ -283,7 +283,8 @@ class PrescribedPerformance(AttitudeController):
     ``command`` returns ``(B, 3)``. ``diagnostics()``: ``Psi`` ``(B,)``, ``e_R``, ``e_Omega``,
     ``eps`` (transformed error), ``alpha`` (virtual rate), ``s`` ``(B, 3)``, ``rho`` ``(B,)``,
     ``funnel_violations`` ``(B,)`` (cumulative count of samples with some ``|e_i| ≥ ρ``) and
-    ``edge_saturated`` ``(B,)`` (this sample clipped ``|z|`` at ``z_max``).
+    ``edge_saturated`` ``(B,)`` (this sample clipped ``|z|`` at ``z_max``). After the first
+    ``command`` the attribute ``rho0`` holds the funnel's initial width per spacecraft ``(B,)``.
     """
 
     batched = True
@@ -293,6 +294,7 @@ class PrescribedPerformance(AttitudeController):
         J: object,
         rho_inf: float,
         decay: float,
+        *,
         rho0: float | None = None,
         k1: float | None = None,
         k2: float | None = None,

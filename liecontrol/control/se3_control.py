@@ -170,10 +170,17 @@ def _gain(K: float | np.ndarray, x: np.ndarray) -> np.ndarray:
     return K * x if isinstance(K, float) else x @ K.T
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b on ``(..., 3)`` arrays without np.cross's axis handling (hot path)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack((a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), axis=-1)
+
+
 def coriolis_wrench(xi: np.ndarray, m: float, J: np.ndarray) -> np.ndarray:
     """ad_ξᵀ I ξ = (−ω × Jω, −ω × m v) for I = diag(J, m I₃), ``(..., 6)``."""
     w, v = xi[..., :3], xi[..., 3:]
-    return np.concatenate((-np.cross(w, w @ J.T), -m * np.cross(w, v)), axis=-1)
+    return np.concatenate((-_cross(w, w @ J.T), -m * _cross(w, v)), axis=-1)
 
 
 @dataclass(frozen=True)

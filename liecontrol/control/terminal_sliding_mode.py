@@ -61,16 +61,19 @@ F, D, K [rad/s²], torque [N·m].
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from .._validation import as_array, check_inertia, check_nonnegative, check_positive
 from ..charts.euler import LOCK_TOL, _elem, _parse, rates_matrix, rates_matrix_inv
+from .adapters import EulerChartAdapter
 
 __all__ = [
     "TSMParams",
     "TerminalSlidingMode",
+    "TerminalSlidingModeSO3",
     "euler_angle_acceleration",
     "euler_feedback_linearisation",
     "euler_reference",
@@ -96,7 +99,11 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a × b on the last axis (broadcasting); np.cross's axis handling dominates at small sizes."""
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack((a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), axis=-1)
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a1 * b2 - a2 * b1
+    out[..., 1] = a2 * b0 - a0 * b2
+    out[..., 2] = a0 * b1 - a1 * b0
+    return out
 
 
 def _mv(M: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -187,13 +194,22 @@ def euler_angle_acceleration(
     return np.broadcast_arrays(adot, addot)
 
 
-def _fl_core(
-    a: np.ndarray, w: np.ndarray, J: np.ndarray, J_inv: np.ndarray, seq: str, lock_tol: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(A, b, ȧ) without input validation (hot path)."""
+def _drift(
+    w: np.ndarray,
+    J: np.ndarray,
+    J_inv: np.ndarray,
+    omega_base: np.ndarray | None,
+    omega_dot_base: np.ndarray | None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(ω_rel, ω̇_rel at u = 0): J⁻¹(−ω × Jω) + ω_rel × C_bo ω_b − C_bo ω̇_b (module docstring)."""
     drift = -_cross(w, w @ J.T) @ J_inv.T
-    B, adot, b = _accel_core(a, w, drift, seq, lock_tol)
-    return B, b, adot
+    w_rel = w
+    if omega_base is not None:
+        w_rel = w - omega_base
+        drift = drift + _cross(w_rel, omega_base)
+    if omega_dot_base is not None:
+        drift = drift - omega_dot_base
+    return w_rel, drift
 
 
 def euler_feedback_linearisation(
@@ -202,22 +218,29 @@ def euler_feedback_linearisation(
     J: object,
     seq: str = "ZYX",
     lock_tol: float = LOCK_TOL,
+    omega_base: object | None = None,
+    omega_dot_base: object | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Feedback-linearised Euler-angle dynamics ÿ = b + A u with u = J⁻¹L (seed eqs. (10)–(12)).
 
     A = B(a) (= ∂ẏ/∂ω = ∂ÿ/∂u), b = L_f²h = B(a)(J⁻¹(−ω × Jω) − Ṁ(a, ȧ) ȧ), for a general
     full inertia ``J`` (principal J gives the seed's u = (L_x/J_x, L_y/J_y, L_z/J_z)).
 
+    Euler angles relative to a rotating base frame (extension, not in the seed): with the base's
+    inertial rate ``omega_base`` = C_bo ω_b and ``omega_dot_base`` = C_bo ω̇_b in body axes,
+    ω_rel = ω − C_bo ω_b, ẏ = B ω_rel and ω̇_rel = ω̇ + ω_rel × C_bo ω_b − C_bo ω̇_b, so
+    b = B(J⁻¹(−ω × Jω) + ω_rel × C_bo ω_b − C_bo ω̇_b − Ṁ ẏ) and A = B as before.
+
     Args:
-        angles: ``(..., 3)`` Euler angles [rad] of ``seq``.
-        omega: ``(..., 3)`` body angular velocity [rad/s].
+        angles: ``(..., 3)`` Euler angles [rad] of ``seq`` (of the body relative to the base).
+        omega: ``(..., 3)`` inertial body angular velocity, body axes [rad/s].
         J: ``(3, 3)`` inertia [kg·m²] (symmetric positive definite).
         seq: scipy Euler sequence (default ``"ZYX"``, the seed's 3-2-1).
         lock_tol: gimbal-lock threshold on |cos a2| (|sin a2|).
+        omega_base, omega_dot_base: ``(..., 3)`` or ``None`` (inertial base).
 
     Returns:
-        ``(A, b)``: ``(..., 3, 3)`` and ``(..., 3)`` (batch shapes of angles and omega
-        broadcast).
+        ``(A, b)``: ``(..., 3, 3)`` and ``(..., 3)`` (batch shapes broadcast).
 
     Raises:
         ValueError: bad shapes, non-finite input, invalid ``J`` or ``seq``.
@@ -228,8 +251,11 @@ def euler_feedback_linearisation(
         raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
     a = as_array(angles, "angles", (3,))
     w = as_array(omega, "omega", (3,))
+    wb = None if omega_base is None else as_array(omega_base, "omega_base", (3,))
+    dwb = None if omega_dot_base is None else as_array(omega_dot_base, "omega_dot_base", (3,))
     _parse(seq)
-    B, b, _ = _fl_core(a, w, J, np.linalg.inv(J), seq, lock_tol)
+    w_rel, drift = _drift(w, J, np.linalg.inv(J), wb, dwb)
+    B, _, b = _accel_core(a, w_rel, drift, seq, lock_tol)
     A = np.broadcast_to(B, b.shape + (3,)).copy()
     return A, b
 
@@ -254,20 +280,35 @@ def euler_reference(
 # -- time shaping ---------------------------------------------------------------------------------
 
 
-def _basis(tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Shape functions P_l(τ) (l = 0, 1, 2) and their τ-derivatives, each ``(..., 3)``."""
-    powers = np.stack([tau**m for m in range(6)], axis=-1)  # τ^0 … τ^5
-    # coefficients of τ^m in P_l: Taylor part τ^l / l!, then the seed's r_jl on τ^{j+3}
+def _shape_coefficients() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Coefficients of τ^m in the shape functions P_l(τ) (rows l = 0, 1, 2) and in their first
+    and second τ-derivatives: the Taylor part τ^l / l!, then the seed's r_jl on τ^{j+3}."""
     C = np.zeros((3, 6))
     for ell in range(3):
         C[ell, ell] = 1.0 / math.factorial(ell)
         C[ell, 3:] = SHAPING_COEFFICIENTS[:, ell]
-    D1 = C[:, 1:] * np.arange(1, 6)  # coefficients of τ^0 … τ^4
-    D2 = D1[:, 1:] * np.arange(1, 5)  # coefficients of τ^0 … τ^3
-    P = powers @ C.T
-    dP = powers[..., :5] @ D1.T
-    ddP = powers[..., :4] @ D2.T
-    return P, dP, ddP
+    D1 = C[:, 1:] * np.arange(1, 6)
+    D2 = D1[:, 1:] * np.arange(1, 5)
+    return C, D1, D2
+
+
+_C0, _C1, _C2 = _shape_coefficients()
+
+
+def _shape_core(
+    t: np.ndarray, T: float, e0: np.ndarray, e1: np.ndarray, e2: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """p, ṗ, p̈ without validation; ``t`` (array, ≥ 0) broadcasts against ``e0.shape[:-1]``."""
+    tau = np.minimum(t / T, 1.0)[..., None]
+    powers = tau ** np.arange(6)  # (..., 6): τ^0 … τ^5
+    active = (t <= T)[..., None]
+    scale = np.array([1.0, T, T * T])
+    out = []
+    for coeffs, deriv in ((_C0, 0), (_C1, 1), (_C2, 2)):
+        S = (powers[..., : coeffs.shape[1]] @ coeffs.T) * scale  # (..., 3): P_l T^l
+        v = (e0 * S[..., 0:1] + e1 * S[..., 1:2] + e2 * S[..., 2:3]) / T**deriv
+        out.append(np.where(active, v, 0.0))
+    return out[0], out[1], out[2]
 
 
 def time_shaping_polynomial(
@@ -293,21 +334,11 @@ def time_shaping_polynomial(
     T = check_positive(T, "T")
     if not isinstance(T, float):
         raise ValueError("T: must be a scalar")
-    t = check_nonnegative(t, "t")
+    t = np.asarray(check_nonnegative(t, "t"), dtype=np.float64)
     e0 = as_array(e0, "e0", (3,))
     e1 = as_array(edot0, "edot0", (3,))
     e2 = as_array(eddot0, "eddot0", (3,))
-    t = np.asarray(t, dtype=np.float64)
-    tau = np.minimum(t / T, 1.0)
-    P, dP, ddP = _basis(tau[..., None])  # (..., 1, 3)
-    P, dP, ddP = P[..., 0, :], dP[..., 0, :], ddP[..., 0, :]
-    active = (t <= T)[..., None]
-
-    def comb(S: np.ndarray, scale: float) -> np.ndarray:
-        v = (e0 * S[..., 0:1] + e1 * (T * S[..., 1:2]) + e2 * (T * T * S[..., 2:3])) * scale
-        return np.where(active, v, 0.0)
-
-    return comb(P, 1.0), comb(dP, 1.0 / T), comb(ddP, 1.0 / (T * T))
+    return _shape_core(t, T, e0, e1, e2)
 
 
 # -- sliding surface and control ------------------------------------------------------------------
@@ -391,6 +422,7 @@ class TSMParams:
         F: bound on ‖Δb‖ (model error) [rad/s²], ≥ 0.
         D: bound on ‖d‖ (external disturbance) [rad/s²], ≥ 0.
         K: reaching gain [rad/s²], > 0.
+        C2invC1: derived C₂⁻¹C₁ (not an argument).
     """
 
     T: float
@@ -401,6 +433,7 @@ class TSMParams:
     F: float
     D: float
     K: float
+    C2invC1: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         for name in ("T", "delta0", "K"):
@@ -417,10 +450,9 @@ class TSMParams:
             C = _check_weight(getattr(self, name), name)
             C.setflags(write=False)
             object.__setattr__(self, name, C)
-
-    @property
-    def C2invC1(self) -> np.ndarray:
-        return np.linalg.solve(self.C2, self.C1)
+        G = np.linalg.solve(self.C2, self.C1)
+        G.setflags(write=False)
+        object.__setattr__(self, "C2invC1", G)
 
     @property
     def gain(self) -> float:
@@ -435,8 +467,9 @@ class TerminalSlidingMode:
     angles_d, rates_d, accels_d)`` returns the body torque L = J u. The first ``command`` after
     :meth:`reset` fixes the shaping polynomial's initial conditions e₀ = e(t₀), ė₀ = ė(t₀),
     ë₀ = b(x₀) − ÿ_d(t₀) (module docstring). Use
-    :func:`liecontrol.control.adapters` (the Euler chart adapter) for an SO(3)
-    :class:`~liecontrol.control.base.AttitudeController`; see :func:`terminal_sliding_mode_so3`.
+    :class:`TerminalSlidingModeSO3` (this law inside
+    :class:`~liecontrol.control.adapters.EulerChartAdapter`) for an SO(3)
+    :class:`~liecontrol.control.base.AttitudeController`.
 
     Args:
         J: ``(3, 3)`` inertia the controller assumes [kg·m²] (full inertia allowed).
@@ -466,6 +499,7 @@ class TerminalSlidingMode:
             raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
         self.J = J.copy()
         self.J.setflags(write=False)
+        self._J_inv = np.linalg.inv(self.J)
         self.params = TSMParams(T=T, C1=C1, C2=C2, delta0=delta0, delta1=delta1, F=F, D=D, K=K)
         _parse(seq)
         self.seq = seq
@@ -473,6 +507,9 @@ class TerminalSlidingMode:
         self._t0: float | None = None
         self._init: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._diag: dict[str, np.ndarray] = {}
+
+    #: command() handles any batch vectorized (chart-law protocol of the adapters)
+    batched = True
 
     def __repr__(self) -> str:
         p = self.params
@@ -501,14 +538,20 @@ class TerminalSlidingMode:
         angles_d: object,
         rates_d: object,
         accels_d: object,
+        omega_base: object | None = None,
+        omega_dot_base: object | None = None,
     ) -> np.ndarray:
         """Body torque ``(..., 3)`` [N·m].
 
         Args:
             t: time [s].
-            angles: ``(..., 3)`` Euler angles of the body [rad].
-            omega: ``(..., 3)`` body angular velocity [rad/s].
+            angles: ``(..., 3)`` Euler angles of the body relative to the base frame [rad].
+            omega: ``(..., 3)`` inertial body angular velocity, body axes [rad/s].
             angles_d, rates_d, accels_d: ``(..., 3)`` or ``(3,)`` reference y_d, ẏ_d, ÿ_d.
+            omega_base, omega_dot_base: the base frame's inertial rate and its derivative in
+                body axes (C_bo ω_b, C_bo ω̇_b); ``None`` = inertial base (the seed's case).
+                With a rotating base ω_rel = ω − C_bo ω_b and ω̇_rel = ω̇ + ω_rel × C_bo ω_b
+                − C_bo ω̇_b, so b = B(J⁻¹(−ω × Jω) + ω_rel × C_bo ω_b − C_bo ω̇_b − Ṁ ẏ).
 
         Raises:
             ChartSingularityError: state at gimbal lock.
@@ -520,8 +563,10 @@ class TerminalSlidingMode:
         y_d = as_array(angles_d, "angles_d", (3,))
         yd_d = as_array(rates_d, "rates_d", (3,))
         ydd_d = as_array(accels_d, "accels_d", (3,))
-        A, b = euler_feedback_linearisation(a, w, self.J, self.seq, self.lock_tol)
-        ydot = np.einsum("...ij,...j->...i", A, w)
+        wb = None if omega_base is None else as_array(omega_base, "omega_base", (3,))
+        dwb = None if omega_dot_base is None else as_array(omega_dot_base, "omega_dot_base", (3,))
+        w_rel, drift = _drift(w, self.J, self._J_inv, wb, dwb)
+        A, ydot, b = _accel_core(a, w_rel, drift, self.seq, self.lock_tol)
         e = wrap_error(a - y_d)
         edot = ydot - yd_d
         e, edot = np.broadcast_arrays(e, edot)
@@ -531,11 +576,60 @@ class TerminalSlidingMode:
         assert self._t0 is not None
         if t < self._t0:
             raise ValueError(f"t: {t} is before the manoeuvre start {self._t0} (call reset)")
-        p, pdot, pddot = time_shaping_polynomial(t - self._t0, self.params.T, *self._init)
+        p, pdot, pddot = _shape_core(np.asarray(t - self._t0), self.params.T, *self._init)
         u, sigma = tsm_control(e, edot, p, pdot, pddot, A, b, ydd_d, self.params)
         self._diag = {"sigma": sigma, "e": e, "edot": edot, "p": p, "u": u}
         return u @ self.J.T
 
+    def __call__(self, t: float, s: Any) -> np.ndarray:
+        """Chart-law protocol of :mod:`liecontrol.control.adapters`: ``s`` is a ``ChartState``
+        of an Euler chart whose sequence must equal ``self.seq``."""
+        seq = getattr(s.chart, "seq", None)
+        if seq != self.seq:
+            raise ValueError(f"s: chart sequence {seq!r} differs from the law's {self.seq!r}")
+        return self.command(
+            t, s.y, s.omega, s.y_d, s.y_d_dot, s.y_d_ddot, s.omega_base, s.omega_dot_base
+        )
+
     def diagnostics(self) -> dict[str, np.ndarray]:
         """Last σ, e, ė, p and u = J⁻¹L, each ``(..., 3)``."""
         return dict(self._diag)
+
+
+class TerminalSlidingModeSO3(EulerChartAdapter):
+    """SO(3) :class:`~liecontrol.control.base.AttitudeController`: :class:`TerminalSlidingMode`
+    wrapped by :class:`~liecontrol.control.adapters.EulerChartAdapter` (SPEC §1, §6.2).
+
+    The adapter converts (R, ω) and (R_d, ω_d, ω̇_d) into Euler angles of ``seq`` of the body
+    relative to ``base`` (``"inertial"`` = the seed's choice; ``"reference"`` makes the chart the
+    attitude error, y_d = 0; or a callable rotating frame such as an orbit frame) and refuses
+    states/references within ``lock_tol`` of gimbal lock with ChartSingularityError.
+
+    Args:
+        J, T, C1, C2, delta0, delta1, F, D, K: as :class:`TerminalSlidingMode`.
+        seq: Euler sequence (default ``"ZYX"``).
+        base: base frame of the chart (default ``"inertial"``).
+        lock_tol: adapter's gimbal-lock guard on |cos a2| (|sin a2|), default 1e-2 (|a2| > 89.4°
+            for ``"ZYX"``); the law itself refuses below 1e-6.
+
+    The prescribed-time manoeuvre starts at the first ``command`` after ``reset``;
+    ``diagnostics()`` gives σ, e, ė, p, u and the adapter's ``chart_y``, ``chart_y_d``.
+    """
+
+    def __init__(
+        self,
+        J: object,
+        T: float,
+        C1: object = 1.0,
+        C2: object = 1.0,
+        delta0: float = 0.03,
+        delta1: float = 5.0,
+        F: float = 0.0,
+        D: float = 0.0,
+        K: float = 0.1,
+        seq: str = "ZYX",
+        base: object = "inertial",
+        lock_tol: float = 1e-2,
+    ) -> None:
+        law = TerminalSlidingMode(J, T, C1, C2, delta0, delta1, F, D, K, seq=seq)
+        super().__init__(law, seq=seq, base=base, lock_tol=lock_tol)

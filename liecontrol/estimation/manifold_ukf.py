@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from .base import Filter
+from .base import Filter, tri_solve_gain
 from .unscented import UTWeights, sigma_points, ut_weights
 
 __all__ = ["ManifoldUKF"]
@@ -83,7 +83,7 @@ class ManifoldUKF(Filter):
         Sz = self._sqrt_or_repair(Pzz, "P_zz")
         Pzz = Sz @ Sz.T
         Pxz = (D * Wc).T @ dZ
-        K = np.linalg.solve(Pzz, Pxz.T).T
+        K = tri_solve_gain(Pxz, Sz)
         nu = m.z_residual(z, zm)
         self._record_innovation(nu, Pzz, Sz)
         self._x = m.boxplus(self._x[None, :], (K @ nu)[None, :])[0]

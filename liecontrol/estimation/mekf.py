@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from .base import Filter
+from .base import Filter, tri_solve_gain
 
 __all__ = ["MEKF", "numerical_error_transition"]
 
@@ -69,7 +69,7 @@ class MEKF(Filter):
         Pzz = H @ self._P @ H.T + m.R
         Sz = self._sqrt_or_repair(0.5 * (Pzz + Pzz.T), "P_zz")
         Pzz = Sz @ Sz.T
-        K = np.linalg.solve(Pzz, H @ self._P).T
+        K = tri_solve_gain(self._P @ H.T, Sz)
         nu = m.z_residual(z, zhat)
         self._record_innovation(nu, Pzz, Sz)
         self._x = m.boxplus(self._x[None, :], (K @ nu)[None, :])[0]

@@ -203,31 +203,22 @@ class GyrolessAttitudeModel(_EulerMeasurement):
 
     def rhs(self, x: np.ndarray, torque: np.ndarray) -> np.ndarray:
         """Continuous dynamics ẋ = (½ q ⊗ (0, ω), J⁻¹(N − ω × Jω)), batched (N, 7)."""
-        q, w = x[..., :4], x[..., 4:]
-        qw, qx, qy, qz = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-        wx, wy, wz = w[..., 0], w[..., 1], w[..., 2]
-        # ½ q ⊗ (0, ω) written out: avoids validation overhead inside the RK4 stages
-        qdot = 0.5 * np.stack(
-            (
-                -qx * wx - qy * wy - qz * wz,
-                qw * wx + qy * wz - qz * wy,
-                qw * wy - qx * wz + qz * wx,
-                qw * wz + qx * wy - qy * wx,
-            ),
-            axis=-1,
-        )
+        qw, qx, qy, qz = x[..., 0], x[..., 1], x[..., 2], x[..., 3]
+        w = x[..., 4:]
+        wx, wy, wz = x[..., 4], x[..., 5], x[..., 6]
+        out = np.empty(np.broadcast_shapes(x.shape, np.shape(torque)[:-1] + (7,)))
+        # ½ q ⊗ (0, ω) and ω × Jω written out: np.stack / np.cross overheads dominate otherwise
+        out[..., 0] = -0.5 * (qx * wx + qy * wy + qz * wz)
+        out[..., 1] = 0.5 * (qw * wx + qy * wz - qz * wy)
+        out[..., 2] = 0.5 * (qw * wy - qx * wz + qz * wx)
+        out[..., 3] = 0.5 * (qw * wz + qx * wy - qy * wx)
         Jw = w @ self.J.T
-        # ω × Jω written out (np.cross has a large fixed overhead on small batches)
-        cross = np.stack(
-            (
-                wy * Jw[..., 2] - wz * Jw[..., 1],
-                wz * Jw[..., 0] - wx * Jw[..., 2],
-                wx * Jw[..., 1] - wy * Jw[..., 0],
-            ),
-            axis=-1,
-        )
-        wdot = (torque - cross) @ self._Jinv.T
-        return np.concatenate((qdot, wdot), axis=-1)
+        c = np.empty_like(Jw)
+        c[..., 0] = wy * Jw[..., 2] - wz * Jw[..., 1]
+        c[..., 1] = wz * Jw[..., 0] - wx * Jw[..., 2]
+        c[..., 2] = wx * Jw[..., 1] - wy * Jw[..., 0]
+        out[..., 4:] = (torque - c) @ self._Jinv.T
+        return out
 
     def f(self, x: np.ndarray, u: np.ndarray, dt: float) -> np.ndarray:
         """One RK4 step of length dt with the torque u held, then q normalised (seed eq. (11))."""

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from .base import Filter
+from .base import Filter, tri_solve_gain
 from .unscented import UTWeights, sigma_points, ut_weights
 
 __all__ = ["UKF"]
@@ -92,7 +92,7 @@ class UKF(_AdditiveUT):
         Pxz = (dX * Wc).T @ dZ
         Sz = self._sqrt_or_repair(Pzz, "P_zz")
         Pzz = Sz @ Sz.T
-        K = np.linalg.solve(Pzz, Pxz.T).T
+        K = tri_solve_gain(Pxz, Sz)
         nu = self.model.z_residual(z, zm)
         self._record_innovation(nu, Pzz, Sz)
         self._x = self.model.normalize((self._x + K @ nu)[None, :])[0]

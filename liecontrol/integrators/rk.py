@@ -111,8 +111,14 @@ def _dexpinv(theta: np.ndarray, omega: np.ndarray) -> np.ndarray:
 
 
 def _exp_f(w0: float, w1: float, w2: float) -> np.ndarray:
-    """:func:`_exp` for one rotation vector given as Python floats -> ``(3, 3)`` array."""
+    """:func:`_exp` for one rotation vector given as Python floats -> ``(3, 3)`` array.
+
+    A non-finite rotation vector (a diverging run) gives an all-NaN matrix, as the numpy path
+    does, instead of ``math.sin(inf)``'s "math domain error": the caller detects the NaN.
+    """
     a2 = w0 * w0 + w1 * w1 + w2 * w2
+    if not a2 < math.inf:  # inf, or NaN (comparisons with NaN are False)
+        return np.full((3, 3), math.nan)
     half = max(0.5 * math.sqrt(a2), _TINY)
     q = math.sin(half) / half
     a = q * math.cos(half)

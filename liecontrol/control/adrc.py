@@ -1,0 +1,383 @@
+"""Active disturbance rejection control (ADRC) on MRP with a composite-measurement ESO
+(SPEC §6.1; seed 000: Wu, Huang, Wei & Guo, "Active disturbance rejection control of attitude
+for spacecraft", Control Theory & Applications, Beihang University).
+
+Model (seed eqs. (4)–(5)): p = MRP of the body relative to the base frame (the orbit frame in the
+paper), x₁ = p, x₂ = ṗ, x₃ = f (the total disturbance: model error, gyroscopic and frame terms,
+external torques), so
+
+    ẋ₁ = x₂,   ẋ₂ = x₃ + B τ,   ẋ₃ = a,   B = G(p) J⁻¹,
+
+with τ the commanded body torque. (The paper's τ = −ḣ is the CMG torque and f contains
+−ω × (Jω + h); our plants take the internal torque u = −ḣ − ω × h as the command, so here τ = u
+and f contains −ω × Jω instead — the same ESO, a different but equally unknown f.)
+
+Measurements (eqs. (6)–(9)): y_p = p + n_p, y_ω = ω + n_ω, and the rate-derived MRP derivative
+G(y_p)(y_ω − C_bo ω_io) — supplied by :class:`~liecontrol.control.adapters.MrpChartAdapter` as
+``s.y`` and ``s.y_dot`` (with ``s.y_dot = G(y_p)(y_ω − C_bo ω_io)`` exactly).
+
+Composite ESO (eqs. (10)–(11)), per axis with diagonal gains:
+
+    e = α(y_p − z₁) + β[G(y_p)(y_ω − C_bo ω_io) − z₂],
+    ż₁ = z₂ + K₁ e,   ż₂ = z₃ + K₂ e + B τ,   ż₃ = K₃ e.
+
+Error dynamics (eq. (13)) ė = F e + (0, 0, a), F = [[−K₁α, 1 − K₁β, 0], [−K₂α, −K₂β, 1],
+[−K₃α, −K₃β, 0]], characteristic polynomial (eq. (16))
+
+    s³ + (K₁α + K₂β) s² + (K₂α + K₃β) s + K₃α,
+
+and the pole-placement tuner (eqs. (17)–(18)) :func:`eso_gains_from_poles`. β = 0 is the
+attitude-sensor-only ESO the paper compares against.
+
+Linear tracking differentiator (eq. (19)): v̇₁ = v₂, v̇₂ = −2r v₂ − r²(v₁ − p_d).
+Attitude feedback controller (eq. (20)): τ₀ = k₁(v₁ − z₁) + k₂(v₂ − z₂), τ = B⁻¹(τ₀ − z₃),
+B⁻¹ = J G(y_p)⁻¹ (G⁻¹ = 16 Gᵀ/(1 + pᵀp)², :func:`liecontrol.charts.mrp.kinematics_matrix_inv`).
+
+Discretisation (*ours*; the paper simulates in continuous time with Simulink): the ESO and the TD
+are linear, so between two control samples t_{k−1} → t_k they are propagated **exactly**
+(zero-order hold, matrix exponential of the augmented per-axis system, cached per step length)
+with the newest measurement (taken at t_k) and the input B τ_{k−1} applied over the interval.
+Any sampling period therefore keeps the ESO's discrete poles at exp(λ_i h) — stable for every h.
+The ESO starts at z = 0 (the paper is silent) and the TD at v = (y_p(0), 0), so the TD arranges
+a smooth transition from the initial attitude to p_d.
+
+Shadow set: :class:`MrpADRC` wraps the law in an
+:class:`~liecontrol.control.adapters.MrpChartAdapter`; when the measured MRP switches to its
+shadow the ESO states (z₁, z₂, z₃) and the held B τ are mapped with
+:func:`~liecontrol.control.adapters.mrp_shadow_map` (z₃ maps like p̈, see there); when p_d
+switches, the TD states (v₁, v₂). The law regulates p − p_d in ℝ³ (not a geodesic error), so
+large manoeuvres are better posed with ``base="reference"`` (p is then the attitude error).
+
+Paper parameters (:data:`PAPER`): K₁ = diag(20), K₂ = diag(100), K₃ = diag(800), k₁ = 0.3,
+k₂ = 10, r = 0.02, α = 1, β = 0.5 (β = 0 for the comparison ESO).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from scipy.linalg import expm
+
+from .._validation import as_array, check_inertia, check_nonnegative, check_positive
+from ..charts import mrp as _mrp
+from .adapters import ChartState, MrpChartAdapter, mrp_shadow_jacobian, mrp_shadow_map
+
+__all__ = [
+    "ADRCParams",
+    "PAPER",
+    "MrpADRCLaw",
+    "MrpADRC",
+    "eso_error_matrix",
+    "eso_characteristic_polynomial",
+    "eso_gains_from_poles",
+    "eso_poles",
+]
+
+
+def _gain3(k: object, name: str) -> np.ndarray:
+    """A positive scalar or positive length-3 vector (the diagonal) → ``(3,)``."""
+    a = as_array(k, name)
+    if a.shape not in ((), (3,)):
+        raise ValueError(f"{name}: expected a scalar or a length-3 diagonal, got shape {a.shape}")
+    check_positive(a, name)
+    return np.broadcast_to(a, (3,)).astype(np.float64).copy()
+
+
+def _alpha_beta(alpha: object, beta: object) -> tuple[float, float]:
+    a = check_nonnegative(as_array(alpha, "alpha", ()), "alpha")
+    b = check_nonnegative(as_array(beta, "beta", ()), "beta")
+    if a == 0.0 and b == 0.0:
+        raise ValueError("alpha: alpha = beta = 0 leaves the ESO without any measurement")
+    if a == 0.0:
+        raise ValueError(
+            "alpha: must be > 0 (alpha = 0 never corrects the attitude estimate: the ESO has a "
+            "pole at s = 0)"
+        )
+    return float(a), float(b)
+
+
+def eso_error_matrix(K1: object, K2: object, K3: object, alpha: float, beta: float) -> np.ndarray:
+    """Per-axis error-dynamics matrix F of seed eq. (13)/(15), ``(3 axes, 3, 3)``:
+    F = [[−K₁α, 1 − K₁β, 0], [−K₂α, −K₂β, 1], [−K₃α, −K₃β, 0]]."""
+    k1, k2, k3 = _gain3(K1, "K1"), _gain3(K2, "K2"), _gain3(K3, "K3")
+    a, b = _alpha_beta(alpha, beta)
+    F = np.zeros((3, 3, 3))
+    F[:, 0, 0] = -k1 * a
+    F[:, 0, 1] = 1.0 - k1 * b
+    F[:, 1, 0] = -k2 * a
+    F[:, 1, 1] = -k2 * b
+    F[:, 1, 2] = 1.0
+    F[:, 2, 0] = -k3 * a
+    F[:, 2, 1] = -k3 * b
+    return F
+
+
+def eso_characteristic_polynomial(
+    K1: object, K2: object, K3: object, alpha: float, beta: float
+) -> np.ndarray:
+    """Coefficients (highest power first) of s³ + (K₁α + K₂β)s² + (K₂α + K₃β)s + K₃α per axis
+    (seed eq. (16); SPEC §6.1), ``(3 axes, 4)``."""
+    k1, k2, k3 = _gain3(K1, "K1"), _gain3(K2, "K2"), _gain3(K3, "K3")
+    a, b = _alpha_beta(alpha, beta)
+    return np.stack((np.ones(3), k1 * a + k2 * b, k2 * a + k3 * b, k3 * a), axis=-1)
+
+
+def eso_poles(K1: object, K2: object, K3: object, alpha: float, beta: float) -> np.ndarray:
+    """Roots of :func:`eso_characteristic_polynomial`, ``(3 axes, 3)`` complex."""
+    c = eso_characteristic_polynomial(K1, K2, K3, alpha, beta)
+    return np.stack([np.roots(ci) for ci in c])
+
+
+def eso_gains_from_poles(
+    poles: object, alpha: float, beta: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """ESO gains placing the per-axis poles (seed eqs. (17)–(18)).
+
+    With the desired poles s = −λ₁, −λ₂, −λ₃ (``poles``: shape ``(3,)`` for the same poles on
+    every axis or ``(3 axes, 3)``; real, or complex in conjugate pairs, all with negative real
+    part) and c₂ = λ₁ + λ₂ + λ₃, c₁ = λ₁λ₂ + λ₁λ₃ + λ₂λ₃, c₀ = λ₁λ₂λ₃ (the coefficients of
+    (s + λ₁)(s + λ₂)(s + λ₃)), the triangular system
+
+        c₂ = K₁α + K₂β,   c₁ = K₂α + K₃β,   c₀ = K₃α
+
+    gives K₃ = c₀/α, K₂ = (c₁ − βK₃)/α, K₁ = (c₂ − βK₂)/α. Returns ``(K1, K2, K3)``, each the
+    ``(3,)`` diagonal. Raises ``ValueError`` (naming ``poles``) for poles with non-negative real
+    parts, unpaired complex poles, or poles that would need a non-positive gain for this α, β
+    (the paper requires positive-definite gains).
+    """
+    a, b = _alpha_beta(alpha, beta)
+    try:
+        P = np.asarray(poles, dtype=np.complex128)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"poles: cannot be converted to a complex array ({exc})") from None
+    if P.shape == (3,):
+        P = np.broadcast_to(P, (3, 3))
+    if P.shape != (3, 3):
+        raise ValueError(f"poles: expected shape (3,) or (3, 3), got {P.shape}")
+    if not np.all(np.isfinite(P)):
+        raise ValueError("poles: contains non-finite values")
+    if np.any(P.real >= 0.0):
+        raise ValueError(
+            f"poles: every pole needs a negative real part, got max Re = {P.real.max():.3g}"
+        )
+    coeffs = np.stack([np.poly(p) for p in P])
+    if np.any(np.abs(coeffs.imag) > 1e-9 * np.abs(coeffs).max()):
+        raise ValueError("poles: complex poles must come in conjugate pairs")
+    c = coeffs.real
+    c2, c1, c0 = c[:, 1], c[:, 2], c[:, 3]
+    K3 = c0 / a
+    K2 = (c1 - b * K3) / a
+    K1 = (c2 - b * K2) / a
+    for name, K in (("K1", K1), ("K2", K2), ("K3", K3)):
+        if np.any(K <= 0.0):
+            raise ValueError(
+                f"poles: these poles need {name} = {K.min():.4g} <= 0 with alpha = {a}, "
+                f"beta = {b}; choose a smaller beta or other poles"
+            )
+    return K1, K2, K3
+
+
+@dataclass(frozen=True)
+class ADRCParams:
+    """ADRC parameters (SPEC §6.1). Gains are positive scalars or length-3 diagonals.
+
+    Attributes:
+        K1, K2, K3: ESO gains (diagonal).  k1, k2: AFC gains [1/s², 1/s].
+        r: TD rate [1/s].  alpha, beta: composite-error weights (α > 0, β ≥ 0).
+    """
+
+    K1: Any = 20.0
+    K2: Any = 100.0
+    K3: Any = 800.0
+    k1: Any = 0.3
+    k2: Any = 10.0
+    r: float = 0.02
+    alpha: float = 1.0
+    beta: float = 0.5
+
+    def __post_init__(self) -> None:
+        for name in ("K1", "K2", "K3", "k1", "k2"):
+            v = _gain3(getattr(self, name), name)
+            v.setflags(write=False)
+            object.__setattr__(self, name, v)
+        object.__setattr__(self, "r", float(check_positive(as_array(self.r, "r", ()), "r")))
+        a, b = _alpha_beta(self.alpha, self.beta)
+        object.__setattr__(self, "alpha", a)
+        object.__setattr__(self, "beta", b)
+
+
+#: Seed 000's parameters (composite ESO, β = 0.5).
+PAPER = ADRCParams()
+
+
+def _zoh(A: np.ndarray, Bin: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
+    """Exact ZOH discretisation of ẋ = A x + B u per axis: (Φ, Γ) from expm([[A, B], [0, 0]] h)."""
+    n, m = A.shape[-1], Bin.shape[-1]
+    aug = np.zeros(A.shape[:-2] + (n + m, n + m))
+    aug[..., :n, :n] = A
+    aug[..., :n, n:] = Bin
+    E = expm(aug * h)
+    return E[..., :n, :n], E[..., :n, n:]
+
+
+class MrpADRCLaw:
+    """The ADRC chart law (TD + composite ESO + AFC) on MRP — see the module docstring.
+
+    Wrap it with :class:`~liecontrol.control.adapters.MrpChartAdapter` (or use
+    :class:`MrpADRC`). State arrays are ``(B, 3)``; ``batched = True``.
+
+    Args:
+        J: 3×3 inertia the controller assumes [kg·m²].
+        params: :class:`ADRCParams` (default :data:`PAPER`).
+    """
+
+    batched = True
+
+    def __init__(self, J: object, params: ADRCParams = PAPER) -> None:
+        J = check_inertia(J, "J")
+        if J.shape != (3, 3):
+            raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+        if not isinstance(params, ADRCParams):
+            raise ValueError(f"params: expected ADRCParams, got {type(params).__name__}")
+        self.J = J.copy()
+        self.J.setflags(write=False)
+        self.params = params
+        P = params
+        F = eso_error_matrix(P.K1, P.K2, P.K3, P.alpha, P.beta)
+        # inputs: m = α y_p + β ẏ_meas (through K), and B τ (into ż₂)
+        Bin = np.zeros((3, 3, 2))
+        Bin[:, 0, 0], Bin[:, 1, 0], Bin[:, 2, 0] = P.K1, P.K2, P.K3
+        Bin[:, 1, 1] = 1.0
+        self._F, self._Bin = F, Bin
+        r = P.r
+        self._A_td = np.array([[0.0, 1.0], [-r * r, -2.0 * r]])
+        self._B_td = np.array([[0.0], [r * r]])
+        self._cache: dict[float, tuple[np.ndarray, ...]] = {}
+        self._t: float | None = None
+        self.z: np.ndarray | None = None  # (B, 3 axes, 3): z1, z2, z3 per axis
+        self.v: np.ndarray | None = None  # (B, 3 axes, 2): v1, v2
+        self._bu: np.ndarray | None = None  # B τ held since the last sample, (B, 3)
+        self._diag: dict[str, np.ndarray] = {}
+
+    def __repr__(self) -> str:
+        return f"MrpADRCLaw(params={self.params!r})"
+
+    def reset(self, t0: float, batch_size: int) -> None:
+        self._t = None
+        self.z = np.zeros((batch_size, 3, 3))
+        self.v = None
+        self._bu = np.zeros((batch_size, 3))
+        self._diag = {}
+
+    def _discrete(self, h: float) -> tuple[np.ndarray, ...]:
+        key = round(h, 12)
+        if key not in self._cache:
+            if len(self._cache) > 64:  # variable sampling: keep the cache bounded
+                self._cache.clear()
+            Phi, Gam = _zoh(self._F, self._Bin, h)
+            Phi_td, Gam_td = _zoh(self._A_td, self._B_td, h)
+            self._cache[key] = (Phi, Gam, Phi_td, Gam_td[:, 0])
+        return self._cache[key]
+
+    def on_shadow_switch(self, state_mask: np.ndarray, desired_mask: np.ndarray) -> None:
+        """Map the ESO states (and the held B τ) where the measured MRP switched to its shadow,
+        the TD states where p_d switched (:func:`~liecontrol.control.adapters.mrp_shadow_map`)."""
+        if self.z is not None and np.any(state_mask):
+            m = state_mask
+            z1, z2, z3 = self.z[m, :, 0], self.z[m, :, 1], self.z[m, :, 2]
+            ok = np.sum(z1 * z1, axis=-1) > 0.0
+            if np.any(ok):
+                D = mrp_shadow_jacobian(z1[ok])
+                s1, s2, s3 = mrp_shadow_map(z1[ok], z2[ok], z3[ok])
+                zm = self.z[m]
+                zm[ok] = np.stack((s1, s2, s3), axis=-1)
+                self.z[m] = zm
+                bu = self._bu[m]
+                bu[ok] = np.einsum("bij,bj->bi", D, bu[ok])
+                self._bu[m] = bu
+        if self.v is not None and np.any(desired_mask):
+            m = desired_mask
+            v1, v2 = self.v[m, :, 0], self.v[m, :, 1]
+            ok = np.sum(v1 * v1, axis=-1) > 0.0
+            if np.any(ok):
+                s1, s2, _ = mrp_shadow_map(v1[ok], v2[ok])
+                vm = self.v[m]
+                vm[ok] = np.stack((s1, s2), axis=-1)
+                self.v[m] = vm
+
+    def __call__(self, t: float, s: ChartState) -> np.ndarray:
+        """Body torque ``(B, 3)`` from the chart state (``s.y`` = y_p, ``s.y_dot`` =
+        G(y_p)(y_ω − C_bo ω_io), ``s.y_d`` = p_d)."""
+        P = self.params
+        y_p, y_v, p_d = s.y, s.y_dot, s.y_d
+        B = y_p.shape[0]
+        if self.z is None or self.z.shape[0] != B:
+            raise RuntimeError("MrpADRCLaw: call reset(t0, batch_size) first")
+        meas = P.alpha * y_p + P.beta * y_v
+        if self._t is None:
+            self.v = np.stack((y_p, np.zeros_like(y_p)), axis=-1)
+        else:
+            h = float(t) - self._t
+            if h < 0.0:
+                raise ValueError(f"t: {t} is before the previous sample {self._t}")
+            if h > 0.0:
+                Phi, Gam, Phi_td, Gam_td = self._discrete(h)
+                u_in = np.stack((meas, self._bu), axis=-1)  # (B, 3, 2)
+                self.z = np.einsum("aij,baj->bai", Phi, self.z) + np.einsum(
+                    "aij,baj->bai", Gam, u_in
+                )
+                self.v = np.einsum("ij,baj->bai", Phi_td, self.v) + Gam_td * p_d[..., None]
+        self._t = float(t)
+        z1, z2, z3 = self.z[..., 0], self.z[..., 1], self.z[..., 2]
+        v1, v2 = self.v[..., 0], self.v[..., 1]
+        tau0 = P.k1 * (v1 - z1) + P.k2 * (v2 - z2)
+        # τ = B⁻¹(τ₀ − z₃) with B⁻¹ = J G(y_p)⁻¹
+        Ginv = _mrp.kinematics_matrix_inv(y_p)
+        tau = np.einsum("bij,bj->bi", Ginv, tau0 - z3) @ self.J.T
+        G = _mrp.kinematics_matrix(y_p)
+        self._bu = np.einsum("bij,bj->bi", G, tau @ np.linalg.inv(self.J).T)
+        e = P.alpha * (y_p - z1) + P.beta * (y_v - z2)
+        self._diag = {
+            "z1": z1.copy(),
+            "z2": z2.copy(),
+            "z3": z3.copy(),
+            "v1": v1.copy(),
+            "v2": v2.copy(),
+            "tau0": tau0,
+            "eso_error": e,
+        }
+        return tau
+
+    def diagnostics(self) -> dict[str, np.ndarray]:
+        """Last ESO estimates ``z1, z2, z3``, TD outputs ``v1, v2``, ``tau0`` and the composite
+        error ``eso_error``, each ``(B, 3)``."""
+        return dict(self._diag)
+
+
+class MrpADRC(MrpChartAdapter):
+    """Seed 000's ADRC as an SO(3) controller: :class:`MrpADRCLaw` in an
+    :class:`~liecontrol.control.adapters.MrpChartAdapter`.
+
+    Args:
+        J: 3×3 inertia the controller assumes [kg·m²].
+        params: :class:`ADRCParams` (default :data:`PAPER`, the composite ESO with β = 0.5);
+            ``ADRCParams(beta=0.0)`` is the attitude-sensor-only ESO.
+        base: chart base frame — ``"reference"`` (p = attitude-error MRP, p_d = 0),
+            ``"inertial"`` or a callable frame such as the orbit frame
+            ``spacecraft.orbit.EarthPointingReference(orbit)`` (seed 000).
+        threshold: MRP shadow-switch threshold (≥ 1).
+
+    ``diagnostics()`` gives the law's ``z1, z2, z3, v1, v2, tau0, eso_error`` and the adapter's
+    ``chart_y`` (= y_p), ``chart_y_d``, ``chart_switched``.
+    """
+
+    def __init__(
+        self,
+        J: object,
+        params: ADRCParams = PAPER,
+        base: object = "reference",
+        threshold: float = 1.0,
+    ) -> None:
+        super().__init__(MrpADRCLaw(J, params), base=base, threshold=threshold)

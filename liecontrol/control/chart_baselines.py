@@ -1,0 +1,140 @@
+"""Chart-based baseline controllers (SPEC §6 item 6): quaternion PD and MRP PD.
+
+Both are chart laws wrapped by the adapters of :mod:`liecontrol.control.adapters` with
+``base="reference"``, so the chart coordinates are those of the attitude error R̃ = R_dᵀR and
+``ω_rel = e_Ω = ω − RᵀR_d ω_d``. They share the tracking feed-forward of the geometric PD
+(SPEC §6 item 1): ``ff = ω × Jω − J(ω × (RᵀR_d ω_d) − RᵀR_d ω̇_d)``.
+
+* :class:`QuaternionPD` (Wie & Barba 1985; Wie, *Space Vehicle Dynamics and Control*, §7.3):
+
+      u = −k_p q_v − k_d e_Ω + ff,   q = (w, q_v) the error quaternion,
+
+  whose sign is owned by the adapter's ``sign_mode``: ``"continuous"`` (the quaternion followed
+  continuously from the initial sign — a −q start drives the body the long way round, the
+  *unwinding* of Bhat & Bernstein 2000), ``"switched"`` (w ≥ 0 at every sample: the short way,
+  u = −k_p sign(w) q_v …, discontinuous at 180°) or ``"hysteretic"`` (Mayhew, Sanfelice &
+  Teel 2011: the sign is kept until w < −δ).
+* :class:`MrpPD` — the classical MRP feedback law (Schaub & Junkins, *Analytical Mechanics of
+  Space Systems*, §8.3–8.4, u = −Kσ − [P]δω + feed-forward):
+
+      u = −K σ − P e_Ω + ff,   σ = error MRP with shadow-set switching (|σ| ≤ 1).
+
+  With the switch at |σ| = 1, σ is the short-way error, so the law does not unwind; the torque
+  is discontinuous at 180° (where σ and its shadow both have norm 1 and opposite sign).
+
+Gains are positive scalars, positive 3-vectors (diagonal) or SPD 3×3 matrices
+(:func:`liecontrol.control.geometric_pd.check_gain`); units N·m per unit of q_v/σ and
+N·m·s/rad.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._validation import check_inertia
+from .adapters import ChartState, MrpChartAdapter, QuaternionChartAdapter
+from .geometric_pd import _apply_gain, _cross, check_gain
+
+__all__ = ["QuaternionPD", "MrpPD", "QuaternionPDLaw", "MrpPDLaw"]
+
+
+def _inertia(J: object) -> np.ndarray:
+    J = check_inertia(J, "J")
+    if J.shape != (3, 3):
+        raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+    J = J.copy()
+    J.setflags(write=False)
+    return J
+
+
+def _feed_forward(J: np.ndarray, s: ChartState) -> np.ndarray:
+    """ω × Jω − J(ω × (RᵀR_d ω_d) − RᵀR_d ω̇_d); with base = reference, ``s.omega_base`` is
+    RᵀR_d ω_d and ``s.omega_dot_base`` is RᵀR_d ω̇_d (body axes)."""
+    w = s.omega
+    return _cross(w, w @ J.T) - (_cross(w, s.omega_base) - s.omega_dot_base) @ J.T
+
+
+class QuaternionPDLaw:
+    """u = −k_p q_v − k_d e_Ω + ff on the error quaternion ``s.y`` (module docstring)."""
+
+    batched = True
+
+    def __init__(self, J: object, k_p: object, k_d: object) -> None:
+        self.J = _inertia(J)
+        self.k_p = check_gain(k_p, "k_p")
+        self.k_d = check_gain(k_d, "k_d")
+        self._diag: dict[str, np.ndarray] = {}
+
+    def reset(self, t0: float, batch_size: int) -> None:
+        self._diag = {}
+
+    def __call__(self, t: float, s: ChartState) -> np.ndarray:
+        q_v = s.y[:, 1:]
+        u = -_apply_gain(self.k_p, q_v) - _apply_gain(self.k_d, s.omega_rel)
+        self._diag = {"q_w": s.y[:, 0].copy()}
+        return u + _feed_forward(self.J, s)
+
+    def diagnostics(self) -> dict[str, np.ndarray]:
+        return dict(self._diag)
+
+
+class MrpPDLaw:
+    """u = −K σ − P e_Ω + ff on the (shadow-switched) error MRP ``s.y`` (module docstring)."""
+
+    batched = True
+
+    def __init__(self, J: object, K: object, P: object) -> None:
+        self.J = _inertia(J)
+        self.K = check_gain(K, "K")
+        self.P = check_gain(P, "P")
+
+    def reset(self, t0: float, batch_size: int) -> None:
+        """Stateless."""
+
+    def __call__(self, t: float, s: ChartState) -> np.ndarray:
+        u = -_apply_gain(self.K, s.y) - _apply_gain(self.P, s.omega_rel)
+        return u + _feed_forward(self.J, s)
+
+
+class QuaternionPD(QuaternionChartAdapter):
+    """Quaternion PD on the error quaternion (module docstring) as an SO(3) controller.
+
+    Args:
+        J: 3×3 inertia the controller assumes [kg·m²].
+        k_p: attitude gain [N·m per unit of q_v].  k_d: rate gain [N·m·s/rad].
+        sign_mode: ``"continuous"`` (default; unwinding-prone), ``"switched"`` or
+            ``"hysteretic"``.
+        hysteresis: δ ∈ (0, 1) of the hysteretic mode.
+        q_hint: quaternion whose sign picks the initial sign of q (``−q₀`` for a −q start).
+    """
+
+    def __init__(
+        self,
+        J: object,
+        k_p: object,
+        k_d: object,
+        sign_mode: str = "continuous",
+        hysteresis: float = 0.2,
+        q_hint: object = None,
+    ) -> None:
+        super().__init__(
+            QuaternionPDLaw(J, k_p, k_d),
+            base="reference",
+            sign_mode=sign_mode,
+            hysteresis=hysteresis,
+            q_hint=q_hint,
+        )
+
+
+class MrpPD(MrpChartAdapter):
+    """Classical MRP feedback u = −Kσ − P e_Ω + ff with shadow-set switching (module docstring).
+
+    Args:
+        J: 3×3 inertia the controller assumes [kg·m²].
+        K: attitude gain [N·m per unit of σ] (σ ≈ θ/4 near the target).
+        P: rate gain [N·m·s/rad].
+        threshold: shadow-switch threshold (≥ 1; 1 = classical).
+    """
+
+    def __init__(self, J: object, K: object, P: object, threshold: float = 1.0) -> None:
+        super().__init__(MrpPDLaw(J, K, P), base="reference", threshold=threshold)

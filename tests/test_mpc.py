@@ -1,0 +1,439 @@
+"""MPC on SO(3) (SPEC §6 item 4): model, OSQP vs cvxpy, closed loop on the SGCMG plant, fallback.
+
+Independent routes: the linearised LGVI against central finite differences of the nonlinear LGVI
+step (:func:`liecontrol.integrators.lgvi_step`) in the error coordinates; the terminal weight
+against the Riccati equation it must satisfy; the OSQP backend against the cvxpy/Clarabel
+formulation (interior point); the closed loop on the seed-000 spacecraft (RKMK4 plant with the
+SGCMG pyramid, :func:`spacecraft.simulate`).
+"""
+
+from __future__ import annotations
+
+import copy
+import logging
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from liecontrol.control import AttitudeReference, AttitudeState, ConstantAttitude, GeometricPD
+from liecontrol.control.mpc import (
+    SO3MPC,
+    STATUS_NAMES,
+    error_state,
+    reference_model,
+    rest_model,
+    stage0_model,
+)
+from liecontrol.integrators import lgvi_step
+from liecontrol.lie import so3
+from spacecraft import (
+    RigidBody,
+    SgcmgActuator,
+    SgcmgPyramid,
+    SingularityRobust,
+    Spacecraft,
+    simulate,
+)
+
+J = np.array([[15053.0, 3000.0, -1000.0], [3000.0, 6510.0, 2000.0], [-1000.0, 2000.0, 11122.0]])
+T = 1.0
+N = 20
+U_MAX = 20.0
+Q = [200.0] * 3 + [2.0e5] * 3
+R = [1.0] * 3
+
+
+def _mpc(**kw) -> SO3MPC:
+    args = dict(J=J, horizon=N, dt=T, Q=Q, R=R, u_max=U_MAX)
+    args.update(kw)
+    return SO3MPC(**args)
+
+
+def _slew(t: float) -> AttitudeReference:
+    """Constant-rate slew about a fixed axis: the extrapolation of the default path is exact."""
+    w = np.array([0.0, 0.006, 0.008])
+    return AttitudeReference(so3.exp(np.array([0.1, 0.2, 0.3])) @ so3.exp(t * w), w, np.zeros(3))
+
+
+# ---------------------------------------------------------------------------------------------
+# the prediction model
+
+
+def _lgvi_error_step(x, u, Rd0, wd0, Rd1, wd1):
+    """Nonlinear one-step map in error coordinates: x at knot k, torque u held → x at k+1."""
+    Rk = Rd0 @ so3.exp(x[:3])
+    wk = x[3:] + (Rk.T @ Rd0) @ wd0
+    R1, Pi1 = lgvi_step(Rk, J @ wk, u, u, T, J)
+    return error_state(R1, np.linalg.solve(J, Pi1), Rd1, wd1)
+
+
+def test_reference_model_matches_finite_differences_of_the_lgvi():
+    rng = np.random.default_rng(1)
+    w0 = np.array([0.02, -0.01, 0.03])
+    dw = np.array([1e-3, 2e-3, -1e-3])
+    ws = w0 + T * np.arange(4)[:, None] * dw
+    F = so3.exp(0.5 * T * (ws[:-1] + ws[1:]))
+    A, B, u_ref, c = reference_model(J, T, ws, F)
+    Rd = [so3.exp(rng.normal(size=3))]
+    for k in range(3):
+        Rd.append(Rd[-1] @ F[k])
+    for k in range(3):
+        args = (Rd[k], ws[k], Rd[k + 1], ws[k + 1])
+        f0 = _lgvi_error_step(np.zeros(6), u_ref[k], *args)
+        np.testing.assert_allclose(f0, c[k], atol=1e-12)  # the defect term
+        h = 1e-6
+        Afd = np.column_stack(
+            [
+                (
+                    _lgvi_error_step(h * e, u_ref[k], *args)
+                    - _lgvi_error_step(-h * e, u_ref[k], *args)
+                )
+                / (2 * h)
+                for e in np.eye(6)
+            ]
+        )
+        hu = 1e-3
+        Bfd = np.column_stack(
+            [
+                (
+                    _lgvi_error_step(np.zeros(6), u_ref[k] + hu * e, *args)
+                    - _lgvi_error_step(np.zeros(6), u_ref[k] - hu * e, *args)
+                )
+                / (2 * hu)
+                for e in np.eye(3)
+            ]
+        )
+        np.testing.assert_allclose(A[k], Afd, atol=1e-8)
+        np.testing.assert_allclose(B[k], Bfd, atol=1e-10 * np.abs(B[k]).max() + 1e-14)
+    # the discrete reference torque converges to the continuous feed-forward JΩ̇_d + Ω_d × JΩ_d
+    errs = []
+    for h in (0.4, 0.2, 0.1):
+        wk = w0 + h * np.arange(2)[:, None] * dw
+        _, _, uh, _ = reference_model(J, h, wk, so3.exp(0.5 * h * (wk[:-1] + wk[1:])))
+        wm = 0.5 * (wk[0] + wk[1])
+        errs.append(np.abs(uh[0] - (J @ dw + np.cross(wm, J @ wm))).max())
+    assert errs[0] / errs[1] > 1.8 and errs[1] / errs[2] > 1.8, errs
+
+
+_vec3 = st.lists(st.floats(-3.0, 3.0), min_size=3, max_size=3).map(np.array)
+
+
+@settings(max_examples=40, deadline=None)
+@given(_vec3, _vec3, _vec3, _vec3, _vec3)
+def test_error_state_is_left_invariant(a, b, g, w, wd):
+    """x(G R, Ω; G R_d, Ω_d) = x(R, Ω; R_d, Ω_d): the error lives in the Lie algebra, not in a
+    chart of the inertial frame; and ξ = 0, e_Ω = 0 exactly on the reference."""
+    R, R_d, G = so3.exp(a), so3.exp(b), so3.exp(g)
+    x = error_state(R, 0.1 * w, R_d, 0.1 * wd)
+    np.testing.assert_allclose(error_state(G @ R, 0.1 * w, G @ R_d, 0.1 * wd), x, atol=1e-9)
+    np.testing.assert_allclose(error_state(R_d, 0.1 * wd, R_d, 0.1 * wd), 0.0, atol=1e-15)
+    if np.linalg.norm(x[:3]) < np.pi - 1e-6:
+        np.testing.assert_allclose(R_d @ so3.exp(x[:3]), R, atol=1e-12)
+
+
+def test_rest_model_is_the_zoh_double_integrator():
+    A, B = rest_model(J, T)
+    Ji = np.linalg.inv(J)
+    np.testing.assert_allclose(
+        A, np.block([[np.eye(3), T * np.eye(3)], [np.zeros((3, 3)), np.eye(3)]]), atol=1e-15
+    )
+    np.testing.assert_allclose(B, np.vstack([0.5 * T * T * Ji, T * Ji]), rtol=1e-12)
+
+
+def test_stage0_prediction_and_jacobian():
+    rng = np.random.default_rng(2)
+    R0 = so3.exp(rng.normal(size=3))
+    w0 = 0.05 * rng.normal(size=3)
+    Rd1 = so3.exp(rng.normal(size=3))
+    wd1 = np.array([0.01, 0.0, -0.02])
+    ub = np.array([1.0, -2.0, 3.0])
+
+    def f(u):
+        R1, Pi1 = lgvi_step(R0, J @ w0, u, u, T, J)
+        return error_state(R1, np.linalg.solve(J, Pi1), Rd1, wd1)
+
+    x1, B0 = stage0_model(J, T, R0, w0, Rd1, wd1, ub)
+    np.testing.assert_allclose(x1, f(ub), atol=1e-14)
+    Bfd = np.column_stack([(f(ub + 1e-3 * e) - f(ub - 1e-3 * e)) / 2e-3 for e in np.eye(3)])
+    np.testing.assert_allclose(B0, Bfd, atol=1e-11)
+
+
+def test_terminal_weight_solves_the_riccati_equation():
+    ctrl = _mpc()
+    A, B = rest_model(J, T)
+    P, Qm, Rm = ctrl.P, ctrl.Q, ctrl.R
+    res = A.T @ P @ A - P - A.T @ P @ B @ np.linalg.solve(Rm + B.T @ P @ B, B.T @ P @ A) + Qm
+    assert np.abs(res).max() < 1e-9 * np.abs(P).max()
+    assert np.linalg.eigvalsh(P)[0] > 0
+
+
+# ---------------------------------------------------------------------------------------------
+# OSQP-direct vs cvxpy-Parameter formulation
+
+
+def _states(rng, B, scale_deg, rate):
+    axes = rng.normal(size=(B, 3))
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    ang = np.deg2rad(scale_deg) * rng.uniform(0.2, 1.0, size=(B, 1))
+    return AttitudeState(so3.exp(ang * axes), rate * rng.normal(size=(B, 3)))
+
+
+def _mixed_states(seed):
+    rng = np.random.default_rng(seed)
+    small = _states(rng, 4, 0.5, 1e-5)  # near the reference: constraints inactive
+    large = _states(rng, 4, 170.0, 0.01)  # large errors and rates: box active
+    return AttitudeState(
+        np.concatenate([small.R, large.R]), np.concatenate([small.omega, large.omega])
+    )
+
+
+def _momentum_rate_limit(limit):
+    """A spacecraft-side style constraint on ḣ_cmd = −u − ω × h: |ḣ_cmd,i| ≤ limit."""
+
+    def extra(state):
+        h = np.zeros(3) if state.h is None else state.h[0]
+        wxh = np.cross(state.omega[0], h)
+        return -np.eye(3), -limit + wxh, limit + wxh
+
+    return extra
+
+
+@pytest.mark.parametrize(
+    "case",
+    ["regulation", "tracking", "extra_constraints", "exact_stage0_jacobian"],
+)
+def test_osqp_and_cvxpy_give_the_same_first_input(case):
+    states = _mixed_states(3)
+    B = states.batch_size
+    kw: dict = {}
+    ref = AttitudeReference.regulation(np.eye(3))
+    if case == "tracking":
+        ref = _slew(0.0)
+    elif case == "extra_constraints":
+        kw["extra_constraints"] = _momentum_rate_limit(12.0)
+        states = AttitudeState(states.R, states.omega, np.full((B, 3), 50.0))
+    elif case == "exact_stage0_jacobian":
+        kw["exact_stage0_jacobian"] = True
+    out = {}
+    for backend in ("osqp", "cvxpy"):
+        ctrl = _mpc(backend=backend, **kw)
+        ctrl.reset(0.0, B)
+        out[backend] = ctrl.command(0.0, states, ref)
+        d = ctrl.diagnostics()
+        assert (d["status"] == 1).all(), (backend, d["status"])
+        assert not d["fallback_active"].any()
+    np.testing.assert_allclose(out["osqp"], out["cvxpy"], atol=1e-4, rtol=0)
+    u = out["osqp"]
+    assert np.abs(u).max() <= U_MAX
+    saturated = np.isclose(np.abs(u), U_MAX, atol=1e-6).any(axis=1)
+    if case != "extra_constraints":
+        assert saturated[4:].any() and not saturated[:4].any()  # active and inactive cases
+    else:
+        hdot = -u - np.cross(states.omega, states.h)
+        assert np.abs(hdot).max() <= 12.0 + 1e-5
+        assert np.isclose(np.abs(hdot), 12.0, atol=1e-5).any()  # the constraint binds
+
+
+def test_preview_equals_extrapolation_on_a_constant_rate_slew():
+    st = _mixed_states(4)
+    us = []
+    for preview in (None, _slew):
+        ctrl = _mpc(reference_preview=preview)
+        ctrl.reset(0.0, st.batch_size)
+        us.append(ctrl.command(0.0, st, _slew(0.0)))
+    np.testing.assert_allclose(us[0], us[1], atol=1e-6)
+
+
+# ---------------------------------------------------------------------------------------------
+# closed loop on the seed-000 SGCMG spacecraft
+
+
+def _seed000_plant():
+    cluster = SgcmgPyramid(h0=300.0, beta=np.deg2rad(54.73), gimbal_rate_limit=1.0)
+    actuator = SgcmgActuator(cluster, SingularityRobust(), delta0=np.deg2rad([45, -45, 45, -45]))
+    return Spacecraft(RigidBody(J), actuator)
+
+
+@pytest.fixture(scope="module")
+def manoeuvres():
+    """30°, 90° and 170° rest-to-rest about a generic axis, one batch (one QP per spacecraft)."""
+    plant = _seed000_plant()
+    axis = np.array([1.0, 2.0, 3.0]) / np.sqrt(14.0)
+    angles = np.deg2rad([30.0, 90.0, 170.0])
+    R_d = so3.exp(np.deg2rad(20.0) * np.array([0.0, 0.0, 1.0]))
+    R0 = R_d @ so3.exp(angles[:, None] * axis)
+    res = simulate(
+        plant,
+        _mpc(),
+        ConstantAttitude(R_d),
+        plant.initial_state(R0),
+        t_final=360.0,
+        dt=0.2,
+        control_period=T,
+        log_every=5,
+    )
+    return res
+
+
+def test_closed_loop_converges_on_30_90_170_deg(manoeuvres):
+    res = manoeuvres
+    err = np.rad2deg(res.attitude_error_angle())
+    np.testing.assert_allclose(err[0], [30.0, 90.0, 170.0], atol=1e-9)
+    assert (err[-1] < 0.1).all(), err[-1]
+    assert np.abs(res.omega[-1]).max() < 1e-4
+    # the larger manoeuvre is the slower one, and none of them unwinds (error falls overall)
+    t_half = [res.t[np.argmax(err[:, b] < 0.5 * err[0, b])] for b in range(3)]
+    assert t_half[0] <= t_half[1] <= t_half[2]
+    d = res.controller
+    assert (d["status"] == 1).all() and not d["fallback_active"].any()
+
+
+def test_closed_loop_torque_limits_never_violated(manoeuvres):
+    res = manoeuvres
+    assert np.abs(res.u_cmd).max() <= U_MAX
+    assert np.isclose(np.abs(res.u_cmd).max(), U_MAX)  # the limit was reached (170°)
+    # the CMGs delivered the command (no gimbal-rate saturation, far from singular)
+    assert not res.actuator["saturated"].any()
+    assert np.abs(res.u - res.u_cmd).max() < 0.01 * U_MAX
+    assert res.actuator["singularity"].min() > 0.3
+
+
+def test_tracking_a_slewing_reference_on_the_ideal_rigid_body():
+    """Time-varying linearisation along a slew; the body is the LGVI at T/4 (not the model's T)."""
+    ctrl = _mpc()
+    ctrl.reset(0.0, 1)
+    Rk, wk = so3.exp(np.array([0.8, -0.5, 0.3])), np.zeros(3)
+    errs = []
+    for k in range(300):
+        u = ctrl.command(k * T, AttitudeState(Rk[None], wk[None]), _slew(k * T))[0]
+        assert np.abs(u).max() <= U_MAX
+        for _ in range(4):
+            Rk, Pi = lgvi_step(Rk, J @ wk, u, u, T / 4, J)
+            wk = np.linalg.solve(J, Pi)
+        ref = _slew((k + 1) * T)
+        errs.append(np.linalg.norm(error_state(Rk, wk, ref.R_d, ref.omega_d)[:3]))
+    errs = np.rad2deg(errs)
+    assert errs[0] > 50.0 and errs[-1] < 0.05, (errs[0], errs[-1])
+    assert errs[-1] < 0.2 * errs[199]  # still converging exponentially, no steady offset
+    assert (ctrl.diagnostics()["status"] == 1).all()
+
+
+# ---------------------------------------------------------------------------------------------
+# failure → fallback
+
+
+@pytest.mark.parametrize("backend", ["osqp", "cvxpy"])
+def test_infeasible_extra_constraint_triggers_fallback_and_is_logged(backend, caplog):
+    def impossible(state):  # C u ≥ u_max + 1 contradicts the box
+        return np.eye(3), np.full(3, U_MAX + 1.0), np.full(3, np.inf)
+
+    ctrl = _mpc(backend=backend, horizon=3, extra_constraints=impossible)
+    st = _mixed_states(5)
+    ref = AttitudeReference.regulation(np.eye(3))
+    ctrl.reset(0.0, st.batch_size)
+    with caplog.at_level(logging.WARNING, logger="liecontrol.control.mpc"):
+        u = ctrl.command(0.0, st, ref)
+    d = ctrl.diagnostics()
+    assert d["fallback_active"].all()
+    assert (d["status"] == -3).all(), d["status"]  # primal infeasible
+    assert STATUS_NAMES[-3] == "primal infeasible"
+    assert "fallback GeometricPD" in caplog.text and "primal infeasible" in caplog.text
+    # the fallback's torque, clipped to the box
+    pd = copy.deepcopy(ctrl.fallback)
+    pd.reset(0.0, st.batch_size)
+    np.testing.assert_allclose(u, np.clip(pd.command(0.0, st, ref), -U_MAX, U_MAX), atol=1e-12)
+    assert np.abs(u).max() <= U_MAX
+
+
+def test_iteration_limit_triggers_configured_fallback_then_recovers(caplog):
+    class Zero(GeometricPD):
+        def command(self, t, state, reference):
+            return np.zeros((state.batch_size, 3))
+
+    fb = Zero(J, 1.0, 1.0)
+    ctrl = _mpc(fallback=fb, solver_settings={"max_iter": 1, "eps_abs": 1e-12, "eps_rel": 1e-12})
+    st = _mixed_states(6)
+    ctrl.reset(0.0, st.batch_size)
+    with caplog.at_level(logging.WARNING, logger="liecontrol.control.mpc"):
+        u = ctrl.command(0.0, st, AttitudeReference.regulation(np.eye(3)))
+    d = ctrl.diagnostics()
+    assert (d["status"] == -7).all() and d["fallback_active"].all()
+    assert (d["fallback_count"] == 1).all()
+    assert np.all(u == 0.0)
+    assert "maximum iterations reached" in caplog.text
+
+
+def test_fallback_recorded_in_simulation_log():
+    """In a closed loop every fallback step shows up in the simulator's controller log."""
+    plant = _seed000_plant()
+    ctrl = _mpc(horizon=5, solver_settings={"max_iter": 1, "polishing": False})
+    res = simulate(
+        plant,
+        ctrl,
+        ConstantAttitude(np.eye(3)),
+        plant.initial_state(so3.exp(np.array([0.5, 0.0, 0.0]))),
+        t_final=3.0,
+        dt=0.5,
+        control_period=T,
+    )
+    d = res.controller
+    assert d["fallback_active"][:-1].all() and (d["status"][:-1] == -7).all()
+    assert d["fallback_count"][-1, 0] >= 3
+    assert np.abs(res.u_cmd).max() <= U_MAX
+
+
+# ---------------------------------------------------------------------------------------------
+# bad input
+
+
+@pytest.mark.parametrize(
+    ("kw", "name"),
+    [
+        ({"horizon": 0}, "horizon"),
+        ({"horizon": 2.5}, "horizon"),
+        ({"horizon": True}, "horizon"),
+        ({"dt": 0.0}, "dt"),
+        ({"dt": -1.0}, "dt"),
+        ({"dt": np.nan}, "dt"),
+        ({"Q": [1.0, 1.0, 1.0, 1.0, 1.0, 0.0]}, "Q"),
+        ({"Q": -np.eye(6)}, "Q"),
+        ({"Q": np.eye(5)}, "Q"),
+        ({"R": np.diag([1.0, -1.0, 1.0])}, "R"),
+        ({"R": np.array([[1.0, 2.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])}, "R"),
+        ({"P": np.zeros((6, 6))}, "P"),
+        ({"u_max": 0.0}, "u_max"),
+        ({"u_max": [1.0, 2.0]}, "u_max"),
+        ({"J": -J}, "J"),
+        ({"backend": "gurobi"}, "backend"),
+        ({"extra_constraints": 3}, "extra_constraints"),
+        ({"reference_preview": "x"}, "reference_preview"),
+        ({"fallback": object()}, "fallback"),
+    ],
+)
+def test_bad_arguments_raise_value_error_naming_them(kw, name):
+    with pytest.raises(ValueError, match=f"^{name}"):
+        _mpc(**kw)
+
+
+def test_reference_not_on_so3_raises():
+    ctrl = _mpc(horizon=2)
+    ctrl.reset(0.0, 1)
+    st = AttitudeState(np.eye(3)[None], np.zeros((1, 3)))
+    bad = AttitudeReference(np.eye(3) * 1.1, np.zeros(3), np.zeros(3))
+    with pytest.raises(ValueError, match="^R_d"):
+        ctrl.command(0.0, st, bad)
+    with pytest.raises(ValueError, match="^R"):
+        ctrl.command(0.0, AttitudeState(np.eye(3)[None] * 2, np.zeros((1, 3))), _slew(0.0))
+    with pytest.raises(ValueError, match="^batch_size"):
+        ctrl.reset(0.0, 0)
+
+
+def test_copy_of_a_reset_controller_starts_unreset():
+    ctrl = _mpc(horizon=2)
+    ctrl.reset(0.0, 1)
+    ctrl.command(0.0, AttitudeState(np.eye(3)[None], np.zeros((1, 3))), _slew(0.0))
+    twin = copy.deepcopy(ctrl)
+    with pytest.raises(RuntimeError, match="reset"):
+        twin.command(0.0, AttitudeState(np.eye(3)[None], np.zeros((1, 3))), _slew(0.0))
