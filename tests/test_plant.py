@@ -325,10 +325,11 @@ def test_perturbed_inertia_statistics_and_reproducibility():
     from spacecraft import perturbed_inertia
 
     rng = np.random.default_rng(11)
-    Js = perturbed_inertia(J_SEED, rng, scale_std=0.05, size=4000)
+    J_rot = so3.exp(np.array([0.3, -0.5, 0.8])) @ J_003 @ so3.exp(np.array([0.3, -0.5, 0.8])).T
+    Js = perturbed_inertia(J_rot, rng, scale_std=0.05, size=4000)
     assert Js.shape == (4000, 3, 3)
     np.testing.assert_allclose(Js, np.swapaxes(Js, -1, -2), atol=0)
-    lam_true, Q = np.linalg.eigh(J_SEED)
+    lam_true, Q = np.linalg.eigh(J_rot)
     # no axis error: J_hat keeps J's principal axes, each moment scaled by 1 + N(0, 0.05²)
     ratios = np.einsum("ji,bjk,ki->bi", Q, Js, Q) / lam_true
     off = np.einsum("ji,bjk,kl->bil", Q, Js, Q) - ratios[:, :, None] * np.eye(3) * lam_true

@@ -6,6 +6,7 @@ pose controllers implement :class:`~liecontrol.control.se3_control.PoseControlle
 
 from .base import AttitudeController, AttitudeReference, AttitudeState
 from .geometric_pd import GeometricPD, gains_from_bandwidth
+from .mpc import SO3MPC
 from .reference import ConstantAttitude
 from .se3_control import (
     BulloMurrayPD,
@@ -24,6 +25,7 @@ __all__ = [
     "ConstantAttitude",
     "GeometricPD",
     "gains_from_bandwidth",
+    "SO3MPC",
     "PoseController",
     "PoseReference",
     "PoseState",

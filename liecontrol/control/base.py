@@ -24,11 +24,14 @@ class AttitudeState:
         R: ``(B, 3, 3)`` attitude, body → inertial.
         omega: ``(B, 3)`` body angular velocity [rad/s].
         h: ``(B, 3)`` stored actuator momentum in body axes [N·m·s], or ``None`` if unknown.
+        actuator_state: ``(B, n)`` actuator internal states (e.g. CMG gimbal angles), or
+            ``None``; for controllers that constrain the hardware (MPC gimbal-rate limits).
     """
 
     R: np.ndarray
     omega: np.ndarray
     h: np.ndarray | None = None
+    actuator_state: np.ndarray | None = None
 
     @property
     def batch_size(self) -> int:

@@ -1,0 +1,135 @@
+"""What each plant model costs: ``python -m benchmarks.perf_plant [--t-final 300] [--batch 1000]``.
+
+Cumulative cases on the seed-000 spacecraft (SGCMG pyramid, SR steering) under the large-angle
+geometric PD at every step, dt = 0.1 s, logging every 60 s:
+
+1. foundation: rigid body + SGCMG + geometric PD;
+2. + seed-000 constant + harmonic torque (SPEC §5.4);
+3. + gravity gradient on a circular orbit (SPEC §5.3);
+4. + the seed-003 rotating payload (SPEC §5.5);
+5. + three flexible appendage modes (SPEC §5.4, hybrid coordinates);
+6. + sensors in the loop: star tracker (0.5 s) and rate gyro (0.1 s) through
+   :class:`spacecraft.simulator.StarTrackerGyro`.
+
+For each: single-spacecraft steps per second and, for a batch of ``--batch`` spacecraft (random
+targets), spacecraft-steps per second (best of ``--repeat`` for the single runs).
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from liecontrol.control import ConstantAttitude
+from liecontrol.control.geometric_pd import GeometricPD, gains_from_bandwidth
+from liecontrol.lie import so3
+from spacecraft import (
+    SEED003_PAYLOAD,
+    CircularOrbit,
+    FlexibleModes,
+    GravityGradientTorque,
+    RateGyro,
+    RigidBody,
+    RotatingPayloadTorque,
+    Seed000Disturbance,
+    SgcmgActuator,
+    SgcmgPyramid,
+    SingularityRobust,
+    Spacecraft,
+    StarTracker,
+    StarTrackerGyro,
+    SumOfDisturbances,
+    simulate,
+)
+
+J_SEED000 = np.array(
+    [[15053.0, 3000.0, -1000.0], [3000.0, 6510.0, 2000.0], [-1000.0, 2000.0, 11122.0]]
+)
+#: three appendage modes (two solar-array bending modes and one torsion mode)
+MODES = FlexibleModes(
+    coupling=np.array([[20.0, 3.0, 1.0], [2.0, 15.0, -3.0], [4.0, -2.0, 12.0]]),
+    frequencies=np.array([0.8, 1.9, 3.1]),
+    damping=0.005,
+)
+
+CASES = (
+    "foundation (rigid + SGCMG + PD)",
+    "+ seed-000 torque",
+    "+ gravity gradient",
+    "+ rotating payload",
+    "+ flexible modes (3)",
+    "+ sensors (tracker + gyro)",
+)
+
+
+def _setup(case: int, batch: int, rng: np.random.Generator) -> tuple:
+    sources: dict = {}
+    if case >= 1:
+        sources["seed000"] = Seed000Disturbance()
+    if case >= 2:
+        sources["gravity_gradient"] = GravityGradientTorque(J_SEED000, CircularOrbit())
+    if case >= 3:
+        sources["payload"] = RotatingPayloadTorque([SEED003_PAYLOAD])
+    plant = Spacecraft(
+        RigidBody(J_SEED000),
+        SgcmgActuator(SgcmgPyramid(h0=300.0), SingularityRobust()),
+        SumOfDisturbances(sources) if sources else None,
+        MODES if case >= 4 else None,
+    )
+    k_R, k_W = gains_from_bandwidth(J_SEED000, 0.03, 0.9, error="large_angle", matrix=True)
+    ctrl = GeometricPD(J_SEED000, k_R, k_W, error="large_angle")
+    if batch == 1:
+        R_d = so3.exp(np.deg2rad(90.0) * np.array([1.0, 2.0, 3.0]) / np.sqrt(14.0))
+    else:
+        R_d = so3.exp(rng.normal(size=(batch, 3)) * 0.8)
+    kw: dict = {}
+    if case >= 5:
+        kw = {
+            "sensors": {
+                "star_tracker": StarTracker(noise_std=2e-5, period=0.5),
+                "gyro": RateGyro(white_std=1e-5, bias_rw_std=1e-7, period=0.1),
+            },
+            "measurement": StarTrackerGyro(),
+            "rng": np.random.default_rng(1),
+        }
+    return plant, ctrl, ConstantAttitude(R_d), plant.initial_state(np.eye(3), batch=batch), kw
+
+
+def measure(case: int, batch: int, t_final: float, dt: float, repeat: int = 1) -> float:
+    """Best-of-``repeat`` spacecraft-steps per wall-second for cumulative case ``case``."""
+    rng = np.random.default_rng(0)
+    log_every = max(1, round(60.0 / dt))
+    best = np.inf
+    for _ in range(repeat):
+        plant, ctrl, ref, s0, kw = _setup(case, batch, rng)
+        t = time.perf_counter()
+        simulate(plant, ctrl, ref, s0, t_final, dt, log_every=log_every, **kw)
+        best = min(best, time.perf_counter() - t)
+    return batch * round(t_final / dt) / best
+
+
+def main(argv: list[str] | None = None) -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--t-final", type=float, default=300.0, help="single-run length [s]")
+    p.add_argument("--batch-t-final", type=float, default=60.0, help="batch-run length [s]")
+    p.add_argument("--dt", type=float, default=0.1)
+    p.add_argument("--batch", type=int, default=1000)
+    p.add_argument("--repeat", type=int, default=2)
+    a = p.parse_args(argv)
+    print(f"{'case':34s} {'1 s/c steps/s':>14s} {'cost':>7s} {a.batch:>6d}-batch sc-steps/s")
+    base1 = baseB = None
+    for case, name in enumerate(CASES):
+        one = measure(case, 1, a.t_final, a.dt, a.repeat)
+        many = measure(case, a.batch, a.batch_t_final, a.dt, 1)
+        base1 = base1 or one
+        baseB = baseB or many
+        print(
+            f"{name:34s} {one:14.0f} {base1 / one:6.2f}x {many:13.0f} ({baseB / many:4.2f}x)",
+            flush=True,
+        )
+
+
+if __name__ == "__main__":
+    main()
