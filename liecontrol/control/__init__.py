@@ -6,7 +6,9 @@ pose controllers implement :class:`~liecontrol.control.se3_control.PoseControlle
 
 from .base import AttitudeController, AttitudeReference, AttitudeState
 from .geometric_pd import GeometricPD, gains_from_bandwidth
+from .geometric_pid import IntegralPD, IntrinsicPID, integral_gain
 from .mpc import SO3MPC
+from .prescribed_performance import PrescribedPerformance, ppc_gains
 from .reference import ConstantAttitude
 from .se3_control import (
     BulloMurrayPD,
@@ -26,6 +28,11 @@ __all__ = [
     "GeometricPD",
     "gains_from_bandwidth",
     "SO3MPC",
+    "IntrinsicPID",
+    "IntegralPD",
+    "integral_gain",
+    "PrescribedPerformance",
+    "ppc_gains",
     "PoseController",
     "PoseReference",
     "PoseState",
