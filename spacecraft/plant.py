@@ -92,6 +92,7 @@ class Spacecraft:
     disturbance: DisturbanceSource | None = None
     modes: FlexibleModes | None = None
     _Js_inv: np.ndarray | None = field(init=False, repr=False, default=None)
+    _slices: tuple = field(init=False, repr=False, default=())
 
     def __post_init__(self) -> None:
         if not isinstance(self.body, RigidBody):
@@ -110,6 +111,8 @@ class Spacecraft:
             Js_inv = 0.5 * (Js_inv + Js_inv.T)
             Js_inv.setflags(write=False)
             object.__setattr__(self, "_Js_inv", Js_inv)
+        a, N = 3 + self.n_act, self.n_modes
+        object.__setattr__(self, "_slices", (slice(3, a), slice(a, a + N), slice(a + N, a + 2 * N)))
 
     @property
     def n_act(self) -> int:
@@ -127,17 +130,18 @@ class Spacecraft:
 
     @property
     def act_slice(self) -> slice:
-        return slice(3, 3 + self.n_act)
+        """Columns of ``x_act`` in the packed state."""
+        return self._slices[0]
 
     @property
     def q_slice(self) -> slice:
-        a = 3 + self.n_act
-        return slice(a, a + self.n_modes)
+        """Columns of ``q`` in the packed state (empty without modes)."""
+        return self._slices[1]
 
     @property
     def q_dot_slice(self) -> slice:
-        a = 3 + self.n_act + self.n_modes
-        return slice(a, a + self.n_modes)
+        """Columns of ``q̇`` in the packed state (empty without modes)."""
+        return self._slices[2]
 
     def unpack(self, R: np.ndarray, x: np.ndarray) -> PlantState:
         """:class:`PlantState` of the packed arrays (views into ``x``)."""
@@ -297,10 +301,7 @@ class Spacecraft:
         omega = x[:, :3]
         act = self.actuator
         modes = self.modes
-        if modes is None:
-            x_act = x[:, 3:]
-        else:
-            x_act = x[:, self.act_slice]
+        x_act = x[:, 3:] if modes is None else x[:, self._slices[0]]
         tau = act.body_torque(omega, x_act, held)
         if self.disturbance is not None:
             tau = tau + self.disturbance(t, R, omega)
@@ -308,13 +309,14 @@ class Spacecraft:
         if modes is None:
             x_dot[:, :3] = self.body.angular_acceleration(omega, tau)
         else:
-            q_dot = x[:, self.q_dot_slice]
+            _, q_sl, qd_sl = self._slices
+            q_dot = x[:, qd_sl]
             w_dot, q_ddot = modes.accelerations(
-                omega, x[:, self.q_slice], q_dot, tau, self.body.J, self._Js_inv
+                omega, x[:, q_sl], q_dot, tau, self.body.J, self._Js_inv
             )
             x_dot[:, :3] = w_dot
-            x_dot[:, self.q_slice] = q_dot
-            x_dot[:, self.q_dot_slice] = q_ddot
+            x_dot[:, q_sl] = q_dot
+            x_dot[:, qd_sl] = q_ddot
         if x_act.shape[1] > 0:
             x_dot[:, 3 : 3 + x_act.shape[1]] = act.state_derivative(x_act, held)
         return omega, x_dot

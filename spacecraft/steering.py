@@ -560,8 +560,9 @@ class GeneralizedSingularityRobust(SteeringLaw):
     always invertible and δ̇ is finite for every finite input (never NaN). ``t`` [s] must be
     passed (the plant passes the simulation time).
 
-    Defaults are Wie's (2005, §IV): λ₀ = 0.01, μ = 10, ε₀ = 0.01, ω_ε = π/2 rad/s,
-    φ = (0, π/2, π).
+    Defaults are the values usually quoted from Wie (2005): λ₀ = 0.01, μ = 10, ε₀ = 0.01,
+    ω_ε = π/2 rad/s, φ = (0, π/2, π) (*not re-checked against the paper's text here*; the
+    structure of E and λ is the paper's, its normalisation by s² is ours).
 
     Args:
         lambda0: λ₀ ≥ 0 (dimensionless).

@@ -191,6 +191,11 @@ def test_euler_measurement_matches_scipy():
     ypr = R.as_euler("ZYX")
     rpy = euler_rpy_from_quaternion(q)
     np.testing.assert_allclose(wrap_angle(rpy - ypr[:, ::-1]), 0.0, atol=1e-9)
+    # and against the project's Euler chart (angles returned in sequence order ψ, θ, φ)
+    from liecontrol.charts import euler
+
+    chart = euler.from_matrix(quat.to_matrix(q[:50]), "ZYX")
+    np.testing.assert_allclose(wrap_angle(rpy[:50] - chart[:, ::-1]), 0.0, atol=1e-9)
     # non-unit quaternions (additive-UKF sigma points) are normalised first
     np.testing.assert_allclose(euler_rpy_from_quaternion(3.0 * q), rpy, atol=1e-12)
 

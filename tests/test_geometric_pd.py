@@ -444,3 +444,62 @@ def test_region_of_attraction_on_simulation():
     assert np.all(Psi.max(axis=0) < 2.0)
     assert np.all(so3.angle(R) < 1e-3)
     assert np.all(np.linalg.norm(w, axis=1) <= roa.rate_bound("large_angle", Psi0, w0, J, k_R))
+
+
+# ---------------------------------------------------------------------------------------------
+# hot path: one spacecraft runs on Python floats, validation by cheap checks
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_single_spacecraft_float_route_matches_batched_route(kind):
+    """The B = 1 float route evaluates the same formulas as the batched numpy route: results
+    agree to round-off, including tiny angles, θ → π (where it defers to so3.log) and θ = π."""
+    rng = np.random.default_rng(11)
+    N = 60
+    R, R_d = so3.random(rng, N), so3.random(rng, N)
+    R_d[:10] = R[:10] @ so3.exp(rng.normal(size=(10, 3)) * 1e-6)
+    axis = rng.normal(size=(10, 3))
+    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+    R_d[10:20] = R[10:20] @ so3.exp(axis * (np.pi - 0.05 * rng.random((10, 1))))
+    R_d[20] = R[20]
+    R_d[21] = R[21] @ np.diag([1.0, -1.0, -1.0])  # exactly π
+    w, w_d, dw_d = (0.1 * rng.standard_normal((N, 3)) for _ in range(3))
+    for k_R, k_W in (
+        (3.0, 8.0),
+        (np.array([1.0, 2.0, 3.0]), [[5.0, 1.0, 0], [1.0, 6.0, 0], [0, 0, 7.0]]),
+    ):
+        batched = make(kind, k_R=k_R, k_Omega=k_W, B=N)
+        M = batched.command(0.0, AttitudeState(R=R, omega=w), ref(R_d, w_d, dw_d))
+        diag = batched.diagnostics()
+        one = make(kind, k_R=k_R, k_Omega=k_W, B=1)
+        for i in range(N):
+            Mi = one.command(
+                0.0, AttitudeState(R=R[i : i + 1], omega=w[i : i + 1]), ref(R_d[i], w_d[i], dw_d[i])
+            )
+            scale = np.abs(M[i]).max()
+            np.testing.assert_allclose(Mi[0], M[i], rtol=0, atol=1e-14 * scale)
+            for key, v in one.diagnostics().items():
+                np.testing.assert_allclose(v[0], diag[key][i], rtol=1e-14, atol=1e-15)
+
+
+def test_fast_validation_rejects_what_the_validators_reject():
+    for B in (1, 3):
+        c = make("large_angle", B=B)
+        I = np.broadcast_to(np.eye(3), (B, 3, 3)).copy()
+        z = np.zeros((B, 3))
+        for bad in (np.diag([1.0, 1.0, -1.0]), 1.0 + 1e-8 * np.eye(3), np.full((3, 3), np.nan)):
+            Rb = I.copy()
+            Rb[-1] = bad
+            with pytest.raises(ValueError, match="^R:"):
+                c.command(0.0, AttitudeState(R=Rb, omega=z), ref(np.eye(3)))
+            with pytest.raises(ValueError, match="^R_d:"):
+                c.command(0.0, AttitudeState(R=I, omega=z), ref(Rb))
+        zb = z.copy()
+        zb[-1, 1] = np.inf
+        with pytest.raises(ValueError, match="^omega:"):
+            c.command(0.0, AttitudeState(R=I, omega=zb), ref(np.eye(3)))
+        with pytest.raises(ValueError, match="^omega_dot_d:"):
+            c.command(0.0, AttitudeState(R=I, omega=z), ref(np.eye(3), None, [np.nan, 0, 0]))
+        # lists and integer arrays still go through the validators and work
+        M = c.command(0.0, AttitudeState(R=I.tolist(), omega=z.astype(int)), ref(np.eye(3)))
+        np.testing.assert_array_equal(M, np.zeros((B, 3)))

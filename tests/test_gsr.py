@@ -24,9 +24,7 @@ from spacecraft.steering import (
 P = SgcmgPyramid()
 GSR = GeneralizedSingularityRobust()
 INTERNAL = np.deg2rad([-90.0, 0.0, 90.0, 0.0])  # internal singularity, singular direction x
-SINGULAR = np.deg2rad(
-    [[90.0, 90.0, 90.0, 90.0], [-90.0, 0.0, 90.0, 0.0], [0.0, 90.0, 0.0, -90.0]]
-)
+SINGULAR = np.deg2rad([[90.0, 90.0, 90.0, 90.0], [-90.0, 0.0, 90.0, 0.0], [0.0, 90.0, 0.0, -90.0]])
 ALL_LAWS = [PseudoInverse(), PseudoInverseNullMotion(cluster=P), SingularityRobust(), GSR]
 ALL_IDS = ["pinv", "pinv_null", "sr", "gsr"]
 

@@ -505,3 +505,49 @@ def test_lgvi_integrate_bad_input():
         lg.integrate(np.eye(3), np.ones(3), 0.1, 10, torque=lambda t, R: np.zeros(2))
     with pytest.raises(ValueError, match="^R0:"):
         RigidBodyLGVI(np.stack([J_ASYM] * 2)).integrate(np.eye(3), np.ones(3), 0.1, 10)
+
+
+def test_single_body_exp_returns_nan_instead_of_raising_on_overflow():
+    """A diverging single-body run must produce NaN (the simulator catches it), not a
+    ``math domain error`` from ``math.sin(inf)``."""
+    for w in ((np.inf, 0.0, 0.0), (1e200, 1e200, 0.0), (np.nan, 1.0, 0.0)):
+        E = rkmod._exp_f(*w)
+        assert E.shape == (3, 3) and np.all(np.isnan(E))
+    np.testing.assert_allclose(rkmod._exp_f(0.1, -0.2, 0.3), so3.exp([0.1, -0.2, 0.3]), atol=1e-15)
+
+    def blow_up(t, R, x):
+        return x * 1e200, x * 1e200
+
+    with np.errstate(over="ignore", invalid="ignore"):
+        R1, x1 = rkmk4_step_unchecked(blow_up, 0.0, np.eye(3)[None], np.ones((1, 3)), 1.0)
+    assert not np.all(np.isfinite(R1)) and not np.all(np.isfinite(x1))
+
+
+def test_lgvi_step_unchecked_equals_the_validated_step():
+    """The unchecked entry point (hot loops, e.g. the MPC prediction) is the same step, bit for
+    bit, on the single-body (Python-float) and the batched path, and mutates nothing."""
+    from liecontrol.integrators.lgvi import lgvi_step_unchecked
+
+    rng = np.random.default_rng(11)
+    J = random_inertia(rng)
+    Jinv = np.linalg.inv(J)
+    R = Rotation.random(4, random_state=rng).as_matrix()
+    Pi = rng.normal(size=(4, 3))
+    M0, M1 = rng.normal(size=(4, 3)), rng.normal(size=3)
+    copies = [a.copy() for a in (R, Pi, M0, M1, J)]
+    R1, Pi1 = lgvi_step_unchecked(R, Pi, M0, M1, 0.05, J, Jinv)
+    R1v, Pi1v = lgvi_step(R, Pi, M0, M1, 0.05, J)
+    assert np.array_equal(R1, R1v) and np.array_equal(Pi1, Pi1v)
+    for shape in ((3, 3), (1, 3, 3)):
+        Rs, Ps = R[0].reshape(shape), Pi[0].reshape(shape[:-1])
+        R1s, Pi1s = lgvi_step_unchecked(Rs, Ps, M0[0], M1, 0.05, J, Jinv)
+        R1sv, Pi1sv = lgvi_step(Rs, Ps, M0[0], M1, 0.05, J)
+        assert R1s.shape == shape and Pi1s.shape == shape[:-1]
+        assert np.array_equal(R1s, R1sv) and np.array_equal(Pi1s, Pi1sv)
+    for a, c in zip((R, Pi, M0, M1, J), copies, strict=True):
+        assert np.array_equal(a, c)
+    with pytest.raises(LGVIConvergenceError):
+        lgvi_step_unchecked(
+            np.eye(3), np.array([1.0, 2.0, 3.0]), np.zeros(3), np.zeros(3), 0.1, J_ASYM,
+            np.linalg.inv(J_ASYM), max_iter=1,
+        )  # fmt: skip

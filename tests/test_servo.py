@@ -8,8 +8,14 @@ import pytest
 from liecontrol.control import ConstantAttitude, GeometricPD, gains_from_bandwidth
 from liecontrol.control.base import AttitudeController
 from liecontrol.lie import so3
-from spacecraft import RigidBody, SgcmgActuator, SgcmgPyramid, SingularityRobust, Spacecraft
-from spacecraft import simulate
+from spacecraft import (
+    RigidBody,
+    SgcmgActuator,
+    SgcmgPyramid,
+    SingularityRobust,
+    Spacecraft,
+    simulate,
+)
 from spacecraft.actuators import CmgCommand, FirstOrderServo
 
 P = SgcmgPyramid()
@@ -83,33 +89,51 @@ def test_lag_body_torque_uses_actual_rates():
     np.testing.assert_allclose(act.momentum(x), P.momentum(delta), atol=1e-12)
 
 
-def _maneuver(servo, B=2, t_final=300.0):
+def _maneuver(servo, dt=0.1, t_final=150.0, B=2):
     plant = Spacecraft(RigidBody(J), SgcmgActuator(P, SingularityRobust(), servo=servo))
     k_R, k_W = gains_from_bandwidth(J, 0.05, 0.9, matrix=True)
     rng = np.random.default_rng(1)
     R_d = so3.exp(rng.normal(size=(B, 3)))
     s0 = plant.initial_state(np.eye(3), omega0=0.005 * rng.normal(size=(B, 3)))
     res = simulate(
-        plant, GeometricPD(J, k_R, k_W), ConstantAttitude(R_d), s0, t_final, 0.1, log_every=50
+        plant,
+        GeometricPD(J, k_R, k_W),
+        ConstantAttitude(R_d),
+        s0,
+        t_final,
+        dt,
+        control_period=0.1,
+        log_every=round(5.0 / dt),
     )
-    return plant, res
+    H = np.einsum("kbij,kbj->kbi", res.R, res.omega @ J + res.actuator["h"])
+    drift = np.abs(H - H[0]).max() / np.abs(H[0]).max()
+    return res, drift
 
 
-def test_lag_closed_loop_conserves_momentum_and_approaches_ideal():
-    _, ideal = _maneuver("ideal")
-    _, fast = _maneuver(FirstOrderServo(0.05))
-    _, slow = _maneuver(FirstOrderServo(2.0))
+def test_lag_closed_loop_approaches_ideal_and_respects_rate_limit():
+    ideal, drift_ideal = _maneuver("ideal")
+    fast, _ = _maneuver(FirstOrderServo(0.1))
+    slow, _ = _maneuver(FirstOrderServo(2.0))
+    assert drift_ideal < 1e-9
     for res in (fast, slow):
-        H = np.einsum("kbij,kbj->kbi", res.R, res.omega @ J + res.actuator["h"])
-        assert np.abs(H - H[0]).max() < 1e-8 * np.abs(H[0]).max() + 1e-9
         assert np.abs(res.actuator["delta_dot"]).max() <= P.gimbal_rate_limit * (1 + 1e-12)
         assert res.actuator["delta_dot_cmd"].shape == res.actuator["delta_dot"].shape
     e_ideal = ideal.attitude_error_angle()
     gap_fast = np.abs(fast.attitude_error_angle() - e_ideal).max()
     gap_slow = np.abs(slow.attitude_error_angle() - e_ideal).max()
-    assert gap_fast < 2e-3  # τ = 0.05 s ≪ the 20 s closed-loop time scale
-    assert gap_slow > 3 * gap_fast  # the lag is really there
-    assert np.all(fast.attitude_error_angle()[-1] < np.deg2rad(1.0))
+    assert gap_fast < 5e-3  # τ = 0.1 s ≪ the ~20 s closed-loop time scale
+    assert gap_slow > 5 * gap_fast  # the lag is really there (and grows with τ)
+
+
+def test_lag_momentum_exchange_converges_at_fourth_order():
+    """R (Jω + h) is conserved by the continuous dynamics with the lag too (the bus feels the
+    actual rates); the drift is RKMK4's truncation error: ÷16 per halving of dt. The gimbal
+    rate is a fast state (δ̈ = O(1/τ)), so dt must resolve τ (drift ~ (dt/τ)⁴)."""
+    servo = FirstOrderServo(0.5)
+    _, d1 = _maneuver(servo, dt=0.1, t_final=60.0)
+    _, d2 = _maneuver(servo, dt=0.05, t_final=60.0)
+    assert d1 < 1e-5
+    assert 10.0 < d1 / d2 < 25.0
 
 
 def test_servo_validation():

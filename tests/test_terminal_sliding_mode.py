@@ -247,8 +247,10 @@ def test_polynomial_derivatives_by_finite_differences_and_batch():
     np.testing.assert_allclose(pd, (pp[0] - pm[0]) / (2 * h), atol=1e-8)
     np.testing.assert_allclose(pdd, (pp[1] - pm[1]) / (2 * h), atol=1e-8)
     for i in range(4):
+        # scalar-time path (one time for a batch) against the per-element array path
         pi = time_shaping_polynomial(ts[i], T, e0[i], e1[i], e2[i])
-        np.testing.assert_allclose(pi[0], p[i], rtol=1e-12, atol=1e-14)
+        for got, want in zip(pi, (p, pd, pdd), strict=True):
+            np.testing.assert_allclose(got, want[i], rtol=1e-12, atol=1e-14)
 
 
 # -- sliding surface and the law -------------------------------------------------------------------
@@ -382,3 +384,15 @@ def test_bad_inputs_of_the_pure_functions():
     law.command(2.0, np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3))
     with pytest.raises(ValueError, match="^t"):
         law.command(1.0, np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3))
+
+
+@pytest.mark.parametrize("seq", euler.SEQUENCES)
+def test_A_equals_the_chart_rates_matrix_for_every_sequence(seq):
+    rng = np.random.default_rng(len(seq) + sum(map(ord, seq)))
+    a = np.stack([_start_angles(seq, rng) for _ in range(4)])
+    A, _ = euler_feedback_linearisation(a, rng.normal(size=(4, 3)), J_FULL, seq)
+    np.testing.assert_allclose(A, euler.rates_matrix(a, seq), rtol=1e-13, atol=1e-13)
+    lock = a.copy()
+    lock[0, 1] = np.pi / 2 if euler.is_tait_bryan(seq) else 0.0
+    with pytest.raises(ChartSingularityError):
+        euler_feedback_linearisation(lock, np.zeros(3), J_FULL, seq)

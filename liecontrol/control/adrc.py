@@ -35,8 +35,10 @@ B⁻¹ = J G(y_p)⁻¹ (G⁻¹ = 16 Gᵀ/(1 + pᵀp)², :func:`liecontrol.charts
 
 Discretisation (*ours*; the paper simulates in continuous time with Simulink): the ESO and the TD
 are linear, so between two control samples t_{k−1} → t_k they are propagated **exactly**
-(zero-order hold, matrix exponential of the augmented per-axis system, cached per step length)
-with the newest measurement (taken at t_k) and the input B τ_{k−1} applied over the interval.
+(matrix exponential of the augmented per-axis system, cached per step length) with the input
+B τ_{k−1} that the plant really held over the interval (zero-order hold) and the measurements
+(and p_d) interpolated linearly between their samples at t_{k−1} and t_k (first-order hold —
+a zero-order hold of the newest sample biases z₃ by O(h) while the attitude moves).
 Any sampling period therefore keeps the ESO's discrete poles at exp(λ_i h) — stable for every h.
 The ESO starts at z = 0 (the paper is silent) and the TD at v = (y_p(0), 0), so the TD arranges
 a smooth transition from the initial attitude to p_d.
@@ -212,14 +214,31 @@ class ADRCParams:
 PAPER = ADRCParams()
 
 
-def _zoh(A: np.ndarray, Bin: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
-    """Exact ZOH discretisation of ẋ = A x + B u per axis: (Φ, Γ) from expm([[A, B], [0, 0]] h)."""
-    n, m = A.shape[-1], Bin.shape[-1]
-    aug = np.zeros(A.shape[:-2] + (n + m, n + m))
+def _hold_discretise(
+    A: np.ndarray, B_foh: np.ndarray, B_zoh: np.ndarray, h: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Exact discretisation of ẋ = A x + B_f u(t) + B_z w over one step h, with u linear in t
+    (first-order hold between u_{k−1} and u_k) and w constant (zero-order hold):
+
+        x_k = Φ x_{k−1} + Γ₀ u_{k−1} + Γ₁ (u_k − u_{k−1})/h + Γ_z w,
+
+    all blocks of expm(h·[[A, B_f, 0, B_z], [0, 0, I, 0], [0, 0, 0, 0], [0, 0, 0, 0]])
+    (Franklin, Powell & Workman, *Digital Control of Dynamic Systems*, §6.3: triangle hold).
+    Leading axes of A and the B's broadcast (one block per ESO axis)."""
+    n, p, q = A.shape[-1], B_foh.shape[-1], B_zoh.shape[-1]
+    lead = A.shape[:-2]
+    aug = np.zeros(lead + (n + 2 * p + q,) * 2)
     aug[..., :n, :n] = A
-    aug[..., :n, n:] = Bin
+    aug[..., :n, n : n + p] = B_foh
+    aug[..., :n, n + 2 * p :] = B_zoh
+    aug[..., n : n + p, n + p : n + 2 * p] = np.eye(p)
     E = expm(aug * h)
-    return E[..., :n, :n], E[..., :n, n:]
+    return (
+        E[..., :n, :n],
+        E[..., :n, n : n + p],
+        E[..., :n, n + p : n + 2 * p],
+        E[..., :n, n + 2 * p :],
+    )
 
 
 class MrpADRCLaw:
@@ -246,11 +265,10 @@ class MrpADRCLaw:
         self.params = params
         P = params
         F = eso_error_matrix(P.K1, P.K2, P.K3, P.alpha, P.beta)
-        # inputs: m = α y_p + β ẏ_meas (through K), and B τ (into ż₂)
-        Bin = np.zeros((3, 3, 2))
-        Bin[:, 0, 0], Bin[:, 1, 0], Bin[:, 2, 0] = P.K1, P.K2, P.K3
-        Bin[:, 1, 1] = 1.0
-        self._F, self._Bin = F, Bin
+        # inputs: m = α y_p + β ẏ_meas through K (first-order hold), B τ into ż₂ (zero-order)
+        K = np.stack((P.K1, P.K2, P.K3), axis=-1)[..., None]  # (3 axes, 3, 1)
+        e2 = np.broadcast_to(np.array([[0.0], [1.0], [0.0]]), (3, 3, 1))
+        self._F, self._K, self._e2 = F, K, e2
         r = P.r
         self._A_td = np.array([[0.0, 1.0], [-r * r, -2.0 * r]])
         self._B_td = np.array([[0.0], [r * r]])
@@ -259,6 +277,7 @@ class MrpADRCLaw:
         self.z: np.ndarray | None = None  # (B, 3 axes, 3): z1, z2, z3 per axis
         self.v: np.ndarray | None = None  # (B, 3 axes, 2): v1, v2
         self._bu: np.ndarray | None = None  # B τ held since the last sample, (B, 3)
+        self._prev: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # y_p, ẏ, p_d
         self._diag: dict[str, np.ndarray] = {}
 
     def __repr__(self) -> str:
@@ -269,6 +288,7 @@ class MrpADRCLaw:
         self.z = np.zeros((batch_size, 3, 3))
         self.v = None
         self._bu = np.zeros((batch_size, 3))
+        self._prev = None
         self._diag = {}
 
     def _discrete(self, h: float) -> tuple[np.ndarray, ...]:
@@ -276,9 +296,17 @@ class MrpADRCLaw:
         if key not in self._cache:
             if len(self._cache) > 64:  # variable sampling: keep the cache bounded
                 self._cache.clear()
-            Phi, Gam = _zoh(self._F, self._Bin, h)
-            Phi_td, Gam_td = _zoh(self._A_td, self._B_td, h)
-            self._cache[key] = (Phi, Gam, Phi_td, Gam_td[:, 0])
+            Phi, G0, G1, Gz = _hold_discretise(self._F, self._K, self._e2, h)
+            Phi_td, T0, T1, _ = _hold_discretise(self._A_td, self._B_td, np.zeros((2, 1)), h)
+            self._cache[key] = (
+                Phi,
+                G0[..., 0],
+                G1[..., 0] / h,
+                Gz[..., 0],
+                Phi_td,
+                T0[:, 0],
+                T1[:, 0] / h,
+            )
         return self._cache[key]
 
     def on_shadow_switch(self, state_mask: np.ndarray, desired_mask: np.ndarray) -> None:
@@ -297,6 +325,16 @@ class MrpADRCLaw:
                 bu = self._bu[m]
                 bu[ok] = np.einsum("bij,bj->bi", D, bu[ok])
                 self._bu[m] = bu
+            if self._prev is not None:
+                # the held measurements of the last sample move to the shadow set too
+                y, yd, pd = (a.copy() for a in self._prev)
+                ym, ydm = y[m], yd[m]
+                okp = np.sum(ym * ym, axis=-1) > 0.0
+                if np.any(okp):
+                    s1, s2, _ = mrp_shadow_map(ym[okp], ydm[okp])
+                    ym[okp], ydm[okp] = s1, s2
+                    y[m], yd[m] = ym, ydm
+                self._prev = (y, yd, pd)
         if self.v is not None and np.any(desired_mask):
             m = desired_mask
             v1, v2 = self.v[m, :, 0], self.v[m, :, 1]
@@ -306,6 +344,14 @@ class MrpADRCLaw:
                 vm = self.v[m]
                 vm[ok] = np.stack((s1, s2), axis=-1)
                 self.v[m] = vm
+            if self._prev is not None:
+                y, yd, pd = (a.copy() for a in self._prev)
+                pdm = pd[m]
+                okp = np.sum(pdm * pdm, axis=-1) > 0.0
+                if np.any(okp):
+                    pdm[okp] = mrp_shadow_map(pdm[okp])[0]
+                    pd[m] = pdm
+                self._prev = (y, yd, pd)
 
     def __call__(self, t: float, s: ChartState) -> np.ndarray:
         """Body torque ``(B, 3)`` from the chart state (``s.y`` = y_p, ``s.y_dot`` =
@@ -323,13 +369,22 @@ class MrpADRCLaw:
             if h < 0.0:
                 raise ValueError(f"t: {t} is before the previous sample {self._t}")
             if h > 0.0:
-                Phi, Gam, Phi_td, Gam_td = self._discrete(h)
-                u_in = np.stack((meas, self._bu), axis=-1)  # (B, 3, 2)
-                self.z = np.einsum("aij,baj->bai", Phi, self.z) + np.einsum(
-                    "aij,baj->bai", Gam, u_in
+                Phi, G0, G1, Gz, Phi_td, T0, T1 = self._discrete(h)
+                y0, yd0, pd0 = self._prev
+                m0 = P.alpha * y0 + P.beta * yd0
+                self.z = (
+                    np.einsum("aij,baj->bai", Phi, self.z)
+                    + G0 * m0[..., None]
+                    + G1 * (meas - m0)[..., None]
+                    + Gz * self._bu[..., None]
                 )
-                self.v = np.einsum("ij,baj->bai", Phi_td, self.v) + Gam_td * p_d[..., None]
+                self.v = (
+                    np.einsum("ij,baj->bai", Phi_td, self.v)
+                    + T0 * pd0[..., None]
+                    + T1 * (p_d - pd0)[..., None]
+                )
         self._t = float(t)
+        self._prev = (y_p.copy(), y_v.copy(), p_d.copy())
         z1, z2, z3 = self.z[..., 0], self.z[..., 1], self.z[..., 2]
         v1, v2 = self.v[..., 0], self.v[..., 1]
         tau0 = P.k1 * (v1 - z1) + P.k2 * (v2 - z2)

@@ -67,7 +67,7 @@ from typing import Any
 import numpy as np
 
 from .._validation import as_array, check_inertia, check_nonnegative, check_positive
-from ..charts.euler import LOCK_TOL, _elem, _parse, rates_matrix, rates_matrix_inv
+from ..charts.euler import LOCK_TOL, _elem, _parse, from_matrix, rates_matrix
 from .adapters import EulerChartAdapter
 
 __all__ = [
@@ -110,55 +110,41 @@ def _mv(M: np.ndarray, v: np.ndarray) -> np.ndarray:
     return (M @ v[..., None])[..., 0]
 
 
-def _mdot_adot_intrinsic(
-    a: np.ndarray, ad: np.ndarray, axes: tuple[int, int, int]
-) -> np.ndarray:
-    """Ṁ(a, ȧ) ȧ for an intrinsic sequence (module docstring), ``(..., 3)``."""
-    i, j, k = axes
-    Rk3T = np.swapaxes(_elem(k, a[..., 2]), -1, -2)
-    Rj2T_ei = np.swapaxes(_elem(j, a[..., 1]), -1, -2)[..., :, i]
-    ek = np.zeros(3)
-    ek[k] = 1.0
-    ej = np.zeros(3)
-    ej[j] = 1.0
-    m1 = _mv(Rk3T, Rj2T_ei)
-    m2 = Rk3T[..., :, j]
-    # d/da R_k(a)ᵀ = −ê_k R_k(a)ᵀ, hence the two cross-product terms of ṁ1 and the one of ṁ2
-    dm1 = -ad[..., 2:3] * _cross(ek, m1) - ad[..., 1:2] * _mv(Rk3T, _cross(ej, Rj2T_ei))
-    dm2 = -ad[..., 2:3] * _cross(ek, m2)
-    return ad[..., 0:1] * dm1 + ad[..., 1:2] * dm2
-
-
-def _mdot_adot(a: np.ndarray, ad: np.ndarray, seq: str) -> np.ndarray:
-    axes, ext = _parse(seq)
-    if ext:
-        # extrinsic "ijk" = intrinsic "KJI" with reversed angles; M's columns reverse too, so the
-        # vector Ṁȧ is the intrinsic one evaluated at the reversed angles and rates
-        return _mdot_adot_intrinsic(a[..., ::-1], ad[..., ::-1], axes)
-    return _mdot_adot_intrinsic(a, ad, axes)
-
-
-def _rates(a: np.ndarray, seq: str, lock_tol: float) -> np.ndarray:
-    """B(a) = M(a)⁻¹ (ChartSingularityError at lock), without re-validating ``a``."""
-    (i, _, k), _ = _parse(seq)
-    f = np.cos if i != k else np.sin
-    if np.any(np.abs(f(a[..., 1])) < lock_tol):
-        return rates_matrix(a, seq, lock_tol)  # raises the chart's own ChartSingularityError
-    M = rates_matrix_inv(a, seq)
-    c1, c2, c3 = M[..., :, 0], M[..., :, 1], M[..., :, 2]
-    rows = np.stack((_cross(c2, c3), _cross(c3, c1), _cross(c1, c2)), axis=-2)
-    det = np.sum(c1 * rows[..., 0, :], axis=-1)
-    return rows / det[..., None, None]
+def _unit(k: int) -> np.ndarray:
+    e = np.zeros(3)
+    e[k] = 1.0
+    return e
 
 
 def _accel_core(
     a: np.ndarray, w: np.ndarray, wd: np.ndarray, seq: str, lock_tol: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(B, ȧ, ä) without input validation (hot path)."""
-    B = _rates(a, seq, lock_tol)
+    """(B, ȧ, ä) without input validation (hot path): ȧ = Bω, ä = B(ω̇ − Ṁȧ).
+
+    One pass for M, B and Ṁȧ (module docstring). An extrinsic "ijk" is the intrinsic "KJI" with
+    reversed angles: computed on the reversed angles, then B's rows and ȧ, ä are reversed back.
+    """
+    (i, j, k), ext = _parse(seq)
+    ar = a[..., ::-1] if ext else a
+    ek, ej = _unit(k), _unit(j)
+    Rk3T = _elem(k, -ar[..., 2])  # R_k(a3)ᵀ
+    Rj2T_ei = _elem(j, -ar[..., 1])[..., :, i]  # R_j(a2)ᵀ e_i
+    m1 = _mv(Rk3T, Rj2T_ei)
+    m2 = Rk3T[..., :, j]
+    m3 = np.broadcast_to(ek, m1.shape)
+    r1, r2, r3 = _cross(m2, m3), _cross(m3, m1), _cross(m1, m2)
+    det = np.sum(m1 * r1, axis=-1)  # = ±cos a2 (Tait–Bryan) or ±sin a2 (proper Euler)
+    if np.any(np.abs(det) < lock_tol):
+        rates_matrix(a, seq, lock_tol)  # raises the chart's own ChartSingularityError
+    B = np.stack((r1, r2, r3), axis=-2) / det[..., None, None]
     adot = _mv(B, w)
-    a_b = np.broadcast_to(a, adot.shape)
-    addot = _mv(B, wd - _mdot_adot(a_b, adot, seq))
+    # Ṁȧ: d/da R_k(a)ᵀ = −ê_k R_k(a)ᵀ gives the two terms of ṁ1 and the one of ṁ2 (m3 fixed)
+    d1, d2, d3 = adot[..., 0:1], adot[..., 1:2], adot[..., 2:3]
+    dm1 = -d3 * _cross(ek, m1) - d2 * _mv(Rk3T, _cross(ej, Rj2T_ei))
+    dm2 = -d3 * _cross(ek, m2)
+    addot = _mv(B, wd - (d1 * dm1 + d2 * dm2))
+    if ext:
+        return B[..., ::-1, :], adot[..., ::-1], addot[..., ::-1]
     return B, adot, addot
 
 
@@ -270,8 +256,6 @@ def euler_reference(
     """Euler-angle reference (y_d, ẏ_d, ÿ_d) of an SO(3) reference (R_d, ω_d, ω̇_d) — ω_d in the
     desired body frame — by :func:`liecontrol.charts.euler.from_matrix` and
     :func:`euler_angle_acceleration`. Raises ChartSingularityError if R_d is at gimbal lock."""
-    from ..charts.euler import from_matrix
-
     a_d = from_matrix(R_d, seq, warn=False)
     ad, add = euler_angle_acceleration(a_d, omega_d, omega_dot_d, seq, lock_tol)
     return np.broadcast_to(a_d, ad.shape).copy(), ad, add
@@ -299,16 +283,28 @@ def _shape_core(
     t: np.ndarray, T: float, e0: np.ndarray, e1: np.ndarray, e2: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """p, ṗ, p̈ without validation; ``t`` (array, ≥ 0) broadcasts against ``e0.shape[:-1]``."""
+    scale = np.array([1.0, T, T * T])
+    if t.ndim == 0:
+        # one time for the whole batch (the controller's case): a 3×3 weight matrix
+        # W[l, d] = d^d/dt^d of (T^l P_l(t/T)), then (p, ṗ, p̈) = [e0 e1 e2] W
+        if t > T:
+            z = np.zeros(np.broadcast_shapes(e0.shape, e1.shape, e2.shape))
+            return z, z.copy(), z.copy()
+        pw = (t / T) ** np.arange(6)
+        W = np.stack((_C0 @ pw, (_C1 @ pw[:5]) / T, (_C2 @ pw[:4]) / (T * T)), axis=-1)
+        W = W * scale[:, None]
+        E = np.stack(np.broadcast_arrays(e0, e1, e2), axis=-1)  # (..., 3, l)
+        out = E @ W
+        return out[..., 0], out[..., 1], out[..., 2]
     tau = np.minimum(t / T, 1.0)[..., None]
     powers = tau ** np.arange(6)  # (..., 6): τ^0 … τ^5
     active = (t <= T)[..., None]
-    scale = np.array([1.0, T, T * T])
-    out = []
+    res = []
     for coeffs, deriv in ((_C0, 0), (_C1, 1), (_C2, 2)):
         S = (powers[..., : coeffs.shape[1]] @ coeffs.T) * scale  # (..., 3): P_l T^l
         v = (e0 * S[..., 0:1] + e1 * S[..., 1:2] + e2 * S[..., 2:3]) / T**deriv
-        out.append(np.where(active, v, 0.0))
-    return out[0], out[1], out[2]
+        res.append(np.where(active, v, 0.0))
+    return res[0], res[1], res[2]
 
 
 def time_shaping_polynomial(
