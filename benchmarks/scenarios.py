@@ -1,33 +1,46 @@
 """Benchmark scenarios as data (SPEC §8.1): frozen dataclasses, no behaviour beyond conversions.
 
-A :class:`Scenario` fixes the spacecraft (:class:`SpacecraftSpec`), the initial state, the
-reference (:class:`ReferenceSpec`), the disturbance (:class:`DisturbanceSpec`), the duration and
-the time steps. The runner (:mod:`benchmarks.runner`) turns a scenario into plant objects; every
-scenario of a suite sharing spacecraft, disturbance and time grid is simulated in one batch.
+A :class:`Scenario` names its plant (:class:`SpacecraftSpec`: inertia and actuator — SGCMG
+pyramid, reaction wheels or an ideal torque source; or the SE(3) chaser of a
+:class:`ProximitySpec`), the initial state (attitude and rate *errors* relative to the reference at
+the start), the reference (:class:`ReferenceSpec`), the disturbances (:class:`DisturbanceSpec`),
+the model uncertainty (:class:`UncertaintySpec`: the plant's true inertia differs from the one the
+controllers are given), the duration and the sample times. :mod:`benchmarks.runner` turns a
+scenario into plant objects; scenarios sharing plant and time grid are simulated in one batch.
+Users add scenarios from Python (:func:`register_scenario`, or pass :class:`Scenario` objects to
+:func:`benchmarks.runner.run_suite`) or from TOML/YAML files (:mod:`benchmarks.scenario_files`).
 
-The quick suite (:data:`QUICK_SUITE`) uses the seed-000 spacecraft (SPEC §6.1): inertia
-``J = [[15053, 3000, −1000], [3000, 6510, 2000], [−1000, 2000, 11122]]`` kg·m², a pyramid of four
-SGCMGs with ``h₀ = 300`` N·m·s, β = 54.73°, gimbal-rate limit 1 rad/s, initial gimbal angles
-(45°, −45°, 45°, −45°) (zero stored momentum) and seed 000's steering law (pseudo-inverse with
-null motion climbing the singularity measure).
+The catalogue (:data:`SCENARIOS`) covers SPEC §8.1 on the seed-000 spacecraft (SPEC §6.1):
+inertia ``J = [[15053, 3000, −1000], [3000, 6510, 2000], [−1000, 2000, 11122]]`` kg·m², a pyramid
+of four SGCMGs with ``h₀ = 300`` N·m·s, β = 54.73°, gimbal-rate limit 1 rad/s, initial gimbal
+angles (45°, −45°, 45°, −45°) (zero stored momentum) and seed 000's steering law (pseudo-inverse
+with null motion climbing the singularity measure):
 
-- ``stabilisation``: SPEC §8.1 item 1 / §5.4 item 1. Start at the reference attitude at rest,
-  hold it against the seed-000 constant + harmonic torque. The attitude is taken relative to the
-  orbit frame and that frame is treated as inertial over the run (the orbit rate
-  n = 0.0011 rad/s enters through the torque's harmonics only); the Earth-pointing (rotating)
-  reference comes with the full catalogue.
-- ``slew-90``, ``slew-179``: rest-to-rest manoeuvres of 90° and 179° about the fixed body axis
-  ``(1, 1, 1)/√3`` — not a principal axis of this ``J`` (``J (1,1,1)ᵀ = (17053, 11510, 12122)``
-  is not parallel to it), so the manoeuvre couples all three axes. Start at ``exp(θ â^)``,
-  reference identity, no disturbance (the disturbance case is the stabilisation scenario; here
-  the question is large-angle behaviour: settling, path length / unwinding, CMG singularity).
-
-Durations 600 s, plant step 0.1 s, controller period 0.1 s.
+- ``stabilisation``: hold the orbit-frame attitude against the seed-000 constant + harmonic
+  torque (SPEC §5.4 item 1; the orbit frame is treated as inertial over the run, the orbit rate
+  enters through the torque's harmonics);
+- ``slew-30/90/150/179``: rest-to-rest manoeuvres about the body axis ``(1, 1, 1)/√3`` (not a
+  principal axis of this J, so all three axes couple); ``slew-120-random-axis`` about a fixed
+  random axis (drawn once, ``default_rng(2026)``, and written out below);
+- ``unwinding-q`` / ``unwinding-minus-q``: the same physical 90° start given to chart
+  controllers as the quaternion ``q`` or ``−q``; ``near-pi-179.9``: 0.1° from the antipode;
+- ``earth-pointing``: track the LVLH frame of a circular orbit (n = 0.0011 rad/s) from 10° and
+  0.05 °/s off, under gravity gradient + the seed-000 torque (SPEC §5.3);
+- ``slew-tracking``: track a reference turning at a constant 0.2 °/s about body z (a slewing
+  reference), starting 20° behind;
+- ``inertia-uncertainty``: the seed-000 disturbance and a 60° manoeuvre with the plant's principal
+  moments scaled by (1.2, 1.2, 0.8) (±20 %) while the controllers know the nominal J;
+- ``payload-jitter``: seed 003's spacecraft (J = diag(520, 450, 660), three orthogonal reaction
+  wheels) holding its attitude against the calibrated 90 °/s rotating payload (SPEC §5.5);
+- ``proximity-approach``: the SE(3) chaser (500 kg) reaching a docking pose 5 m behind a target
+  in circular orbit from 150° / 100 m (SPEC §5.6, §6 item 5).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -37,15 +50,27 @@ from liecontrol._validation import as_array, check_inertia, check_positive, chec
 
 __all__ = [
     "SEED000_INERTIA",
+    "SEED003_INERTIA",
+    "ACTUATORS",
+    "DISTURBANCES",
+    "REFERENCE_KINDS",
     "SpacecraftSpec",
     "DisturbanceSpec",
     "ReferenceSpec",
+    "UncertaintySpec",
+    "ProximitySpec",
     "Scenario",
+    "Suite",
     "SEED000_SPACECRAFT",
+    "SEED003_SPACECRAFT",
+    "SCENARIOS",
     "QUICK_SUITE",
     "SUITES",
     "get_suite",
+    "get_scenario",
+    "register_scenario",
     "rest_to_rest",
+    "scale_principal_moments",
 ]
 
 #: Seed-000 spacecraft inertia [kg·m²] (SPEC §6.1).
@@ -54,9 +79,30 @@ SEED000_INERTIA: tuple[tuple[float, float, float], ...] = (
     (3000.0, 6510.0, 2000.0),
     (-1000.0, 2000.0, 11122.0),
 )
+#: Seed-003 spacecraft inertia [kg·m²] (SPEC §5.5, seed 003).
+SEED003_INERTIA: tuple[tuple[float, float, float], ...] = (
+    (520.0, 0.0, 0.0),
+    (0.0, 450.0, 0.0),
+    (0.0, 0.0, 660.0),
+)
 
-#: Manoeuvre axis of the quick suite: body (1, 1, 1)/√3, not a principal axis of the seed-000 J.
+#: Manoeuvre axis of the fixed-axis slews: body (1, 1, 1)/√3, not a principal axis of seed-000 J.
 SLEW_AXIS: tuple[float, float, float] = tuple(float(x) for x in np.ones(3) / np.sqrt(3.0))
+#: The "random axis" of ``slew-120-random-axis``: ``v / ‖v‖`` with ``v`` drawn once from
+#: ``np.random.default_rng(2026).normal(size=3)``, written out so the catalogue is plain data.
+RANDOM_AXIS: tuple[float, float, float] = (-0.38323721, 0.11624417, -0.91630592)
+
+#: Actuator kinds a :class:`SpacecraftSpec` can name (also the plant tags of attitude scenarios).
+ACTUATORS: tuple[str, ...] = ("sgcmg", "wheels", "ideal")
+#: Disturbance models a :class:`DisturbanceSpec` can name, with their parameters.
+DISTURBANCES: dict[str, tuple[str, ...]] = {
+    "seed000": ("n", "scale"),
+    "gravity-gradient": ("n",),
+    "constant": ("x", "y", "z"),
+    "payload-seed003": ("scale",),
+}
+#: Reference kinds of a :class:`ReferenceSpec`.
+REFERENCE_KINDS: tuple[str, ...] = ("constant", "earth-pointing", "constant-rate")
 
 
 def _tuple3(x: object, name: str) -> tuple[float, float, float]:
@@ -66,36 +112,87 @@ def _tuple3(x: object, name: str) -> tuple[float, float, float]:
     return tuple(float(v) for v in a)
 
 
+def _matrix3(x: object, name: str) -> tuple[tuple[float, ...], ...]:
+    J = check_inertia(x, name)
+    if J.shape != (3, 3):
+        raise ValueError(f"{name}: expected shape (3, 3), got {J.shape}")
+    return tuple(tuple(float(v) for v in row) for row in J)
+
+
+def scale_principal_moments(J: object, scale: object) -> np.ndarray:
+    """``V diag(λ ∘ s) Vᵀ`` with ``J = V diag(λ) Vᵀ`` (``λ`` ascending): the principal moments
+    scaled by ``s`` (3,), principal axes kept. Raises ``ValueError`` (``scale: ...``) when the
+    result violates the triangle inequality or is not positive definite."""
+    J = check_inertia(J, "J")
+    s = as_array(scale, "scale", (3,))
+    if s.shape != (3,):
+        raise ValueError(f"scale: expected shape (3,), got {s.shape}")
+    lam, V = np.linalg.eigh(J)
+    Jt = (V * (lam * s)) @ V.T
+    Jt = 0.5 * (Jt + Jt.T)
+    try:
+        check_inertia(Jt, "scale")
+    except ValueError as exc:
+        raise ValueError(f"{exc} (scaled principal moments {lam * s})") from None
+    return Jt
+
+
 @dataclass(frozen=True)
 class SpacecraftSpec:
-    """The plant's hardware, as data.
+    """The attitude plant's hardware, as data.
 
     Attributes:
         name: label for reports.
-        inertia: 3×3 inertia [kg·m²] (nested tuples).
+        inertia: 3×3 nominal inertia [kg·m²] (nested tuples): the one the controllers are given.
+        actuator: ``"sgcmg"`` (SPEC §5.2 pyramid), ``"wheels"`` (three orthogonal reaction
+            wheels, SPEC §5.2) or ``"ideal"`` (delivers the command, optional ``max_torque``).
         h0: rotor momentum of each SGCMG [N·m·s].
         beta_deg: pyramid skew angle [deg].
         gimbal_rate_limit: per-gimbal rate limit [rad/s].
         delta0_deg: initial gimbal angles [deg].
         steering: steering-law name understood by :func:`benchmarks.runner.build_steering`
             (``"pinv-null-motion"`` = seed 000's law, ``"pinv"``, ``"sr"``).
+        wheel_inertia, wheel_max_torque, wheel_max_speed: reaction-wheel axial inertia
+            [kg·m²], torque limit [N·m] and speed limit [rad/s].
+        max_torque: per-axis limit of the ideal actuator [N·m] (``None``: unlimited).
     """
 
     name: str = "seed000"
     inertia: tuple[tuple[float, ...], ...] = SEED000_INERTIA
+    actuator: str = "sgcmg"
     h0: float = 300.0
     beta_deg: float = 54.73
     gimbal_rate_limit: float = 1.0
     delta0_deg: tuple[float, ...] = (45.0, -45.0, 45.0, -45.0)
     steering: str = "pinv-null-motion"
+    wheel_inertia: float = 0.1
+    wheel_max_torque: float = 1.0
+    wheel_max_speed: float = 600.0
+    max_torque: float | None = None
 
     def __post_init__(self) -> None:
-        J = check_inertia(self.inertia, "inertia")
-        if J.shape != (3, 3):
-            raise ValueError(f"inertia: expected shape (3, 3), got {J.shape}")
-        object.__setattr__(self, "inertia", tuple(tuple(float(v) for v in row) for row in J))
-        for name in ("h0", "beta_deg", "gimbal_rate_limit"):
-            object.__setattr__(self, name, check_positive(getattr(self, name), name))
+        object.__setattr__(self, "inertia", _matrix3(self.inertia, "inertia"))
+        if self.actuator not in ACTUATORS:
+            raise ValueError(
+                f"actuator: unknown actuator {self.actuator!r}; valid: {', '.join(ACTUATORS)}"
+            )
+        for name in (
+            "h0",
+            "beta_deg",
+            "gimbal_rate_limit",
+            "wheel_inertia",
+            "wheel_max_torque",
+            "wheel_max_speed",
+        ):
+            v = check_positive(getattr(self, name), name)
+            if not isinstance(v, float):
+                raise ValueError(f"{name}: must be a scalar")
+            object.__setattr__(self, name, v)
+        if self.max_torque is not None:
+            v = check_positive(self.max_torque, "max_torque")
+            if not isinstance(v, float):
+                raise ValueError("max_torque: must be a scalar")
+            object.__setattr__(self, "max_torque", v)
         d0 = as_array(self.delta0_deg, "delta0_deg", (4,))
         if d0.shape != (4,):
             raise ValueError(f"delta0_deg: expected shape (4,), got {d0.shape}")
@@ -103,45 +200,135 @@ class SpacecraftSpec:
 
     @property
     def J(self) -> np.ndarray:
-        """Inertia as a ``(3, 3)`` array."""
+        """Nominal inertia as a ``(3, 3)`` array."""
         return np.array(self.inertia)
 
 
 @dataclass(frozen=True)
 class DisturbanceSpec:
-    """External torque model by name: ``"none"`` or ``"seed000"`` (SPEC §5.4 item 1).
+    """External torque model by name (SPEC §5.4), see :data:`DISTURBANCES`:
 
-    ``params`` are keyword arguments of the model as ``(name, value)`` pairs (kept as a tuple so
-    the spec stays hashable), e.g. ``(("scale", 2.0),)``.
+    - ``"seed000"``: constant + harmonic torque (params ``n`` orbit rate, ``scale``);
+    - ``"gravity-gradient"``: ``3n²(ĉ × J_true ĉ)`` for the orbit of rate ``n`` (SPEC §5.3);
+    - ``"constant"``: body torque ``(x, y, z)`` [N·m];
+    - ``"payload-seed003"``: seed 003's calibrated rotating payload (``scale``) (SPEC §5.5).
+
+    ``params`` are ``(name, value)`` pairs (a tuple, so the spec stays hashable); a dict is
+    accepted and converted.
     """
 
-    name: str = "none"
+    name: str = "seed000"
     params: tuple[tuple[str, float], ...] = ()
 
     def __post_init__(self) -> None:
-        if self.name not in ("none", "seed000"):
-            raise ValueError(f"name: unknown disturbance {self.name!r} (known: 'none', 'seed000')")
-        object.__setattr__(self, "params", tuple((str(k), float(v)) for k, v in self.params))
+        if self.name not in DISTURBANCES:
+            raise ValueError(
+                f"name: unknown disturbance {self.name!r}; valid: {', '.join(DISTURBANCES)}"
+            )
+        items = self.params.items() if isinstance(self.params, dict) else self.params
+        params = []
+        for k, v in items:
+            if k not in DISTURBANCES[self.name]:
+                raise ValueError(
+                    f"params: {self.name!r} has no parameter {k!r}; valid: "
+                    f"{', '.join(DISTURBANCES[self.name])}"
+                )
+            x = float(as_array(v, f"params.{k}", ()))
+            params.append((str(k), x))
+        object.__setattr__(self, "params", tuple(sorted(params)))
+
+    @property
+    def kwargs(self) -> dict[str, float]:
+        return dict(self.params)
 
 
 @dataclass(frozen=True)
 class ReferenceSpec:
-    """A constant desired attitude ``R_d = exp(rotvec^)`` (regulation; rest-to-rest).
+    """Desired attitude trajectory (see :data:`REFERENCE_KINDS`):
 
-    Tracking references join in the full catalogue (``kind`` distinguishes them).
+    - ``"constant"``: ``R_d = exp(rotvec^)``, ``ω_d = 0`` (regulation, rest-to-rest);
+    - ``"earth-pointing"``: the LVLH frame of a circular orbit of rate ``n`` [rad/s],
+      ``R_d(t) = C(t) exp(rotvec^)`` (:class:`spacecraft.orbit.EarthPointingReference`);
+    - ``"constant-rate"``: ``R_d(t) = exp(rotvec^) exp(t ω_d^)`` with the constant desired body
+      rate ``rate`` [rad/s] (a slewing reference), ``ω̇_d = 0``.
     """
 
     kind: str = "constant"
     rotvec: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    n: float = 0.0011
+    rate: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
-        if self.kind != "constant":
-            raise ValueError(f"kind: unknown reference kind {self.kind!r} (known: 'constant')")
+        if self.kind not in REFERENCE_KINDS:
+            raise ValueError(
+                f"kind: unknown reference kind {self.kind!r}; valid: {', '.join(REFERENCE_KINDS)}"
+            )
         object.__setattr__(self, "rotvec", _tuple3(self.rotvec, "rotvec"))
+        object.__setattr__(self, "rate", _tuple3(self.rate, "rate"))
+        n = check_positive(self.n, "n")
+        if not isinstance(n, float):
+            raise ValueError("n: must be a scalar")
+        object.__setattr__(self, "n", n)
 
     @property
     def R_d(self) -> np.ndarray:
+        """``exp(rotvec^)``: the constant reference / the offset of the moving ones."""
         return Rotation.from_rotvec(self.rotvec).as_matrix()
+
+
+@dataclass(frozen=True)
+class UncertaintySpec:
+    """Model uncertainty (SPEC §5.4 last item, §8.1): the plant's true inertia is the nominal one
+    with its principal moments scaled by ``inertia_scale`` (:func:`scale_principal_moments`);
+    the controllers are given the nominal inertia."""
+
+    inertia_scale: tuple[float, float, float] = (1.0, 1.0, 1.0)
+
+    def __post_init__(self) -> None:
+        s = _tuple3(self.inertia_scale, "inertia_scale")
+        check_positive(np.array(s), "inertia_scale")
+        object.__setattr__(self, "inertia_scale", s)
+
+    @property
+    def is_nominal(self) -> bool:
+        return self.inertia_scale == (1.0, 1.0, 1.0)
+
+
+@dataclass(frozen=True)
+class ProximitySpec:
+    """SE(3) proximity approach (SPEC §5.6, §6 item 5): a chaser of mass ``mass`` [kg] and
+    inertia ``inertia`` reaches the docking pose ``(exp(dock_rotvec^), dock_position)`` relative
+    to a target in a circular orbit of rate ``n``, starting displaced by ``initial_rotvec``
+    [rad] and ``initial_position`` [m] (body axes of the docking pose) and co-moving.
+    ``max_torque`` / ``max_force`` limit the thrusters/torquers per axis (``None``: unlimited)."""
+
+    mass: float = 500.0
+    inertia: tuple[tuple[float, ...], ...] = ((300.0, 0, 0), (0, 400.0, 0), (0, 0, 350.0))
+    n: float = 0.0011
+    dock_rotvec: tuple[float, float, float] = (0.0, 0.0, math.pi)
+    dock_position: tuple[float, float, float] = (-5.0, 0.0, 0.0)
+    initial_rotvec: tuple[float, float, float] = (math.radians(150.0), 0.0, 0.0)
+    initial_position: tuple[float, float, float] = (60.0, -50.0, 58.0)
+    max_torque: float | None = None
+    max_force: float | None = None
+
+    def __post_init__(self) -> None:
+        m = check_positive(self.mass, "mass")
+        if not isinstance(m, float):
+            raise ValueError("mass: must be a scalar")
+        object.__setattr__(self, "mass", m)
+        object.__setattr__(self, "inertia", _matrix3(self.inertia, "inertia"))
+        object.__setattr__(self, "n", float(check_positive(self.n, "n")))
+        for name in ("dock_rotvec", "dock_position", "initial_rotvec", "initial_position"):
+            object.__setattr__(self, name, _tuple3(getattr(self, name), name))
+        for name in ("max_torque", "max_force"):
+            v = getattr(self, name)
+            if v is not None:
+                object.__setattr__(self, name, float(check_positive(v, name)))
+
+    @property
+    def J(self) -> np.ndarray:
+        return np.array(self.inertia)
 
 
 @dataclass(frozen=True)
@@ -149,18 +336,25 @@ class Scenario:
     """One benchmark case.
 
     Attributes:
-        name: unique identifier (used in file names).
+        name: unique identifier (used in file names; no spaces or slashes).
         description: one line for the report.
-        spacecraft: the plant hardware.
-        initial_rotvec: initial attitude as a rotation vector [rad] (body → inertial); use
-            :meth:`from_matrix` to give a matrix.
-        initial_rate: initial body rate [rad/s].
-        reference: desired attitude.
-        disturbance: external torque.
+        spacecraft: the attitude plant's hardware (nominal inertia = the controllers' model).
+        initial_rotvec: initial attitude **error** ``log(R_d(t₀)ᵀ R₀)^∨`` [rad]: the start is
+            ``R₀ = R_d(t₀) exp(initial_rotvec^)`` (with the constant identity reference this is
+            the initial attitude itself). :meth:`from_matrix` builds it from a matrix.
+        initial_rate: initial body-rate **error** ``e_Ω(t₀) = ω₀ − R₀ᵀR_d ω_d`` [rad/s].
+        quaternion_sign: ``+1`` or ``−1``: the sign of the initial error quaternion handed to
+            quaternion controllers (``q_hint``): ``−1`` is the "−q" start of the unwinding
+            benchmark (same physical attitude, other chart point). Ignored by geometric laws.
+        reference: desired trajectory.
+        disturbances: external torques (summed; empty = none).
+        uncertainty: true-vs-nominal model error.
+        proximity: ``None`` for attitude scenarios; an SE(3) :class:`ProximitySpec` makes this
+            a pose scenario (then ``spacecraft``, ``reference``, ``disturbances`` are unused).
         duration: simulated time [s].
         dt: plant integration step [s].
         control_period: controller sampling period [s] (``None``: every step).
-        tags: free labels (e.g. ``"large-angle"``) for selecting metrics in reports.
+        tags: free labels (``"quick"``, ``"manoeuvre"``, ``"unwinding"`` ...).
     """
 
     name: str
@@ -168,34 +362,69 @@ class Scenario:
     spacecraft: SpacecraftSpec = field(default_factory=SpacecraftSpec)
     initial_rotvec: tuple[float, float, float] = (0.0, 0.0, 0.0)
     initial_rate: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    quaternion_sign: int = 1
     reference: ReferenceSpec = field(default_factory=ReferenceSpec)
-    disturbance: DisturbanceSpec = field(default_factory=DisturbanceSpec)
+    disturbances: tuple[DisturbanceSpec, ...] = ()
+    uncertainty: UncertaintySpec = field(default_factory=UncertaintySpec)
+    proximity: ProximitySpec | None = None
     duration: float = 600.0
     dt: float = 0.1
     control_period: float | None = 0.1
     tags: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
-        if not self.name or any(c in self.name for c in "/\\ "):
+        if not isinstance(self.name, str) or not self.name or any(c in self.name for c in "/\\ "):
             raise ValueError(
                 f"name: must be non-empty without spaces or slashes, got {self.name!r}"
             )
+        if not isinstance(self.spacecraft, SpacecraftSpec):
+            raise ValueError(
+                f"spacecraft: expected SpacecraftSpec, got {type(self.spacecraft).__name__}"
+            )
         object.__setattr__(self, "initial_rotvec", _tuple3(self.initial_rotvec, "initial_rotvec"))
         object.__setattr__(self, "initial_rate", _tuple3(self.initial_rate, "initial_rate"))
-        object.__setattr__(self, "duration", check_positive(self.duration, "duration"))
-        object.__setattr__(self, "dt", check_positive(self.dt, "dt"))
+        if self.quaternion_sign not in (1, -1):
+            raise ValueError(f"quaternion_sign: must be +1 or -1, got {self.quaternion_sign!r}")
+        object.__setattr__(self, "quaternion_sign", int(self.quaternion_sign))
+        if not isinstance(self.reference, ReferenceSpec):
+            raise ValueError(
+                f"reference: expected ReferenceSpec, got {type(self.reference).__name__}"
+            )
+        dist = (self.disturbances,) if isinstance(self.disturbances, DisturbanceSpec) else None
+        dist = tuple(self.disturbances) if dist is None else dist
+        for d in dist:
+            if not isinstance(d, DisturbanceSpec):
+                raise ValueError(f"disturbances: expected DisturbanceSpec, got {type(d).__name__}")
+        object.__setattr__(self, "disturbances", dist)
+        if not isinstance(self.uncertainty, UncertaintySpec):
+            raise ValueError(
+                f"uncertainty: expected UncertaintySpec, got {type(self.uncertainty).__name__}"
+            )
+        if not self.uncertainty.is_nominal:
+            scale_principal_moments(self.spacecraft.J, self.uncertainty.inertia_scale)
+        if self.proximity is not None and not isinstance(self.proximity, ProximitySpec):
+            raise ValueError(
+                f"proximity: expected ProximitySpec or None, got {type(self.proximity).__name__}"
+            )
+        object.__setattr__(self, "duration", float(check_positive(self.duration, "duration")))
+        object.__setattr__(self, "dt", float(check_positive(self.dt, "dt")))
         if self.control_period is not None:
-            cp = check_positive(self.control_period, "control_period")
-            if cp < self.dt * (1 - 1e-9):
+            cp = float(check_positive(self.control_period, "control_period"))
+            ratio = cp / self.dt
+            if ratio < 1 - 1e-9 or abs(ratio - round(ratio)) > 1e-9 * ratio:
                 raise ValueError(
-                    f"control_period: {cp} is shorter than the plant step dt={self.dt}"
+                    f"control_period: {cp} must be a positive integer multiple of dt={self.dt}"
                 )
             object.__setattr__(self, "control_period", cp)
+        if isinstance(self.tags, str):
+            raise ValueError("tags: expected a sequence of strings, got a single string")
         object.__setattr__(self, "tags", tuple(str(t) for t in self.tags))
+
+    # ------------------------------------------------------------------ derived quantities
 
     @classmethod
     def from_matrix(cls, name: str, description: str, R0: object, **kw: object) -> Scenario:
-        """Build a scenario whose initial attitude is given as a rotation matrix."""
+        """A scenario whose initial attitude **error** ``R_d(t₀)ᵀR₀`` is given as a matrix."""
         R = check_rotation_matrix(R0, "R0")
         if R.shape != (3, 3):
             raise ValueError(f"R0: expected shape (3, 3), got {R.shape}")
@@ -203,9 +432,27 @@ class Scenario:
         return cls(name=name, description=description, initial_rotvec=tuple(rv), **kw)
 
     @property
-    def R0(self) -> np.ndarray:
-        """Initial attitude matrix ``(3, 3)``."""
+    def plant(self) -> str:
+        """Plant tag: ``"se3"`` for proximity scenarios, else the actuator kind."""
+        return "se3" if self.proximity is not None else self.spacecraft.actuator
+
+    @property
+    def true_inertia(self) -> np.ndarray:
+        """The plant's inertia (nominal with :attr:`uncertainty` applied)."""
+        if self.uncertainty.is_nominal:
+            return self.spacecraft.J
+        return scale_principal_moments(self.spacecraft.J, self.uncertainty.inertia_scale)
+
+    @property
+    def error0(self) -> np.ndarray:
+        """Initial attitude error ``exp(initial_rotvec^)`` ``(3, 3)``."""
         return Rotation.from_rotvec(self.initial_rotvec).as_matrix()
+
+    @property
+    def R0(self) -> np.ndarray:
+        """Initial attitude ``R_d(t₀) exp(initial_rotvec^)`` for the constant reference (for
+        moving references the runner composes with ``R_d(t₀)``)."""
+        return self.reference.R_d @ self.error0
 
     @property
     def omega0(self) -> np.ndarray:
@@ -214,8 +461,16 @@ class Scenario:
     @property
     def initial_error_deg(self) -> float:
         """Geodesic angle between the initial and the desired attitude [deg]."""
-        E = self.reference.R_d.T @ self.R0
-        return float(np.rad2deg(Rotation.from_matrix(E).magnitude()))
+        return float(np.rad2deg(np.linalg.norm(self.initial_rotvec)))
+
+    @property
+    def initial_quaternion(self) -> np.ndarray:
+        """Initial error quaternion (scalar-first) with the chosen :attr:`quaternion_sign`
+        (the canonical one has ``w ≥ 0``)."""
+        x, y, z, w = Rotation.from_rotvec(self.initial_rotvec).as_quat()
+        q = np.array([w, x, y, z])
+        q = -q if q[0] < 0 else q
+        return self.quaternion_sign * q
 
     def with_duration(self, duration: float) -> Scenario:
         """The same scenario over another horizon (tests, quick looks)."""
@@ -223,7 +478,27 @@ class Scenario:
 
     def batch_key(self) -> tuple:
         """Scenarios with equal keys can be simulated in one batch (same plant and time grid)."""
-        return (self.spacecraft, self.disturbance, self.duration, self.dt, self.control_period)
+        return (
+            self.plant,
+            self.spacecraft,
+            self.disturbances,
+            self.uncertainty,
+            self.proximity,
+            self.duration,
+            self.dt,
+            self.control_period,
+        )
+
+
+@dataclass(frozen=True)
+class Suite:
+    """A named set of scenarios; ``controllers=None`` runs every registered controller that
+    applies (:func:`benchmarks.controllers.applicable`)."""
+
+    name: str
+    description: str
+    scenarios: tuple[Scenario, ...]
+    controllers: tuple[str, ...] | None = None
 
 
 def rest_to_rest(
@@ -240,38 +515,167 @@ def rest_to_rest(
         raise ValueError("axis: must be non-zero")
     rv = np.deg2rad(angle_deg) * a / n
     axis_txt = "(" + ", ".join(f"{v:.3g}" for v in a / n) + ")"
-    return Scenario(
-        name=name or f"slew-{angle_deg:g}",
-        description=f"rest-to-rest {angle_deg:g}° about body axis {axis_txt}, no disturbance",
-        initial_rotvec=tuple(rv),
-        tags=("manoeuvre",),
-        **kw,
+    kw.setdefault("tags", ("manoeuvre",))
+    kw.setdefault(
+        "description", f"rest-to-rest {angle_deg:g}° about body axis {axis_txt}, no disturbance"
     )
+    return Scenario(name=name or f"slew-{angle_deg:g}", initial_rotvec=tuple(rv), **kw)
 
 
 SEED000_SPACECRAFT = SpacecraftSpec()
-
-#: SPEC §8.1 subset run by ``python -m benchmarks run --suite quick``.
-QUICK_SUITE: tuple[Scenario, ...] = (
-    Scenario(
-        name="stabilisation",
-        description="hold the orbit-frame attitude against the seed-000 disturbance (SPEC §5.4)",
-        disturbance=DisturbanceSpec("seed000"),
-        tags=("stabilisation",),
-    ),
-    rest_to_rest(90.0),
-    rest_to_rest(179.0),
+SEED003_SPACECRAFT = SpacecraftSpec(
+    name="seed003", inertia=SEED003_INERTIA, actuator="wheels", wheel_max_torque=0.2
 )
-
-#: Suites by name.
-SUITES: dict[str, tuple[Scenario, ...]] = {"quick": QUICK_SUITE}
+SEED000_DISTURBANCE = DisturbanceSpec("seed000")
 
 
-def get_suite(name: str) -> tuple[Scenario, ...]:
-    """The scenarios of suite ``name``; unknown names raise a ``ValueError`` listing the valid."""
+def _catalogue() -> tuple[Scenario, ...]:
+    deg = math.radians
+    return (
+        Scenario(
+            name="stabilisation",
+            description="hold the orbit-frame attitude against the seed-000 disturbance "
+            "(SPEC §5.4)",
+            disturbances=(SEED000_DISTURBANCE,),
+            tags=("quick", "stabilisation"),
+        ),
+        rest_to_rest(30.0),
+        rest_to_rest(90.0, tags=("quick", "manoeuvre")),
+        rest_to_rest(150.0, tags=("manoeuvre", "large-angle")),
+        rest_to_rest(179.0, tags=("quick", "manoeuvre", "large-angle")),
+        rest_to_rest(120.0, RANDOM_AXIS, name="slew-120-random-axis"),
+        rest_to_rest(
+            90.0,
+            name="unwinding-q",
+            description="90° start given to chart controllers as q (w ≥ 0)",
+            tags=("unwinding",),
+        ),
+        rest_to_rest(
+            90.0,
+            name="unwinding-minus-q",
+            description="the same 90° start given as −q (w < 0): continuous quaternion laws "
+            "unwind",
+            quaternion_sign=-1,
+            tags=("unwinding",),
+        ),
+        rest_to_rest(
+            179.9,
+            name="near-pi-179.9",
+            description="rest-to-rest 179.9° (0.1° from the antipode)",
+            duration=900.0,
+            tags=("unwinding", "large-angle"),
+        ),
+        Scenario(
+            name="earth-pointing",
+            description="track the LVLH frame (n = 0.0011 rad/s) from 10° / 0.05 °/s off, "
+            "gravity gradient + seed-000 torque",
+            initial_rotvec=(deg(10.0) / math.sqrt(2), 0.0, deg(10.0) / math.sqrt(2)),
+            initial_rate=(0.0, deg(0.05), 0.0),
+            reference=ReferenceSpec("earth-pointing", n=0.0011),
+            disturbances=(DisturbanceSpec("gravity-gradient"), SEED000_DISTURBANCE),
+            tags=("tracking",),
+        ),
+        Scenario(
+            name="slew-tracking",
+            description="track a reference turning at 0.2 °/s about body z, starting 20° "
+            "behind at rest",
+            initial_rotvec=(0.0, 0.0, -deg(20.0)),
+            initial_rate=(0.0, 0.0, -deg(0.2)),
+            reference=ReferenceSpec("constant-rate", rate=(0.0, 0.0, deg(0.2))),
+            tags=("tracking",),
+        ),
+        Scenario(
+            name="inertia-uncertainty",
+            description="60° manoeuvre + seed-000 torque, true principal moments × (1.2, 1.2, "
+            "0.8)",
+            initial_rotvec=tuple(deg(60.0) * np.array(SLEW_AXIS)),
+            disturbances=(SEED000_DISTURBANCE,),
+            uncertainty=UncertaintySpec((1.2, 1.2, 0.8)),
+            tags=("uncertainty",),
+        ),
+        Scenario(
+            name="payload-jitter",
+            description="seed-003 spacecraft (wheels) holding attitude against the 90 °/s "
+            "rotating payload",
+            spacecraft=SEED003_SPACECRAFT,
+            disturbances=(DisturbanceSpec("payload-seed003"),),
+            duration=120.0,
+            dt=0.05,
+            control_period=0.1,
+            tags=("jitter",),
+        ),
+        Scenario(
+            name="proximity-approach",
+            description="SE(3) chaser to a docking pose 5 m behind an orbiting target, from "
+            "150° / 100 m",
+            proximity=ProximitySpec(),
+            duration=400.0,
+            dt=1.0,
+            control_period=1.0,
+            tags=("se3",),
+        ),
+    )
+
+
+#: The scenario catalogue by name (SPEC §8.1). :func:`register_scenario` adds to it.
+SCENARIOS: dict[str, Scenario] = {s.name: s for s in _catalogue()}
+
+#: SPEC §8.1 subset run by ``python -m benchmarks run --suite quick`` (the README's command).
+QUICK_SUITE: tuple[Scenario, ...] = tuple(s for s in SCENARIOS.values() if "quick" in s.tags)
+
+#: Suites by name. ``quick`` and ``full`` run scenarios × controllers; ``unwinding`` and
+#: ``montecarlo`` are run by :mod:`benchmarks.unwinding` / :mod:`benchmarks.montecarlo` (the
+#: CLI dispatches on the name) — their entries here list the scenarios they are built from.
+SUITES: dict[str, Suite] = {
+    "quick": Suite("quick", "stabilisation + 90° and 179° slews (< 1 min)", QUICK_SUITE),
+    "full": Suite("full", "the whole SPEC §8.1 catalogue", tuple(SCENARIOS.values())),
+    "unwinding": Suite(
+        "unwinding",
+        "q/−q pair, 150–179.9° starts and Haar-random starts (benchmarks.unwinding)",
+        tuple(s for s in SCENARIOS.values() if "unwinding" in s.tags),
+    ),
+    "montecarlo": Suite(
+        "montecarlo",
+        "Haar-uniform attitudes, random rates and inertia errors (benchmarks.montecarlo)",
+        (),
+    ),
+}
+
+
+def get_suite(name: str) -> Suite:
+    """Suite ``name``; unknown names raise a ``ValueError`` listing the valid ones."""
     try:
         return SUITES[name]
     except KeyError:
         raise ValueError(
             f"suite: unknown suite {name!r}; valid suites: {', '.join(sorted(SUITES))}"
         ) from None
+
+
+def get_scenario(name: str) -> Scenario:
+    """Catalogue scenario ``name``; unknown names raise a ``ValueError`` listing the valid."""
+    try:
+        return SCENARIOS[name]
+    except KeyError:
+        raise ValueError(
+            f"scenario: unknown scenario {name!r}; valid scenarios: {', '.join(SCENARIOS)}"
+        ) from None
+
+
+def register_scenario(
+    scenario: Scenario, *, suites: Iterable[str] = ("full",), replace: bool = False
+) -> None:
+    """Add ``scenario`` to the catalogue and to ``suites`` (names of :data:`SUITES`; the
+    ``full`` suite by default)."""
+    if not isinstance(scenario, Scenario):
+        raise ValueError(f"scenario: expected a Scenario, got {type(scenario).__name__}")
+    if scenario.name in SCENARIOS and not replace:
+        raise ValueError(f"scenario: {scenario.name!r} is already registered (replace=True)")
+    suites = tuple(suites)
+    for s in suites:
+        get_suite(s)
+    SCENARIOS[scenario.name] = scenario
+    for s in suites:
+        old = SUITES[s]
+        kept = tuple(x for x in old.scenarios if x.name != scenario.name)
+        SUITES[s] = dataclasses.replace(old, scenarios=kept + (scenario,))

@@ -71,6 +71,7 @@ from __future__ import annotations
 
 import copy
 import logging
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -78,9 +79,16 @@ import numpy as np
 import scipy.linalg
 import scipy.sparse as sp
 
-from .._validation import as_array, check_inertia, check_positive, check_rotation_matrix
-from ..integrators.lgvi import RigidBodyLGVI
+from .._validation import (
+    ROTATION_ATOL,
+    as_array,
+    check_inertia,
+    check_positive,
+    check_rotation_matrix,
+)
+from ..integrators.lgvi import lgvi_step_unchecked
 from ..lie import so3
+from ..lie.so3 import _LOG_SYMMETRIC_COS
 from .base import AttitudeController, AttitudeReference, AttitudeState
 from .geometric_pd import GeometricPD, gains_from_bandwidth
 
@@ -122,6 +130,9 @@ _CVXPY_STATUS = {
     "unbounded_inaccurate": -6,
     "user_limit": -7,
 }
+
+#: OSQP's infinity (bounds beyond it are rejected).
+_OSQP_INF = 1e30
 
 _OSQP_DEFAULTS: dict[str, Any] = {
     "eps_abs": 1e-5,
@@ -277,20 +288,37 @@ def stage0_model(
     if ``jacobian=False``).
     """
     J = check_inertia(J, "J")
-    return _stage0(
-        RigidBodyLGVI(J), np.linalg.inv(J), dt, R, omega, R_d1, omega_d1, u_bar, jacobian
-    )
+    if J.shape != (3, 3):
+        raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+    dt = check_positive(dt, "dt")
+    if not isinstance(dt, float):
+        raise ValueError("dt: must be a scalar")
+    R = check_rotation_matrix(R, "R")
+    R_d1 = check_rotation_matrix(R_d1, "R_d1")
+    for name, a in (("R", R), ("R_d1", R_d1)):
+        if a.shape != (3, 3):
+            raise ValueError(f"{name}: expected shape (3, 3), got {a.shape}")
+    vecs = []
+    for name, v in (("omega", omega), ("omega_d1", omega_d1), ("u_bar", u_bar)):
+        a = as_array(v, name, (3,))
+        if a.shape != (3,):
+            raise ValueError(f"{name}: expected shape (3,), got {a.shape}")
+        vecs.append(a)
+    w, wd1, ub = vecs
+    return _stage0(J, np.linalg.inv(J), dt, R, w, R_d1, wd1, ub, bool(jacobian))
 
 
-def _stage0(lgvi, Jinv, dt, R, omega, R_d1, omega_d1, u_bar, jacobian):
+def _stage0(J, Jinv, dt, R, omega, R_d1, omega_d1, u_bar, jacobian):
+    """:func:`stage0_model` on validated input (the unchecked LGVI step: the hot path)."""
     T = dt
-    J = lgvi.J
     Pi0 = J @ omega
-    R1, Pi1 = lgvi.step(R, Pi0, u_bar, u_bar, T)
+    R1, Pi1 = lgvi_step_unchecked(R, Pi0, u_bar, u_bar, T, J, Jinv)
     Rt = R_d1.T @ R1
-    xi = so3.log(Rt)
+    xi = _log_one(Rt)
     wd_body = Rt.T @ omega_d1
-    x1 = np.concatenate([xi, Jinv @ Pi1 - wd_body])
+    x1 = np.empty(6)
+    x1[:3] = xi
+    x1[3:] = Jinv @ Pi1 - wd_body
     if not jacobian:
         return x1, None
     F = R.T @ R1
@@ -302,6 +330,57 @@ def _stage0(lgvi, Jinv, dt, R, omega, R_d1, omega_d1, u_bar, jacobian):
     B0[:3] = so3.right_jacobian_inv(xi) @ dfdu
     B0[3:] = Jinv @ dPi - _hat(wd_body) @ dfdu
     return x1, B0
+
+
+def _log_one(M: np.ndarray) -> np.ndarray:
+    """``so3.log`` of one rotation ``(3, 3)`` on Python floats (the same formula: θ = atan2(s, c),
+    ω = θ/(2 sin θ) (M − Mᵀ)^∨); nearer π than ``so3``'s switch it defers to ``so3.log``."""
+    m00, m01, m02, m10, m11, m12, m20, m21, m22 = M.ravel().tolist()
+    c = 0.5 * (m00 + m11 + m22 - 1.0)
+    if not c >= _LOG_SYMMETRIC_COS:  # also NaN
+        return so3.log(M)
+    v0, v1, v2 = m21 - m12, m02 - m20, m10 - m01
+    s = 0.5 * math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+    k = 0.5 if s == 0.0 else math.atan2(s, c) / (2.0 * s)
+    return np.array([k * v0, k * v1, k * v2])
+
+
+def _check_rotations(R: object, name: str) -> np.ndarray:
+    """``check_rotation_matrix`` with a Python-float fast path for a single matrix (the same
+    tolerance; anything that fails it goes through ``check_rotation_matrix`` for the message)."""
+    a = R if isinstance(R, np.ndarray) and R.dtype == np.float64 else None
+    if a is None or a.size != 9 or a.shape[-2:] != (3, 3):
+        return check_rotation_matrix(R, name)
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = a.ravel().tolist()
+    # columns' Gram matrix RᵀR − I and det R = c0 · (c1 × c2)
+    err = max(
+        abs(r00 * r00 + r10 * r10 + r20 * r20 - 1.0),
+        abs(r01 * r01 + r11 * r11 + r21 * r21 - 1.0),
+        abs(r02 * r02 + r12 * r12 + r22 * r22 - 1.0),
+        abs(r00 * r01 + r10 * r11 + r20 * r21),
+        abs(r00 * r02 + r10 * r12 + r20 * r22),
+        abs(r01 * r02 + r11 * r12 + r21 * r22),
+    )
+    det = (
+        r00 * (r11 * r22 - r21 * r12)
+        - r10 * (r01 * r22 - r21 * r02)
+        + r20 * (r01 * r12 - r11 * r02)
+    )
+    if err <= ROTATION_ATOL and det > 0.0:  # False for NaN/inf
+        return a
+    return check_rotation_matrix(a, name)
+
+
+def _error_fast(R: np.ndarray, w: np.ndarray, R_d: np.ndarray, w_d: np.ndarray) -> np.ndarray:
+    """:func:`error_state` on validated ``(B, …)`` input, ``(B, 6)``; one spacecraft with one
+    reference sample on the Python-float log."""
+    if R.shape[0] != 1 or R_d.size != 9:
+        return _error_unchecked(R, w, R_d, w_d)
+    Rt = R_d.reshape(3, 3).T @ R[0]
+    out = np.empty((1, 6))
+    out[0, :3] = _log_one(Rt)
+    out[0, 3:] = w[0] - Rt.T @ w_d.reshape(3)
+    return out
 
 
 def check_weight(W: object, name: str, n: int) -> np.ndarray:
@@ -326,16 +405,52 @@ def check_weight(W: object, name: str, n: int) -> np.ndarray:
 # QP backends (one instance per spacecraft)
 
 
+class _Model:
+    """One linearisation over the horizon, with everything the QP needs precomputed once.
+
+    ``ct`` holds ``c̃_k = c_k − B_k u_ref,k`` (so ``x_{k+1} = A_k x_k + B_k u_k + c̃_k``; row 0 is
+    replaced each step by the stage-0 prediction), ``q_u = −(R u_ref,k)`` stacked (the linear
+    cost), ``u_bar = clip(u_ref,0)`` the stage-0 nominal torque. Immutable once built: the QPs
+    recognise an unchanged model by identity and then skip the matrix update.
+    """
+
+    __slots__ = ("A", "B", "u_ref", "ct", "q_u", "u_bar", "ws", "F")
+
+    def __init__(self, A, B, u_ref, c, ws, F, Rw, u_max):
+        self.A, self.B, self.u_ref, self.ws, self.F = A, B, u_ref, ws, F
+        self.ct = c - _mv(B, u_ref)
+        self.q_u = -(u_ref @ Rw).ravel()
+        self.u_bar = np.clip(u_ref[0], -u_max, u_max)
+
+
 class _OsqpQP:
     """Sparse QP in z = (x_1 … x_N, u_0 … u_{N−1}); structure fixed at construction.
 
     Constraint rows: dynamics (6N, equality), input box (3N), extra (mN). Every entry of the
     A_k, B_k and C blocks is structurally present (even if zero at build time), so the values can
-    be replaced in place with ``update(Ax=...)``.
+    be replaced in place with ``update(Ax=...)`` (same sparsity pattern: OSQP refactorises the
+    KKT matrix numerically, no new symbolic analysis).
+
+    Per step only what changed is sent: ``l``/``u`` (the stage-0 prediction is always new),
+    ``q`` when the reference torque changed, ``Ax`` when the linearisation (or the extra
+    constraint matrix, or the exact stage-0 Jacobian) changed — the only case that costs a KKT
+    refactorisation. The previous solution, shifted by one stage, is the warm start of both the
+    primal and the dual iterates when the controller advanced by exactly one period.
+
+    The hot path talks to OSQP's compiled solver object (``OSQP._solver``) directly: the Python
+    wrapper's ``solve`` copies every info field into a namespace (~80 µs per call, measured);
+    if that attribute is missing (another osqp version) the public API is used.
     """
 
     def __init__(
-        self, N: int, Q: np.ndarray, R: np.ndarray, P: np.ndarray, m: int, settings: dict
+        self,
+        N: int,
+        Q: np.ndarray,
+        R: np.ndarray,
+        P: np.ndarray,
+        m: int,
+        settings: dict,
+        u_max: np.ndarray,
     ) -> None:
         import osqp
 
@@ -349,9 +464,9 @@ class _OsqpQP:
         rows: list[np.ndarray] = []
         cols: list[np.ndarray] = []
         vals: list[np.ndarray] = []
-        self.slot_A: list[slice] = []
-        self.slot_B: list[slice] = []
-        self.slot_C: list[slice] = []
+        slot_A: list[slice] = []
+        slot_B: list[slice] = []
+        slot_C: list[slice] = []
         count = 0
 
         def add(r0: int, c0: int, block: np.ndarray) -> slice:
@@ -368,15 +483,15 @@ class _OsqpQP:
         for k in range(N):
             add(6 * k, 6 * k, np.eye(6))
             if k >= 1:
-                self.slot_A.append(add(6 * k, 6 * (k - 1), np.ones((6, 6))))
-            self.slot_B.append(add(6 * k, nx + 3 * k, np.ones((6, 3))))
+                slot_A.append(add(6 * k, 6 * (k - 1), np.ones((6, 6))))
+            slot_B.append(add(6 * k, nx + 3 * k, np.ones((6, 3))))
         r_box = 6 * N
         for k in range(N):
             add(r_box + 3 * k, nx + 3 * k, np.eye(3))
         r_ext = r_box + 3 * N
         for k in range(N):
             if m:
-                self.slot_C.append(add(r_ext + m * k, nx + 3 * k, np.ones((m, 3))))
+                slot_C.append(add(r_ext + m * k, nx + 3 * k, np.ones((m, 3))))
         self.vals = np.concatenate(vals)
         r = np.concatenate(rows)
         c = np.concatenate(cols)
@@ -386,70 +501,129 @@ class _OsqpQP:
         Aid.sort_indices()
         # position p of the CSC data holds COO entry order[p]
         self.order = Aid.data.astype(np.int64) - 1
-        self.A = Aid
-        self.A.data = self.vals[self.order]
-        self.l = np.zeros(self.n_con)
-        self.u = np.zeros(self.n_con)
-        self._box_set = False
 
         def idx(slots: list[slice]) -> np.ndarray:
             return np.array([np.arange(s.start, s.stop) for s in slots], dtype=np.int64)
 
-        self.idx_A = idx(self.slot_A)
-        self.idx_B = idx(self.slot_B)
-        self.idx_C = idx(self.slot_C).ravel() if m else np.zeros(0, dtype=np.int64)
+        self.idx_A = idx(slot_A)
+        self.idx_B = idx(slot_B)
+        self.idx_C = idx(slot_C).ravel() if m else np.zeros(0, dtype=np.int64)
+        self.l = np.zeros(self.n_con)
+        self.u = np.zeros(self.n_con)
+        self.l[r_box:r_ext] = np.tile(-u_max, N)
+        self.u[r_box:r_ext] = np.tile(u_max, N)
         self.q = np.zeros(nx + nu)
+        Aid.data = self.vals[self.order]
         self.solver = osqp.OSQP()
-        self.solver.setup(H, self.q, self.A, self.l, self.u, **settings)
+        self.solver.setup(H, self.q, Aid, self.l, self.u, **settings)
+        self._s = getattr(self.solver, "_solver", None)
+        if self._s is not None and not all(
+            hasattr(self._s, a) for a in ("solve", "update_data_vec", "update_data_mat", "info")
+        ):  # pragma: no cover - another osqp version
+            self._s = None
+        self._model: _Model | None = None
+        self._C: np.ndarray | None = None
+        self._B0_set = False
+        self._mat_dirty = False
+        self._q_dirty = False
+        # the shifted-warm-start index maps: z_k ← z_{k+1}, the last stage repeated
+        self._x_shift = np.concatenate([_shift_index(N, 6), nx + _shift_index(N, 3)])
+        self._y_shift = np.concatenate(
+            [_shift_index(N, 6), r_box + _shift_index(N, 3), r_ext + _shift_index(N, m)]
+        )
+        self._last: tuple[np.ndarray, np.ndarray] | None = None
 
     def set_data(
         self,
-        A: np.ndarray,
-        B: np.ndarray,
-        c: np.ndarray,
-        u_ref: np.ndarray,
-        u_max: np.ndarray,
+        model: _Model,
+        c0: np.ndarray,
+        B0: np.ndarray | None,
         extra: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
     ) -> None:
-        N, nx = self.N, self.nx
-        vals = self.vals
-        if N > 1:
-            vals[self.idx_A] = -A[1:].reshape(N - 1, 36)
-        vals[self.idx_B] = -B.reshape(N, 18)
-        cr = c.ravel()
-        self.l[:nx] = cr
-        self.u[:nx] = cr
-        if not self._box_set:
-            self.l[nx : nx + 3 * N] = np.tile(-u_max, N)
-            self.u[nx : nx + 3 * N] = np.tile(u_max, N)
-            self._box_set = True
+        N, nx, vals = self.N, self.nx, self.vals
+        if model is not self._model:
+            if N > 1:
+                vals[self.idx_A] = -model.A[1:].reshape(N - 1, 36)
+            vals[self.idx_B] = -model.B.reshape(N, 18)
+            self.l[6:nx] = self.u[6:nx] = model.ct[1:].ravel()
+            self.q[nx:] = model.q_u
+            self._model = model
+            self._mat_dirty = self._q_dirty = True
+            self._B0_set = False
+        if B0 is not None:
+            vals[self.idx_B[0]] = -B0.ravel()
+            self._mat_dirty = self._B0_set = True
+        elif self._B0_set:
+            vals[self.idx_B[0]] = -model.B[0].ravel()
+            self._mat_dirty, self._B0_set = True, False
+        self.l[:6] = c0
+        self.u[:6] = c0
         if extra is not None:
             C, lo, hi = extra
-            vals[self.idx_C] = np.tile(C.ravel(), N)
-            self.l[nx + 3 * N :] = np.tile(lo, N)
-            self.u[nx + 3 * N :] = np.tile(hi, N)
-        self.q[nx:] = -(u_ref @ self.R).ravel()
-        Ax = vals[self.order]
-        if np.array_equal(Ax, self.A.data):
-            # unchanged matrix (regulation): no KKT refactorisation, vectors only
-            self.solver.update(q=self.q, l=self.l, u=self.u)
-        else:
-            self.A.data = Ax
-            self.solver.update(q=self.q, l=self.l, u=self.u, Ax=Ax)
+            if self._C is None or not np.array_equal(C, self._C):
+                vals[self.idx_C] = np.tile(C.ravel(), N)
+                self._C = C.copy()
+                self._mat_dirty = True
+            # OSQP treats ±1e30 as infinite; it rejects larger magnitudes
+            self.l[nx + 3 * N :] = np.tile(np.maximum(lo, -_OSQP_INF), N)
+            self.u[nx + 3 * N :] = np.tile(np.minimum(hi, _OSQP_INF), N)
+
+    def warm_start_shifted(self) -> None:
+        """Warm-start from the last solution shifted by one stage (receding horizon)."""
+        if self._last is None:
+            return
+        x, y = self._last
+        if self._s is not None:
+            self._s.warm_start(x[self._x_shift], y[self._y_shift])
+        else:  # pragma: no cover - another osqp version
+            self.solver.warm_start(x=x[self._x_shift], y=y[self._y_shift])
 
     def solve(self) -> tuple[int, np.ndarray | None, int, float]:
-        res = self.solver.solve(raise_error=False)
-        sv = int(res.info.status_val)
+        s = self._s
+        Ax = self.vals[self.order] if self._mat_dirty else None
+        q = self.q if self._q_dirty else None
+        if s is None:  # pragma: no cover - another osqp version
+            kw = {"l": self.l, "u": self.u} | ({} if q is None else {"q": q})
+            self.solver.update(**kw, **({} if Ax is None else {"Ax": Ax}))
+            res = self.solver.solve(raise_error=False)
+            info, x, y = res.info, res.x, res.y
+        else:
+            s.update_data_vec(q, self.l, self.u)
+            if Ax is not None:
+                s.update_data_mat(None, None, Ax, None)
+            s.solve()
+            info = s.info
+            sol = s.solution
+            x, y = sol.x, sol.y
+        self._mat_dirty = self._q_dirty = False
+        sv = int(info.status_val)
         status = sv if sv in (1, 2) else -sv
-        u = None if res.x is None else np.array(res.x[self.nx :]).reshape(self.N, 3)
-        return status, u, int(res.info.iter), float(res.info.run_time)
+        if x is None or not np.all(np.isfinite(x)):
+            self._last = None
+            return status, None, int(info.iter), float(info.run_time)
+        self._last = (x, y) if status in (1, 2) else None
+        u = x[self.nx :].reshape(self.N, 3)
+        return status, u, int(info.iter), float(info.run_time)
+
+
+def _shift_index(N: int, n: int) -> np.ndarray:
+    """Indices that shift a stacked ``(N, n)`` vector by one stage, the last stage repeated."""
+    k = np.minimum(np.arange(N) + 1, N - 1)
+    return (n * k[:, None] + np.arange(n)).ravel()
 
 
 class _CvxpyQP:
     """The same QP written readably with ``cp.Parameter``s (DPP, compiled on the first solve)."""
 
     def __init__(
-        self, N: int, Q: np.ndarray, R: np.ndarray, P: np.ndarray, m: int, settings: dict
+        self,
+        N: int,
+        Q: np.ndarray,
+        R: np.ndarray,
+        P: np.ndarray,
+        m: int,
+        settings: dict,
+        u_max: np.ndarray,
     ) -> None:
         import cvxpy as cp
 
@@ -484,17 +658,24 @@ class _CvxpyQP:
             raise RuntimeError("SO3MPC: the cvxpy formulation is not DPP")
         self.settings = dict(settings)
         self.solver_name = self.settings.pop("solver", "CLARABEL")
-
-    def set_data(self, A, B, c, u_ref, u_max, extra) -> None:
-        for k in range(1, self.N):
-            self.A[k - 1].value = A[k]
-        for k in range(self.N):
-            self.B[k].value = B[k]
-        self.c.value = c
-        self.u_ref.value = u_ref
         self.u_max.value = u_max
+
+    def set_data(self, model: _Model, c0, B0, extra) -> None:
+        for k in range(1, self.N):
+            self.A[k - 1].value = model.A[k]
+        for k in range(self.N):
+            self.B[k].value = model.B[k]
+        if B0 is not None:
+            self.B[0].value = B0
+        c = model.ct.copy()
+        c[0] = c0
+        self.c.value = c
+        self.u_ref.value = model.u_ref
         if extra is not None:
             self.C.value, self.lo.value, self.hi.value = extra
+
+    def warm_start_shifted(self) -> None:
+        """Interior-point solver: no warm start."""
 
     def solve(self) -> tuple[int, np.ndarray | None, int, float]:
         self.problem.solve(solver=self.solver_name, **self.settings)
@@ -621,21 +802,21 @@ class SO3MPC(AttitudeController):
         self.solver_settings = {**base, **(solver_settings or {})}
         self.accept_inaccurate = bool(accept_inaccurate)
         self.exact_stage0_jacobian = bool(exact_stage0_jacobian)
-        # rest-model stages are constant: cached (regulation never recomputes them)
-        self._rest = reference_model(
-            self.J, dt, np.zeros((self.N + 1, 3)), np.broadcast_to(np.eye(3), (self.N, 3, 3))
+        # rest-model stages are constant: built once (regulation never recomputes them)
+        self._rest = self._build_model(
+            np.zeros((self.N + 1, 3)), np.broadcast_to(np.eye(3), (self.N, 3, 3))
         )
         self._checked_R_d: np.ndarray | None = None
-        self._lgvi = RigidBodyLGVI(self.J)
         self._Jinv = np.linalg.inv(self.J)
-        self._knot_cache: tuple[np.ndarray, np.ndarray] | None = None
-        self._model_cache: tuple | None = None
-        self._eye_N = np.broadcast_to(np.eye(3), (self.N, 3, 3))
+        self._Jinv.setflags(write=False)
+        self._model_cache: _Model | None = None
+        self._model_key: bytes | None = None
         self._qps: list[Any] = []
         self._fallbacks: list[Any] = []
         self._batch: int | None = None
         self._diag: dict[str, np.ndarray] = {}
         self._fallback_count: np.ndarray = np.zeros(0, dtype=np.int64)
+        self._t_last: list[float] = []
         self._t0 = 0.0
 
     def __repr__(self) -> str:
@@ -652,6 +833,7 @@ class SO3MPC(AttitudeController):
         new._batch = None
         new._diag = {}
         new._fallback_count = np.zeros(0, dtype=np.int64)
+        new._t_last = []
         new.fallback = copy.deepcopy(self.fallback, memo)
         return new
 
@@ -670,37 +852,52 @@ class SO3MPC(AttitudeController):
             self._fallbacks.append(fb)
         self._fallback_count = np.zeros(batch_size, dtype=np.int64)
         self._diag = {}
+        self._t_last = [-np.inf] * batch_size
 
     def _new_qp(self, m: int) -> Any:
         cls = _OsqpQP if self.backend == "osqp" else _CvxpyQP
-        return cls(self.N, self.Q, self.R, self.P, m, self.solver_settings)
+        return cls(self.N, self.Q, self.R, self.P, m, self.solver_settings, self.u_max)
 
-    def _knots(
+    def _build_model(self, ws: np.ndarray, F: np.ndarray) -> _Model:
+        A, Bm, u_ref, c = reference_model(self.J, self.dt, ws, F)
+        return _Model(A, Bm, u_ref, c, ws, F, self.R, self.u_max)
+
+    def _model(
         self, t: float, R_d: np.ndarray, w_d: np.ndarray, dw_d: np.ndarray, b: int
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """Reference rates ``(N + 1, 3)`` and steps ``F_k (N, 3, 3)`` over the horizon."""
+    ) -> _Model:
+        """The linearisation along the reference over the horizon (knot rates ``(N + 1, 3)``,
+        steps ``F_k (N, 3, 3)``), cached: regulation and constant-rate references reuse one
+        model object, so the QP matrix is not touched (no KKT refactorisation)."""
         N, T = self.N, self.dt
+        cached = self._model_cache
         if self.reference_preview is not None:
             Rs = [R_d]
-            ws = [w_d]
+            ws_l = [w_d]
             for k in range(1, N + 1):
                 ref = self.reference_preview(t + k * T)
                 Rk = check_rotation_matrix(ref.R_d, "reference_preview")
                 wk = as_array(ref.omega_d, "reference_preview", (3,))
                 Rs.append(Rk[b] if Rk.ndim == 3 else Rk)
-                ws.append(wk[b] if wk.ndim == 2 else wk)
+                ws_l.append(wk[b] if wk.ndim == 2 else wk)
             Rs_a = np.stack(Rs)
             F = np.swapaxes(Rs_a[:-1], -1, -2) @ Rs_a[1:]
-            return np.stack(ws), F
-        ws = w_d + T * np.arange(N + 1)[:, None] * dw_d
-        if not ws.any():
-            return ws, self._eye_N
-        cached = self._knot_cache
-        if cached is not None and np.array_equal(ws, cached[0]):
+            ws = np.stack(ws_l)
+            if cached is not None and np.array_equal(ws, cached.ws) and np.array_equal(F, cached.F):
+                return cached
+            model = self._build_model(ws, F)
+            self._model_cache = model
+            return model
+        # extrapolation with constant Ω̇_d: the model is a function of (Ω_d, Ω̇_d) only
+        key = w_d.tobytes() + dw_d.tobytes()
+        if cached is not None and key == self._model_key:
             return cached
-        F = so3.exp(0.5 * T * (ws[:-1] + ws[1:]))
-        self._knot_cache = (ws, F)
-        return ws, F
+        if not (w_d.any() or dw_d.any()):
+            model = self._rest
+        else:
+            ws = w_d + T * np.arange(N + 1)[:, None] * dw_d
+            model = self._build_model(ws, so3.exp(0.5 * T * (ws[:-1] + ws[1:])))
+        self._model_cache, self._model_key = model, key
+        return model
 
     def _extra(self, state_b: AttitudeState, m_expected: int | None):
         out = self.extra_constraints(state_b)
@@ -724,7 +921,7 @@ class SO3MPC(AttitudeController):
         """Full body torque ``(B, 3)`` [N·m]; ``|u_i| ≤ u_max_i`` always (fallback included)."""
         if self._batch is None:
             raise RuntimeError("SO3MPC.command: call reset(t0, batch_size) first")
-        R = check_rotation_matrix(state.R, "R")
+        R = _check_rotations(state.R, "R")
         w = as_array(state.omega, "omega", (3,))
         if R.ndim != 3 or w.shape != (R.shape[0], 3):
             raise ValueError(
@@ -736,7 +933,7 @@ class SO3MPC(AttitudeController):
         R_d = reference.R_d
         # a read-only array owning its data (ConstantAttitude's R_d) cannot change: checked once
         if not (isinstance(R_d, np.ndarray) and R_d is self._checked_R_d):
-            R_d = check_rotation_matrix(R_d, "R_d")
+            R_d = _check_rotations(R_d, "R_d")
             if not R_d.flags.writeable and R_d.base is None:
                 self._checked_R_d = R_d
         w_d = as_array(reference.omega_d, "omega_d", (3,))
@@ -744,25 +941,25 @@ class SO3MPC(AttitudeController):
         for name, a, nd in (("R_d", R_d, 2), ("omega_d", w_d, 1), ("omega_dot_d", dw_d, 1)):
             if a.ndim > nd + 1 or (a.ndim == nd + 1 and a.shape[0] != B):
                 raise ValueError(f"{name}: expected one sample or a batch of {B}, got {a.shape}")
+        t = float(t)
         out = np.empty((B, 3))
         status = np.zeros(B, dtype=np.int64)
         iters = np.zeros(B, dtype=np.int64)
         stime = np.zeros(B)
         fb_on = np.zeros(B, dtype=bool)
-        x0s = _error_unchecked(R, w, R_d, w_d)
-        h = state.h
+        x0s = _error_fast(R, w, R_d, w_d)
         for b in range(B):
             Rd_b = R_d[b] if R_d.ndim == 3 else R_d
             wd_b = w_d[b] if w_d.ndim == 2 else w_d
             dwd_b = dw_d[b] if dw_d.ndim == 2 else dw_d
-            st_b = AttitudeState(R[b : b + 1], w[b : b + 1], None if h is None else h[b : b + 1])
             u_b, status[b], iters[b], stime[b] = self._solve_one(
-                t, b, R[b], w[b], Rd_b, wd_b, dwd_b, st_b
+                t, b, R[b], w[b], Rd_b, wd_b, dwd_b, state
             )
             if u_b is None:
                 fb_on[b] = True
                 self._fallback_count[b] += 1
                 ref_b = AttitudeReference(Rd_b, wd_b, dwd_b)
+                st_b = _one_state(state, b)
                 u_fb = np.asarray(self._fallbacks[b].command(t, st_b, ref_b), dtype=np.float64)
                 u_b = np.clip(u_fb.reshape(3), -self.u_max, self.u_max)
                 _log.warning(
@@ -785,45 +982,26 @@ class SO3MPC(AttitudeController):
         }
         return out
 
-    def _solve_one(self, t, b, R, w, R_d, w_d, dw_d, st_b):
+    def _solve_one(self, t, b, R, w, R_d, w_d, dw_d, state):
         """Linearise, update and solve one spacecraft's QP: ``(u or None, status, iters, time)``."""
-        ws, F = self._knots(t, R_d, w_d, dw_d, b)
-        cached = self._model_cache
-        if not ws.any():
-            A, Bm, u_ref, c = self._rest
-        elif (
-            cached is not None
-            and np.array_equal(ws, cached[0])
-            and (F is cached[1] or np.array_equal(F, cached[1]))
-        ):
-            # constant-rate references give the same stages every step: reuse them
-            A, Bm, u_ref, c = cached[2]
-        else:
-            A, Bm, u_ref, c = model = reference_model(self.J, self.dt, ws, F)
-            self._model_cache = (ws, F, model)
-        u_bar = np.clip(u_ref[0], -self.u_max, self.u_max)
+        model = self._model(t, R_d, w_d, dw_d, b)
+        u_bar = model.u_bar
         x1, B0 = _stage0(
-            self._lgvi,
+            self.J,
             self._Jinv,
             self.dt,
             R,
             w,
-            R_d @ F[0],
-            ws[1],
+            R_d @ model.F[0],
+            model.ws[1],
             u_bar,
             self.exact_stage0_jacobian,
         )
-        if self.exact_stage0_jacobian:
-            Bm = Bm.copy()
-            Bm[0] = B0
-        else:
-            B0 = Bm[0]
-        c = c - _mv(Bm, u_ref)  # x_{k+1} = A_k x_k + B_k u_k + c̃_k
-        c[0] = x1 - B0 @ u_bar
+        c0 = x1 - (model.B[0] if B0 is None else B0) @ u_bar
         extra = None
         qp = self._qps[b]
         if self.extra_constraints is not None:
-            extra = self._extra(st_b, None if qp is None else qp.m)
+            extra = self._extra(_one_state(state, b), None if qp is None else qp.m)
         if qp is None:
             m = 0 if extra is None else extra[0].shape[0]
             if self.backend == "cvxpy" and b > 0 and self._qps[0] is not None:
@@ -836,8 +1014,14 @@ class SO3MPC(AttitudeController):
             else:
                 qp = self._new_qp(m)
             self._qps[b] = qp
+        t_last = self._t_last[b]
+        self._t_last[b] = t
         try:
-            qp.set_data(A, Bm, c, u_ref, self.u_max, extra)
+            qp.set_data(model, c0, B0, extra)
+            # receding horizon: one period later, the last plan shifted by a stage is the best
+            # guess of the new one (primal and dual)
+            if abs(t - t_last - self.dt) <= 1e-9 * self.dt:
+                qp.warm_start_shifted()
             status, u, iters, stime = qp.solve()
         except Exception as exc:  # solver errors must not stop the loop: fall back, log it
             _log.warning("SO3MPC: solver raised %r", exc)
@@ -851,3 +1035,15 @@ class SO3MPC(AttitudeController):
     def diagnostics(self) -> dict[str, np.ndarray]:
         """Last step's solver status, timing, iterations, fallback flags, error state."""
         return dict(self._diag)
+
+
+def _one_state(state: AttitudeState, b: int) -> AttitudeState:
+    """Spacecraft ``b`` of a batched state, as a batch of one (all fields, incl. the actuator's)."""
+    sl = slice(b, b + 1)
+    h, act = state.h, state.actuator_state
+    return AttitudeState(
+        np.asarray(state.R)[sl],
+        np.asarray(state.omega)[sl],
+        None if h is None else np.asarray(h)[sl],
+        None if act is None else np.asarray(act)[sl],
+    )

@@ -471,7 +471,7 @@ class TerminalSlidingMode:
         J: ``(3, 3)`` inertia the controller assumes [kg·m²] (full inertia allowed).
         T: prescribed time [s] (> 0).
         C1, C2, delta0, delta1, F, D, K: see :class:`TSMParams` (defaults: the seed's C₁ = C₂ =
-            I, δ₀ = 0.03, δ₁ = 5; F = D = 0; K = 0.1 as in our seed-004 reproduction).
+            I, δ₀ = 0.03, δ₁ = 5; F = D = 0; K = 0.5 rad/s² as in our seed-004 reproduction).
         seq: Euler sequence (default ``"ZYX"``, the seed's 3-2-1).
         lock_tol: |cos a2| (|sin a2|) below which :class:`ChartSingularityError` is raised.
     """
@@ -486,7 +486,7 @@ class TerminalSlidingMode:
         delta1: float = 5.0,
         F: float = 0.0,
         D: float = 0.0,
-        K: float = 0.1,
+        K: float = 0.5,
         seq: str = "ZYX",
         lock_tol: float = LOCK_TOL,
     ) -> None:
@@ -622,7 +622,7 @@ class TerminalSlidingModeSO3(EulerChartAdapter):
         delta1: float = 5.0,
         F: float = 0.0,
         D: float = 0.0,
-        K: float = 0.1,
+        K: float = 0.5,
         seq: str = "ZYX",
         base: object = "inertial",
         lock_tol: float = 1e-2,
