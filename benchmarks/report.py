@@ -3,9 +3,12 @@ PNG figures (matplotlib, Agg backend).
 
 ``report.md`` holds a summary table (controllers × scenarios: settling time or why not) and one
 controllers × scenarios table per metric; cells of failed runs say ``FAILED`` and the error text
-is listed below. Metrics that do not apply to a scenario (NaN for every controller, e.g. the
-unwinding ratio when the run starts at the reference) read ``n/a``; a NaN settling time reads
-``not settled``. Exact definitions: :mod:`benchmarks.metrics` and ``docs/benchmarks.md``.
+is listed below. A pair whose controller does not apply to the scenario (status ``"n/a"``: an
+SE(3) controller on an attitude plant and vice versa) reads ``does not apply`` (the summary says
+why). Metrics not defined for a run (NaN, e.g. the unwinding ratio when the run starts at the
+reference) read ``n/a``; a NaN settling time reads ``not settled``. No cell is ever empty.
+Figures: one per scenario (all controllers overlaid) and a controllers × scenarios overview of
+the settling time. Exact definitions: :mod:`benchmarks.metrics` and ``docs/benchmarks.md``.
 """
 
 from __future__ import annotations
@@ -21,11 +24,20 @@ from typing import Any
 
 import numpy as np
 
-from .controllers import CONTROLLERS
 from .metrics import UNITS
 from .runner import RunOutcome, SuiteResult
 
-__all__ = ["TABLE_METRICS", "write_report", "write_csv", "write_json", "write_figures"]
+__all__ = [
+    "TABLE_METRICS",
+    "POSE_METRICS",
+    "NOT_APPLICABLE",
+    "write_report",
+    "write_csv",
+    "write_json",
+    "write_figures",
+    "fmt",
+    "markdown_table",
+]
 
 #: (field, column title) of the per-metric tables, in order (SPEC §8.2).
 TABLE_METRICS: tuple[tuple[str, str], ...] = (
@@ -38,8 +50,16 @@ TABLE_METRICS: tuple[tuple[str, str], ...] = (
     ("min_singularity", "Minimum singularity measure m"),
     ("saturation_time_s", "Time in gimbal-rate saturation [s]"),
     ("unwinding_ratio", "Unwinding ratio (path angle / geodesic angle; ≥ 1.5 unwound)"),
-    ("controller_time_us", "Controller wall time per control step [µs]"),
+    ("controller_time_us", "Controller wall time per control step and spacecraft [µs]"),
 )
+#: Extra tables when a suite has SE(3) runs.
+POSE_METRICS: tuple[tuple[str, str], ...] = (
+    ("final_position_error_m", "SE(3): final position error [m]"),
+    ("position_settling_time_s", "SE(3): position settling time to 0.1 m [s]"),
+    ("peak_force_N", "SE(3): peak force ‖F‖ [N]"),
+)
+#: Cell text of a pair whose controller does not apply to the scenario.
+NOT_APPLICABLE = "does not apply"
 
 CSV_LEAD = ("scenario", "controller", "status", "error")
 
@@ -49,6 +69,18 @@ def _esc(text: str, limit: int | None = None) -> str:
     if limit is not None and len(s) > limit:
         s = s[: limit - 1] + "…"
     return s
+
+
+def fmt(x: Any) -> str:
+    """Compact number formatting for tables (NaN/None → ``n/a``)."""
+    return _fmt(x)
+
+
+def markdown_table(header: list[str], rows: list[list[str]]) -> list[str]:
+    """Lines of a Markdown table (cells escaped)."""
+    lines = ["| " + " | ".join(_esc(h) for h in header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(_esc(c) for c in r) + " |" for r in rows]
+    return lines
 
 
 def _fmt(x: Any) -> str:
@@ -68,6 +100,8 @@ def _fmt(x: Any) -> str:
 
 
 def _cell(o: RunOutcome, key: str) -> str:
+    if o.status == "n/a":
+        return NOT_APPLICABLE
     if o.status != "ok":
         return "FAILED"
     v = o.metrics.get(key, float("nan"))
@@ -80,6 +114,8 @@ def _cell(o: RunOutcome, key: str) -> str:
 
 
 def _summary_cell(o: RunOutcome) -> str:
+    if o.status == "n/a":
+        return f"{NOT_APPLICABLE} ({_esc(o.error or '', 60)})"
     if o.status != "ok":
         return "FAILED: " + _esc(o.error or "", 90)
     m = o.metrics
@@ -90,6 +126,8 @@ def _summary_cell(o: RunOutcome) -> str:
         txt = f"settled in {_fmt(ts)} s"
     if m.get("unwound"):
         txt += ", unwound"
+    if "final_position_error_m" in m:
+        txt += f"; position error {_fmt(m['final_position_error_m'])} m"
     return txt
 
 
@@ -119,11 +157,14 @@ def write_report(result: SuiteResult, out_dir: Path, *, figures: bool = True) ->
         "",
         f"Generated {time.strftime('%Y-%m-%d %H:%M:%S')} on Python {platform.python_version()}, "
         f"numpy {np.__version__}; suite wall time {result.wall_time_s:.1f} s; "
-        f"{len(result.outcomes)} runs, {result.n_failed} failed.",
+        f"{len(result.outcomes)} pairs: {result.n_ok} ok, {result.n_failed} failed, "
+        f"{len(result.outcomes) - result.n_ok - result.n_failed} do not apply; "
+        f"executor: {result.executor}.",
         "",
         "Metric definitions: `docs/benchmarks.md` / `benchmarks.metrics`. Angles are the "
         "geodesic error θ between R and R_d; NaN metrics read *n/a* (not defined for that "
-        "scenario), a run whose final error is above 0.1° is *not settled*.",
+        "run), a run whose final error is above 0.1° is *not settled*, *does not apply* marks a "
+        "controller that is not defined for that plant (SE(3) vs attitude).",
         "",
         "## Scenarios",
         "",
@@ -138,14 +179,16 @@ def write_report(result: SuiteResult, out_dir: Path, *, figures: bool = True) ->
         )
     lines += ["", "## Controllers", ""]
     for c in result.controllers:
-        doc = (CONTROLLERS[c].__doc__ or "").strip().splitlines()
-        lines.append(f"- `{c}`: {_esc(doc[0]) if doc else ''}")
+        lines.append(f"- `{c}`: {_esc(result.descriptions.get(c, ''))}")
     lines += ["", "## Summary", ""]
     lines += _table(result, _summary_cell)
-    for key, title in TABLE_METRICS:
+    tables = list(TABLE_METRICS)
+    if any("final_position_error_m" in o.metrics for o in result.outcomes):
+        tables += list(POSE_METRICS)
+    for key, title in tables:
         lines += ["", f"### {title}", ""]
         lines += _table(result, lambda o, k=key: _cell(o, k))
-    failed = [o for o in result.outcomes if o.status != "ok"]
+    failed = [o for o in result.outcomes if o.status == "failed"]
     if failed:
         lines += ["", "## Failures", ""]
         for o in failed:

@@ -1,24 +1,32 @@
 """Run scenarios × controllers and collect metrics (SPEC §8).
 
-Batching: every (scenario, controller) pair is one spacecraft of a batched simulation. Pairs whose
-scenarios share the plant and time grid (:meth:`Scenario.batch_key`) run together in a single
-:func:`spacecraft.simulator.simulate` call: a :class:`StackedController` hands each pair its
-slice of the batch (one controller instance per pair, so stateful controllers stay independent)
-and a :class:`StackedReference` stacks the pairs' references. Groups run in parallel over local
-processes (``jobs``); if a batched group raises, its pairs are re-run one by one so a failure is
-recorded against the pair that caused it and the others still produce metrics.
+Matrix: every registered controller (or the ones asked for) × every scenario. A pair whose
+controller does not apply to the scenario (an SE(3) controller on an attitude plant, an attitude
+controller on the SE(3) plant, an excluded tag) is recorded with status ``"n/a"`` and the reason —
+never silently left out.
 
-Controller wall time (SPEC §8.2) is measured by :class:`TimedController`, a proxy implementing
-the controller interface that times ``command()`` alone: mean wall time per call, per spacecraft.
+Batching: pairs whose scenarios share the plant and time grid (:meth:`Scenario.batch_key`) form
+one task, simulated in a single :func:`spacecraft.simulator.simulate` call: a
+:class:`StackedController` hands each controller its slice of the batch — one instance for all
+the pairs of a ``batched`` controller (its ``command`` is vectorized), one instance per pair
+otherwise — and a :class:`StackedReference` stacks the references. If a batched task raises, its
+pairs are re-run one by one so the failure is recorded against the pair that caused it (with the
+error text) and the others still produce metrics. SE(3) pairs run one by one with
+:func:`spacecraft.se3_plant.simulate_pose`.
+
+Tasks run on an executor (:mod:`benchmarks.executors`): in-process, local processes (default)
+or a dask.distributed cluster; results are identical whichever runs them.
+
+Controller wall time (SPEC §8.2) is measured by :class:`TimedController`, a proxy that times
+``command()`` alone; the reported ``controller_time_us`` is the mean time of one call divided by
+the number of spacecraft it served (per spacecraft per control step).
 """
 
 from __future__ import annotations
 
-import os
+import math
 import time
-import traceback
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -26,25 +34,32 @@ import numpy as np
 
 from liecontrol.control import AttitudeController, AttitudeReference, AttitudeState
 
-from .controllers import make_controller
+from .controllers import ControllerContext, ControllerInfo, get_controller
+from .executors import Executor, TaskFailure, describe_exception, make_executor
 from .metrics import compute_metrics, error_angle, rate_error
-from .scenarios import DisturbanceSpec, Scenario, SpacecraftSpec
+from .scenarios import DisturbanceSpec, ReferenceSpec, Scenario, SpacecraftSpec
 
 __all__ = [
     "RunOutcome",
     "SuiteResult",
     "TimedController",
+    "HeldController",
     "StackedController",
     "StackedReference",
+    "ConstantRateReference",
     "build_steering",
+    "build_actuator",
+    "build_disturbance",
     "build_plant",
     "build_reference",
+    "initial_state",
     "run_suite",
+    "run_group",
     "MAX_SERIES_POINTS",
 ]
 
 #: Time series kept per run for the figures are decimated to at most this many samples.
-MAX_SERIES_POINTS = 3000
+MAX_SERIES_POINTS = 2000
 
 
 # --------------------------------------------------------------------------- controller proxies
@@ -56,7 +71,7 @@ class TimedController(AttitudeController):
     ``mean_time_per_call`` [s] and ``calls`` after a run; ``batched`` mirrors the inner one.
     """
 
-    def __init__(self, inner: AttitudeController) -> None:
+    def __init__(self, inner: Any) -> None:
         self.inner = inner
         self.batched = bool(getattr(inner, "batched", True))
         self.total_time = 0.0
@@ -67,7 +82,7 @@ class TimedController(AttitudeController):
         self.calls = 0
         self.inner.reset(t0, batch_size)
 
-    def command(self, t: float, state: AttitudeState, reference: AttitudeReference) -> np.ndarray:
+    def command(self, t: float, state: Any, reference: Any) -> np.ndarray:
         t_start = time.perf_counter()
         out = self.inner.command(t, state, reference)
         self.total_time += time.perf_counter() - t_start
@@ -75,11 +90,41 @@ class TimedController(AttitudeController):
         return out
 
     def diagnostics(self) -> dict[str, np.ndarray]:
-        return self.inner.diagnostics()
+        d = getattr(self.inner, "diagnostics", None)
+        return d() if callable(d) else {}
 
     @property
     def mean_time_per_call(self) -> float:
         return self.total_time / self.calls if self.calls else float("nan")
+
+
+class HeldController(AttitudeController):
+    """Samples ``inner`` every ``period`` seconds and holds its command in between (zero-order
+    hold), for controllers with their own sampling period (e.g. the MPC at 1 s) inside a loop
+    sampled faster. ``calls`` of an inner :class:`TimedController` count real samples only."""
+
+    def __init__(self, inner: Any, period: float) -> None:
+        self.inner = inner
+        self.period = float(period)
+        self.batched = bool(getattr(inner, "batched", True))
+        self._t_next = -math.inf
+        self._held: np.ndarray | None = None
+
+    def reset(self, t0: float, batch_size: int) -> None:
+        self._t_next = -math.inf
+        self._held = None
+        self.inner.reset(t0, batch_size)
+
+    def command(self, t: float, state: Any, reference: Any) -> np.ndarray:
+        # 1e-9 relative slack: sample times are t0 + k·dt in floating point
+        if self._held is None or t >= self._t_next - 1e-9 * max(1.0, abs(t)):
+            self._held = np.asarray(self.inner.command(t, state, reference), dtype=np.float64)
+            self._t_next = t + self.period
+        return self._held.copy()
+
+    def diagnostics(self) -> dict[str, np.ndarray]:
+        d = getattr(self.inner, "diagnostics", None)
+        return d() if callable(d) else {}
 
 
 def _slice_ref(a: np.ndarray, sl: slice, core_ndim: int) -> np.ndarray:
@@ -96,7 +141,7 @@ class StackedController(AttitudeController):
 
     batched = True
 
-    def __init__(self, members: Sequence[AttitudeController], sizes: Sequence[int]) -> None:
+    def __init__(self, members: Sequence[Any], sizes: Sequence[int]) -> None:
         if len(members) != len(sizes) or not members:
             raise ValueError("members: need one batch size per member and at least one member")
         if any(int(n) < 1 for n in sizes):
@@ -114,7 +159,9 @@ class StackedController(AttitudeController):
                 f"got {batch_size}"
             )
         for m, n in zip(self.members, self.sizes, strict=True):
-            m.reset(t0, n if getattr(m, "batched", True) else 1)
+            if not getattr(m, "batched", True) and n != 1:
+                raise ValueError("sizes: an unbatched member must drive exactly one spacecraft")
+            m.reset(t0, n)
 
     def command(self, t: float, state: AttitudeState, reference: AttitudeReference) -> np.ndarray:
         out = np.empty((state.R.shape[0], 3))
@@ -125,19 +172,7 @@ class StackedController(AttitudeController):
                 omega_dot_d=_slice_ref(reference.omega_dot_d, sl, 1),
             )
             h = None if state.h is None else state.h[sl]
-            if getattr(m, "batched", True):
-                out[sl] = m.command(t, AttitudeState(state.R[sl], state.omega[sl], h), sub_ref)
-            else:
-                for b in range(sl.start, sl.stop):
-                    one = slice(b - sl.start, b - sl.start + 1)
-                    ref_b = AttitudeReference(
-                        R_d=_slice_ref(sub_ref.R_d, one, 2),
-                        omega_d=_slice_ref(sub_ref.omega_d, one, 1),
-                        omega_dot_d=_slice_ref(sub_ref.omega_dot_d, one, 1),
-                    )
-                    hb = None if h is None else h[one]
-                    st = AttitudeState(state.R[b : b + 1], state.omega[b : b + 1], hb)
-                    out[b : b + 1] = m.command(t, st, ref_b)
+            out[sl] = m.command(t, AttitudeState(state.R[sl], state.omega[sl], h), sub_ref)
         return out
 
     def diagnostics(self) -> dict[str, np.ndarray]:
@@ -159,6 +194,14 @@ class StackedReference:
     sizes: tuple[int, ...]
 
     def __call__(self, t: float) -> AttitudeReference:
+        if len(self.references) == 1:
+            r = self.references[0](t)
+            n = self.sizes[0]
+            return AttitudeReference(
+                R_d=np.broadcast_to(r.R_d, (n, 3, 3)),
+                omega_d=np.broadcast_to(r.omega_d, (n, 3)),
+                omega_dot_d=np.broadcast_to(r.omega_dot_d, (n, 3)),
+            )
         R_d, w_d, dw_d = [], [], []
         for ref, n in zip(self.references, self.sizes, strict=True):
             r = ref(t)
@@ -168,6 +211,23 @@ class StackedReference:
         return AttitudeReference(
             R_d=np.concatenate(R_d), omega_d=np.concatenate(w_d), omega_dot_d=np.concatenate(dw_d)
         )
+
+
+@dataclass(frozen=True)
+class ConstantRateReference:
+    """Slewing reference ``R_d(t) = R_d0 exp((t − t0) ω_d^)``, constant desired body rate
+    ``ω_d`` [rad/s], ``ω̇_d = 0`` (the exact solution of ``Ṙ_d = R_d ω_d^``)."""
+
+    R_d0: np.ndarray
+    omega_d: np.ndarray
+    t0: float = 0.0
+
+    def __call__(self, t: float) -> AttitudeReference:
+        from liecontrol.lie import so3
+
+        w = np.asarray(self.omega_d, dtype=np.float64)
+        R_d = np.asarray(self.R_d0) @ so3.exp((float(t) - self.t0) * w)
+        return AttitudeReference(R_d=R_d, omega_d=w, omega_dot_d=np.zeros(3))
 
 
 # --------------------------------------------------------------------------- plant from data
@@ -191,39 +251,110 @@ def build_steering(spec: SpacecraftSpec, cluster: Any) -> Any:
         ) from None
 
 
-def build_disturbance(spec: DisturbanceSpec) -> Any:
-    """Disturbance source for ``spec`` (``None`` for ``"none"``)."""
-    if spec.name == "none":
-        return None
-    from spacecraft.disturbances import Seed000Disturbance
-
-    return Seed000Disturbance(**dict(spec.params))
-
-
-def build_plant(spec: SpacecraftSpec, disturbance: DisturbanceSpec) -> Any:
-    """The :class:`spacecraft.plant.Spacecraft` described by ``spec`` and ``disturbance``."""
-    from spacecraft.actuators import SgcmgActuator
-    from spacecraft.plant import Spacecraft
-    from spacecraft.rigid_body import RigidBody
+def build_actuator(spec: SpacecraftSpec) -> Any:
+    """The actuator of ``spec.actuator``: SGCMG pyramid, orthogonal wheels or ideal torque."""
+    from spacecraft.actuators import IdealTorqueActuator, ReactionWheelAssembly, SgcmgActuator
     from spacecraft.sgcmg import SgcmgPyramid
 
-    cluster = SgcmgPyramid(
-        h0=spec.h0, beta=float(np.deg2rad(spec.beta_deg)), gimbal_rate_limit=spec.gimbal_rate_limit
-    )
-    actuator = SgcmgActuator(
-        cluster=cluster,
-        steering=build_steering(spec, cluster),
-        delta0=np.deg2rad(np.array(spec.delta0_deg)),
-    )
+    if spec.actuator == "sgcmg":
+        cluster = SgcmgPyramid(
+            h0=spec.h0,
+            beta=float(np.deg2rad(spec.beta_deg)),
+            gimbal_rate_limit=spec.gimbal_rate_limit,
+        )
+        return SgcmgActuator(
+            cluster=cluster,
+            steering=build_steering(spec, cluster),
+            delta0=np.deg2rad(np.array(spec.delta0_deg)),
+        )
+    if spec.actuator == "wheels":
+        return ReactionWheelAssembly.orthogonal(
+            wheel_inertia=spec.wheel_inertia,
+            max_torque=spec.wheel_max_torque,
+            max_speed=spec.wheel_max_speed,
+        )
+    return IdealTorqueActuator(max_torque=spec.max_torque)
+
+
+def build_disturbance(specs: Sequence[DisturbanceSpec], true_J: np.ndarray) -> Any:
+    """Disturbance source of ``specs`` (``None`` when empty; summed when several).
+    Gravity gradient uses the plant's **true** inertia ``true_J``."""
+    from spacecraft.disturbances import ConstantTorque, Seed000Disturbance, SumOfDisturbances
+
+    sources: dict[str, Any] = {}
+    for i, spec in enumerate(specs):
+        kw = spec.kwargs
+        if spec.name == "seed000":
+            src: Any = Seed000Disturbance(**kw)
+        elif spec.name == "gravity-gradient":
+            from spacecraft.environment import GravityGradientTorque
+            from spacecraft.orbit import CircularOrbit
+
+            src = GravityGradientTorque(true_J, CircularOrbit(n=kw.get("n", 0.0011)))
+        elif spec.name == "constant":
+            src = ConstantTorque([kw.get("x", 0.0), kw.get("y", 0.0), kw.get("z", 0.0)])
+        else:  # "payload-seed003"
+            import dataclasses
+
+            from spacecraft.payload import SEED003_PAYLOAD, RotatingPayloadTorque
+
+            payload = SEED003_PAYLOAD
+            if kw.get("scale", 1.0) != 1.0:
+                payload = dataclasses.replace(
+                    payload, mass=payload.mass * kw["scale"], inertia=payload.inertia * kw["scale"]
+                )
+            src = RotatingPayloadTorque((payload,))
+        sources[f"{spec.name}" if spec.name not in sources else f"{spec.name}-{i}"] = src
+    if not sources:
+        return None
+    if len(sources) == 1:
+        return next(iter(sources.values()))
+    return SumOfDisturbances(sources)
+
+
+def build_plant(
+    spec: SpacecraftSpec,
+    disturbances: Sequence[DisturbanceSpec] | DisturbanceSpec = (),
+    true_inertia: np.ndarray | None = None,
+) -> Any:
+    """The :class:`spacecraft.plant.Spacecraft` of ``spec`` with ``disturbances``; its inertia is
+    ``true_inertia`` when given (model uncertainty), else the nominal ``spec.J``."""
+    from spacecraft.plant import Spacecraft
+    from spacecraft.rigid_body import RigidBody
+
+    if isinstance(disturbances, DisturbanceSpec):
+        disturbances = (disturbances,)
+    J = spec.J if true_inertia is None else np.asarray(true_inertia, dtype=np.float64)
     return Spacecraft(
-        body=RigidBody(spec.J), actuator=actuator, disturbance=build_disturbance(disturbance)
+        body=RigidBody(J),
+        actuator=build_actuator(spec),
+        disturbance=build_disturbance(tuple(disturbances), J),
     )
 
 
-def build_reference(scenario: Scenario) -> Callable[[float], AttitudeReference]:
-    from liecontrol.control import ConstantAttitude
+def build_reference(spec: ReferenceSpec | Scenario) -> Callable[[float], AttitudeReference]:
+    """Reference trajectory of a :class:`ReferenceSpec` (or of a scenario's)."""
+    if isinstance(spec, Scenario):
+        spec = spec.reference
+    if spec.kind == "constant":
+        from liecontrol.control import ConstantAttitude
 
-    return ConstantAttitude(scenario.reference.R_d)
+        return ConstantAttitude(spec.R_d)
+    if spec.kind == "earth-pointing":
+        from spacecraft.orbit import CircularOrbit, EarthPointingReference
+
+        return EarthPointingReference(CircularOrbit(n=spec.n), offset=spec.R_d)
+    return ConstantRateReference(spec.R_d, np.array(spec.rate))
+
+
+def initial_state(scenario: Scenario, t0: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """``(R₀, ω₀)`` of an attitude scenario: ``R₀ = R_d(t₀) exp(initial_rotvec^)``,
+    ``ω₀ = initial_rate + R₀ᵀR_d(t₀) ω_d(t₀)`` (the scenario stores errors)."""
+    ref = build_reference(scenario)(t0)
+    R_d = np.asarray(ref.R_d, dtype=np.float64)
+    R0 = R_d @ scenario.error0
+    w0 = scenario.omega0 + R0.T @ R_d @ np.asarray(ref.omega_d, dtype=np.float64)
+    return R0, w0
 
 
 # --------------------------------------------------------------------------- results
@@ -235,14 +366,15 @@ class RunOutcome:
 
     Attributes:
         scenario, controller: names.
-        status: ``"ok"`` or ``"failed"``.
-        error: exception text when failed.
+        status: ``"ok"``, ``"failed"`` or ``"n/a"`` (the controller does not apply).
+        error: exception text when failed; the reason when n/a.
         metrics: :meth:`benchmarks.metrics.Metrics.as_dict` plus ``controller_time_us`` (mean
-            wall time of one ``command()`` call per spacecraft [µs]) and ``sim_wall_time_s``
-            (wall time of the simulation this pair was batched in, shared by the batch).
+            wall time of ``command()`` per spacecraft per control step [µs]) and
+            ``sim_wall_time_s`` (wall time of the simulation this pair was batched in); SE(3)
+            runs add ``final_position_error_m``, ``peak_force_N``, ``position_settling_time_s``.
         series: decimated time series for the figures: ``t`` [s], ``error_deg``,
             ``rate_deg_s`` (‖ω − RᵀR_dω_d‖), ``gimbal_rate_rad_s`` (max_i |δ̇_i|),
-            ``singularity`` (m); empty when nothing was logged.
+            ``singularity`` (m), ``position_error_m`` (SE(3)); empty when nothing was logged.
     """
 
     scenario: str
@@ -262,6 +394,8 @@ class SuiteResult:
     controllers: tuple[str, ...]
     outcomes: tuple[RunOutcome, ...]
     wall_time_s: float
+    executor: str = "serial"
+    descriptions: dict[str, str] = field(default_factory=dict)
 
     def outcome(self, scenario: str, controller: str) -> RunOutcome:
         for o in self.outcomes:
@@ -271,7 +405,15 @@ class SuiteResult:
 
     @property
     def n_failed(self) -> int:
-        return sum(o.status != "ok" for o in self.outcomes)
+        return sum(o.status == "failed" for o in self.outcomes)
+
+    @property
+    def n_ok(self) -> int:
+        return sum(o.status == "ok" for o in self.outcomes)
+
+
+def _decimate(K: int) -> np.ndarray:
+    return np.unique(np.linspace(0, K - 1, min(K, MAX_SERIES_POINTS)).astype(int))
 
 
 def _series(result: Any, b: int) -> dict[str, np.ndarray]:
@@ -280,7 +422,7 @@ def _series(result: Any, b: int) -> dict[str, np.ndarray]:
     K = t.shape[0]
     if K == 0:
         return {}
-    idx = np.unique(np.linspace(0, K - 1, min(K, MAX_SERIES_POINTS)).astype(int))
+    idx = _decimate(K)
     R = np.asarray(result.R)[idx, b]
     R_d = np.broadcast_to(np.asarray(result.R_d), np.asarray(result.R).shape)[idx, b]
     w = np.asarray(result.omega)[idx, b]
@@ -298,28 +440,78 @@ def _series(result: Any, b: int) -> dict[str, np.ndarray]:
     return out
 
 
-def _error_text(exc: BaseException) -> str:
-    where = getattr(exc, "time", None)
-    text = f"{type(exc).__name__}: {exc}".strip()
-    if where is not None and "t=" not in text and "t = " not in text:
-        text += f" (at t={float(where):.3g} s)"
-    return " ".join(text.split())
+# --------------------------------------------------------------------------- one task
 
 
-def _simulate_pairs(
-    pairs: Sequence[tuple[Scenario, str]], progress: bool
+@dataclass(frozen=True)
+class GroupTask:
+    """Payload of one executor task: pairs sharing a batch key, and the controllers' metadata
+    (shipped with the task so run-time registrations reach remote workers)."""
+
+    pairs: tuple[tuple[Scenario, str], ...]
+    infos: dict[str, ControllerInfo]
+
+
+def _members(
+    pairs: Sequence[tuple[Scenario, str]], infos: dict[str, ControllerInfo]
+) -> list[tuple[str, list[int]]]:
+    """Group pair indices into controller instances: one per batched controller, one per pair
+    otherwise. Returns ``[(controller name, [pair indices])]`` in spacecraft order."""
+    out: list[tuple[str, list[int]]] = []
+    by_ctrl: dict[str, list[int]] = {}
+    for i, (_, c) in enumerate(pairs):
+        by_ctrl.setdefault(c, []).append(i)
+    for c, idx in by_ctrl.items():
+        if infos[c].batched:
+            out.append((c, idx))
+        else:
+            out.extend((c, [i]) for i in idx)
+    return out
+
+
+def _make_member(info: ControllerInfo, scenarios: Sequence[Scenario], ref: Any) -> TimedController:
+    sc0 = scenarios[0]
+    ctx = ControllerContext(
+        spacecraft=sc0.spacecraft,
+        control_period=info.control_period or sc0.control_period or sc0.dt,
+        batch_size=len(scenarios),
+        q_hint=np.stack([s.initial_quaternion for s in scenarios]),
+        reference=ref,
+    )
+    ctrl = info.factory(ctx)
+    timed = TimedController(ctrl)
+    base = sc0.control_period or sc0.dt
+    if info.control_period is not None and info.control_period > base * (1 + 1e-9):
+        return HeldController(timed, info.control_period)  # type: ignore[return-value]
+    return timed
+
+
+def _simulate_attitude(
+    pairs: Sequence[tuple[Scenario, str]], infos: dict[str, ControllerInfo]
 ) -> list[RunOutcome]:
     """Simulate ``pairs`` (same :meth:`Scenario.batch_key`) as one batch; raises on failure."""
     from spacecraft.simulator import simulate
 
     sc0 = pairs[0][0]
-    plant = build_plant(sc0.spacecraft, sc0.disturbance)
-    timed = [TimedController(make_controller(c, s.spacecraft)) for s, c in pairs]
-    ctrl = StackedController(timed, [1] * len(pairs))
-    ref = StackedReference(tuple(build_reference(s) for s, _ in pairs), (1,) * len(pairs))
-    state = plant.initial_state(
-        np.stack([s.R0 for s, _ in pairs]), np.stack([s.omega0 for s, _ in pairs])
-    )
+    plant = build_plant(sc0.spacecraft, sc0.disturbances, sc0.true_inertia)
+    groups = _members(pairs, infos)
+    order = [i for _, idx in groups for i in idx]
+    members, refs, sizes = [], [], []
+    for c, idx in groups:
+        scs = [pairs[i][0] for i in idx]
+        ref_list = [build_reference(s) for s in scs]
+        ref = (
+            ref_list[0]
+            if len(ref_list) == 1
+            else StackedReference(tuple(ref_list), (1,) * len(ref_list))
+        )
+        members.append(_make_member(infos[c], scs, ref))
+        refs.extend(ref_list)
+        sizes.append(len(idx))
+    ctrl = StackedController(members, sizes)
+    ref = StackedReference(tuple(refs), (1,) * len(refs))
+    starts = [initial_state(pairs[i][0]) for i in order]
+    state = plant.initial_state(np.stack([r for r, _ in starts]), np.stack([w for _, w in starts]))
     t_start = time.perf_counter()
     result = simulate(
         plant,
@@ -329,67 +521,200 @@ def _simulate_pairs(
         t_final=sc0.duration,
         dt=sc0.dt,
         control_period=sc0.control_period,
-        progress=progress,
     )
     wall = time.perf_counter() - t_start
     metrics = compute_metrics(result)
-    outcomes = []
-    for b, ((s, c), tc) in enumerate(zip(pairs, timed, strict=True)):
-        m = metrics.as_dict(b)
-        m["controller_time_us"] = 1e6 * tc.mean_time_per_call
-        m["sim_wall_time_s"] = wall
-        outcomes.append(RunOutcome(s.name, c, "ok", None, m, _series(result, b)))
-    return outcomes
+    outcomes: dict[int, RunOutcome] = {}
+    b = 0
+    for m, (c, idx) in zip(members, groups, strict=True):
+        timed = m.inner if isinstance(m, HeldController) else m
+        per_sc = timed.mean_time_per_call / len(idx)
+        for i in idx:
+            mm = metrics.as_dict(b)
+            mm["controller_time_us"] = 1e6 * per_sc
+            mm["sim_wall_time_s"] = wall
+            outcomes[i] = RunOutcome(pairs[i][0].name, c, "ok", None, mm, _series(result, b))
+            b += 1
+    return [outcomes[i] for i in range(len(pairs))]
 
 
-def _run_group(pairs: Sequence[tuple[Scenario, str]], progress: bool) -> list[RunOutcome]:
-    """Run a batch group; on failure isolate the failing pairs by re-running them one by one."""
+def _pose_metrics(res: Any) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """Attitude metrics of the pose log (via a duck-typed attitude log) plus position ones."""
+
+    @dataclass(frozen=True)
+    class _AttitudeView:
+        t: np.ndarray
+        R: np.ndarray
+        omega: np.ndarray
+        R_d: np.ndarray
+        omega_d: np.ndarray
+        u: np.ndarray
+        actuator: dict = field(default_factory=dict)
+
+    g, g_d = np.asarray(res.g), np.asarray(res.g_d)
+    view = _AttitudeView(
+        t=np.asarray(res.t),
+        R=g[..., :3, :3],
+        omega=np.asarray(res.xi)[..., :3],
+        R_d=g_d[..., :3, :3],
+        omega_d=np.asarray(res.xi_d)[..., :3],
+        u=np.asarray(res.wrench)[..., :3],
+    )
+    m = compute_metrics(view).as_dict(0)
+    pos = np.asarray(res.position_error)[:, 0]
+    t = np.asarray(res.t)
+    above = np.nonzero(pos > 0.1)[0]
+    if above.size == 0:
+        ts = float(t[0])
+    elif above[-1] == len(t) - 1:
+        ts = float("nan")
+    else:
+        ts = float(t[above[-1] + 1])
+    m["final_position_error_m"] = float(pos[-1])
+    m["position_settling_time_s"] = ts
+    m["peak_force_N"] = float(np.linalg.norm(np.asarray(res.wrench)[:, 0, 3:], axis=-1).max())
+    idx = _decimate(t.shape[0])
+    series = {
+        "t": t[idx],
+        "error_deg": np.rad2deg(np.asarray(res.attitude_error)[idx, 0]),
+        "rate_deg_s": np.rad2deg(
+            np.linalg.norm(
+                rate_error(view.R[idx, 0], view.omega[idx, 0], view.R_d[idx, 0], view.omega_d[idx, 0]),
+                axis=-1,
+            )
+        ),
+        "position_error_m": pos[idx],
+    }
+    return m, series
+
+
+def _timed_pose(inner: Any) -> Any:
+    """A :class:`TimedController` that is also a ``PoseController`` (``simulate_pose`` checks)."""
+    from liecontrol.control import PoseController
+
+    class TimedPoseController(TimedController, PoseController):
+        pass
+
+    return TimedPoseController(inner)
+
+
+def _simulate_pose_pair(scenario: Scenario, name: str, info: ControllerInfo) -> RunOutcome:
+    from liecontrol.lie import se3, so3
+    from spacecraft.orbit import CircularOrbit
+    from spacecraft.se3_plant import (
+        DockingReference,
+        IdealWrenchActuator,
+        OrbitingTarget,
+        SE3Plant,
+        simulate_pose,
+    )
+
+    px = scenario.proximity
+    plant = SE3Plant(
+        px.mass,
+        px.J,
+        method="rkmk4",
+        actuator=IdealWrenchActuator(max_torque=px.max_torque, max_force=px.max_force),
+    )
+    target = OrbitingTarget(CircularOrbit(n=px.n))
+    g_rel = se3.from_rt(so3.exp(np.array(px.dock_rotvec)), np.array(px.dock_position))
+    dock = DockingReference(target, g_rel)
+    g0, xi0 = dock.offset_state(
+        0.0, np.array([px.initial_rotvec]), np.array([px.initial_position])
+    )
+    ctx = ControllerContext(
+        spacecraft=scenario.spacecraft,
+        control_period=info.control_period or scenario.control_period or scenario.dt,
+        batch_size=1,
+        reference=dock,
+        proximity=px,
+        gravity=plant.gravity_wrench,
+    )
+    timed = _timed_pose(info.factory(ctx))
+    t_start = time.perf_counter()
+    res = simulate_pose(
+        plant,
+        timed,
+        dock,
+        g0,
+        xi0,
+        t_final=scenario.duration,
+        dt=scenario.dt,
+        control_period=scenario.control_period,
+    )
+    wall = time.perf_counter() - t_start
+    m, series = _pose_metrics(res)
+    m["controller_time_us"] = 1e6 * timed.mean_time_per_call
+    m["sim_wall_time_s"] = wall
+    return RunOutcome(scenario.name, name, "ok", None, m, series)
+
+
+def _failed(s: Scenario, c: str, exc: BaseException) -> RunOutcome:
+    partial = getattr(exc, "result", None)
+    series: dict[str, np.ndarray] = {}
+    if partial is not None and hasattr(partial, "R"):
+        try:
+            series = _series(partial, 0)
+        except Exception:  # noqa: BLE001 - a broken partial log must not hide the error
+            series = {}
+    return RunOutcome(s.name, c, "failed", describe_exception(exc), {}, series)
+
+
+def run_group(task: GroupTask) -> list[RunOutcome]:
+    """Run one task (executor entry point): one batch; on failure isolate the failing pairs by
+    re-running them one by one. Never raises for a controller/plant failure."""
+    pairs, infos = task.pairs, task.infos
+    if pairs[0][0].plant == "se3":
+        out = []
+        for s, c in pairs:
+            try:
+                out.append(_simulate_pose_pair(s, c, infos[c]))
+            except Exception as exc:  # noqa: BLE001 - failures are data in a benchmark report
+                out.append(_failed(s, c, exc))
+        return out
     try:
-        return _simulate_pairs(pairs, progress)
+        return _simulate_attitude(pairs, infos)
     except Exception as exc:  # noqa: BLE001 - failures are data in a benchmark report
         if len(pairs) > 1:
-            out: list[RunOutcome] = []
+            res: list[RunOutcome] = []
             for p in pairs:
-                out.extend(_run_group([p], False))
-            return out
+                res.extend(run_group(GroupTask((p,), infos)))
+            return res
         s, c = pairs[0]
-        partial = getattr(exc, "result", None)
-        series: dict[str, np.ndarray] = {}
-        if partial is not None:
-            try:
-                series = _series(partial, 0)
-            except Exception:  # noqa: BLE001 - a broken partial log must not hide the error
-                series = {}
-        tb = traceback.extract_tb(exc.__traceback__)
-        where = f" [{tb[-1].filename.rsplit('/', 1)[-1]}:{tb[-1].lineno}]" if tb else ""
-        return [RunOutcome(s.name, c, "failed", _error_text(exc) + where, {}, series)]
+        return [_failed(s, c, exc)]
 
 
 def run_suite(
     scenarios: Sequence[Scenario],
-    controllers: Sequence[str],
+    controllers: Sequence[str] | None = None,
     *,
     suite: str = "custom",
     jobs: int | None = None,
+    executor: Executor | str | None = None,
+    scheduler: str | None = None,
     progress: bool = True,
 ) -> SuiteResult:
-    """Run every scenario with every controller.
+    """Run every scenario with every controller (pairs that do not apply are ``"n/a"``).
 
     Args:
         scenarios: the scenarios (see :mod:`benchmarks.scenarios`).
-        controllers: registered controller names (:mod:`benchmarks.controllers`).
+        controllers: registered controller names (default: all registered).
         suite: label stored in the result.
-        jobs: worker processes (default: ``min(#batch groups, os.cpu_count())``; 1 runs
-            in-process).
-        progress: show a tqdm bar over the (scenario, controller) runs.
+        jobs: worker processes of the default process executor (1: in-process).
+        executor: an :class:`~benchmarks.executors.Executor` or ``"serial"``, ``"process"``,
+            ``"dask"``; default from ``jobs``/``scheduler`` (:func:`make_executor`).
+        scheduler: dask scheduler address (dispatches the tasks to that cluster).
+        progress: show a tqdm bar over the runs.
 
     Returns:
         :class:`SuiteResult` with one :class:`RunOutcome` per pair (scenario-major order).
     """
     from tqdm.auto import tqdm
 
+    from .controllers import available_controllers
+
     scenarios = tuple(scenarios)
-    controllers = tuple(controllers)
+    controllers = tuple(available_controllers() if controllers is None else controllers)
     if not scenarios:
         raise ValueError("scenarios: empty")
     if not controllers:
@@ -397,41 +722,67 @@ def run_suite(
     names = [s.name for s in scenarios]
     if len(set(names)) != len(names):
         raise ValueError(f"scenarios: duplicate names in {names}")
-    for c in controllers:  # fail fast on unknown names, before any simulation
-        make_controller(c, scenarios[0].spacecraft)
+    if len(set(controllers)) != len(controllers):
+        raise ValueError(f"controllers: duplicate names in {list(controllers)}")
+    if jobs is not None and (isinstance(jobs, bool) or int(jobs) != jobs or jobs < 1):
+        raise ValueError(f"jobs: must be a positive integer, got {jobs!r}")
+    infos = {c: get_controller(c) for c in controllers}  # unknown names fail here, listed
 
+    outcomes: dict[tuple[str, str], RunOutcome] = {}
     groups: dict[tuple, list[tuple[Scenario, str]]] = {}
     for s in scenarios:
         for c in controllers:
-            groups.setdefault(s.batch_key(), []).append((s, c))
-    group_list = list(groups.values())
-    if jobs is None:
-        jobs = min(len(group_list), os.cpu_count() or 1)
-    if jobs < 1:
-        raise ValueError(f"jobs: must be >= 1, got {jobs}")
-
+            ok, why = infos[c].applies(s)
+            if not ok:
+                outcomes[(s.name, c)] = RunOutcome(s.name, c, "n/a", why)
+                continue
+            key = s.batch_key()
+            if s.plant == "se3":
+                key = key + (c,)
+            groups.setdefault(key, []).append((s, c))
+    # largest tasks first: better packing over the workers
+    tasks = sorted(
+        (GroupTask(tuple(g), {c: infos[c] for _, c in g}) for g in groups.values()),
+        key=lambda tk: -len(tk.pairs) * tk.pairs[0][0].duration / tk.pairs[0][0].dt,
+    )
+    own = not isinstance(executor, Executor)
+    if isinstance(executor, Executor):
+        ex = executor
+    else:
+        if jobs is None and executor in (None, "process") and not scheduler:
+            jobs = max(1, min(len(tasks), _cpu_count()))
+        ex = make_executor(executor, jobs=jobs, scheduler=scheduler)
     t_start = time.perf_counter()
-    outcomes: list[RunOutcome] = []
-    n_runs = sum(len(g) for g in group_list)
-    with tqdm(total=n_runs, desc=f"suite {suite}", unit="run", disable=not progress) as bar:
-        if jobs == 1 or len(group_list) == 1:
-            for g in group_list:
-                bar.set_postfix_str(g[0][0].name)
-                outcomes.extend(_run_group(g, False))
-                bar.update(len(g))
+    n_runs = sum(len(t.pairs) for t in tasks)
+    try:
+        with tqdm(total=n_runs, desc=f"suite {suite}", unit="run", disable=not progress) as bar:
+            results = ex.map(run_group, tasks, on_done=lambda i: bar.update(len(tasks[i].pairs)))
+    finally:
+        if own:
+            ex.close()
+    for task, res in zip(tasks, results, strict=True):
+        if isinstance(res, TaskFailure):
+            for s, c in task.pairs:
+                outcomes[(s.name, c)] = RunOutcome(s.name, c, "failed", res.error)
         else:
-            with ProcessPoolExecutor(max_workers=jobs) as pool:
-                futures = {pool.submit(_run_group, g, False): g for g in group_list}
-                for fut in as_completed(futures):
-                    outcomes.extend(fut.result())
-                    bar.update(len(futures[fut]))
-    pair_names = [(s.name, c) for s in scenarios for c in controllers]
-    order = {p: i for i, p in enumerate(pair_names)}
-    outcomes.sort(key=lambda o: order[(o.scenario, o.controller)])
+            for o in res:
+                outcomes[(o.scenario, o.controller)] = o
+    ordered = tuple(outcomes[(s.name, c)] for s in scenarios for c in controllers)
     return SuiteResult(
         suite=suite,
         scenarios=scenarios,
         controllers=controllers,
-        outcomes=tuple(outcomes),
+        outcomes=ordered,
         wall_time_s=time.perf_counter() - t_start,
+        executor=ex.name,
+        descriptions={c: infos[c].description for c in controllers},
     )
+
+
+def _cpu_count() -> int:
+    import os
+
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - non-Linux
+        return os.cpu_count() or 1

@@ -46,6 +46,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from liecontrol._linalg import cross as _cross
+from liecontrol._linalg import matvec as _mv
 from liecontrol._validation import as_array, check_inertia, check_nonnegative, check_positive
 from liecontrol.control.se3_control import (
     PoseController,
@@ -91,19 +93,10 @@ _PERIOD_RTOL = 1e-9
 Disturbance = Callable[[float, np.ndarray, np.ndarray], np.ndarray]
 
 
-def _mv(A: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.einsum("...ij,...j->...i", A, b)
-
 
 def _mtv(A: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.einsum("...ji,...j->...i", A, b)
 
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b on ``(..., 3)`` arrays without np.cross's axis handling (hot path)."""
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack((a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), axis=-1)
 
 
 def full_body_gravity(

@@ -28,7 +28,7 @@ Our choices (the paper is silent; documented, *ours*):
   noise σ = 5e-7 rad/s per sample (:class:`spacecraft.sensors.RateGyro`), both sampled with the
   controller at 20 Hz, seeded. The published gimbal-rate bound is noise-limited: the ESO
   bandwidth (poles up to 62 rad/s) passes sensor noise to the torque, and with 2× this noise
-  the composite ESO's peak gimbal rate is ≈ 0.026 rad/s (> 0.02; the sensor-only ESO's is ≈ 2.5×
+  the composite ESO's peak gimbal rate is ≈ 0.025 rad/s (> 0.02; the sensor-only ESO's is ≈ 2.5×
   larger at any noise level).
 * Controller and plant step 0.05 s (the ESO/TD are discretised exactly, :mod:`liecontrol.control.
   adrc`); ESO state starts at z = 0, TD at (y_p(0), 0).

@@ -32,6 +32,7 @@ import warnings
 
 import numpy as np
 
+from .._linalg import cross
 from .._validation import as_array, check_rotation_matrix
 from ..exceptions import ChartSingularityError
 
@@ -244,7 +245,7 @@ def rates_matrix(angles: object, seq: str, lock_tol: float = LOCK_TOL) -> np.nda
         )
     M = rates_matrix_inv(a, seq)
     c1, c2, c3 = M[..., :, 0], M[..., :, 1], M[..., :, 2]
-    rows = np.stack((np.cross(c2, c3), np.cross(c3, c1), np.cross(c1, c2)), axis=-2)
+    rows = np.stack((cross(c2, c3), cross(c3, c1), cross(c1, c2)), axis=-2)
     det = np.sum(c1 * rows[..., 0, :], axis=-1)
     return rows / det[..., None, None]
 

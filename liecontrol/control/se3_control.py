@@ -64,6 +64,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .._linalg import cross as _cross
+from .._linalg import matvec as _mv
 from .._validation import as_array, check_inertia, check_positive
 from ..errors import se3_log_error
 from ..lie import se3, so3
@@ -162,19 +164,10 @@ class PoseController(abc.ABC):
         return {}
 
 
-def _mv(A: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.einsum("...ij,...j->...i", A, b)
-
 
 def _gain(K: float | np.ndarray, x: np.ndarray) -> np.ndarray:
     return K * x if isinstance(K, float) else x @ K.T
 
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b on ``(..., 3)`` arrays without np.cross's axis handling (hot path)."""
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack((a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), axis=-1)
 
 
 def coriolis_wrench(xi: np.ndarray, m: float, J: np.ndarray) -> np.ndarray:

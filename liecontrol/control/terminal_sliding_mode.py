@@ -66,6 +66,8 @@ from typing import Any
 
 import numpy as np
 
+from .._linalg import cross as _cross
+from .._linalg import matvec as _mv
 from .._validation import as_array, check_inertia, check_nonnegative, check_positive
 from ..charts.euler import LOCK_TOL, _elem, _parse, from_matrix, rates_matrix
 from .adapters import EulerChartAdapter
@@ -95,19 +97,6 @@ SHAPING_COEFFICIENTS.setflags(write=False)
 # -- feedback linearisation ---------------------------------------------------------------------
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b on the last axis (broadcasting); np.cross's axis handling dominates at small sizes."""
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
-    out[..., 0] = a1 * b2 - a2 * b1
-    out[..., 1] = a2 * b0 - a0 * b2
-    out[..., 2] = a0 * b1 - a1 * b0
-    return out
-
-
-def _mv(M: np.ndarray, v: np.ndarray) -> np.ndarray:
-    return (M @ v[..., None])[..., 0]
 
 
 def _unit(k: int) -> np.ndarray:

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._linalg import matvec as _mv
 from .._validation import as_array, check_positive
 from ..lie import se3
 
@@ -46,9 +47,6 @@ __all__ = [
 #: f(t, g, x) -> (xi, x_dot): g (..., 4, 4), x (..., n) -> xi (..., 6), x_dot (..., n).
 SE3Field = Callable[[float, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
 
-
-def _mv(A: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.einsum("...ij,...j->...i", A, b)
 
 
 def rkmk4_se3_step_unchecked(

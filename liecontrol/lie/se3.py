@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._linalg import cross as _cross
 from .._validation import ROTATION_ATOL, as_array, check_positive, check_shape_tail
 from . import so3
 from .so3 import _jac_coeffs, _jac_inv_coeff
@@ -62,12 +63,6 @@ def _pose(g: object, name: str = "g") -> np.ndarray:
     check_shape_tail(a, name, (4, 4))
     return a
 
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b for ``(..., 3)`` arrays (broadcasting), without np.cross's overhead."""
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack((a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), axis=-1)
 
 
 def identity(batch_shape: tuple[int, ...] = ()) -> np.ndarray:
