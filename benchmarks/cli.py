@@ -1,14 +1,22 @@
 """Command line of the benchmark suite (SPEC §8)::
 
-    python -m benchmarks run --suite quick --out report/ [--t-final S | --horizon-scale X]
-                             [--controllers a,b] [--jobs N] [--no-progress] [--no-figures]
-    python -m benchmarks run --list
+    python -m benchmarks run --suite quick --out report/        # the README's main command
+    python -m benchmarks run --suite full|unwinding|montecarlo --out DIR
+        [--controllers a,b] [--scenario-file FILE ...] [--t-final S | --horizon-scale X]
+        [--jobs N] [--executor serial|process|dask] [--scheduler tcp://host:8786]
+        [--samples N] [--chunk-size N] [--seed S]            (montecarlo)
+        [--no-progress] [--no-figures]
+    python -m benchmarks run --list          # suites, scenarios, controllers, reproductions
+    python -m benchmarks throughput [--controller NAME] [--batch 1,256] [--steps N]
     python -m benchmarks reproduce NAME --out DIR [--quick]
     python -m benchmarks reproduce --list
 
-``run`` exits 0 when every run completed (failed runs are recorded in the report and give exit
-code 1). ``reproduce`` imports ``benchmarks.reproductions.<NAME>`` and returns its
-``main(out_dir, quick)`` exit code (0 when every row passes).
+``run`` exits 0 when every run completed, 1 when some failed (they are in the report with their
+error), 2 for bad arguments (unknown names are listed with the valid ones; a malformed scenario
+file names the offending key; an unreachable dask scheduler is reported before anything runs).
+``--scenario-file`` adds the file's scenarios (TOML, or YAML when PyYAML is installed) to the
+suite given with ``--suite``, or runs them alone when ``--suite`` is not given. ``reproduce``
+imports ``benchmarks.reproductions.<NAME>`` and returns its ``main(out_dir, quick)`` exit code.
 """
 
 from __future__ import annotations
@@ -30,9 +38,7 @@ def available_reproductions() -> list[str]:
     from . import reproductions
 
     return sorted(
-        m.name
-        for m in pkgutil.iter_modules(reproductions.__path__)
-        if not m.name.startswith("_")
+        m.name for m in pkgutil.iter_modules(reproductions.__path__) if not m.name.startswith("_")
     )
 
 
@@ -43,25 +49,36 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = p.add_subparsers(dest="command", required=True)
 
-    r = sub.add_parser("run", help="run a suite of scenarios × controllers and write a report")
-    r.add_argument("--suite", default="quick", help="suite name (default: quick)")
+    r = sub.add_parser("run", help="run a suite and write a report folder")
+    r.add_argument("--suite", default=None, help="quick (default), full, unwinding, montecarlo")
     r.add_argument("--out", type=Path, default=Path("report"), help="report folder")
-    horizon = r.add_mutually_exclusive_group()
-    horizon.add_argument(
-        "--t-final", type=float, default=None, help="override every scenario's duration [s]"
+    r.add_argument(
+        "--scenario-file",
+        action="append",
+        type=Path,
+        default=[],
+        help="TOML/YAML scenario file (repeatable)",
     )
+    horizon = r.add_mutually_exclusive_group()
+    horizon.add_argument("--t-final", type=float, default=None, help="every run's duration [s]")
     horizon.add_argument(
         "--horizon-scale", type=float, default=None, help="multiply every scenario's duration"
     )
-    r.add_argument(
-        "--controllers",
-        default=None,
-        help="comma-separated controller names (default: the suite's controllers)",
-    )
-    r.add_argument("--jobs", type=int, default=None, help="worker processes (default: auto)")
+    r.add_argument("--controllers", default=None, help="comma-separated controller names")
+    r.add_argument("--jobs", type=int, default=None, help="worker processes (default: CPUs)")
+    r.add_argument("--executor", choices=("serial", "process", "dask"), default=None)
+    r.add_argument("--scheduler", default=None, help="dask scheduler address (tcp://host:port)")
+    r.add_argument("--samples", type=int, default=None, help="Monte Carlo samples")
+    r.add_argument("--chunk-size", type=int, default=None, help="Monte Carlo batch size")
+    r.add_argument("--seed", type=int, default=None, help="Monte Carlo / unwinding seed")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
     r.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     r.add_argument("--list", action="store_true", help="list suites, scenarios and controllers")
+
+    t = sub.add_parser("throughput", help="Monte Carlo throughput: batched vs single runs")
+    t.add_argument("--controller", default="geometric-pd-large-angle")
+    t.add_argument("--batch", default="1,256", help="comma-separated batch sizes")
+    t.add_argument("--steps", type=int, default=600, help="plant steps per run (dt = 0.1 s)")
 
     rep = sub.add_parser("reproduce", help="reproduce a seed paper's published results")
     rep.add_argument("name", nargs="?", help="reproduction name (see --list)")
@@ -72,73 +89,159 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _print_listing() -> None:
-    from .controllers import available_controllers
-    from .scenarios import SUITES
+    from .controllers import CONTROLLERS
+    from .scenarios import SCENARIOS, SUITES
 
     print("suites:")
-    for name, scenarios in sorted(SUITES.items()):
-        print(f"  {name}:")
-        for s in scenarios:
-            print(f"    {s.name:16s} {s.description} ({s.duration:g} s, dt {s.dt:g} s)")
+    for name, suite in SUITES.items():
+        print(f"  {name:12s} {suite.description}")
+        for s in suite.scenarios:
+            print(f"      {s.name}")
+    print("scenarios:")
+    for s in SCENARIOS.values():
+        print(f"  {s.name:22s} [{s.plant}] {s.description} ({s.duration:g} s, dt {s.dt:g} s)")
     print("controllers:")
-    for c in available_controllers():
-        print(f"  {c}")
+    for c, info in CONTROLLERS.items():
+        flags = ("batched" if info.batched else "per-spacecraft") + (
+            ", quick" if info.quick else ""
+        )
+        print(f"  {c:26s} [{', '.join(sorted(info.plants))}; {flags}] {info.description}")
     print("reproductions:")
     for r in available_reproductions() or ["(none yet)"]:
         print(f"  {r}")
 
 
+def _error(msg: str) -> int:
+    print(f"error: {msg}", file=sys.stderr)
+    return 2
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
-    from .controllers import QUICK_CONTROLLERS, available_controllers
-    from .report import write_report
-    from .runner import run_suite
+    from .controllers import get_controller, quick_controllers
+    from .executors import ExecutorUnavailable, make_executor
+    from .scenario_files import load_scenarios
     from .scenarios import get_suite
 
     if args.list:
         _print_listing()
         return 0
+    suite_name = args.suite or ("files" if args.scenario_file else "quick")
     try:
-        scenarios = get_suite(args.suite)
+        scenarios: tuple = ()
+        if args.suite is not None or not args.scenario_file:
+            scenarios = get_suite(args.suite or "quick").scenarios
+        for f in args.scenario_file:
+            scenarios = scenarios + tuple(load_scenarios(f))
+        names = [s.name for s in scenarios]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise ValueError(f"scenario-file: duplicate scenario names {dup}")
+        controllers = None
+        if args.controllers:
+            controllers = tuple(c.strip() for c in args.controllers.split(",") if c.strip())
+            for c in controllers:
+                get_controller(c)
+        elif suite_name == "quick":
+            controllers = quick_controllers()
+        if args.jobs is not None and args.jobs < 1:
+            raise ValueError(f"jobs: must be >= 1, got {args.jobs}")
+        if args.t_final is not None and not args.t_final > 0:
+            raise ValueError(f"t-final: must be > 0, got {args.t_final}")
+        if args.horizon_scale is not None and not args.horizon_scale > 0:
+            raise ValueError(f"horizon-scale: must be > 0, got {args.horizon_scale}")
     except ValueError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+        return _error(str(exc))
     if args.t_final is not None:
-        if not args.t_final > 0:
-            print(f"error: --t-final must be > 0, got {args.t_final}", file=sys.stderr)
-            return 2
         scenarios = tuple(s.with_duration(args.t_final) for s in scenarios)
     elif args.horizon_scale is not None:
-        if not args.horizon_scale > 0:
-            print(f"error: --horizon-scale must be > 0, got {args.horizon_scale}", file=sys.stderr)
-            return 2
-        scenarios = tuple(
-            dataclasses.replace(s, duration=s.duration * args.horizon_scale) for s in scenarios
-        )
-    controllers = QUICK_CONTROLLERS
-    if args.controllers:
-        controllers = tuple(c.strip() for c in args.controllers.split(",") if c.strip())
-        unknown = [c for c in controllers if c not in available_controllers()]
-        if unknown:
-            print(
-                f"error: unknown controller(s) {', '.join(unknown)}; valid controllers: "
-                f"{', '.join(available_controllers())}",
-                file=sys.stderr,
-            )
-            return 2
-    if args.jobs is not None and args.jobs < 1:
-        print(f"error: --jobs must be >= 1, got {args.jobs}", file=sys.stderr)
-        return 2
+        scenarios = tuple(s.with_duration(s.duration * args.horizon_scale) for s in scenarios)
 
+    try:
+        executor = make_executor(args.executor, jobs=args.jobs, scheduler=args.scheduler)
+    except (ExecutorUnavailable, ValueError) as exc:
+        return _error(str(exc))
     t0 = time.perf_counter()
-    result = run_suite(
-        scenarios, controllers, suite=args.suite, jobs=args.jobs, progress=not args.no_progress
-    )
-    path = write_report(result, args.out, figures=not args.no_figures)
+    figures = not args.no_figures
+    progress = not args.no_progress
+    with executor:
+        if suite_name == "unwinding":
+            from . import unwinding
+
+            kw = {} if args.seed is None else {"seed": args.seed}
+            cfg = unwinding.UnwindingConfig(**kw)
+            if args.t_final is not None:
+                cfg = dataclasses.replace(cfg, duration=args.t_final)
+            elif args.horizon_scale is not None:
+                cfg = dataclasses.replace(cfg, duration=cfg.duration * args.horizon_scale)
+            res = unwinding.run_unwinding(
+                controllers, cfg, executor=executor, progress=progress
+            )
+            path = unwinding.write_unwinding_report(res, args.out, figures=figures)
+            n_runs, n_failed = len(res.records), res.n_failed
+        elif suite_name == "montecarlo":
+            from . import montecarlo
+
+            kw = {
+                k: v
+                for k, v in (
+                    ("n_samples", args.samples),
+                    ("chunk_size", args.chunk_size),
+                    ("seed", args.seed),
+                )
+                if v is not None
+            }
+            try:
+                cfg = montecarlo.MonteCarloConfig(**kw)
+            except ValueError as exc:
+                return _error(str(exc))
+            if args.t_final is not None:
+                cfg = dataclasses.replace(cfg, duration=args.t_final)
+            elif args.horizon_scale is not None:
+                cfg = dataclasses.replace(cfg, duration=cfg.duration * args.horizon_scale)
+            res = montecarlo.run_montecarlo(
+                controllers, cfg, executor=executor, progress=progress
+            )
+            path = montecarlo.write_montecarlo_report(res, args.out, figures=figures)
+            n_runs, n_failed = len(res.records), res.n_failed
+        else:
+            from .report import write_report
+            from .runner import run_suite
+
+            result = run_suite(
+                scenarios, controllers, suite=suite_name, executor=executor, progress=progress
+            )
+            path = write_report(result, args.out, figures=figures)
+            n_runs, n_failed = len(result.outcomes), result.n_failed
     print(
-        f"report: {path} ({len(result.outcomes)} runs, {result.n_failed} failed, "
-        f"{time.perf_counter() - t0:.1f} s)"
+        f"report: {path} ({n_runs} runs, {n_failed} failed, "
+        f"{time.perf_counter() - t0:.1f} s, executor {executor.name})"
     )
-    return 0 if result.n_failed == 0 else 1
+    return 0 if n_failed == 0 else 1
+
+
+def _cmd_throughput(args: argparse.Namespace) -> int:
+    from .controllers import get_controller
+    from .montecarlo import measure_throughput
+
+    try:
+        get_controller(args.controller)
+        batches = [int(b) for b in args.batch.split(",") if b.strip()]
+        if not batches or min(batches) < 1:
+            raise ValueError(f"batch: expected positive integers, got {args.batch!r}")
+        if args.steps < 1:
+            raise ValueError(f"steps: must be >= 1, got {args.steps}")
+    except ValueError as exc:
+        return _error(str(exc))
+    rows = measure_throughput(args.controller, batches, n_steps=args.steps)
+    print(f"controller {args.controller}, SGCMG plant, dt 0.1 s, {args.steps} steps, 1 process")
+    print(f"{'batch':>6s} {'wall [s]':>9s} {'spacecraft-steps/s':>19s} {'speed-up':>9s}")
+    base = rows[0]["steps_per_s"]
+    for r in rows:
+        print(
+            f"{r['batch']:6d} {r['wall_s']:9.3f} {r['steps_per_s']:19.0f} "
+            f"{r['steps_per_s'] / base:9.1f}"
+        )
+    return 0
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
@@ -148,22 +251,13 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
         print("reproductions: " + valid)
         return 0
     if not args.name:
-        print(f"error: reproduce needs a NAME; valid reproductions: {valid}", file=sys.stderr)
-        return 2
+        return _error(f"reproduce needs a NAME; valid reproductions: {valid}")
     if args.name not in names:
-        print(
-            f"error: unknown reproduction {args.name!r}; valid reproductions: {valid}",
-            file=sys.stderr,
-        )
-        return 2
+        return _error(f"unknown reproduction {args.name!r}; valid reproductions: {valid}")
     module = importlib.import_module(f"benchmarks.reproductions.{args.name}")
     entry = getattr(module, "main", None)
     if not callable(entry):
-        print(
-            f"error: benchmarks.reproductions.{args.name} has no main(out_dir, quick) function",
-            file=sys.stderr,
-        )
-        return 2
+        return _error(f"benchmarks.reproductions.{args.name} has no main(out_dir, quick) function")
     out = args.out if args.out is not None else Path("reproductions") / args.name
     out.mkdir(parents=True, exist_ok=True)
     return int(entry(out, quick=args.quick))
@@ -174,4 +268,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(None if argv is None else list(argv))
     if args.command == "run":
         return _cmd_run(args)
+    if args.command == "throughput":
+        return _cmd_throughput(args)
     return _cmd_reproduce(args)

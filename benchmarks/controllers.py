@@ -27,14 +27,14 @@ the quaternion vector part, ``¼`` for the MRP); choosing
 axis the same natural frequency ω_n and damping ratio ζ. The defaults ω_n = 0.03 rad/s, ζ = 0.9
 keep the 179° slew's peak body momentum (linear estimate ≈ 0.37 ω_n θ₀ âᵀJâ ≈ 470 N·m·s about the
 slew axis) inside the 4 × 300 N·m·s pyramid's momentum envelope, and settle a small error to 0.1°
-in ≈ 5/(ζ ω_n) ≈ 3 min. Integral actions use ``K_I = (ω_n/5) K_R`` with a 1 N·m anti-windup
-clamp; the MPC's weights give the same bandwidth; seed 000's ADRC keeps the paper's parameters.
+in ≈ 5/(ζ ω_n) ≈ 3 min. Integral actions use ``K_I = (ω_n/5) K_R`` with a 0.3 N·m anti-windup
+clamp (:data:`INTEGRAL_LIMIT`); the MPC's weights give the same bandwidth; seed 000's ADRC keeps the paper's parameters.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -78,6 +78,9 @@ class GainRule:
 
 
 DEFAULT_GAIN_RULE = GainRule()
+#: Anti-windup clamp of the integral torque of the PID variants [N·m]: ≈ 3× the constant part
+#: of the seed-000 disturbance (|(0.02, 0.08, 0.02)| ≈ 0.085 N·m), which the integral must cancel.
+INTEGRAL_LIMIT = 0.3
 
 
 @dataclass(frozen=True)
@@ -287,22 +290,24 @@ def _pd_gains(ctx: ControllerContext, slope: float, rule: GainRule) -> tuple[np.
 
 
 def _intrinsic_pid(ctx: ControllerContext, rule: GainRule = DEFAULT_GAIN_RULE) -> Any:
-    """IntrinsicPID (log error, Maithripala & Berg), K_I = (ω_n/5) K_R, 1 N·m clamp."""
+    """IntrinsicPID (log error, Maithripala & Berg), K_I = (ω_n/5) K_R, 0.3 N·m clamp."""
     from liecontrol.control.geometric_pid import IntrinsicPID, integral_gain
 
     k_R, k_W = _pd_gains(ctx, 1.0, rule)
     k_I = integral_gain(k_R, rule.omega_n / 5.0)
-    return IntrinsicPID(ctx.J, k_R, k_W, k_I, error="log", integral_limit=1.0)
+    return IntrinsicPID(ctx.J, k_R, k_W, k_I, error="log", integral_limit=INTEGRAL_LIMIT)
 
 
 def _integral_pd(ctx: ControllerContext, rule: GainRule = DEFAULT_GAIN_RULE) -> Any:
-    """IntegralPD (large-angle error, ∫(e_Ω + c e_R)), c = ω_n, K_I = (ω_n/5) K_R / c."""
+    """IntegralPD (large-angle error, ∫(e_Ω + c e_R)), c = ω_n, K_I = (ω_n/5) K_R / c, 0.3 N·m clamp."""
     from liecontrol.control.geometric_pid import IntegralPD, integral_gain
 
     k_R, k_W = _pd_gains(ctx, 0.5, rule)
     c = rule.omega_n
     k_I = integral_gain(k_R, rule.omega_n / 5.0, c=c)
-    return IntegralPD(ctx.J, k_R, k_W, k_I, c=c, error="large_angle", integral_limit=1.0)
+    return IntegralPD(
+        ctx.J, k_R, k_W, k_I, c=c, error="large_angle", integral_limit=INTEGRAL_LIMIT
+    )
 
 
 def _prescribed_performance(ctx: ControllerContext, rule: GainRule = DEFAULT_GAIN_RULE) -> Any:
@@ -401,11 +406,14 @@ def _register_builtins() -> None:
     register("mpc-osqp", _mpc, batched=False, control_period=1.0, family="mpc")
     register("mrp-adrc", _adrc, family="chart")
     for mode in ("continuous", "switched", "hysteretic"):
-        register(f"quaternion-pd-{mode}", _quaternion_pd(mode), family="chart")
+        # on the quick suite's q-starts the three sign modes fly the same trajectory
+        register(
+            f"quaternion-pd-{mode}", _quaternion_pd(mode), family="chart", quick=mode == "continuous"
+        )
     register("mrp-pd", _mrp_pd, family="chart")
     register("euler-tsm", _tsm, family="chart")
-    register("se3-tracking", _se3_tracking, plants={"se3"}, family="se3")
-    register("bullo-murray-pd", _bullo_murray, plants={"se3"}, family="se3")
+    register("se3-tracking", _se3_tracking, plants={"se3"}, family="se3", quick=False)
+    register("bullo-murray-pd", _bullo_murray, plants={"se3"}, family="se3", quick=False)
 
 
 _register_builtins()

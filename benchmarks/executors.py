@@ -80,6 +80,8 @@ class Executor:
     """
 
     name = "executor"
+    #: how many tasks can run at once (callers split work into at least this many tasks)
+    parallelism = 1
 
     def map(
         self,
@@ -123,7 +125,8 @@ class ProcessExecutor(Executor):
             isinstance(max_workers, bool) or int(max_workers) != max_workers or max_workers < 1
         ):
             raise ValueError(f"max_workers: must be a positive integer, got {max_workers!r}")
-        self.max_workers = int(max_workers) if max_workers else (os.cpu_count() or 1)
+        self.max_workers = int(max_workers) if max_workers else _cpu_count()
+        self.parallelism = self.max_workers
 
     def map(self, fn, payloads, on_done=None):  # noqa: D102 - see Executor.map
         payloads = list(payloads)
@@ -176,6 +179,10 @@ class DaskExecutor(Executor):
                 ) from None
         self.client = client
         self.address = address or getattr(getattr(client, "scheduler", None), "address", "")
+        try:
+            self.parallelism = max(1, int(sum(client.nthreads().values())))
+        except Exception:  # noqa: BLE001 - an informational figure only
+            self.parallelism = 1
 
     def map(self, fn, payloads, on_done=None):  # noqa: D102 - see Executor.map
         from distributed import as_completed as dask_completed
@@ -199,6 +206,13 @@ class DaskExecutor(Executor):
     def close(self) -> None:
         if self._own:
             self.client.close()
+
+
+def _cpu_count() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - non-Linux
+        return os.cpu_count() or 1
 
 
 def make_executor(

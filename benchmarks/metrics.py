@@ -29,6 +29,12 @@ time, ``T = t_f − t₀``; integrals are trapezoidal over the logged samples):
   taking the short way has ratio ≈ 1 − θ_f/θ₀ ≤ 1 (plus any overshoot); ratio ≥ 1.5 means the
   controller has **unwound**. NaN when ``θ₀ < min_geodesic_deg``.
 
+- **command reversals** (chattering indicator, :mod:`benchmarks.unwinding`): the number of
+  consecutive logged commands with ``u_cmd,k · u_cmd,k−1 < 0`` while both have a norm of at least
+  ``reversal_floor`` (5 %) of the run's peak command norm — a smooth PD reverses a few times
+  (accelerate/brake, overshoot), a law switching between ±q every sample reverses at each one;
+  NaN when the log has no ``u_cmd``.
+
 Gimbal metrics are NaN when the log has no SGCMG actuator arrays (e.g. an ideal torque actuator).
 """
 
@@ -141,6 +147,7 @@ class Metrics:
     path_angle_deg: np.ndarray
     unwinding_ratio: np.ndarray
     unwound: np.ndarray
+    command_reversals: np.ndarray
 
     @property
     def batch_size(self) -> int:
@@ -179,6 +186,7 @@ UNITS: dict[str, str] = {
     "path_angle_deg": "deg",
     "unwinding_ratio": "-",
     "unwound": "bool",
+    "command_reversals": "-",
 }
 
 #: One-line meaning of each field (for reports).
@@ -201,6 +209,7 @@ DESCRIPTIONS: dict[str, str] = {
     "path_angle_deg": "∫‖ω − RᵀR_dω_d‖dt (length of the error path on SO(3))",
     "unwinding_ratio": "path angle / initial geodesic angle (≥ 1.5: unwound)",
     "unwound": "unwinding ratio ≥ 1.5",
+    "command_reversals": "consecutive commands with u_k·u_{k−1} < 0 (both ≥ 5 % of the peak)",
 }
 
 
@@ -217,6 +226,7 @@ def compute_metrics(
     steady_fraction: float = 0.1,
     unwinding_threshold: float = 1.5,
     min_geodesic_deg: float = 1.0,
+    reversal_floor: float = 0.05,
 ) -> Metrics:
     """Compute the SPEC §8.2 metrics of every spacecraft of a simulation log.
 
@@ -229,6 +239,8 @@ def compute_metrics(
         steady_fraction: final fraction of the run used for the steady-state error.
         unwinding_threshold: unwinding ratio from which a run counts as unwound (SPEC §8.1).
         min_geodesic_deg: initial error below which overshoot/unwinding are not defined (NaN).
+        reversal_floor: fraction of the peak command norm below which a command does not count
+            for ``command_reversals``.
 
     Returns:
         :class:`Metrics` with ``(B,)`` arrays.
@@ -239,6 +251,9 @@ def compute_metrics(
         raise ValueError(f"steady_fraction: must be in (0, 1], got {steady_fraction}")
     unwinding_threshold = check_positive(unwinding_threshold, "unwinding_threshold")
     min_geodesic_deg = check_positive(min_geodesic_deg, "min_geodesic_deg")
+    reversal_floor = check_positive(reversal_floor, "reversal_floor")
+    if reversal_floor > 1.0:
+        raise ValueError(f"reversal_floor: must be in (0, 1], got {reversal_floor}")
 
     t = np.asarray(result.t, dtype=np.float64)
     R = np.asarray(result.R, dtype=np.float64)
@@ -311,6 +326,17 @@ def compute_metrics(
     else:
         sat_time = np.full(B, np.nan)
 
+    u_cmd = getattr(result, "u_cmd", None)
+    if u_cmd is not None and np.shape(u_cmd) == (K, B, 3):
+        uc = np.asarray(u_cmd, dtype=np.float64)
+        un = np.linalg.norm(uc, axis=-1)
+        big = un >= reversal_floor * un.max(axis=0, keepdims=True)
+        big &= un > 0.0
+        flip = np.einsum("kbi,kbi->kb", uc[1:], uc[:-1]) < 0.0
+        reversals = np.sum(flip & big[1:] & big[:-1], axis=0).astype(np.float64)
+    else:
+        reversals = np.full(B, np.nan)
+
     path = trapezoid(rate, t)
     ratio = np.where(defined, path / np.where(defined, theta0, 1.0), np.nan)
     unwound = np.where(defined, ratio >= unwinding_threshold, False)
@@ -334,4 +360,5 @@ def compute_metrics(
         path_angle_deg=path * RAD2DEG,
         unwinding_ratio=ratio,
         unwound=np.asarray(unwound, dtype=bool),
+        command_reversals=reversals,
     )

@@ -12,13 +12,15 @@ geometric PD at every step, dt = 0.1 s, logging every 60 s:
    :class:`spacecraft.simulator.StarTrackerGyro`.
 
 For each: single-spacecraft steps per second and, for a batch of ``--batch`` spacecraft (random
-targets), spacecraft-steps per second; best of ``--rounds`` interleaved rounds.
+targets), spacecraft-steps per CPU-second of this process; best of ``--rounds`` interleaved
+rounds. Then the per-call cost of each model's hot-path entry at B = 1 and B = ``--batch``.
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+import timeit
 
 import numpy as np
 
@@ -98,16 +100,67 @@ def _setup(case: int, batch: int, rng: np.random.Generator) -> tuple:
 
 
 def measure(case: int, batch: int, t_final: float, dt: float, repeat: int = 1) -> float:
-    """Best-of-``repeat`` spacecraft-steps per wall-second for cumulative case ``case``."""
+    """Best-of-``repeat`` spacecraft-steps per CPU-second of this process for cumulative case
+    ``case`` (process time, not wall time: the machine is shared, and other jobs' load would
+    otherwise swamp the differences being measured)."""
     rng = np.random.default_rng(0)
     log_every = max(1, round(60.0 / dt))
     best = np.inf
     for _ in range(repeat):
         plant, ctrl, ref, s0, kw = _setup(case, batch, rng)
-        t = time.perf_counter()
+        t = time.process_time()
         simulate(plant, ctrl, ref, s0, t_final, dt, log_every=log_every, **kw)
-        best = min(best, time.perf_counter() - t)
+        best = min(best, time.process_time() - t)
     return batch * round(t_final / dt) / best
+
+
+def micro_costs(batch: int, number: int = 200, repeat: int = 7) -> dict[str, float]:
+    """Per-call time [µs] of each model's hot-path entry at batch size ``batch`` (minimum over
+    ``repeat`` timings of ``number`` calls: robust to other load on a shared machine).
+
+    A plant step evaluates the disturbance sources and the body/modal accelerations 4 times
+    (RK stages); the sensors and the measurement hook at most once.
+    """
+    rng = np.random.default_rng(0)
+    R = so3.exp(0.3 * rng.normal(size=(batch, 3)))
+    w = 0.01 * rng.normal(size=(batch, 3))
+    tau = rng.normal(size=(batch, 3))
+    body = RigidBody(J_SEED000)
+    flex = Spacecraft(body, SgcmgActuator(), modes=MODES)
+    q = 0.01 * rng.normal(size=(batch, 3))
+    tracker = StarTracker(noise_std=2e-5, period=0.5)
+    gyro = RateGyro(white_std=1e-5, bias_rw_std=1e-7, period=0.1)
+    gyro.reset(batch, rng)
+    hook = StarTrackerGyro()
+    outputs = {"star_tracker": tracker.measure(0.0, R, w, rng), "gyro": w}
+    from liecontrol.control.base import AttitudeState
+
+    truth = AttitudeState(R=R, omega=w, h=np.zeros((batch, 3)))
+    calls = {
+        "rigid body ω̇": lambda: body.angular_acceleration(w, tau),
+        "seed-000 torque": lambda: Seed000Disturbance()(1.0, R, w),
+        "gravity gradient": lambda: GravityGradientTorque(J_SEED000, CircularOrbit())(1.0, R, w),
+        "rotating payload": lambda: RotatingPayloadTorque([SEED003_PAYLOAD])(1.0, R, w),
+        "flexible (ω̇, q̈), 3 modes": lambda: MODES.accelerations(
+            w, q, q, tau, flex.body.J, flex._Js_inv
+        ),
+        "star tracker sample": lambda: tracker.measure(0.0, R, w, rng),
+        "gyro sample": lambda: gyro.measure(1.0, R, w, rng),
+        "StarTrackerGyro hook": lambda: hook(0.0, outputs, truth),
+    }
+    # the constructors are inside the lambdas for the sources: time them out separately
+    sources = {
+        "seed-000 torque": Seed000Disturbance(),
+        "gravity gradient": GravityGradientTorque(J_SEED000, CircularOrbit()),
+        "rotating payload": RotatingPayloadTorque([SEED003_PAYLOAD]),
+    }
+    for name, src in sources.items():
+        calls[name] = lambda src=src: src(1.0, R, w)
+    timer = timeit.Timer
+    return {
+        name: 1e6 * min(timer(f, timer=time.process_time).repeat(repeat, number)) / number
+        for name, f in calls.items()
+    }
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -132,6 +185,11 @@ def main(argv: list[str] | None = None) -> None:
             f" ({many[0] / many[case]:4.2f}x)"
         )
     print("cost: time per step relative to the foundation (cumulative models)")
+    print()
+    small, large = micro_costs(1), micro_costs(a.batch, number=20)
+    print(f"{'model entry (per call)':34s} {'B = 1 [µs]':>12s} {f'B = {a.batch} [µs]':>16s}")
+    for name in small:
+        print(f"{name:34s} {small[name]:12.1f} {large[name]:16.1f}")
 
 
 if __name__ == "__main__":

@@ -18,7 +18,7 @@ import json
 import math
 import platform
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -258,49 +258,113 @@ def write_json(result: SuiteResult, path: Path) -> None:
     path.write_text(json.dumps(doc, indent=2, allow_nan=False) + "\n", encoding="utf-8")
 
 
-def write_figures(result: SuiteResult, fig_dir: Path) -> dict[str, Path]:
-    """One 2×2 PNG per scenario, all controllers overlaid: attitude error (log scale), rate
-    error norm, max gimbal rate, singularity measure. Returns ``{scenario: path}``."""
+def _plt() -> Any:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    return plt
+
+
+def controller_colors(names: Sequence[str]) -> dict[str, Any]:
+    """A distinct colour per controller (tab20), stable for a given list."""
+    import matplotlib
+
+    cmap = matplotlib.colormaps["tab20"]
+    return {n: cmap(i % 20) for i, n in enumerate(names)}
+
+
+def write_figures(result: SuiteResult, fig_dir: Path) -> dict[str, Path]:
+    """One 2×2 PNG per scenario, all controllers overlaid: attitude error (log scale), rate
+    error norm, max gimbal rate and singularity measure (SE(3): position error), plus
+    ``overview.png``, the settling-time map controllers × scenarios. Returns
+    ``{name: path}``."""
+    plt = _plt()
     fig_dir = Path(fig_dir)
     fig_dir.mkdir(parents=True, exist_ok=True)
-    panels = (
+    all_panels = (
         ("error_deg", "attitude error θ [deg]", True),
-        ("rate_deg_s", "‖ω − RᵀR_dω_d‖ [deg/s]", False),
+        ("rate_deg_s", "‖ω − RᵀR_dω_d‖ [deg/s]", True),
         ("gimbal_rate_rad_s", "max |δ̇ᵢ| [rad/s]", False),
         ("singularity", "singularity measure m", False),
+        ("position_error_m", "position error ‖p − p_d‖ [m]", True),
     )
+    colors = controller_colors(result.controllers)
     out: dict[str, Path] = {}
     for s in result.scenarios:
-        fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True, constrained_layout=True)
-        for ax, (key, label, log) in zip(axes.flat, panels, strict=True):
-            for c in result.controllers:
-                o = result.outcome(s.name, c)
-                ser = o.series
-                if key not in ser or "t" not in ser:
+        runs = [result.outcome(s.name, c) for c in result.controllers]
+        runs = [o for o in runs if o.status != "n/a" and "t" in o.series]
+        if not runs:
+            continue
+        keys = [p for p in all_panels if any(p[0] in o.series for o in runs)][:4]
+        fig, axes = plt.subplots(2, 2, figsize=(12, 7.5), sharex=True, constrained_layout=True)
+        for ax, (key, label, log) in zip(axes.flat, keys, strict=False):
+            for o in runs:
+                if key not in o.series:
                     continue
-                y = np.asarray(ser[key], dtype=float)
+                y = np.asarray(o.series[key], dtype=float)
                 if log:
                     y = np.maximum(y, 1e-6)  # log axis: clip exact zeros
-                lab = c if o.status == "ok" else f"{c} (failed)"
-                ax.plot(ser["t"], y, label=lab, lw=1.2)
+                lab = o.controller if o.status == "ok" else f"{o.controller} (failed)"
+                ax.plot(o.series["t"], y, label=lab, lw=1.1, color=colors[o.controller])
             if log:
                 ax.set_yscale("log")
-                ax.axhline(0.1, color="k", ls=":", lw=0.8, label="0.1° threshold")
+            if key == "error_deg":
+                ax.axhline(0.1, color="k", ls=":", lw=0.8)
             ax.set_ylabel(label)
             ax.grid(True, alpha=0.3)
+        for ax in axes.flat[len(keys) :]:
+            ax.set_visible(False)
         for ax in axes[1]:
             ax.set_xlabel("t [s]")
         handles, labels = axes[0, 0].get_legend_handles_labels()
         if handles:
-            axes[0, 0].legend(fontsize=8)
+            fig.legend(handles, labels, loc="outside right center", fontsize=7)
         fig.suptitle(f"{s.name}: {s.description}", fontsize=10)
         path = fig_dir / f"{s.name}.png"
-        fig.savefig(path, dpi=100)
+        fig.savefig(path, dpi=90)
         plt.close(fig)
         out[s.name] = path
+    path = _overview_figure(result, fig_dir / "overview.png")
+    if path is not None:
+        out["overview"] = path
     return out
+
+
+def _overview_figure(result: SuiteResult, path: Path) -> Path | None:
+    """Heat map of the settling time / duration: green fast, red not settled, grey n/a."""
+    plt = _plt()
+    import matplotlib.colors as mcolors
+
+    C, S = len(result.controllers), len(result.scenarios)
+    val = np.full((C, S), np.nan)
+    text = [["" for _ in range(S)] for _ in range(C)]
+    for i, c in enumerate(result.controllers):
+        for j, s in enumerate(result.scenarios):
+            o = result.outcome(s.name, c)
+            if o.status == "n/a":
+                text[i][j] = "—"
+            elif o.status != "ok":
+                val[i, j], text[i][j] = 1.2, "fail"
+            else:
+                ts = o.metrics.get("settling_time_s", float("nan"))
+                if isinstance(ts, float) and math.isnan(ts):
+                    val[i, j], text[i][j] = 1.1, "no"
+                else:
+                    val[i, j], text[i][j] = float(ts) / s.duration, f"{float(ts):.0f}"
+    if np.all(np.isnan(val)):
+        return None
+    fig, ax = plt.subplots(figsize=(1.0 + 0.75 * S, 1.0 + 0.38 * C), constrained_layout=True)
+    cmap = mcolors.LinearSegmentedColormap.from_list("settle", ["#2e7d32", "#fdd835", "#c62828"])
+    cmap.set_bad("#d0d0d0")
+    ax.imshow(np.ma.masked_invalid(val), cmap=cmap, vmin=0.0, vmax=1.2, aspect="auto")
+    for i in range(C):
+        for j in range(S):
+            ax.text(j, i, text[i][j], ha="center", va="center", fontsize=7)
+    ax.set_xticks(range(S), [s.name for s in result.scenarios], rotation=40, ha="right", fontsize=8)
+    ax.set_yticks(range(C), list(result.controllers), fontsize=8)
+    ax.set_title("settling time to 0.1° [s] (no: not settled, —: does not apply)", fontsize=9)
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return path

@@ -186,22 +186,28 @@ class StackedController(AttitudeController):
         return out
 
 
-@dataclass(frozen=True)
 class StackedReference:
-    """Reference of a stacked batch: ``references[i](t)`` broadcast over ``sizes[i]`` spacecraft."""
+    """Reference of a stacked batch: ``references[i](t)`` broadcast over ``sizes[i]`` spacecraft.
 
-    references: tuple[Callable[[float], AttitudeReference], ...]
-    sizes: tuple[int, ...]
+    When every member is a :class:`liecontrol.control.ConstantAttitude` the stacked sample is
+    computed once and returned (read-only) at every call: the loop's hot path."""
 
-    def __call__(self, t: float) -> AttitudeReference:
-        if len(self.references) == 1:
-            r = self.references[0](t)
-            n = self.sizes[0]
-            return AttitudeReference(
-                R_d=np.broadcast_to(r.R_d, (n, 3, 3)),
-                omega_d=np.broadcast_to(r.omega_d, (n, 3)),
-                omega_dot_d=np.broadcast_to(r.omega_dot_d, (n, 3)),
-            )
+    def __init__(
+        self, references: Sequence[Callable[[float], AttitudeReference]], sizes: Sequence[int]
+    ) -> None:
+        from liecontrol.control import ConstantAttitude
+
+        self.references = tuple(references)
+        self.sizes = tuple(int(n) for n in sizes)
+        if len(self.references) != len(self.sizes) or not self.references:
+            raise ValueError("references: need one size per reference and at least one")
+        self._const: AttitudeReference | None = None
+        if all(isinstance(r, ConstantAttitude) for r in self.references):
+            self._const = self._stack(0.0)
+            for a in (self._const.R_d, self._const.omega_d, self._const.omega_dot_d):
+                a.setflags(write=False)
+
+    def _stack(self, t: float) -> AttitudeReference:
         R_d, w_d, dw_d = [], [], []
         for ref, n in zip(self.references, self.sizes, strict=True):
             r = ref(t)
@@ -211,6 +217,9 @@ class StackedReference:
         return AttitudeReference(
             R_d=np.concatenate(R_d), omega_d=np.concatenate(w_d), omega_dot_d=np.concatenate(dw_d)
         )
+
+    def __call__(self, t: float) -> AttitudeReference:
+        return self._const if self._const is not None else self._stack(t)
 
 
 @dataclass(frozen=True)
@@ -446,10 +455,56 @@ def _series(result: Any, b: int) -> dict[str, np.ndarray]:
 @dataclass(frozen=True)
 class GroupTask:
     """Payload of one executor task: pairs sharing a batch key, and the controllers' metadata
-    (shipped with the task so run-time registrations reach remote workers)."""
+    (shipped with the task so run-time registrations reach remote workers; factories that the
+    standard pickle cannot serialise — closures, lambdas — travel by value with cloudpickle)."""
 
     pairs: tuple[tuple[Scenario, str], ...]
     infos: dict[str, ControllerInfo]
+
+    def __reduce__(self) -> tuple:
+        return (_rebuild_task, (self.pairs, pack_infos(self.infos)))
+
+
+def pack_infos(infos: dict[str, ControllerInfo]) -> dict[str, tuple[str, Any]]:
+    """Picklable form of controller metadata: ``("obj", info)`` when pickle handles it,
+    ``("cloudpickle", bytes)`` otherwise, ``("name", name)`` as a last resort (the worker's own
+    registry is used)."""
+    import pickle
+
+    out: dict[str, tuple[str, Any]] = {}
+    for name, info in infos.items():
+        try:
+            pickle.dumps(info)
+            out[name] = ("obj", info)
+            continue
+        except Exception:  # noqa: BLE001 - closures, lambdas, local classes
+            pass
+        try:
+            import cloudpickle
+
+            out[name] = ("cloudpickle", cloudpickle.dumps(info))
+        except Exception:  # noqa: BLE001 - not serialisable at all
+            out[name] = ("name", name)
+    return out
+
+
+def unpack_infos(packed: dict[str, tuple[str, Any]]) -> dict[str, ControllerInfo]:
+    """Inverse of :func:`pack_infos`."""
+    out = {}
+    for name, (kind, val) in packed.items():
+        if kind == "obj":
+            out[name] = val
+        elif kind == "cloudpickle":
+            import cloudpickle
+
+            out[name] = cloudpickle.loads(val)
+        else:
+            out[name] = get_controller(val)
+    return out
+
+
+def _rebuild_task(pairs: tuple, packed: dict[str, tuple[str, Any]]) -> GroupTask:
+    return GroupTask(pairs, unpack_infos(packed))
 
 
 def _members(
@@ -484,6 +539,12 @@ def _make_member(info: ControllerInfo, scenarios: Sequence[Scenario], ref: Any) 
     if info.control_period is not None and info.control_period > base * (1 + 1e-9):
         return HeldController(timed, info.control_period)  # type: ignore[return-value]
     return timed
+
+
+def _log_every(s: Scenario) -> int:
+    """Log once per control period (the command changes only there), at most every 0.5 s."""
+    period = min(s.control_period or s.dt, max(0.5, s.dt))
+    return max(1, int(round(period / s.dt)))
 
 
 def _simulate_attitude(
@@ -521,6 +582,7 @@ def _simulate_attitude(
         t_final=sc0.duration,
         dt=sc0.dt,
         control_period=sc0.control_period,
+        log_every=_log_every(sc0),
     )
     wall = time.perf_counter() - t_start
     metrics = compute_metrics(result)
@@ -579,7 +641,7 @@ def _pose_metrics(res: Any) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         "error_deg": np.rad2deg(np.asarray(res.attitude_error)[idx, 0]),
         "rate_deg_s": np.rad2deg(
             np.linalg.norm(
-                rate_error(view.R[idx, 0], view.omega[idx, 0], view.R_d[idx, 0], view.omega_d[idx, 0]),
+                rate_error(*(a[idx, 0] for a in (view.R, view.omega, view.R_d, view.omega_d))),
                 axis=-1,
             )
         ),
@@ -740,18 +802,19 @@ def run_suite(
             if s.plant == "se3":
                 key = key + (c,)
             groups.setdefault(key, []).append((s, c))
-    # largest tasks first: better packing over the workers
-    tasks = sorted(
-        (GroupTask(tuple(g), {c: infos[c] for _, c in g}) for g in groups.values()),
-        key=lambda tk: -len(tk.pairs) * tk.pairs[0][0].duration / tk.pairs[0][0].dt,
-    )
     own = not isinstance(executor, Executor)
     if isinstance(executor, Executor):
         ex = executor
     else:
         if jobs is None and executor in (None, "process") and not scheduler:
-            jobs = max(1, min(len(tasks), _cpu_count()))
+            jobs = max(1, min(len(groups), _cpu_count()))
         ex = make_executor(executor, jobs=jobs, scheduler=scheduler)
+    chunks = _split_groups(list(groups.values()), ex.parallelism)
+    # largest tasks first: better packing over the workers
+    tasks = sorted(
+        (GroupTask(tuple(g), {c: infos[c] for _, c in g}) for g in chunks),
+        key=lambda tk: -len(tk.pairs) * tk.pairs[0][0].duration / tk.pairs[0][0].dt,
+    )
     t_start = time.perf_counter()
     n_runs = sum(len(t.pairs) for t in tasks)
     try:
@@ -777,6 +840,26 @@ def run_suite(
         executor=ex.name,
         descriptions={c: infos[c].description for c in controllers},
     )
+
+
+def _split_groups(
+    groups: list[list[tuple[Scenario, str]]], n: int
+) -> list[list[tuple[Scenario, str]]]:
+    """Split the largest batch groups along controller boundaries until there are ``n`` tasks
+    (or nothing left to split), so every worker gets work. Which batch a pair runs in does not
+    change its result beyond round-off (vectorized vs single-spacecraft arithmetic)."""
+    groups = [list(g) for g in groups]
+    while len(groups) < n:
+        sizes = [len({c for _, c in g}) for g in groups]
+        i = int(np.argmax([len(g) if k > 1 else 0 for g, k in zip(groups, sizes, strict=True)]))
+        if sizes[i] < 2:
+            break
+        ctrls = list(dict.fromkeys(c for _, c in groups[i]))
+        first = set(ctrls[: len(ctrls) // 2])
+        a = [p for p in groups[i] if p[1] in first]
+        b = [p for p in groups[i] if p[1] not in first]
+        groups[i : i + 1] = [a, b]
+    return groups
 
 
 def _cpu_count() -> int:

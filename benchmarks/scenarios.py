@@ -369,7 +369,7 @@ class Scenario:
     proximity: ProximitySpec | None = None
     duration: float = 600.0
     dt: float = 0.1
-    control_period: float | None = 0.1
+    control_period: float | None = 0.2
     tags: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:

@@ -173,6 +173,7 @@ def test_mrp_rates_and_orbit_base():
     np.testing.assert_allclose(law.s.omega_base, w_io, atol=1e-15)
     np.testing.assert_allclose(law.s.y_dot, mrp.kinematics(p, w - w_io), atol=1e-14)
     # desired = the base itself → p_d = 0 and its derivatives vanish
+    assert law.s.y_d.shape == (B, 3) and law.s.y_d_ddot.shape == (B, 3)
     np.testing.assert_allclose(law.s.y_d, 0.0, atol=1e-15)
     np.testing.assert_allclose(law.s.y_d_dot, 0.0, atol=1e-15)
     np.testing.assert_allclose(law.s.y_d_ddot, 0.0, atol=1e-9)

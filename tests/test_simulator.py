@@ -441,7 +441,8 @@ def test_multirate_sensors_sampled_and_held():
 def test_star_tracker_gyro_hook_with_perfect_sensors_equals_truth():
     """Noise-free sensors at the control rate: the measured loop is the true-state loop."""
     plant = _sensor_plant()
-    args = (ConstantAttitude(so3.exp(np.array([0.4, 0.1, -0.2]))), plant.initial_state(np.eye(3)))
+    s0 = plant.initial_state(np.eye(3), omega0=[[0.0, 0.0, 0.0], [0.01, -0.02, 0.005]])
+    args = (ConstantAttitude(so3.exp(np.array([0.4, 0.1, -0.2]))), s0)
     truth = simulate(plant, _pd(), *args, 20.0, 0.1, control_period=0.2)
     for output in ("quaternion", "matrix", "euler"):
         sensed = simulate(
@@ -580,3 +581,27 @@ def test_csv_round_trip_with_sensors_and_estimate(tmp_path):
     for k in ("R", "omega"):
         np.testing.assert_array_equal(back.estimate[k], res.estimate[k])
     assert "sensor.gyro[2]" in res.columns() and "estimate.R[2][2]" in res.columns()
+
+
+def test_controller_sees_actuator_state_batched_and_per_spacecraft():
+    plant = _cmg_plant()
+    seen = []
+
+    class Spy(Recording):
+        def command(self, t, state, reference):
+            seen.append(np.array(state.actuator_state, copy=True))
+            return super().command(t, state, reference)
+
+    for batched in (True, False):
+        seen.clear()
+        res = simulate(
+            plant,
+            Spy(_pd(), batched=batched),
+            ConstantAttitude(so3.exp(np.array([0.2, 0.0, 0.1]))),
+            plant.initial_state(np.eye(3), batch=2),
+            1.0,
+            0.1,
+            control_period=0.5,
+        )
+        got = np.stack(seen) if batched else np.stack(seen).reshape(-1, 2, 4)
+        np.testing.assert_array_equal(got, res.actuator["delta"][[0, 5, 10]])

@@ -39,11 +39,14 @@ Cases (regulation to ``R_d = I``; the plants are ideal — the lemmas assume exa
 
 Outcomes per sample: *converged* — attitude error < ``tol_angle`` and rate < ``tol_rate`` at the
 end (and position < ``tol_position`` for SE(3)); *stayed* — ``max_t Ψ(t) < Ψ*`` (the trajectory
-never reached the antipodal / critical set, i.e. the lemma's sublevel-set argument held); *V
-monotone* — ``V(t_{k+1}) ≤ V(t_k) + 1e-9 V(0)``. A lemma row PASSes when every inside sample
-converged, stayed and had V monotone. Conservatism: the fraction of outside samples that
-converged anyway, the fraction that also stayed below ``Ψ*`` (what the region really
-guarantees), and the fraction that satisfy the tighter sublevel test ``V(0) < (k/c) Ψ*``.
+never reached the antipodal / critical set, i.e. the lemma's sublevel-set argument held; for the
+log and large-angle errors, whose Ψ* is reached exactly at θ = π, passing it is detected as a
+flip of log(R̃) between samples); *V monotone* — ``V(t_{k+1}) ≤ V(t_k) + 1e-5 V(0)`` (the slack
+is RKMK4's integration error, which scales as dt⁴; the largest rise is reported). A lemma row
+PASSes when every inside sample converged, stayed and had V monotone. Conservatism: the
+fraction of outside samples that converged anyway, the fraction that also stayed below ``Ψ*``
+(what the region really guarantees), and the fraction that satisfy the tighter sublevel test
+``V(0) < (k/c) Ψ*``.
 
 Informational (no PASS/FAIL, the lemma's ideal-torque assumption does not hold): the Lemma 4 gains
 on the seed-000 SGCMG plant (4-SGCMG pyramid h₀ = 300 N m s, gimbal-rate limit 1 rad/s, SR
@@ -112,6 +115,9 @@ class Seed002Config:
     quick_samples: int = 48
     tol_angle: float = 1e-2
     tol_rate: float = 1e-3
+    # V(t) may rise by this fraction of V(0) between samples: RKMK4's integration error (measured
+    # ≤ 8e-7 at dt = 0.5 s, ×1/21 at dt = 0.25 s — fourth order — where V̇ ≈ 0)
+    v_tol: float = 1e-5
     seed: int = 2002
     # Lemma 1 almost-global check: rates uniform in a ball of this radius [rad/s]
     global_rate: float = 0.15
@@ -305,7 +311,7 @@ def _outcomes(
     if pos_err is not None:
         converged &= pos_err[-1] < cfg.tol_position
     dV = np.diff(V, axis=0)
-    monotone = np.all(dV <= 1e-9 * V[0] + 1e-15, axis=0)
+    monotone = np.all(dV <= cfg.v_tol * V[0] + 1e-15, axis=0)
     stayed = Psi.max(axis=0) < roa.critical_level(case.kind)
     if case.kind != "trace":
         # log / large-angle: Ψ* is reached exactly at θ = π, which a sampled trajectory steps
@@ -481,17 +487,20 @@ def _markdown(result: dict) -> str:
         f"ζ = {cfg.zeta:g}; SE(3): m = {cfg.se3_m:g} kg, J = diag{cfg.se3_J}, dt = "
         f"{cfg.se3_dt:g} s over {cfg.se3_t_final:g} s. Converged: angle < {cfg.tol_angle:g} rad "
         f"and rate < {cfg.tol_rate:g} rad/s at the end (SE(3): and position < "
-        f"{cfg.tol_position:g} m); stayed: max Ψ(t) < Ψ*; V monotone: V never increased.", "",
+        f"{cfg.tol_position:g} m); stayed: max Ψ(t) < Ψ* (log/large-angle: and no flip of log R̃, "
+        f"i.e. θ = π never passed); V monotone: V(t) never rose by more than {cfg.v_tol:g} V(0) "
+        "(RKMK4 error; the largest rise is listed).", "",
         "| lemma | condition | inside / outside | inside: converged | inside: stayed | "
-        "inside: V monotone | outside: converged | outside: stayed | outside: in V-sublevel | "
-        "result |",
+        "inside: V monotone (max rise/V(0)) | outside: converged | outside: stayed | "
+        "outside: in V-sublevel | result |",
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in result["rows"]:
         lines.append(
             f"| {r['lemma']} | {r['condition']} | {r['n_inside']} / {r['n_outside']} | "
             f"{_pct(r['inside_converged'])} | {_pct(r['inside_stayed'])} | "
-            f"{_pct(r['inside_V_monotone'])} | {_pct(r['outside_converged'])} | "
+            f"{_pct(r['inside_V_monotone'])} ({max(r['max_rel_dV_inside'], 0.0):.0e}) | "
+            f"{_pct(r['outside_converged'])} | "
             f"{_pct(r['outside_stayed'])} | {_pct(r['outside_in_sublevel'])} | "
             f"{r['result']} |")
     s = result["sgcmg"]["row"]

@@ -79,6 +79,8 @@ from typing import Any
 
 import numpy as np
 
+from .._linalg import cross as _cross
+from .._linalg import matvec
 from .._validation import as_array, check_inertia, check_positive, check_rotation_matrix
 from ..charts import euler as _euler
 from ..charts import mrp as _mrp
@@ -108,46 +110,64 @@ SIGN_MODES = ("continuous", "switched", "hysteretic")
 _FD_STEP = 1e-6
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b on the last axis (np.cross's axis handling dominates at small batch sizes)."""
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack((a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), axis=-1)
-
-
 def _mv(M: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Batched matrix–vector product ``M @ v``."""
-    return np.einsum("...ij,...j->...i", M, v)
+    return matvec(M, v)
 
 
 def _mtv(M: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Batched ``Mᵀ @ v``."""
-    return np.einsum("...ji,...j->...i", M, v)
+    return matvec(np.swapaxes(M, -1, -2), v)
+
+
+def _quat_outer_map() -> tuple[np.ndarray, np.ndarray]:
+    """(L, c) with 4 q qᵀ = reshape(L vec(R) + c, (4, 4)) for the unit quaternion q of R."""
+    L = np.zeros((16, 9))
+    c = np.zeros(16)
+    ix = {(i, j): 3 * i + j for i in range(3) for j in range(3)}
+
+    def put(a: int, b: int, terms: dict[tuple[int, int], float], const: float = 0.0) -> None:
+        for (i, j), v in terms.items():
+            L[4 * a + b, ix[i, j]] += v
+            if a != b:
+                L[4 * b + a, ix[i, j]] += v
+        c[4 * a + b] += const
+        if a != b:
+            c[4 * b + a] += const
+
+    tr = {(0, 0): 1.0, (1, 1): 1.0, (2, 2): 1.0}
+    put(0, 0, tr, 1.0)
+    for k in range(3):
+        put(k + 1, k + 1, {**{key: -v for key, v in tr.items()}, (k, k): 1.0}, 1.0)
+    # 4 w x = R21 − R12, 4 w y = R02 − R20, 4 w z = R10 − R01
+    put(0, 1, {(2, 1): 1.0, (1, 2): -1.0})
+    put(0, 2, {(0, 2): 1.0, (2, 0): -1.0})
+    put(0, 3, {(1, 0): 1.0, (0, 1): -1.0})
+    # 4 x y = R01 + R10, 4 x z = R02 + R20, 4 y z = R12 + R21
+    put(1, 2, {(0, 1): 1.0, (1, 0): 1.0})
+    put(1, 3, {(0, 2): 1.0, (2, 0): 1.0})
+    put(2, 3, {(1, 2): 1.0, (2, 1): 1.0})
+    return L, c
+
+
+_QL, _QC = _quat_outer_map()
 
 
 def _quat_trusted(R: np.ndarray) -> np.ndarray:
-    """Scalar-first quaternion (w ≥ 0) of rotation matrices the adapter has already validated:
-    Shepperd's method as :func:`liecontrol.charts.quaternion.from_matrix`, without re-checking R
-    (the hot path of every chart adapter)."""
-    r00, r01, r02 = R[..., 0, 0], R[..., 0, 1], R[..., 0, 2]
-    r10, r11, r12 = R[..., 1, 0], R[..., 1, 1], R[..., 1, 2]
-    r20, r21, r22 = R[..., 2, 0], R[..., 2, 1], R[..., 2, 2]
-    tr = r00 + r11 + r22
-    k = np.argmax(np.stack((tr, r00, r11, r22), axis=-1), axis=-1)
-    q = np.empty(R.shape[:-2] + (4,))
-    for i, row in enumerate(
-        (
-            (1.0 + tr, r21 - r12, r02 - r20, r10 - r01),
-            (r21 - r12, 1.0 + 2.0 * r00 - tr, r01 + r10, r02 + r20),
-            (r02 - r20, r01 + r10, 1.0 + 2.0 * r11 - tr, r12 + r21),
-            (r10 - r01, r02 + r20, r12 + r21, 1.0 + 2.0 * r22 - tr),
-        )
-    ):
-        sel = k == i
-        if np.any(sel):
-            q[sel] = np.stack(row, axis=-1)[sel]
-    q /= np.sqrt(np.sum(q * q, axis=-1, keepdims=True))
-    return _quat._canon(q)
+    """Scalar-first quaternion (w ≥ 0) of rotation matrices the adapter has already validated.
+
+    Shepperd's method as :func:`liecontrol.charts.quaternion.from_matrix` (same pivot: the
+    largest of 1 + tr R, 1 + 2R_kk − tr R), written as one linear map to M = 4 q qᵀ so that the
+    hot path of every chart adapter makes a handful of numpy calls; R is not re-checked.
+    """
+    lead = R.shape[:-2]
+    M = (R.reshape(lead + (9,)) @ _QL.T + _QC).reshape(lead + (4, 4))
+    k = np.argmax(np.diagonal(M, axis1=-2, axis2=-1), axis=-1)
+    q = np.take_along_axis(M, k[..., None, None], axis=-2)[..., 0, :]
+    q = q / np.sqrt(np.sum(q * q, axis=-1, keepdims=True))
+    if np.any(q[..., 0] == 0.0):
+        return _quat._canon(q)
+    return np.where(q[..., :1] < 0.0, -q, q)
 
 
 # --------------------------------------------------------------------------- MRP shadow maps
@@ -497,7 +517,8 @@ def _check_base(base: object) -> object:
 def _as_batch(a: np.ndarray, B: int, tail: tuple[int, ...], name: str) -> np.ndarray:
     nd = len(tail)
     if a.ndim == nd:
-        return np.broadcast_to(a, (B,) + tail)
+        # a single sample broadcasts (a read-only view; (B, 3, 3) @ (3, 3) needs no copy)
+        return a if nd == 2 else np.broadcast_to(a, (B,) + tail)
     if a.ndim == nd + 1 and a.shape[0] == B:
         return a
     raise ValueError(f"{name}: expected shape {tail} or {(B,) + tail}, got {a.shape}")
@@ -619,7 +640,7 @@ class ChartAdapter(AttitudeController):
             R_b, w_b, dw_b = self._base_sample(t, reference, B)
             R_bT = np.swapaxes(R_b, -1, -2)
             R_rel = R_bT @ R
-            R_d_rel = R_bT @ R_d
+            R_d_rel = np.broadcast_to(R_bT @ R_d, (B, 3, 3))
             w_base = _mtv(R_rel, w_b)  # C_bo ω_b
             dw_base = _mtv(R_rel, dw_b)
             w_rel = w - w_base
@@ -759,8 +780,12 @@ class MrpChartAdapter(ChartAdapter):
         d_sh = np.sum((shadow - prev) ** 2, axis=-1)
         use_shadow = nz & (d_sh < d_can)
         p_cont = np.where(use_shadow[:, None], shadow, p_can)
-        p, mask = _mrp.switch(p_cont, self.threshold)
-        return p, mask
+        # the shadow-set switch (liecontrol.charts.mrp.switch, inlined on the hot path)
+        n2c = np.sum(p_cont * p_cont, axis=-1, keepdims=True)
+        mask = n2c[:, 0] > self.threshold**2
+        if np.any(mask):
+            p_cont = np.where(mask[:, None], -p_cont / np.where(mask[:, None], n2c, 1.0), p_cont)
+        return p_cont, mask
 
     def _coords(self, R_rel: np.ndarray, R_d_rel: np.ndarray | None) -> tuple[np.ndarray, ...]:
         p, sw = self._track(self.chart.from_matrix_trusted(R_rel), self._p_prev)

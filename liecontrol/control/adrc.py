@@ -40,8 +40,10 @@ B τ_{k−1} that the plant really held over the interval (zero-order hold) and 
 (and p_d) interpolated linearly between their samples at t_{k−1} and t_k (first-order hold —
 a zero-order hold of the newest sample biases z₃ by O(h) while the attitude moves).
 Any sampling period therefore keeps the ESO's discrete poles at exp(λ_i h) — stable for every h.
-The ESO starts at z = 0 (the paper is silent) and the TD at v = (y_p(0), 0), so the TD arranges
-a smooth transition from the initial attitude to p_d.
+The paper does not say how the ESO starts: by default z(0) = (y_p(0), rate-derived ṗ(0) if
+β > 0 else 0, 0) (``eso_init="measured"``), or z(0) = 0 (``"zero"``, used by the seed-000
+reproduction, where p(0) = ṗ(0) = 0 and both coincide without noise). The TD starts at
+v = (y_p(0), 0), so it arranges a smooth transition from the initial attitude to p_d.
 
 Shadow set: :class:`MrpADRC` wraps the law in an
 :class:`~liecontrol.control.adapters.MrpChartAdapter`; when the measured MRP switches to its
@@ -62,6 +64,7 @@ from typing import Any
 import numpy as np
 from scipy.linalg import expm
 
+from .._linalg import matvec
 from .._validation import as_array, check_inertia, check_nonnegative, check_positive
 from ..charts import mrp as _mrp
 from .adapters import ChartState, MrpChartAdapter, mrp_shadow_jacobian, mrp_shadow_map
@@ -250,11 +253,17 @@ class MrpADRCLaw:
     Args:
         J: 3×3 inertia the controller assumes [kg·m²].
         params: :class:`ADRCParams` (default :data:`PAPER`).
+        eso_init: ``"measured"`` (default: z₁(0) = y_p(0), z₂(0) = the rate-derived ṗ
+            measurement if β > 0 else 0, z₃(0) = 0) or ``"zero"`` (z(0) = 0; the ESO then needs
+            its convergence time before the first torques make sense when p(0) ≠ 0).
     """
 
     batched = True
 
-    def __init__(self, J: object, params: ADRCParams = PAPER) -> None:
+    def __init__(self, J: object, params: ADRCParams = PAPER, eso_init: str = "measured") -> None:
+        if eso_init not in ("measured", "zero"):
+            raise ValueError(f"eso_init: expected 'measured' or 'zero', got {eso_init!r}")
+        self.eso_init = eso_init
         J = check_inertia(J, "J")
         if J.shape != (3, 3):
             raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
@@ -323,7 +332,7 @@ class MrpADRCLaw:
                 zm[ok] = np.stack((s1, s2, s3), axis=-1)
                 self.z[m] = zm
                 bu = self._bu[m]
-                bu[ok] = np.einsum("bij,bj->bi", D, bu[ok])
+                bu[ok] = matvec(D, bu[ok])
                 self._bu[m] = bu
             if self._prev is not None:
                 # the held measurements of the last sample move to the shadow set too
@@ -364,6 +373,9 @@ class MrpADRCLaw:
         meas = P.alpha * y_p + P.beta * y_v
         if self._t is None:
             self.v = np.stack((y_p, np.zeros_like(y_p)), axis=-1)
+            if self.eso_init == "measured":
+                self.z[..., 0] = y_p
+                self.z[..., 1] = y_v if P.beta > 0.0 else 0.0
         else:
             h = float(t) - self._t
             if h < 0.0:
@@ -390,9 +402,9 @@ class MrpADRCLaw:
         tau0 = P.k1 * (v1 - z1) + P.k2 * (v2 - z2)
         # τ = B⁻¹(τ₀ − z₃) with B⁻¹ = J G(y_p)⁻¹
         Ginv = _mrp.kinematics_matrix_inv(y_p)
-        tau = np.einsum("bij,bj->bi", Ginv, tau0 - z3) @ self.J.T
+        tau = matvec(Ginv, tau0 - z3) @ self.J.T
         G = _mrp.kinematics_matrix(y_p)
-        self._bu = np.einsum("bij,bj->bi", G, tau @ np.linalg.inv(self.J).T)
+        self._bu = matvec(G, tau @ np.linalg.inv(self.J).T)
         e = P.alpha * (y_p - z1) + P.beta * (y_v - z2)
         self._diag = {
             "z1": z1.copy(),
@@ -423,6 +435,7 @@ class MrpADRC(MrpChartAdapter):
             ``"inertial"`` or a callable frame such as the orbit frame
             ``spacecraft.orbit.EarthPointingReference(orbit)`` (seed 000).
         threshold: MRP shadow-switch threshold (≥ 1).
+        eso_init: ESO initialisation, ``"measured"`` or ``"zero"`` (:class:`MrpADRCLaw`).
 
     ``diagnostics()`` gives the law's ``z1, z2, z3, v1, v2, tau0, eso_error`` and the adapter's
     ``chart_y`` (= y_p), ``chart_y_d``, ``chart_switched``.
@@ -434,5 +447,6 @@ class MrpADRC(MrpChartAdapter):
         params: ADRCParams = PAPER,
         base: object = "reference",
         threshold: float = 1.0,
+        eso_init: str = "measured",
     ) -> None:
-        super().__init__(MrpADRCLaw(J, params), base=base, threshold=threshold)
+        super().__init__(MrpADRCLaw(J, params, eso_init), base=base, threshold=threshold)

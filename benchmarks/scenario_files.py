@@ -1,0 +1,401 @@
+"""Scenarios from TOML (``tomllib``) or YAML (when PyYAML is importable) files (SPEC §8.1).
+
+A file holds one or more ``[[scenario]]`` tables and an optional ``[defaults]`` table whose keys
+apply to every scenario (a scenario's own keys win)::
+
+    [defaults]
+    duration = 300.0          # [s]
+    dt = 0.1                  # plant step [s]
+    control_period = 0.1      # [s]
+
+    [[scenario]]
+    name = "slew-120-x"
+    description = "rest-to-rest 120° about body x"
+    tags = ["manoeuvre"]
+    quaternion_sign = 1       # −1: hand chart controllers the −q start
+
+    [scenario.initial]        # errors relative to the reference at t0
+    angle_deg = 120.0         # with `axis`, or rotvec / rotvec_deg, or quaternion [w, x, y, z]
+    axis = [1.0, 0.0, 0.0]
+    rate_deg_s = [0.0, 0.0, 0.0]   # or rate [rad/s]
+
+    [scenario.reference]      # kind: constant | earth-pointing | constant-rate
+    kind = "constant"
+    rotvec_deg = [0.0, 0.0, 0.0]   # (constant-rate: rate_deg_s; earth-pointing: n [rad/s])
+
+    [[scenario.disturbance]]  # any number; name: seed000 | gravity-gradient | constant |
+    name = "seed000"          #   payload-seed003, other keys are the model's parameters
+    scale = 1.0
+
+    [scenario.spacecraft]     # optional; preset = "seed000" (default) or "seed003", then
+    preset = "seed000"        #   any SpacecraftSpec field: inertia, actuator, h0, ...
+
+    [scenario.uncertainty]
+    inertia_scale = [1.2, 1.2, 0.8]   # true principal moments = nominal × scale
+
+    [scenario.proximity]      # makes it an SE(3) scenario (ProximitySpec fields; *_deg allowed)
+
+Angles may be given in radians (``rotvec``, ``rate``) or degrees (``rotvec_deg``, ``angle_deg``,
+``rate_deg_s``). Every error names the file and the offending key, e.g.
+``path: my.toml: scenario[1].reference.kind: unknown reference kind 'lvlh' ...``; unknown keys
+list the valid ones. :func:`scenario_to_dict` writes the same schema (radians), so a catalogue
+scenario survives a round trip.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from .scenarios import (
+    SEED000_SPACECRAFT,
+    SEED003_SPACECRAFT,
+    DisturbanceSpec,
+    ProximitySpec,
+    ReferenceSpec,
+    Scenario,
+    SpacecraftSpec,
+    UncertaintySpec,
+)
+
+__all__ = [
+    "ScenarioFileError",
+    "load_scenarios",
+    "scenarios_from_dict",
+    "scenario_from_dict",
+    "scenario_to_dict",
+]
+
+_PRESETS = {"seed000": SEED000_SPACECRAFT, "seed003": SEED003_SPACECRAFT}
+_TOP_KEYS = (
+    "name",
+    "description",
+    "tags",
+    "duration",
+    "dt",
+    "control_period",
+    "quaternion_sign",
+    "initial",
+    "reference",
+    "disturbance",
+    "spacecraft",
+    "uncertainty",
+    "proximity",
+)
+
+
+class ScenarioFileError(ValueError):
+    """A malformed scenario file; the message names the file and the offending key."""
+
+
+class _Bad(Exception):
+    def __init__(self, key: str, msg: str) -> None:
+        super().__init__(msg)
+        self.key = key
+        self.msg = msg
+
+
+def _check_keys(table: Any, valid: tuple[str, ...], where: str) -> Mapping[str, Any]:
+    if not isinstance(table, Mapping):
+        raise _Bad(where, f"expected a table, got {type(table).__name__}")
+    for k in table:
+        if k not in valid:
+            raise _Bad(f"{where}.{k}" if where else str(k), f"unknown key; valid: {', '.join(valid)}")
+    return table
+
+
+def _vec3(v: Any, key: str, scale: float = 1.0) -> tuple[float, float, float]:
+    try:
+        a = np.asarray(v, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise _Bad(key, f"expected 3 numbers, got {v!r}") from None
+    if a.shape != (3,) or not np.all(np.isfinite(a)):
+        raise _Bad(key, f"expected 3 finite numbers, got {v!r}")
+    return tuple(float(x) * scale for x in a)
+
+
+def _number(v: Any, key: str) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise _Bad(key, f"expected a number, got {v!r}")
+    return float(v)
+
+
+def _construct(cls: type, kwargs: dict[str, Any], where: str) -> Any:
+    """``cls(**kwargs)``; a ``ValueError`` naming a field is re-raised at ``where.field``."""
+    try:
+        return cls(**kwargs)
+    except ValueError as exc:
+        msg = str(exc)
+        head, _, rest = msg.partition(":")
+        field = head.split(".")[0].strip()
+        if rest and (field in kwargs or field in {f.name for f in dataclasses.fields(cls)}):
+            raise _Bad(f"{where}.{head.strip()}" if where else head.strip(), rest.strip()) from None
+        raise _Bad(where, msg) from None
+    except TypeError as exc:
+        raise _Bad(where, str(exc)) from None
+
+
+def _angle_pair(t: Mapping[str, Any], where: str, rad: str, deg: str) -> tuple | None:
+    if rad in t and deg in t:
+        raise _Bad(f"{where}.{deg}", f"give either {rad} [rad] or {deg}, not both")
+    if rad in t:
+        return _vec3(t[rad], f"{where}.{rad}")
+    if deg in t:
+        return _vec3(t[deg], f"{where}.{deg}", math.pi / 180.0)
+    return None
+
+
+def _initial(t: Any, where: str) -> dict[str, Any]:
+    t = _check_keys(
+        t, ("rotvec", "rotvec_deg", "angle_deg", "axis", "quaternion", "rate", "rate_deg_s"), where
+    )
+    out: dict[str, Any] = {}
+    forms = [k for k in ("rotvec", "rotvec_deg", "angle_deg", "quaternion") if k in t]
+    if len(forms) > 1:
+        raise _Bad(f"{where}.{forms[1]}", f"give one attitude form, got {', '.join(forms)}")
+    if "axis" in t and "angle_deg" not in t:
+        raise _Bad(f"{where}.axis", "axis needs angle_deg")
+    if "angle_deg" in t:
+        ang = _number(t["angle_deg"], f"{where}.angle_deg")
+        axis = np.array(_vec3(t.get("axis", (1.0, 0.0, 0.0)), f"{where}.axis"))
+        n = np.linalg.norm(axis)
+        if n == 0:
+            raise _Bad(f"{where}.axis", "must be non-zero")
+        out["initial_rotvec"] = tuple(math.radians(ang) * axis / n)
+    elif "quaternion" in t:
+        try:
+            q = np.asarray(t["quaternion"], dtype=np.float64)
+        except (TypeError, ValueError):
+            raise _Bad(f"{where}.quaternion", "expected 4 numbers [w, x, y, z]") from None
+        if q.shape != (4,) or not np.all(np.isfinite(q)) or np.linalg.norm(q) < 1e-12:
+            raise _Bad(f"{where}.quaternion", f"expected a non-zero [w, x, y, z], got {q.tolist()}")
+        q = q / np.linalg.norm(q)
+        out["initial_rotvec"] = tuple(Rotation.from_quat([*q[1:], q[0]]).as_rotvec())
+        # a quaternion with w < 0 is the −q start of the same attitude
+        out["quaternion_sign"] = -1 if q[0] < 0 else 1
+    else:
+        rv = _angle_pair(t, where, "rotvec", "rotvec_deg")
+        if rv is not None:
+            out["initial_rotvec"] = rv
+    rate = _angle_pair(t, where, "rate", "rate_deg_s")
+    if rate is not None:
+        out["initial_rate"] = rate
+    return out
+
+
+def _reference(t: Any, where: str) -> ReferenceSpec:
+    t = _check_keys(t, ("kind", "rotvec", "rotvec_deg", "n", "rate", "rate_deg_s"), where)
+    kw: dict[str, Any] = {}
+    if "kind" in t:
+        kw["kind"] = t["kind"]
+    rv = _angle_pair(t, where, "rotvec", "rotvec_deg")
+    if rv is not None:
+        kw["rotvec"] = rv
+    rate = _angle_pair(t, where, "rate", "rate_deg_s")
+    if rate is not None:
+        kw["rate"] = rate
+    if "n" in t:
+        kw["n"] = _number(t["n"], f"{where}.n")
+    return _construct(ReferenceSpec, kw, where)
+
+
+def _disturbances(t: Any, where: str) -> tuple[DisturbanceSpec, ...]:
+    items = t if isinstance(t, list) else [t]
+    out = []
+    for i, d in enumerate(items):
+        w = f"{where}[{i}]"
+        if isinstance(d, str):
+            d = {"name": d}
+        if not isinstance(d, Mapping):
+            raise _Bad(w, f"expected a table or a name, got {d!r}")
+        if "name" not in d:
+            raise _Bad(f"{w}.name", "missing (seed000, gravity-gradient, constant, ...)")
+        params = {k: _number(v, f"{w}.{k}") for k, v in d.items() if k != "name"}
+        try:
+            out.append(DisturbanceSpec(d["name"], tuple(params.items())))
+        except ValueError as exc:
+            head, _, rest = str(exc).partition(":")
+            key = f"{w}.name" if head.strip() == "name" else w
+            raise _Bad(key, rest.strip() or str(exc)) from None
+    return tuple(out)
+
+
+def _spacecraft(t: Any, where: str) -> SpacecraftSpec:
+    fields = tuple(f.name for f in dataclasses.fields(SpacecraftSpec))
+    t = _check_keys(t, ("preset",) + fields, where)
+    preset = t.get("preset", "seed000")
+    if preset not in _PRESETS:
+        raise _Bad(f"{where}.preset", f"unknown preset {preset!r}; valid: {', '.join(_PRESETS)}")
+    kw = {k: v for k, v in t.items() if k != "preset"}
+    base = _PRESETS[preset]
+    try:
+        return dataclasses.replace(base, **kw)
+    except ValueError as exc:
+        head, _, rest = str(exc).partition(":")
+        raise _Bad(f"{where}.{head.strip()}", rest.strip()) from None
+
+
+def _proximity(t: Any, where: str) -> ProximitySpec:
+    fields = tuple(f.name for f in dataclasses.fields(ProximitySpec))
+    deg = ("dock_rotvec_deg", "initial_rotvec_deg")
+    t = _check_keys(t, fields + deg, where)
+    kw: dict[str, Any] = {}
+    for k, v in t.items():
+        if k in deg:
+            kw[k[: -len("_deg")]] = _vec3(v, f"{where}.{k}", math.pi / 180.0)
+        else:
+            kw[k] = v
+    return _construct(ProximitySpec, kw, where)
+
+
+def scenario_from_dict(
+    table: Mapping[str, Any], defaults: Mapping[str, Any] | None = None, where: str = "scenario"
+) -> Scenario:
+    """One :class:`Scenario` from a table of the file schema (module docstring); ``defaults``
+    fill missing keys. Raises :class:`ScenarioFileError` (``where.key: problem``)."""
+    try:
+        return _scenario(table, defaults or {}, where)
+    except _Bad as bad:
+        raise ScenarioFileError(f"{bad.key}: {bad.msg}") from None
+
+
+def _scenario(table: Any, defaults: Mapping[str, Any], where: str) -> Scenario:
+    _check_keys(defaults, _TOP_KEYS, "defaults")
+    t = dict(defaults)
+    t.update(_check_keys(table, _TOP_KEYS, where))
+    if "name" not in t:
+        raise _Bad(f"{where}.name", "missing")
+    kw: dict[str, Any] = {"name": t["name"], "description": t.get("description", t["name"])}
+    if not isinstance(kw["name"], str):
+        raise _Bad(f"{where}.name", f"expected a string, got {kw['name']!r}")
+    for k in ("duration", "dt"):
+        if k in t:
+            kw[k] = _number(t[k], f"{where}.{k}")
+    if "control_period" in t:
+        cp = t["control_period"]
+        kw["control_period"] = None if cp in (None, "none") else _number(cp, f"{where}.control_period")
+    if "tags" in t:
+        tags = t["tags"]
+        if not isinstance(tags, list) or not all(isinstance(x, str) for x in tags):
+            raise _Bad(f"{where}.tags", f"expected a list of strings, got {tags!r}")
+        kw["tags"] = tuple(tags)
+    if "initial" in t:
+        kw.update(_initial(t["initial"], f"{where}.initial"))
+    if "quaternion_sign" in t:
+        kw["quaternion_sign"] = t["quaternion_sign"]
+    if "reference" in t:
+        kw["reference"] = _reference(t["reference"], f"{where}.reference")
+    if "disturbance" in t:
+        kw["disturbances"] = _disturbances(t["disturbance"], f"{where}.disturbance")
+    if "spacecraft" in t:
+        kw["spacecraft"] = _spacecraft(t["spacecraft"], f"{where}.spacecraft")
+    if "uncertainty" in t:
+        u = _check_keys(t["uncertainty"], ("inertia_scale",), f"{where}.uncertainty")
+        kw["uncertainty"] = _construct(UncertaintySpec, dict(u), f"{where}.uncertainty")
+    if "proximity" in t:
+        kw["proximity"] = _proximity(t["proximity"], f"{where}.proximity")
+    return _construct(Scenario, kw, where)
+
+
+def scenarios_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> list[Scenario]:
+    """Scenarios of a parsed file (``{"defaults": {...}, "scenario": [{...}, ...]}``)."""
+    try:
+        _check_keys(data, ("defaults", "scenario"), "")
+        items = data.get("scenario")
+        if items is None:
+            raise _Bad("scenario", "no [[scenario]] table found")
+        if isinstance(items, Mapping):
+            items = [items]
+        if not isinstance(items, list):
+            raise _Bad("scenario", f"expected a list of tables, got {type(items).__name__}")
+        defaults = data.get("defaults", {})
+        out = []
+        for i, tab in enumerate(items):
+            where = f"scenario[{i}]"
+            if isinstance(tab, Mapping) and isinstance(tab.get("name"), str):
+                where += f" ({tab['name']})"
+            out.append(_scenario(tab, defaults, where))
+    except _Bad as bad:
+        raise ScenarioFileError(f"path: {source}: {bad.key}: {bad.msg}") from None
+    names = [s.name for s in out]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise ScenarioFileError(f"path: {source}: scenario: duplicate names {dup}")
+    return out
+
+
+def load_scenarios(path: str | Path) -> list[Scenario]:
+    """Scenarios of a ``.toml`` file, or a ``.yaml``/``.yml`` file when PyYAML is importable."""
+    path = Path(path)
+    if not path.is_file():
+        raise ScenarioFileError(f"path: {path}: no such file")
+    suffix = path.suffix.lower()
+    if suffix == ".toml":
+        try:
+            data = tomllib.loads(path.read_text(encoding="utf-8"))
+        except tomllib.TOMLDecodeError as exc:
+            raise ScenarioFileError(f"path: {path}: invalid TOML: {exc}") from None
+    elif suffix in (".yaml", ".yml"):
+        try:
+            import yaml
+        except ImportError:
+            raise ScenarioFileError(
+                f"path: {path}: YAML scenario files need PyYAML (pip install pyyaml); "
+                "TOML works without it"
+            ) from None
+        try:
+            data = yaml.safe_load(path.read_text(encoding="utf-8"))
+        except yaml.YAMLError as exc:
+            raise ScenarioFileError(f"path: {path}: invalid YAML: {exc}") from None
+    else:
+        raise ScenarioFileError(f"path: {path}: unknown format {suffix!r}; use .toml or .yaml")
+    return scenarios_from_dict(data, str(path))
+
+
+def scenario_to_dict(scenario: Scenario) -> dict[str, Any]:
+    """The file-schema table of ``scenario`` (radians; TOML/YAML-serialisable)."""
+    s = scenario
+    out: dict[str, Any] = {
+        "name": s.name,
+        "description": s.description,
+        "tags": list(s.tags),
+        "duration": s.duration,
+        "dt": s.dt,
+        "quaternion_sign": s.quaternion_sign,
+        "initial": {"rotvec": list(s.initial_rotvec), "rate": list(s.initial_rate)},
+        "reference": {
+            "kind": s.reference.kind,
+            "rotvec": list(s.reference.rotvec),
+            "n": s.reference.n,
+            "rate": list(s.reference.rate),
+        },
+        "disturbance": [{"name": d.name, **d.kwargs} for d in s.disturbances],
+        "spacecraft": {
+            f.name: _plain(getattr(s.spacecraft, f.name))
+            for f in dataclasses.fields(SpacecraftSpec)
+            if getattr(s.spacecraft, f.name) is not None
+        },
+        "uncertainty": {"inertia_scale": list(s.uncertainty.inertia_scale)},
+    }
+    if s.control_period is not None:
+        out["control_period"] = s.control_period
+    if s.proximity is not None:
+        out["proximity"] = {
+            f.name: _plain(getattr(s.proximity, f.name))
+            for f in dataclasses.fields(ProximitySpec)
+            if getattr(s.proximity, f.name) is not None
+        }
+    return out
+
+
+def _plain(v: Any) -> Any:
+    if isinstance(v, tuple):
+        return [_plain(x) for x in v]
+    return v
