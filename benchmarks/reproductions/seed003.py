@@ -109,7 +109,7 @@ class Seed003Config:
     settle: float = 100.0
     fit_window: float = 2000.0
     fit_start_min: float = 200.0
-    inject_horizon: float = 600.0
+    inject_horizon: float = 500.0
     inject_start: float = 200.0
     forgetting: float = 0.999
     log_every: int = 4

@@ -568,6 +568,8 @@ class SmallAnglePIDWithFeedforward(AttitudeController):
         return -self._hold_gain * W * np.sin(arg)
 
     def command(self, t: float, state: AttitudeState, reference: AttitudeReference) -> np.ndarray:
+        """Body torque ``(B, 3)`` [N·m]: the held PID part + the feed-forward. ``state`` and
+        ``reference`` are read (and validated) only at PID samples (module docstring)."""
         if self._B is None:
             raise RuntimeError("SmallAnglePIDWithFeedforward: call reset(t0, batch_size) first")
         t = _scalar(t, "t")
