@@ -46,7 +46,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import tomllib
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -64,6 +63,14 @@ from .scenarios import (
     SpacecraftSpec,
     UncertaintySpec,
 )
+
+try:  # Python ≥ 3.11
+    import tomllib
+except ModuleNotFoundError:  # pragma: no cover - Python 3.10 needs the tomli backport
+    try:
+        import tomli as tomllib
+    except ModuleNotFoundError:
+        tomllib = None
 
 __all__ = [
     "ScenarioFileError",
@@ -338,6 +345,8 @@ def load_scenarios(path: str | Path) -> list[Scenario]:
         raise ScenarioFileError(f"path: {path}: no such file")
     suffix = path.suffix.lower()
     if suffix == ".toml":
+        if tomllib is None:  # pragma: no cover - Python 3.10 without tomli
+            raise ScenarioFileError(f"path: {path}: reading TOML on Python 3.10 needs tomli")
         try:
             data = tomllib.loads(path.read_text(encoding="utf-8"))
         except tomllib.TOMLDecodeError as exc:

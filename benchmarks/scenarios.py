@@ -401,7 +401,13 @@ class Scenario:
                 f"uncertainty: expected UncertaintySpec, got {type(self.uncertainty).__name__}"
             )
         if not self.uncertainty.is_nominal:
-            scale_principal_moments(self.spacecraft.J, self.uncertainty.inertia_scale)
+            try:
+                scale_principal_moments(self.spacecraft.J, self.uncertainty.inertia_scale)
+            except ValueError as exc:
+                raise ValueError(
+                    f"uncertainty: inertia_scale {self.uncertainty.inertia_scale} makes the "
+                    f"plant's inertia unphysical ({str(exc).partition(': ')[2]})"
+                ) from None
         if self.proximity is not None and not isinstance(self.proximity, ProximitySpec):
             raise ValueError(
                 f"proximity: expected ProximitySpec or None, got {type(self.proximity).__name__}"

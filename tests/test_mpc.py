@@ -437,3 +437,124 @@ def test_copy_of_a_reset_controller_starts_unreset():
     twin = copy.deepcopy(ctrl)
     with pytest.raises(RuntimeError, match="reset"):
         twin.command(0.0, AttitudeState(np.eye(3)[None], np.zeros((1, 3))), _slew(0.0))
+
+
+# ---------------------------------------------------------------------------------------------
+# the fast path: caches, in-place updates, shifted warm starts, unchecked kernels
+
+
+def _wobble(t: float) -> AttitudeReference:
+    """Rate and acceleration vary every step: the linearisation (and the QP matrix) changes."""
+    a = np.array([0.0, 0.6, 0.8])
+    return AttitudeReference(
+        so3.exp(0.5 * np.sin(0.05 * t) * a),
+        0.025 * np.cos(0.05 * t) * a,
+        -1.25e-3 * np.sin(0.05 * t) * a,
+    )
+
+
+@pytest.mark.parametrize("exact", [False, True])
+def test_warm_started_cached_steps_equal_fresh_solves(exact):
+    """Shifted warm starts, the model cache (the matrix sent only when the linearisation
+    changes) and vector-only updates give the inputs of a QP built from scratch at each step,
+    across reference switches (rest → slew → varying rate → rest)."""
+    ctrl = _mpc(exact_stage0_jacobian=exact)
+    ctrl.reset(0.0, 1)
+    Rk, wk = so3.exp(np.array([0.9, -0.4, 0.3])), np.zeros(3)
+    refs = [AttitudeReference.regulation(np.eye(3))] * 4
+    refs += [_slew(k * T) for k in range(4, 8)] + [_wobble(k * T) for k in range(8, 12)]
+    refs += [AttitudeReference.regulation(np.eye(3))] * 3
+    for k, ref in enumerate(refs):
+        st = AttitudeState(Rk[None], wk[None])
+        u = ctrl.command(k * T, st, ref)
+        fresh = _mpc(exact_stage0_jacobian=exact)
+        fresh.reset(k * T, 1)
+        np.testing.assert_allclose(u, fresh.command(k * T, st, ref), atol=1e-6, rtol=0)
+        assert ctrl.diagnostics()["status"][0] == 1
+        Rk, Pi = lgvi_step(Rk, J @ wk, u[0], u[0], T, J)
+        wk = np.linalg.solve(J, Pi)
+
+
+def test_failed_polish_is_retried_at_a_tighter_tolerance():
+    from types import SimpleNamespace
+
+    ctrl = _mpc()
+    ctrl.reset(0.0, 1)
+    st = AttitudeState(so3.exp(np.array([[0.4, -0.2, 0.1]])), np.array([[1e-3, 0.0, -2e-3]]))
+    ref = AttitudeReference.regulation(np.eye(3))
+    u_ok = ctrl.command(0.0, st, ref)
+    qp = ctrl._qps[0]
+
+    class FailOnce:  # reports one unsuccessful polish, otherwise the real solver
+        def __init__(self, real):
+            self.real, self.armed = real, True
+
+        def __getattr__(self, name):
+            return getattr(self.real, name)
+
+        @property
+        def info(self):
+            i = self.real.info
+            if self.armed:
+                self.armed = False
+                return SimpleNamespace(
+                    status_val=i.status_val, status_polish=-1, iter=i.iter, run_time=i.run_time
+                )
+            return i
+
+    qp._s = FailOnce(qp._s)
+    u = ctrl.command(0.0, st, ref)
+    assert qp.polish_retries == 1 and ctrl.diagnostics()["status"][0] == 1
+    np.testing.assert_allclose(u, u_ok, atol=1e-7)
+    assert qp.solver.settings.eps_abs == pytest.approx(1e-3)  # restored
+
+
+@settings(max_examples=60, deadline=None)
+@given(_vec3, st.floats(0.0, np.pi), _vec3, _vec3)
+def test_fast_error_state_equals_error_state(axis, angle, wd, w):
+    """The Python-float log/error path of the hot loop agrees with the validated functions,
+    including near π (where it defers to so3.log)."""
+    from liecontrol.control.mpc import _error_fast
+
+    n = axis / max(np.linalg.norm(axis), 1e-9) if np.linalg.norm(axis) > 1e-6 else np.eye(3)[0]
+    R_d = so3.exp(np.array([0.3, -1.0, 2.0]))
+    R = R_d @ so3.exp(angle * n)
+    x = _error_fast(R[None], 0.1 * w[None], R_d, 0.1 * wd)
+    np.testing.assert_allclose(x[0], error_state(R, 0.1 * w, R_d, 0.1 * wd), atol=1e-12)
+
+
+def test_extra_constraints_see_each_spacecraft_with_its_actuator_state():
+    seen = []
+
+    def extra(state):
+        seen.append((state.h.copy(), state.actuator_state.copy()))
+        return np.eye(3), -np.full(3, 50.0), np.full(3, 50.0)
+
+    st = _mixed_states(7)
+    B = st.batch_size
+    h = np.arange(3 * B, dtype=float).reshape(B, 3)
+    act = np.arange(4 * B, dtype=float).reshape(B, 4)
+    ctrl = _mpc(horizon=3, extra_constraints=extra)
+    ctrl.reset(0.0, B)
+    ref = AttitudeReference.regulation(np.eye(3))
+    ctrl.command(0.0, AttitudeState(st.R, st.omega, h, act), ref)
+    assert len(seen) == B
+    for b, (hb, ab) in enumerate(seen):
+        assert np.array_equal(hb, h[b : b + 1]) and np.array_equal(ab, act[b : b + 1])
+
+
+def test_non_finite_or_bad_states_raise_on_the_fast_path():
+    ctrl = _mpc(horizon=2)
+    ctrl.reset(0.0, 1)
+    ref = AttitudeReference.regulation(np.eye(3))
+    bad_R = np.eye(3)[None].copy()
+    bad_R[0, 0, 0] = np.nan
+    with pytest.raises(ValueError, match="^R"):
+        ctrl.command(0.0, AttitudeState(bad_R, np.zeros((1, 3))), ref)
+    with pytest.raises(ValueError, match="^R"):  # a reflection
+        ctrl.command(0.0, AttitudeState(-np.eye(3)[None], np.zeros((1, 3))), ref)
+    with pytest.raises(ValueError, match="^omega"):
+        ctrl.command(0.0, AttitudeState(np.eye(3)[None], np.full((1, 3), np.inf)), ref)
+    with pytest.raises(ValueError, match="^R_d"):
+        ctrl.command(0.0, AttitudeState(np.eye(3)[None], np.zeros((1, 3))),
+                     AttitudeReference(-np.eye(3), np.zeros(3), np.zeros(3)))  # fmt: skip

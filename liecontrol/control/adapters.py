@@ -108,6 +108,8 @@ SIGN_MODES = ("continuous", "switched", "hysteretic")
 
 # chart step of the central difference for Ṁ ẏ
 _FD_STEP = 1e-6
+_EYE3 = np.eye(3)
+_EYE3.setflags(write=False)
 
 
 def _mv(M: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -517,8 +519,7 @@ def _check_base(base: object) -> object:
 def _as_batch(a: np.ndarray, B: int, tail: tuple[int, ...], name: str) -> np.ndarray:
     nd = len(tail)
     if a.ndim == nd:
-        # a single sample broadcasts (a read-only view; (B, 3, 3) @ (3, 3) needs no copy)
-        return a if nd == 2 else np.broadcast_to(a, (B,) + tail)
+        return a  # a single sample: broadcast by the batched products that use it
     if a.ndim == nd + 1 and a.shape[0] == B:
         return a
     raise ValueError(f"{name}: expected shape {tail} or {(B,) + tail}, got {a.shape}")
@@ -593,7 +594,7 @@ class ChartAdapter(AttitudeController):
         self, t: float, reference: AttitudeReference, B: int
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if self.base == "inertial":
-            return np.broadcast_to(np.eye(3), (B, 3, 3)), np.zeros((B, 3)), np.zeros((B, 3))
+            return _EYE3, np.zeros((B, 3)), np.zeros((B, 3))
         ref = reference if self.base == "reference" else self.base(t)
         for attr in ("R_d", "omega_d", "omega_dot_d"):
             if not hasattr(ref, attr):
@@ -631,7 +632,7 @@ class ChartAdapter(AttitudeController):
             w_base = _mtv(R_rel, w_d)
             dw_base = _mtv(R_rel, dw_d)
             w_rel = w - w_base
-            R_d_rel = np.broadcast_to(np.eye(3), (B, 3, 3))
+            R_d_rel = np.broadcast_to(_EYE3, (B, 3, 3))
             w_d_rel = dw_d_rel = np.zeros((B, 3))
             y, y_d, sw, sw_d = self._coords(R_rel, None)
             y_dot = self.chart.rates(y, w_rel)

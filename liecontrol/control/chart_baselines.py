@@ -31,9 +31,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._linalg import cross as _cross
 from .._validation import check_inertia
 from .adapters import ChartState, MrpChartAdapter, QuaternionChartAdapter
-from .geometric_pd import _apply_gain, _cross, check_gain
+from .geometric_pd import _apply_gain, check_gain
 
 __all__ = ["QuaternionPD", "MrpPD", "QuaternionPDLaw", "MrpPDLaw"]
 

@@ -57,7 +57,8 @@ momentum-rate or gimbal-rate limit mapped through the cluster Jacobian, provided
 spacecraft side) and imposed on every stage.
 
 Backends: ``"osqp"`` builds the sparse (non-condensed) QP once per spacecraft and each step only
-updates the numerical values in place (``q``, ``l``, ``u``, ``Ax``) and warm-starts;
+updates the numerical values that changed in place (``q``, ``l``, ``u``; ``Ax`` only when the
+linearisation changed) and warm-starts from the previous solution shifted by one stage;
 ``"cvxpy"`` is the readable reference formulation with ``cp.Parameter``s (DPP: compiled once),
 solved by Clarabel (an interior-point method: an independent route to the same minimiser).
 

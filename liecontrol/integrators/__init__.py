@@ -9,7 +9,13 @@
 See ``docs/integrators.md``.
 """
 
-from .lgvi import LGVIConvergenceError, LGVITrajectory, RigidBodyLGVI, lgvi_step
+from .lgvi import (
+    LGVIConvergenceError,
+    LGVITrajectory,
+    RigidBodyLGVI,
+    lgvi_step,
+    lgvi_step_unchecked,
+)
 from .lgvi_se3 import SE3LGVITrajectory, SE3RigidBodyLGVI, lgvi_se3_step
 from .rk import (
     Trajectory,
@@ -29,6 +35,7 @@ __all__ = [
     "integrate",
     "Trajectory",
     "lgvi_step",
+    "lgvi_step_unchecked",
     "RigidBodyLGVI",
     "LGVITrajectory",
     "LGVIConvergenceError",

@@ -302,7 +302,6 @@ def _validated_step(R, Pi, M_k, M_k1, h, J, Jinv, tol, max_iter):
     return _step_arrays(R, Pi, M0, M1, h, Jt, Jit, tol, max_iter)
 
 
-
 def lgvi_step_unchecked(
     R: np.ndarray,
     Pi: np.ndarray,
@@ -348,6 +347,7 @@ def lgvi_step_unchecked(
         tol,
         max_iter,
     )
+
 
 @dataclass(frozen=True)
 class LGVITrajectory:

@@ -1,0 +1,530 @@
+"""Monte Carlo sweep (SPEC §8.1 last item, §8.2 success rate, §8.4 executors).
+
+Samples: initial attitudes uniform on SO(3) (Haar: ``scipy`` ``Rotation.random``), initial body
+rates with a uniform random direction and magnitude ``U(0, max_rate_deg_s)``, and an inertia error:
+the plant's principal moments scaled by ``U(1 − inertia_error, 1 + inertia_error)`` each
+(principal axes kept; redrawn until the triangle inequality holds) while the controllers are given
+the nominal inertia. Regulation to the identity, no external disturbance, the seed-000 SGCMG
+spacecraft by default.
+
+Chunks. The samples are split into chunks of ``chunk_size``; chunk ``i`` draws its samples from
+``numpy.random.default_rng(SeedSequence(seed).spawn(n_chunks)[i])`` — first the inertia scale,
+then the attitudes, then the rates — so every sample is a pure function of ``(seed, chunk_size,
+i)``, whichever executor runs it and in whichever order. The plant's inertia is one per chunk
+(the plant takes a single ``J``): a chunk is one inertia draw and ``chunk_size`` attitude/rate
+draws; ``chunk_size = 1`` gives every sample its own inertia.
+
+Execution. One task = (controller, chunk). A controller registered with ``batched=True`` flies
+the whole chunk in one vectorized simulation (batch axis = samples); others fly it sample by
+sample. Tasks run on an executor (:mod:`benchmarks.executors`): serial, local processes or a
+dask.distributed cluster (``--scheduler ADDRESS``) — the results are identical (same seeds); a
+task that fails is reported (its samples are "failed" with the error), never dropped.
+
+Success: the run completed and its final attitude error is ≤ ``success_deg``.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from liecontrol._validation import check_positive
+
+from .controllers import ControllerContext, ControllerInfo, available_controllers, get_controller
+from .executors import Executor, TaskFailure, describe_exception, make_executor
+from .metrics import compute_metrics
+from .scenarios import SEED000_SPACECRAFT, SpacecraftSpec, scale_principal_moments
+
+__all__ = [
+    "MonteCarloConfig",
+    "ChunkSamples",
+    "MonteCarloResult",
+    "chunk_samples",
+    "run_chunk",
+    "run_montecarlo",
+    "measure_throughput",
+    "write_montecarlo_report",
+    "RECORD_METRICS",
+]
+
+#: Per-sample metrics kept in the records (SPEC §8.2).
+RECORD_METRICS = (
+    "initial_error_deg",
+    "final_error_deg",
+    "settling_time_s",
+    "peak_rate_deg_s",
+    "effort_Nms",
+    "peak_gimbal_rate_rad_s",
+    "min_singularity",
+    "unwinding_ratio",
+)
+
+
+def _posint(v: Any, name: str) -> int:
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+        raise ValueError(f"{name}: must be a positive integer, got {v!r}")
+    return int(v)
+
+
+@dataclass(frozen=True)
+class MonteCarloConfig:
+    """Monte Carlo parameters (module docstring).
+
+    Attributes:
+        n_samples: number of samples (rounded up to whole chunks).
+        chunk_size: samples per chunk (one plant inertia draw; the batch of a batched run).
+        seed: root seed.
+        max_rate_deg_s: largest initial rate magnitude [deg/s].
+        inertia_error: relative half-width of the principal-moment scaling, in [0, 1).
+        duration, dt, control_period: horizon and steps [s].
+        spacecraft: the plant hardware (nominal inertia = the controllers' model).
+        success_deg: final-error threshold of a successful run [deg].
+        log_period: logging period for the metrics [s] (a multiple of dt).
+    """
+
+    n_samples: int = 256
+    chunk_size: int = 32
+    seed: int = 0
+    max_rate_deg_s: float = 0.5
+    inertia_error: float = 0.2
+    duration: float = 600.0
+    dt: float = 0.1
+    control_period: float = 0.2
+    spacecraft: SpacecraftSpec = field(default_factory=lambda: SEED000_SPACECRAFT)
+    success_deg: float = 1.0
+    log_period: float = 1.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "n_samples", _posint(self.n_samples, "n_samples"))
+        object.__setattr__(self, "chunk_size", _posint(self.chunk_size, "chunk_size"))
+        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)):
+            raise ValueError(f"seed: must be an integer, got {self.seed!r}")
+        if self.seed < 0:
+            raise ValueError(f"seed: must be >= 0, got {self.seed}")
+        for name in ("duration", "dt", "control_period", "success_deg", "log_period"):
+            object.__setattr__(self, name, float(check_positive(getattr(self, name), name)))
+        r = float(self.max_rate_deg_s)
+        if not (math.isfinite(r) and r >= 0):
+            raise ValueError(f"max_rate_deg_s: must be finite and >= 0, got {self.max_rate_deg_s}")
+        object.__setattr__(self, "max_rate_deg_s", r)
+        e = float(self.inertia_error)
+        if not (math.isfinite(e) and 0 <= e < 1):
+            raise ValueError(f"inertia_error: must be in [0, 1), got {self.inertia_error}")
+        object.__setattr__(self, "inertia_error", e)
+        for name in ("control_period", "log_period"):
+            ratio = getattr(self, name) / self.dt
+            if abs(ratio - round(ratio)) > 1e-9 * ratio or round(ratio) < 1:
+                raise ValueError(f"{name}: must be a positive integer multiple of dt={self.dt}")
+
+    @property
+    def n_chunks(self) -> int:
+        return -(-self.n_samples // self.chunk_size)
+
+
+@dataclass(frozen=True)
+class ChunkSamples:
+    """The draws of one chunk: ``inertia_scale`` (3,), plant ``J`` (3, 3), ``R0`` (n, 3, 3),
+    ``omega0`` (n, 3) and the global ``sample`` indices (n,)."""
+
+    chunk: int
+    inertia_scale: np.ndarray
+    J: np.ndarray
+    R0: np.ndarray
+    omega0: np.ndarray
+    sample: np.ndarray
+
+
+def chunk_samples(cfg: MonteCarloConfig, chunk: int) -> ChunkSamples:
+    """Draw chunk ``chunk`` of ``cfg`` (deterministic in ``(seed, chunk_size, chunk)``)."""
+    if isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)):
+        raise ValueError(f"chunk: must be an integer, got {chunk!r}")
+    if not 0 <= chunk < cfg.n_chunks:
+        raise ValueError(f"chunk: must be in [0, {cfg.n_chunks}), got {chunk}")
+    seq = np.random.SeedSequence(cfg.seed).spawn(cfg.n_chunks)[chunk]
+    rng = np.random.default_rng(seq)
+    J_nom = cfg.spacecraft.J
+    e = cfg.inertia_error
+    for _ in range(1000):  # rejection: a physical body needs the triangle inequality
+        scale = rng.uniform(1.0 - e, 1.0 + e, size=3)
+        try:
+            J = scale_principal_moments(J_nom, scale)
+            break
+        except ValueError:
+            continue
+    else:  # pragma: no cover - needs an inertia at the edge of the physical set
+        raise ValueError("inertia_error: no physical inertia drawn in 1000 tries")
+    start = chunk * cfg.chunk_size
+    n = min(cfg.chunk_size, cfg.n_samples - start)
+    R0 = Rotation.random(n, random_state=rng).as_matrix()
+    direction = rng.normal(size=(n, 3))
+    direction /= np.linalg.norm(direction, axis=-1, keepdims=True)
+    mag = np.deg2rad(cfg.max_rate_deg_s) * rng.uniform(0.0, 1.0, size=(n, 1))
+    return ChunkSamples(chunk, scale, J, R0, direction * mag, np.arange(start, start + n))
+
+
+@dataclass(frozen=True)
+class _ChunkTask:
+    cfg: MonteCarloConfig
+    controller: str
+    info: ControllerInfo
+    chunk: int
+    batched: bool
+
+    def __reduce__(self) -> tuple:
+        from .runner import pack_infos
+
+        return (_rebuild_chunk, (self.cfg, self.controller, pack_infos({self.controller: self.info}), self.chunk, self.batched))
+
+
+def _rebuild_chunk(cfg, controller, packed, chunk, batched) -> _ChunkTask:  # noqa: ANN001
+    from .runner import unpack_infos
+
+    return _ChunkTask(cfg, controller, unpack_infos(packed)[controller], chunk, batched)
+
+
+def _simulate(cfg: MonteCarloConfig, info: ControllerInfo, s: ChunkSamples, idx: slice) -> Any:
+    from liecontrol.control import ConstantAttitude
+    from spacecraft.simulator import simulate
+
+    from .runner import HeldController, TimedController, build_plant
+
+    B = len(s.sample[idx])
+    plant = build_plant(cfg.spacecraft, (), s.J)
+    ctx = ControllerContext(
+        spacecraft=cfg.spacecraft,
+        control_period=info.control_period or cfg.control_period,
+        batch_size=B,
+        q_hint=None,
+    )
+    timed = TimedController(info.factory(ctx))
+    ctrl: Any = timed
+    if info.control_period is not None and info.control_period > cfg.control_period * (1 + 1e-9):
+        ctrl = HeldController(timed, info.control_period)
+    state = plant.initial_state(s.R0[idx], s.omega0[idx])
+    t0 = time.perf_counter()
+    res = simulate(
+        plant,
+        ctrl,
+        ConstantAttitude(np.eye(3)),
+        state,
+        t_final=cfg.duration,
+        dt=cfg.dt,
+        control_period=cfg.control_period,
+        log_every=int(round(cfg.log_period / cfg.dt)),
+    )
+    return res, time.perf_counter() - t0, timed.mean_time_per_call
+
+
+def run_chunk(task: _ChunkTask) -> list[dict[str, Any]]:
+    """Executor entry point: the records of one (controller, chunk); batched or per sample."""
+    cfg, info = task.cfg, task.info
+    s = chunk_samples(cfg, task.chunk)
+    n = len(s.sample)
+    parts = [slice(0, n)] if task.batched else [slice(i, i + 1) for i in range(n)]
+    records: list[dict[str, Any]] = []
+    for part in parts:
+        base = {
+            "controller": task.controller,
+            "chunk": task.chunk,
+            "batched": task.batched,
+            "inertia_scale": s.inertia_scale.tolist(),
+        }
+        try:
+            res, wall, t_call = _simulate(cfg, info, s, part)
+        except Exception as exc:  # noqa: BLE001 - failures are data in the report
+            err = describe_exception(exc)
+            for k in range(part.start, part.stop):
+                records.append(
+                    {**base, "sample": int(s.sample[k]), "status": "failed", "error": err}
+                )
+            continue
+        m = compute_metrics(res)
+        B = part.stop - part.start
+        steps = int(round(cfg.duration / cfg.dt))
+        for b in range(B):
+            k = part.start + b
+            rec = {**base, "sample": int(s.sample[k]), "status": "ok", "error": None}
+            d = m.as_dict(b)
+            rec.update({key: d[key] for key in RECORD_METRICS})
+            rec["success"] = bool(d["final_error_deg"] <= cfg.success_deg)
+            rec["initial_rate_deg_s"] = float(np.rad2deg(np.linalg.norm(s.omega0[k])))
+            rec["final_R"] = res.R[-1, b].ravel().tolist()
+            rec["final_omega"] = res.omega[-1, b].tolist()
+            rec["sim_wall_time_s"] = wall
+            rec["batch"] = B
+            rec["steps_per_s"] = B * steps / wall if wall > 0 else float("nan")
+            rec["controller_time_us"] = 1e6 * t_call / B
+            records.append(rec)
+    return records
+
+
+@dataclass(frozen=True)
+class MonteCarloResult:
+    """Per-sample records (dicts, sample-major per controller) and the run's metadata."""
+
+    config: MonteCarloConfig
+    controllers: tuple[str, ...]
+    records: tuple[dict[str, Any], ...]
+    wall_time_s: float
+    executor: str
+
+    @property
+    def n_failed(self) -> int:
+        return sum(r["status"] != "ok" for r in self.records)
+
+    def of(self, controller: str) -> list[dict[str, Any]]:
+        return [r for r in self.records if r["controller"] == controller]
+
+    def success_rate(self, controller: str) -> float:
+        rs = self.of(controller)
+        return sum(bool(r.get("success")) for r in rs) / len(rs) if rs else float("nan")
+
+    def values(self, controller: str, key: str) -> np.ndarray:
+        """``key`` over the completed samples of ``controller`` (NaN kept)."""
+        return np.array([r[key] for r in self.of(controller) if r["status"] == "ok"], dtype=float)
+
+
+def run_montecarlo(
+    controllers: Sequence[str] | None = None,
+    cfg: MonteCarloConfig = MonteCarloConfig(),
+    *,
+    executor: Executor | str | None = None,
+    jobs: int | None = None,
+    scheduler: str | None = None,
+    batched: bool | None = None,
+    progress: bool = True,
+) -> MonteCarloResult:
+    """Run the sweep for ``controllers`` (default: the attitude controllers of the quick suite).
+
+    ``batched=None`` follows each controller's registration; ``False`` forces sample-by-sample
+    runs (the reference path the batched one is checked against); ``True`` forces the batched
+    path. Returns a :class:`MonteCarloResult` with one record per (controller, sample).
+    """
+    from tqdm.auto import tqdm
+
+    from .controllers import quick_controllers
+
+    if controllers is None:
+        controllers = tuple(
+            c for c in quick_controllers() if cfg.spacecraft.actuator in get_controller(c).plants
+        )
+    controllers = tuple(controllers)
+    if not controllers:
+        raise ValueError("controllers: empty")
+    infos = {c: get_controller(c) for c in controllers}
+    for c, info in infos.items():
+        if cfg.spacecraft.actuator not in info.plants:
+            raise ValueError(
+                f"controllers: {c!r} does not apply to the {cfg.spacecraft.actuator} plant; "
+                f"valid: {', '.join(n for n in available_controllers() if cfg.spacecraft.actuator in get_controller(n).plants)}"
+            )
+    tasks = [
+        _ChunkTask(cfg, c, infos[c], i, infos[c].batched if batched is None else bool(batched))
+        for c in controllers
+        for i in range(cfg.n_chunks)
+    ]
+    own = not isinstance(executor, Executor)
+    ex = executor if isinstance(executor, Executor) else make_executor(executor, jobs=jobs, scheduler=scheduler)
+    t0 = time.perf_counter()
+    try:
+        with tqdm(total=len(tasks), desc="monte carlo", unit="chunk", disable=not progress) as bar:
+            results = ex.map(run_chunk, tasks, on_done=lambda i: bar.update(1))
+    finally:
+        if own:
+            ex.close()
+    records: list[dict[str, Any]] = []
+    for task, res in zip(tasks, results, strict=True):
+        if isinstance(res, TaskFailure):
+            s = chunk_samples(cfg, task.chunk)
+            records += [
+                {"controller": task.controller, "chunk": task.chunk, "batched": task.batched,
+                 "sample": int(k), "status": "failed", "error": res.error}
+                for k in s.sample
+            ]  # fmt: skip
+        else:
+            records += res
+    return MonteCarloResult(cfg, controllers, tuple(records), time.perf_counter() - t0, ex.name)
+
+
+def measure_throughput(
+    controller: str = "geometric-pd-large-angle",
+    batch_sizes: Sequence[int] = (1, 256),
+    *,
+    n_steps: int = 600,
+    cfg: MonteCarloConfig | None = None,
+) -> list[dict[str, float]]:
+    """Spacecraft-steps per second (one process) of ``controller`` on the SGCMG plant for each
+    batch size: ``B × n_steps / wall``. Batch 1 is the single-run baseline."""
+    info = get_controller(controller)
+    rows = []
+    for B in batch_sizes:
+        B = _posint(B, "batch_sizes")
+        c = MonteCarloConfig(
+            n_samples=B,
+            chunk_size=B,
+            duration=n_steps * 0.1,
+            dt=0.1,
+            control_period=0.1,
+            log_period=0.1 * n_steps,
+        ) if cfg is None else cfg
+        s = chunk_samples(c, 0)
+        _simulate(c, info, s, slice(0, 1))  # warm-up (imports, caches)
+        _, wall, _ = _simulate(c, info, s, slice(0, B))
+        rows.append({"batch": B, "wall_s": wall, "steps_per_s": B * n_steps / wall})
+    return rows
+
+
+# --------------------------------------------------------------------------- report
+
+
+def _clean(v: Any) -> Any:
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    return v
+
+
+def write_montecarlo_report(
+    result: MonteCarloResult, out_dir: str | Path, *, figures: bool = True
+) -> Path:
+    """``montecarlo.md`` (success rates, metric quantiles, failures), ``montecarlo.csv``/
+    ``.json`` and histogram/box-plot figures; returns the Markdown path."""
+    from .report import fmt, markdown_table
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    cfg = result.config
+    keys = ["controller", "sample", "chunk", "batched", "status", "error", "success",
+            "initial_rate_deg_s", *RECORD_METRICS, "controller_time_us", "steps_per_s"]  # fmt: skip
+    with open(out / "montecarlo.csv", "w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(keys)
+        for r in result.records:
+            w.writerow(["" if r.get(k) is None else r.get(k) for k in keys])
+    doc = {
+        "config": {k: v for k, v in asdict(cfg).items() if k != "spacecraft"},
+        "executor": result.executor,
+        "wall_time_s": result.wall_time_s,
+        "records": [{k: _clean(v) for k, v in r.items()} for r in result.records],
+    }
+    (out / "montecarlo.json").write_text(
+        json.dumps(doc, indent=2, allow_nan=False), encoding="utf-8"
+    )
+    figs = _figures(result, out / "figures") if figures else {}
+    lines = [
+        "# Monte Carlo benchmark",
+        "",
+        f"{cfg.n_samples} samples (chunks of {cfg.chunk_size}, seed {cfg.seed}): Haar-uniform "
+        f"attitudes, rates up to {cfg.max_rate_deg_s:g} °/s, principal moments × U(1 ± "
+        f"{cfg.inertia_error:g}) per chunk; regulation to the identity over {cfg.duration:g} s "
+        f"(dt {cfg.dt:g} s, control {cfg.control_period:g} s). Success: final error ≤ "
+        f"{cfg.success_deg:g}°. Executor {result.executor}, wall time {result.wall_time_s:.1f} s.",
+        "",
+        "## Success rate and metric distributions (median [5 %, 95 %])",
+        "",
+    ]
+    rows = []
+    for c in result.controllers:
+        rs = result.of(c)
+        ok = [r for r in rs if r["status"] == "ok"]
+        row = [f"`{c}`", f"{100 * result.success_rate(c):.1f} %", f"{len(rs) - len(ok)}"]
+        for key in ("settling_time_s", "final_error_deg", "unwinding_ratio", "effort_Nms"):
+            v = result.values(c, key)
+            v = v[np.isfinite(v)]
+            row.append(
+                "n/a" if v.size == 0
+                else f"{fmt(float(np.median(v)))} [{fmt(float(np.quantile(v, 0.05)))}, "
+                f"{fmt(float(np.quantile(v, 0.95)))}]"
+            )  # fmt: skip
+        sps = result.values(c, "steps_per_s")
+        row.append(fmt(float(np.median(sps))) if sps.size else "n/a")
+        rows.append(row)
+    lines += markdown_table(
+        ["controller", "success", "failed runs", "settling time [s]", "final error [deg]",
+         "unwinding ratio", "∫‖u‖dt [N·m·s]", "spacecraft-steps/s"],
+        rows,
+    )  # fmt: skip
+    failed = [r for r in result.records if r["status"] != "ok"]
+    if failed:
+        lines += ["", "## Failures", ""]
+        seen: set[tuple[str, str]] = set()
+        for r in failed:
+            key = (r["controller"], r["error"])
+            if key in seen:
+                continue
+            seen.add(key)
+            n = sum(1 for x in failed if (x["controller"], x["error"]) == key)
+            lines.append(f"- `{r['controller']}` ({n} samples): {r['error']}")
+    if figs:
+        lines += ["", "## Figures", ""]
+        for name, p in figs.items():
+            lines += [f"### {name}", "", f"![{name}]({p.relative_to(out).as_posix()})", ""]
+    path = out / "montecarlo.md"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
+
+
+def _figures(result: MonteCarloResult, fig_dir: Path) -> dict[str, Path]:
+    from .report import _plt, controller_colors
+
+    plt = _plt()
+    fig_dir.mkdir(parents=True, exist_ok=True)
+    colors = controller_colors(result.controllers)
+    out: dict[str, Path] = {}
+    panels = (
+        ("settling_time_s", "settling time to 0.1° [s]"),
+        ("final_error_deg", "final error [deg] (log)"),
+        ("unwinding_ratio", "unwinding ratio"),
+        ("effort_Nms", "∫‖u‖dt [N·m·s]"),
+    )
+    fig, axes = plt.subplots(2, 2, figsize=(12, 7.5), constrained_layout=True)
+    for ax, (key, label) in zip(axes.flat, panels, strict=True):
+        data, labels = [], []
+        for c in result.controllers:
+            v = result.values(c, key)
+            v = v[np.isfinite(v)]
+            if key == "final_error_deg":
+                v = np.log10(np.maximum(v, 1e-8))
+            data.append(v if v.size else np.array([np.nan]))
+            labels.append(c)
+        bp = ax.boxplot(data, patch_artist=True, showfliers=True)
+        for patch, c in zip(bp["boxes"], result.controllers, strict=True):
+            patch.set_facecolor(colors[c])
+        ax.set_xticks(range(1, len(labels) + 1), labels, rotation=35, ha="right", fontsize=7)
+        ax.set_ylabel(label if key != "final_error_deg" else "log₁₀ final error [deg]")
+        ax.grid(True, axis="y", alpha=0.3)
+    fig.suptitle("Monte Carlo metric distributions (box plots)", fontsize=10)
+    p = fig_dir / "boxplots.png"
+    fig.savefig(p, dpi=90)
+    plt.close(fig)
+    out["metric distributions (box plots)"] = p
+
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.5), constrained_layout=True)
+    for c in result.controllers:
+        v = result.values(c, "settling_time_s")
+        v = v[np.isfinite(v)]
+        if v.size:
+            axes[0].hist(v, bins=20, histtype="step", lw=1.3, label=c, color=colors[c])
+    axes[0].set_xlabel("settling time to 0.1° [s]")
+    axes[0].set_ylabel("samples")
+    axes[0].legend(fontsize=7)
+    axes[0].grid(True, alpha=0.3)
+    rates = [100 * result.success_rate(c) for c in result.controllers]
+    axes[1].bar(range(len(rates)), rates, color=[colors[c] for c in result.controllers])
+    axes[1].set_xticks(range(len(rates)), list(result.controllers), rotation=35, ha="right", fontsize=7)
+    axes[1].set_ylabel(f"success rate [%] (final error ≤ {result.config.success_deg:g}°)")
+    axes[1].set_ylim(0, 105)
+    axes[1].grid(True, axis="y", alpha=0.3)
+    p = fig_dir / "histogram_success.png"
+    fig.savefig(p, dpi=90)
+    plt.close(fig)
+    out["settling-time histogram and success rate"] = p
+    return out
