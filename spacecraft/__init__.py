@@ -1,7 +1,17 @@
 """spacecraft: the plant (rigid body, flexible modes, actuators, disturbances, environment,
 sensors, simulator) — SPEC §5."""
 
-from .actuators import Actuator, CmgCommand, IdealTorqueActuator, SgcmgActuator
+from .actuators import (
+    Actuator,
+    CmgCommand,
+    FirstOrderServo,
+    IdealTorqueActuator,
+    ReactionWheelAssembly,
+    SgcmgActuator,
+    WheelCommand,
+    orthogonal_wheel_axes,
+    pyramid_wheel_axes,
+)
 from .disturbances import (
     ConstantTorque,
     DisturbanceSource,
@@ -21,10 +31,18 @@ from .payload import (
 )
 from .plant import PlantState, Spacecraft
 from .rigid_body import RigidBody, perturbed_inertia
+from .se3_plant import (
+    DockingReference,
+    IdealWrenchActuator,
+    OrbitingTarget,
+    SE3Plant,
+    simulate_pose,
+)
 from .sensors import RateGyro, StarTracker, TwoVectorAttitude, triad
 from .sgcmg import SgcmgPyramid
 from .simulator import SimulationDiverged, SimulationResult, StarTrackerGyro, simulate
 from .steering import (
+    GeneralizedSingularityRobust,
     PseudoInverse,
     PseudoInverseNullMotion,
     SingularityRobust,
@@ -32,6 +50,17 @@ from .steering import (
 )
 
 __all__ = [
+    "FirstOrderServo",
+    "ReactionWheelAssembly",
+    "WheelCommand",
+    "orthogonal_wheel_axes",
+    "pyramid_wheel_axes",
+    "DockingReference",
+    "IdealWrenchActuator",
+    "OrbitingTarget",
+    "SE3Plant",
+    "simulate_pose",
+    "GeneralizedSingularityRobust",
     "Actuator",
     "CircularOrbit",
     "CmgCommand",

@@ -481,9 +481,13 @@ def _figures(result: dict, out_dir: pathlib.Path) -> list[pathlib.Path]:
                         a.axhline(sgn * cfg.published_rate_after, color="g", lw=0.6, ls=":")
             axes[j, 0].set_ylabel(f"{AXES[j]}\n{ylabel}", fontsize=8)
         if key == "att":
-            lim = 3.0 * max(s["measured_jitter_deg"])
-            for a in axes.ravel():
-                a.set_ylim(-lim, lim)
+            # centred on each axis's mean: the star-tracker misalignment offsets the true
+            # attitude by ~10″ (the loop aligns the *measured* attitude)
+            lim = 4.0 * max(s["measured_jitter_deg"])
+            for j in range(3):
+                mid = float(np.median(main_case[key][:, j])) * scale
+                for a in axes[j]:
+                    a.set_ylim(mid - lim, mid + lim)
         axes[-1, 0].set_xlabel("t [s]")
         axes[-1, 1].set_xlabel("t [s] (zoom on the switch-on)")
         axes[0, 0].set_title(f"{title} (on at {t_on:g} s)", fontsize=10)

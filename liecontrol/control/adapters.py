@@ -419,6 +419,22 @@ class RotatingFrame:
 
 # --------------------------------------------------------------------------- chart state
 
+_LAST_J: list[np.ndarray] = []
+
+
+def _checked_inertia(J: object) -> np.ndarray:
+    """Validated 3×3 inertia; a law passing the same array at every sample is checked once
+    (the eigenvalue test would otherwise dominate the per-step cost)."""
+    if _LAST_J and J is _LAST_J[0]:
+        return J
+    Jv = check_inertia(J, "J")
+    if Jv.shape != (3, 3):
+        raise ValueError(f"J: expected shape (3, 3), got {Jv.shape}")
+    # only an array that owns read-only data cannot change between samples
+    if isinstance(J, np.ndarray) and not J.flags.writeable and J.base is None:
+        _LAST_J[:] = [J]
+    return Jv
+
 
 @dataclass(frozen=True)
 class ChartState:
@@ -481,9 +497,7 @@ class ChartState:
                 f"y_ddot: chart {self.chart.name!r} has no square kinematic matrix; "
                 "torque_from_chart_acceleration needs a 3-parameter chart"
             )
-        J = check_inertia(J, "J")
-        if J.shape != (3, 3):
-            raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+        J = _checked_inertia(J)
         ydd = as_array(y_ddot, "y_ddot", (3,))
         M = self.chart.rates_matrix_inv(self.y)
         w_rel_dot = _mv(M, ydd) + self.chart.M_dot_times(self.y, self.y_dot)

@@ -1,0 +1,160 @@
+"""Monte Carlo sweep (SPEC §8.1, §8.4): sampling, executor independence, batched = per sample."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from benchmarks import cli
+from benchmarks.controllers import register, unregister
+from benchmarks.executors import DaskExecutor, ExecutorUnavailable, ProcessExecutor
+from benchmarks.montecarlo import (
+    MonteCarloConfig,
+    chunk_samples,
+    run_montecarlo,
+    write_montecarlo_report,
+)
+from benchmarks.scenarios import SEED000_SPACECRAFT
+from liecontrol.control import AttitudeController
+
+CFG = MonteCarloConfig(n_samples=6, chunk_size=3, duration=20.0, seed=7)
+NAMES = ("geometric-pd-large-angle", "mrp-pd")
+
+
+def _key(records):
+    return sorted(
+        ((r["controller"], r["sample"]), r["final_R"], r["final_omega"], r["settling_time_s"])
+        for r in records
+    )
+
+
+def _same(a, b):
+    ka, kb = _key(a.records), _key(b.records)
+    assert [k[0] for k in ka] == [k[0] for k in kb]
+    for x, y in zip(ka, kb, strict=True):
+        assert x[1] == y[1] and x[2] == y[2]  # bit-identical final states
+
+
+def test_samples_are_seeded_haar_and_physical():
+    cfg = MonteCarloConfig(n_samples=4000, chunk_size=4000, seed=1, max_rate_deg_s=0.5)
+    s = chunk_samples(cfg, 0)
+    # Haar: E[R] = 0 (each entry has variance 1/3, so the mean of 4000 is within ~0.03)
+    assert np.abs(s.R0.mean(axis=0)).max() < 0.04
+    angles = np.linalg.norm(
+        np.stack([np.arccos(np.clip((np.trace(R) - 1) / 2, -1, 1)) for R in s.R0[:2000]]), axis=0
+    )
+    assert angles.max() > np.deg2rad(170)
+    rates = np.rad2deg(np.linalg.norm(s.omega0, axis=-1))
+    assert rates.max() <= 0.5 and rates.min() >= 0
+    assert np.all(np.abs(s.inertia_scale - 1) <= 0.2)
+    lam = np.linalg.eigvalsh(s.J)
+    assert lam[0] + lam[1] >= lam[2]
+    again = chunk_samples(cfg, 0)
+    np.testing.assert_array_equal(again.R0, s.R0)
+    c2 = MonteCarloConfig(n_samples=10, chunk_size=4)
+    assert c2.n_chunks == 3 and len(chunk_samples(c2, 2).sample) == 2
+    assert not np.array_equal(chunk_samples(c2, 0).R0[:2], chunk_samples(c2, 1).R0[:2])
+
+
+@pytest.fixture(scope="module")
+def serial():
+    return run_montecarlo(NAMES, CFG, executor="serial", progress=False)
+
+
+def test_serial_result_and_report(serial, tmp_path):
+    assert len(serial.records) == 12 and serial.n_failed == 0
+    for c in NAMES:
+        assert 0.0 <= serial.success_rate(c) <= 1.0
+        assert np.all(np.isfinite(serial.values(c, "final_error_deg")))
+    path = write_montecarlo_report(serial, tmp_path, figures=True)
+    md = path.read_text(encoding="utf-8")
+    assert "| `mrp-pd` |" in md and "success" in md
+    for f in ("boxplots.png", "histogram_success.png"):
+        assert (tmp_path / "figures" / f).read_bytes()[:4] == b"\x89PNG"
+    doc = json.loads((tmp_path / "montecarlo.json").read_text(), parse_constant=lambda c: 1 / 0)
+    assert len(doc["records"]) == 12
+
+
+def test_batched_path_equals_per_spacecraft_path(serial):
+    single = run_montecarlo(NAMES, CFG, executor="serial", batched=False, progress=False)
+    assert {r["batched"] for r in single.records} == {False}
+    assert {r["batched"] for r in serial.records} == {True}
+    a = {(r["controller"], r["sample"]): r for r in serial.records}
+    for r in single.records:
+        b = a[(r["controller"], r["sample"])]
+        np.testing.assert_allclose(b["final_R"], r["final_R"], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(b["final_omega"], r["final_omega"], rtol=0, atol=1e-12)
+        for k in ("final_error_deg", "peak_rate_deg_s", "effort_Nms", "unwinding_ratio"):
+            assert b[k] == pytest.approx(r[k], rel=1e-12, abs=1e-12)
+
+
+def test_process_and_dask_executors_give_identical_results(serial):
+    distributed = pytest.importorskip("distributed")
+    proc = run_montecarlo(NAMES, CFG, executor=ProcessExecutor(2), progress=False)
+    _same(serial, proc)
+    assert proc.executor == "process"
+    with (
+        distributed.LocalCluster(
+            n_workers=1, threads_per_worker=2, processes=True, dashboard_address=None
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
+        res = run_montecarlo(NAMES, CFG, executor=DaskExecutor(client=client), progress=False)
+    _same(serial, res)
+    assert res.executor == "dask"
+
+
+class _Boom(AttitudeController):
+    def reset(self, t0, batch_size):
+        pass
+
+    def command(self, t, state, reference):
+        if t > 1.0:
+            raise FloatingPointError("boom: deliberately broken controller")
+        return np.zeros((state.R.shape[0], 3))
+
+
+def test_failed_runs_are_reported_not_dropped(tmp_path):
+    register("boom", lambda ctx: _Boom(), description="broken on purpose")
+    try:
+        cfg = MonteCarloConfig(n_samples=4, chunk_size=2, duration=3.0)
+        res = run_montecarlo(("boom", "geometric-pd-log"), cfg, executor="serial", progress=False)
+    finally:
+        unregister("boom")
+    bad = res.of("boom")
+    assert len(bad) == 4 and all(r["status"] == "failed" for r in bad)
+    assert "boom: deliberately broken" in bad[0]["error"]
+    assert res.success_rate("boom") == 0.0 and res.n_failed == 4
+    assert all(r["status"] == "ok" for r in res.of("geometric-pd-log"))
+    md = write_montecarlo_report(res, tmp_path, figures=False).read_text(encoding="utf-8")
+    assert "## Failures" in md and "`boom` (4 samples)" in md
+
+
+def test_unreachable_scheduler_is_a_clear_error(tmp_path, capsys):
+    pytest.importorskip("distributed")
+    with pytest.raises(ExecutorUnavailable, match="^scheduler: cannot connect to the dask"):
+        DaskExecutor("tcp://127.0.0.1:9", timeout=1.0)
+    out = tmp_path / "mc"
+    code = cli.main(
+        ["run", "--suite", "montecarlo", "--scheduler", "tcp://127.0.0.1:9", "--out", str(out)]
+    )
+    assert code == 2 and not out.exists()
+    assert "cannot connect to the dask scheduler" in capsys.readouterr().err
+
+
+def test_config_validation():
+    with pytest.raises(ValueError, match="^n_samples"):
+        MonteCarloConfig(n_samples=0)
+    with pytest.raises(ValueError, match="^inertia_error"):
+        MonteCarloConfig(inertia_error=1.0)
+    with pytest.raises(ValueError, match="^log_period"):
+        MonteCarloConfig(log_period=0.15)
+    with pytest.raises(ValueError, match="^chunk: must be in"):
+        chunk_samples(CFG, 5)
+    with pytest.raises(ValueError, match="^name: unknown controller 'nope'; valid"):
+        run_montecarlo(("nope",), CFG, progress=False)
+    with pytest.raises(ValueError, match="^controllers: 'se3-tracking' does not apply"):
+        run_montecarlo(("se3-tracking",), CFG, progress=False)
+    assert MonteCarloConfig().spacecraft == SEED000_SPACECRAFT
