@@ -68,6 +68,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--jobs", type=int, default=None, help="worker processes (default: CPUs)")
     r.add_argument("--executor", choices=("serial", "process", "dask"), default=None)
     r.add_argument("--scheduler", default=None, help="dask scheduler address (tcp://host:port)")
+    r.add_argument(
+        "--scheduler-timeout", type=float, default=10.0, help="dask connection timeout [s]"
+    )
     r.add_argument("--samples", type=int, default=None, help="Monte Carlo samples")
     r.add_argument("--chunk-size", type=int, default=None, help="Monte Carlo batch size")
     r.add_argument("--seed", type=int, default=None, help="Monte Carlo / unwinding seed")
@@ -157,7 +160,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
         scenarios = tuple(s.with_duration(s.duration * args.horizon_scale) for s in scenarios)
 
     try:
-        executor = make_executor(args.executor, jobs=args.jobs, scheduler=args.scheduler)
+        executor = make_executor(
+            args.executor,
+            jobs=args.jobs,
+            scheduler=args.scheduler,
+            timeout=args.scheduler_timeout,
+        )
     except (ExecutorUnavailable, ValueError) as exc:
         return _error(str(exc))
     t0 = time.perf_counter()

@@ -216,10 +216,14 @@ def _cpu_count() -> int:
 
 
 def make_executor(
-    kind: str | None = None, *, jobs: int | None = None, scheduler: str | None = None
+    kind: str | None = None,
+    *,
+    jobs: int | None = None,
+    scheduler: str | None = None,
+    timeout: float = 10.0,
 ) -> Executor:
     """``"serial"``, ``"process"`` or ``"dask"``; default: dask if ``scheduler`` is given, else
-    serial for ``jobs == 1`` and a process pool otherwise."""
+    serial for ``jobs == 1`` and a process pool otherwise. ``timeout``: dask connection [s]."""
     if kind is None:
         kind = "dask" if scheduler else ("serial" if jobs == 1 else "process")
     if kind == "serial":
@@ -229,5 +233,5 @@ def make_executor(
     if kind == "dask":
         if not scheduler:
             raise ValueError("scheduler: the dask executor needs a scheduler address")
-        return DaskExecutor(scheduler)
+        return DaskExecutor(scheduler, timeout=timeout)
     raise ValueError(f"kind: unknown executor {kind!r}; valid: serial, process, dask")

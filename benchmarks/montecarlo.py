@@ -515,7 +515,10 @@ def _figures(result: MonteCarloResult, fig_dir: Path) -> dict[str, Path]:
             axes[0].hist(v, bins=20, histtype="step", lw=1.3, label=c, color=colors[c])
     axes[0].set_xlabel("settling time to 0.1° [s]")
     axes[0].set_ylabel("samples")
-    axes[0].legend(fontsize=7)
+    if axes[0].get_legend_handles_labels()[0]:
+        axes[0].legend(fontsize=7)
+    else:
+        axes[0].text(0.5, 0.5, "no run settled", ha="center", transform=axes[0].transAxes)
     axes[0].grid(True, alpha=0.3)
     rates = [100 * result.success_rate(c) for c in result.controllers]
     axes[1].bar(range(len(rates)), rates, color=[colors[c] for c in result.controllers])

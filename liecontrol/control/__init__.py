@@ -4,10 +4,21 @@ Attitude controllers implement :class:`~liecontrol.control.base.AttitudeControll
 pose controllers implement :class:`~liecontrol.control.se3_control.PoseController` (body wrench).
 """
 
+from .adapters import (
+    ChartAdapter,
+    ChartState,
+    EulerChartAdapter,
+    MrpChartAdapter,
+    QuaternionChartAdapter,
+    RotatingFrame,
+)
+from .adrc import ADRCParams, MrpADRC, eso_gains_from_poles
 from .base import AttitudeController, AttitudeReference, AttitudeState
+from .chart_baselines import MrpPD, QuaternionPD
 from .geometric_pd import GeometricPD, gains_from_bandwidth
 from .geometric_pid import IntegralPD, IntrinsicPID, integral_gain
 from .mpc import SO3MPC
+from .payload_compensation import HarmonicIdentifier, SmallAnglePIDWithFeedforward, pid_gains
 from .prescribed_performance import PrescribedPerformance, ppc_gains
 from .reference import ConstantAttitude
 from .se3_control import (
@@ -19,6 +30,7 @@ from .se3_control import (
     SE3TrackingController,
     pose_gains_from_bandwidth,
 )
+from .terminal_sliding_mode import TerminalSlidingMode, TerminalSlidingModeSO3
 
 __all__ = [
     "AttitudeController",
@@ -40,4 +52,20 @@ __all__ = [
     "BulloMurrayPD",
     "SE3TrackingController",
     "pose_gains_from_bandwidth",
+    "ChartAdapter",
+    "ChartState",
+    "EulerChartAdapter",
+    "MrpChartAdapter",
+    "QuaternionChartAdapter",
+    "RotatingFrame",
+    "ADRCParams",
+    "MrpADRC",
+    "eso_gains_from_poles",
+    "MrpPD",
+    "QuaternionPD",
+    "HarmonicIdentifier",
+    "SmallAnglePIDWithFeedforward",
+    "pid_gains",
+    "TerminalSlidingMode",
+    "TerminalSlidingModeSO3",
 ]
