@@ -357,7 +357,7 @@ def _overview_figure(result: SuiteResult, path: Path) -> Path | None:
         return None
     fig, ax = plt.subplots(figsize=(1.0 + 0.75 * S, 1.0 + 0.38 * C), constrained_layout=True)
     cmap = mcolors.LinearSegmentedColormap.from_list("settle", ["#2e7d32", "#fdd835", "#c62828"])
-    cmap.set_bad("#d0d0d0")
+    cmap = cmap.with_extremes(bad="#d0d0d0")
     ax.imshow(np.ma.masked_invalid(val), cmap=cmap, vmin=0.0, vmax=1.2, aspect="auto")
     for i in range(C):
         for j in range(S):
