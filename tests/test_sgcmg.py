@@ -137,7 +137,7 @@ def test_measure_gradient_matches_finite_differences(d):
     m2, grad = P.singularity_measure_and_gradient(d)
     np.testing.assert_allclose(grad, fd, atol=1e-7)
     np.testing.assert_allclose(P.singularity_measure_gradient(d), grad, rtol=0, atol=0)
-    assert m2 == pytest.approx(m, abs=1e-15)
+    assert m2 == pytest.approx(m, rel=1e-12, abs=1e-14)  # two code paths: round-off only
 
 
 KNOWN_SINGULAR = np.deg2rad(
