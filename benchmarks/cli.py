@@ -2,7 +2,8 @@
 
     python -m benchmarks run --suite quick --out report/        # the README's main command
     python -m benchmarks run --suite full|unwinding|montecarlo --out DIR
-        [--controllers a,b] [--scenario-file FILE ...] [--t-final S | --horizon-scale X]
+        [--controllers a,b] [--scenarios a,b] [--scenario-file FILE ...]
+        [--t-final S | --horizon-scale X]
         [--jobs N] [--executor serial|process|dask] [--scheduler tcp://host:8786]
         [--samples N] [--chunk-size N] [--seed S]            (montecarlo)
         [--no-progress] [--no-figures]
@@ -65,6 +66,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--horizon-scale", type=float, default=None, help="multiply every scenario's duration"
     )
     r.add_argument("--controllers", default=None, help="comma-separated controller names")
+    r.add_argument(
+        "--scenarios", default=None, help="comma-separated catalogue scenario names (not a suite)"
+    )
     r.add_argument("--jobs", type=int, default=None, help="worker processes (default: CPUs)")
     r.add_argument("--executor", choices=("serial", "process", "dask"), default=None)
     r.add_argument("--scheduler", default=None, help="dask scheduler address (tcp://host:port)")
@@ -123,15 +127,20 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from .controllers import get_controller, quick_controllers
     from .executors import ExecutorUnavailable, make_executor
     from .scenario_files import load_scenarios
-    from .scenarios import get_suite
+    from .scenarios import get_scenario, get_suite
 
     if args.list:
         _print_listing()
         return 0
-    suite_name = args.suite or ("files" if args.scenario_file else "quick")
+    picked = args.scenarios is not None
+    suite_name = args.suite or ("files" if args.scenario_file else "custom" if picked else "quick")
     try:
         scenarios: tuple = ()
-        if args.suite is not None or not args.scenario_file:
+        if picked:
+            scenarios = tuple(
+                get_scenario(n.strip()) for n in args.scenarios.split(",") if n.strip()
+            )
+        elif args.suite is not None or not args.scenario_file:
             scenarios = get_suite(args.suite or "quick").scenarios
         for f in args.scenario_file:
             scenarios = scenarios + tuple(load_scenarios(f))
@@ -181,9 +190,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 cfg = dataclasses.replace(cfg, duration=args.t_final)
             elif args.horizon_scale is not None:
                 cfg = dataclasses.replace(cfg, duration=cfg.duration * args.horizon_scale)
-            res = unwinding.run_unwinding(
-                controllers, cfg, executor=executor, progress=progress
-            )
+            res = unwinding.run_unwinding(controllers, cfg, executor=executor, progress=progress)
             path = unwinding.write_unwinding_report(res, args.out, figures=figures)
             n_runs, n_failed = len(res.records), res.n_failed
         elif suite_name == "montecarlo":
@@ -206,9 +213,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 cfg = dataclasses.replace(cfg, duration=args.t_final)
             elif args.horizon_scale is not None:
                 cfg = dataclasses.replace(cfg, duration=cfg.duration * args.horizon_scale)
-            res = montecarlo.run_montecarlo(
-                controllers, cfg, executor=executor, progress=progress
-            )
+            res = montecarlo.run_montecarlo(controllers, cfg, executor=executor, progress=progress)
             path = montecarlo.write_montecarlo_report(res, args.out, figures=figures)
             n_runs, n_failed = len(res.records), res.n_failed
         else:

@@ -28,7 +28,8 @@ axis the same natural frequency ω_n and damping ratio ζ. The defaults ω_n = 0
 keep the 179° slew's peak body momentum (linear estimate ≈ 0.37 ω_n θ₀ âᵀJâ ≈ 470 N·m·s about the
 slew axis) inside the 4 × 300 N·m·s pyramid's momentum envelope, and settle a small error to 0.1°
 in ≈ 5/(ζ ω_n) ≈ 3 min. Integral actions use ``K_I = (ω_n/5) K_R`` with a 0.3 N·m anti-windup
-clamp (:data:`INTEGRAL_LIMIT`); the MPC's weights give the same bandwidth; seed 000's ADRC keeps the paper's parameters.
+clamp (:data:`INTEGRAL_LIMIT`); the MPC's weights give the same bandwidth; seed 000's ADRC keeps
+the paper's parameters.
 """
 
 from __future__ import annotations
@@ -112,9 +113,7 @@ class ControllerContext:
         return self.proximity.J if self.proximity is not None else self.spacecraft.J
 
     @classmethod
-    def for_scenario(
-        cls, scenario: Scenario, batch_size: int = 1, **kw: Any
-    ) -> ControllerContext:
+    def for_scenario(cls, scenario: Scenario, batch_size: int = 1, **kw: Any) -> ControllerContext:
         """Context of ``scenario`` with ``batch_size`` copies of its initial quaternion."""
         q = np.broadcast_to(scenario.initial_quaternion, (batch_size, 4)).copy()
         return cls(
@@ -142,8 +141,9 @@ class ControllerInfo:
             ``False``: the runner makes one instance per spacecraft.
         plants: plant tags it applies to (:data:`ATTITUDE_PLANTS` or ``{"se3"}``).
         exclude_tags: scenario tags it does not apply to (with the reason in ``notes``).
-        control_period: own sampling period [s] (a multiple of the scenario's; the command is
-            held in between), or ``None`` (the scenario's).
+        control_period: own sampling period [s], or ``None`` (the scenario's). Longer than the
+            scenario's: sampled at its own period and held in between; shorter: the pair is
+            simulated with this period (a multiple of the scenario's ``dt``).
         quick: part of the quick suite.
         family: grouping label for reports (``"geometric"``, ``"chart"``, ``"mpc"``, ``"se3"``).
         notes: why it does not apply where it does not (shown in the report).
@@ -163,8 +163,7 @@ class ControllerInfo:
     def applies(self, scenario: Scenario) -> tuple[bool, str]:
         """``(True, "")`` or ``(False, reason)`` for ``scenario``."""
         if scenario.plant not in self.plants:
-            kind = "SE(3) pose" if "se3" in self.plants else "attitude"
-            return False, f"{kind} controller; plant is {scenario.plant}"
+            return False, "SE(3) controller" if "se3" in self.plants else "attitude controller"
         hit = sorted(self.exclude_tags.intersection(scenario.tags))
         if hit:
             return False, self.notes or f"excluded for tag {hit[0]!r}"
@@ -299,15 +298,13 @@ def _intrinsic_pid(ctx: ControllerContext, rule: GainRule = DEFAULT_GAIN_RULE) -
 
 
 def _integral_pd(ctx: ControllerContext, rule: GainRule = DEFAULT_GAIN_RULE) -> Any:
-    """IntegralPD (large-angle error, ∫(e_Ω + c e_R)), c = ω_n, K_I = (ω_n/5) K_R / c, 0.3 N·m clamp."""
+    """IntegralPD (large-angle error, ∫(e_Ω + c e_R)), c = ω_n, K_I = (ω_n/5)K_R/c, 0.3 N·m cap."""
     from liecontrol.control.geometric_pid import IntegralPD, integral_gain
 
     k_R, k_W = _pd_gains(ctx, 0.5, rule)
     c = rule.omega_n
     k_I = integral_gain(k_R, rule.omega_n / 5.0, c=c)
-    return IntegralPD(
-        ctx.J, k_R, k_W, k_I, c=c, error="large_angle", integral_limit=INTEGRAL_LIMIT
-    )
+    return IntegralPD(ctx.J, k_R, k_W, k_I, c=c, error="large_angle", integral_limit=INTEGRAL_LIMIT)
 
 
 def _prescribed_performance(ctx: ControllerContext, rule: GainRule = DEFAULT_GAIN_RULE) -> Any:
@@ -363,9 +360,7 @@ def _tsm(ctx: ControllerContext) -> Any:
     """TerminalSlidingModeSO3 (seed 004): ZYX Euler error chart, T = 300 s, K = 1e-4 rad/s²."""
     from liecontrol.control.terminal_sliding_mode import TerminalSlidingModeSO3
 
-    return TerminalSlidingModeSO3(
-        ctx.J, T=300.0, K=1e-4, delta0=0.03, delta1=5.0, base="reference"
-    )
+    return TerminalSlidingModeSO3(ctx.J, T=300.0, K=1e-4, delta0=0.03, delta1=5.0, base="reference")
 
 
 def _se3_gains(ctx: ControllerContext) -> dict[str, Any]:
@@ -404,11 +399,15 @@ def _register_builtins() -> None:
     register("geometric-integral-pd", _integral_pd, family="geometric")
     register("prescribed-performance", _prescribed_performance, family="geometric")
     register("mpc-osqp", _mpc, batched=False, control_period=1.0, family="mpc")
-    register("mrp-adrc", _adrc, family="chart")
+    # the paper's ESO (gains up to 800) needs ≤ 0.1 s sampling: at 0.2 s the loop chatters
+    register("mrp-adrc", _adrc, family="chart", control_period=0.1)
     for mode in ("continuous", "switched", "hysteretic"):
         # on the quick suite's q-starts the three sign modes fly the same trajectory
         register(
-            f"quaternion-pd-{mode}", _quaternion_pd(mode), family="chart", quick=mode == "continuous"
+            f"quaternion-pd-{mode}",
+            _quaternion_pd(mode),
+            family="chart",
+            quick=mode == "continuous",
         )
     register("mrp-pd", _mrp_pd, family="chart")
     register("euler-tsm", _tsm, family="chart")

@@ -91,7 +91,7 @@ class MonteCarloConfig:
         log_period: logging period for the metrics [s] (a multiple of dt).
     """
 
-    n_samples: int = 256
+    n_samples: int = 128
     chunk_size: int = 32
     seed: int = 0
     max_rate_deg_s: float = 0.5
@@ -182,7 +182,16 @@ class _ChunkTask:
     def __reduce__(self) -> tuple:
         from .runner import pack_infos
 
-        return (_rebuild_chunk, (self.cfg, self.controller, pack_infos({self.controller: self.info}), self.chunk, self.batched))
+        return (
+            _rebuild_chunk,
+            (
+                self.cfg,
+                self.controller,
+                pack_infos({self.controller: self.info}),
+                self.chunk,
+                self.batched,
+            ),
+        )
 
 
 def _rebuild_chunk(cfg, controller, packed, chunk, batched) -> _ChunkTask:  # noqa: ANN001
@@ -207,8 +216,11 @@ def _simulate(cfg: MonteCarloConfig, info: ControllerInfo, s: ChunkSamples, idx:
     )
     timed = TimedController(info.factory(ctx))
     ctrl: Any = timed
-    if info.control_period is not None and info.control_period > cfg.control_period * (1 + 1e-9):
+    period = cfg.control_period
+    if info.control_period is not None and info.control_period > period * (1 + 1e-9):
         ctrl = HeldController(timed, info.control_period)
+    elif info.control_period is not None:
+        period = info.control_period  # a controller that needs faster sampling gets it
     state = plant.initial_state(s.R0[idx], s.omega0[idx])
     t0 = time.perf_counter()
     res = simulate(
@@ -218,7 +230,7 @@ def _simulate(cfg: MonteCarloConfig, info: ControllerInfo, s: ChunkSamples, idx:
         state,
         t_final=cfg.duration,
         dt=cfg.dt,
-        control_period=cfg.control_period,
+        control_period=period,
         log_every=int(round(cfg.log_period / cfg.dt)),
     )
     return res, time.perf_counter() - t0, timed.mean_time_per_call
@@ -323,9 +335,10 @@ def run_montecarlo(
     infos = {c: get_controller(c) for c in controllers}
     for c, info in infos.items():
         if cfg.spacecraft.actuator not in info.plants:
+            plant = cfg.spacecraft.actuator
+            valid = [n for n in available_controllers() if plant in get_controller(n).plants]
             raise ValueError(
-                f"controllers: {c!r} does not apply to the {cfg.spacecraft.actuator} plant; "
-                f"valid: {', '.join(n for n in available_controllers() if cfg.spacecraft.actuator in get_controller(n).plants)}"
+                f"controllers: {c!r} does not apply to the {plant} plant; valid: {', '.join(valid)}"
             )
     tasks = [
         _ChunkTask(cfg, c, infos[c], i, infos[c].batched if batched is None else bool(batched))
@@ -333,7 +346,11 @@ def run_montecarlo(
         for i in range(cfg.n_chunks)
     ]
     own = not isinstance(executor, Executor)
-    ex = executor if isinstance(executor, Executor) else make_executor(executor, jobs=jobs, scheduler=scheduler)
+    ex = (
+        executor
+        if isinstance(executor, Executor)
+        else make_executor(executor, jobs=jobs, scheduler=scheduler)
+    )
     t0 = time.perf_counter()
     try:
         with tqdm(total=len(tasks), desc="monte carlo", unit="chunk", disable=not progress) as bar:
@@ -368,14 +385,18 @@ def measure_throughput(
     rows = []
     for B in batch_sizes:
         B = _posint(B, "batch_sizes")
-        c = MonteCarloConfig(
-            n_samples=B,
-            chunk_size=B,
-            duration=n_steps * 0.1,
-            dt=0.1,
-            control_period=0.1,
-            log_period=0.1 * n_steps,
-        ) if cfg is None else cfg
+        c = (
+            MonteCarloConfig(
+                n_samples=B,
+                chunk_size=B,
+                duration=n_steps * 0.1,
+                dt=0.1,
+                control_period=0.1,
+                log_period=0.1 * n_steps,
+            )
+            if cfg is None
+            else cfg
+        )
         s = chunk_samples(c, 0)
         _simulate(c, info, s, slice(0, 1))  # warm-up (imports, caches)
         _, wall, _ = _simulate(c, info, s, slice(0, B))
@@ -522,7 +543,9 @@ def _figures(result: MonteCarloResult, fig_dir: Path) -> dict[str, Path]:
     axes[0].grid(True, alpha=0.3)
     rates = [100 * result.success_rate(c) for c in result.controllers]
     axes[1].bar(range(len(rates)), rates, color=[colors[c] for c in result.controllers])
-    axes[1].set_xticks(range(len(rates)), list(result.controllers), rotation=35, ha="right", fontsize=7)
+    axes[1].set_xticks(
+        range(len(rates)), list(result.controllers), rotation=35, ha="right", fontsize=7
+    )
     axes[1].set_ylabel(f"success rate [%] (final error ≤ {result.config.success_deg:g}°)")
     axes[1].set_ylim(0, 105)
     axes[1].grid(True, axis="y", alpha=0.3)

@@ -12,22 +12,33 @@ geometric PD at every step, dt = 0.1 s, logging every 60 s:
    :class:`spacecraft.simulator.StarTrackerGyro`.
 
 For each: single-spacecraft steps per second and, for a batch of ``--batch`` spacecraft (random
-targets), spacecraft-steps per CPU-second of this process; best of ``--rounds`` interleaved
-rounds. Then the per-call cost of each model's hot-path entry at B = 1 and B = ``--batch``.
+targets), spacecraft-steps per second, both per CPU-second of this process and per wall-second;
+best of ``--rounds`` interleaved rounds. Then the per-call cost of each model's hot-path entry at
+B = 1 and B = ``--batch``. The BLAS/OpenMP thread counts are set to 1 before numpy is imported
+unless the environment sets them, and are printed.
 """
 
 from __future__ import annotations
 
-import argparse
-import time
-import timeit
+import os
+import sys
 
-import numpy as np
+#: read when numpy is first imported, hence set before the imports below (unless already set)
+THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+_NUMPY_PRELOADED = "numpy" in sys.modules
+for _name in THREAD_VARS:
+    os.environ.setdefault(_name, "1")
 
-from liecontrol.control import ConstantAttitude
-from liecontrol.control.geometric_pd import GeometricPD, gains_from_bandwidth
-from liecontrol.lie import so3
-from spacecraft import (
+import argparse  # noqa: E402
+import time  # noqa: E402
+import timeit  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from liecontrol.control import ConstantAttitude  # noqa: E402
+from liecontrol.control.geometric_pd import GeometricPD, gains_from_bandwidth  # noqa: E402
+from liecontrol.lie import so3  # noqa: E402
+from spacecraft import (  # noqa: E402
     SEED003_PAYLOAD,
     CircularOrbit,
     FlexibleModes,
@@ -99,19 +110,31 @@ def _setup(case: int, batch: int, rng: np.random.Generator) -> tuple:
     return plant, ctrl, ConstantAttitude(R_d), plant.initial_state(np.eye(3), batch=batch), kw
 
 
-def measure(case: int, batch: int, t_final: float, dt: float, repeat: int = 1) -> float:
-    """Best-of-``repeat`` spacecraft-steps per CPU-second of this process for cumulative case
-    ``case`` (process time, not wall time: the machine is shared, and other jobs' load would
-    otherwise swamp the differences being measured)."""
+def thread_settings() -> str:
+    """The thread-count variables in effect."""
+    s = " ".join(f"{v}={os.environ.get(v, 'unset')}" for v in THREAD_VARS)
+    if _NUMPY_PRELOADED:
+        s += " (numpy was imported before this module: the runtime may not have applied them)"
+    return s
+
+
+def measure(
+    case: int, batch: int, t_final: float, dt: float, repeat: int = 1
+) -> tuple[float, float]:
+    """Best-of-``repeat`` spacecraft-steps per CPU-second of this process and per wall-second
+    for cumulative case ``case`` (CPU time is the figure to compare: the machine is shared, and
+    other jobs' load would otherwise swamp the differences being measured)."""
     rng = np.random.default_rng(0)
     log_every = max(1, round(60.0 / dt))
-    best = np.inf
+    best_cpu = best_wall = np.inf
     for _ in range(repeat):
         plant, ctrl, ref, s0, kw = _setup(case, batch, rng)
-        t = time.process_time()
+        c, w = time.process_time(), time.perf_counter()
         simulate(plant, ctrl, ref, s0, t_final, dt, log_every=log_every, **kw)
-        best = min(best, time.process_time() - t)
-    return batch * round(t_final / dt) / best
+        best_cpu = min(best_cpu, time.process_time() - c)
+        best_wall = min(best_wall, time.perf_counter() - w)
+    n = batch * round(t_final / dt)
+    return n / best_cpu, n / best_wall
 
 
 def micro_costs(batch: int, number: int = 200, repeat: int = 7) -> dict[str, float]:
@@ -171,20 +194,27 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--batch", type=int, default=1000)
     p.add_argument("--rounds", type=int, default=3, help="best of this many interleaved rounds")
     a = p.parse_args(argv)
-    # rounds interleave the cases, so a load change on a shared machine hits all of them
-    one = np.zeros(len(CASES))
-    many = np.zeros(len(CASES))
+    print(f"threads: {thread_settings()}")
+    # rounds interleave the cases, so a load change on a shared machine hits all of them;
+    # columns: [CPU, wall] throughput, best over the rounds
+    one = np.zeros((len(CASES), 2))
+    many = np.zeros((len(CASES), 2))
     for _ in range(a.rounds):
         for case in range(len(CASES)):
-            one[case] = max(one[case], measure(case, 1, a.t_final, a.dt))
-            many[case] = max(many[case], measure(case, a.batch, a.batch_t_final, a.dt))
-    print(f"{'case':34s} {'1 s/c steps/s':>14s} {'cost':>7s} {a.batch:>6d}-batch sc-steps/s")
+            one[case] = np.maximum(one[case], measure(case, 1, a.t_final, a.dt))
+            many[case] = np.maximum(many[case], measure(case, a.batch, a.batch_t_final, a.dt))
+    print(
+        f"{'case':34s} {'1 s/c steps/s':>14s} {'cost':>7s} {a.batch:>6d}-batch sc-steps/s"
+        f"        {'(wall: 1 s/c, batch)':>22s}"
+    )
     for case, name in enumerate(CASES):
         print(
-            f"{name:34s} {one[case]:14.0f} {one[0] / one[case]:6.2f}x {many[case]:13.0f}"
-            f" ({many[0] / many[case]:4.2f}x)"
+            f"{name:34s} {one[case, 0]:14.0f} {one[0, 0] / one[case, 0]:6.2f}x"
+            f" {many[case, 0]:13.0f} ({many[0, 0] / many[case, 0]:4.2f}x)"
+            f"   ({one[case, 1]:7.0f}, {many[case, 1]:9.0f})"
         )
-    print("cost: time per step relative to the foundation (cumulative models)")
+    print("per CPU-second of this process; cost: time per step relative to the foundation")
+    print("(cumulative models); wall-clock figures in parentheses")
     print()
     small, large = micro_costs(1), micro_costs(a.batch, number=20)
     print(f"{'model entry (per call)':34s} {'B = 1 [µs]':>12s} {f'B = {a.batch} [µs]':>16s}")

@@ -355,7 +355,9 @@ def _overview_figure(result: SuiteResult, path: Path) -> Path | None:
                     val[i, j], text[i][j] = float(ts) / s.duration, f"{float(ts):.0f}"
     if np.all(np.isnan(val)):
         return None
-    fig, ax = plt.subplots(figsize=(1.0 + 0.75 * S, 1.0 + 0.38 * C), constrained_layout=True)
+    fig, ax = plt.subplots(
+        figsize=(max(5.5, 2.5 + 0.75 * S), 1.2 + 0.38 * C), constrained_layout=True
+    )
     cmap = mcolors.LinearSegmentedColormap.from_list("settle", ["#2e7d32", "#fdd835", "#c62828"])
     cmap = cmap.with_extremes(bad="#d0d0d0")
     ax.imshow(np.ma.masked_invalid(val), cmap=cmap, vmin=0.0, vmax=1.2, aspect="auto")
@@ -364,7 +366,9 @@ def _overview_figure(result: SuiteResult, path: Path) -> Path | None:
             ax.text(j, i, text[i][j], ha="center", va="center", fontsize=7)
     ax.set_xticks(range(S), [s.name for s in result.scenarios], rotation=40, ha="right", fontsize=8)
     ax.set_yticks(range(C), list(result.controllers), fontsize=8)
-    ax.set_title("settling time to 0.1° [s] (no: not settled, —: does not apply)", fontsize=9)
+    ax.set_title(
+        "settling time to 0.1° [s]\n(no: not settled, fail: failed, —: does not apply)", fontsize=9
+    )
     fig.savefig(path, dpi=90)
     plt.close(fig)
     return path

@@ -114,7 +114,9 @@ def _check_keys(table: Any, valid: tuple[str, ...], where: str) -> Mapping[str, 
         raise _Bad(where, f"expected a table, got {type(table).__name__}")
     for k in table:
         if k not in valid:
-            raise _Bad(f"{where}.{k}" if where else str(k), f"unknown key; valid: {', '.join(valid)}")
+            raise _Bad(
+                f"{where}.{k}" if where else str(k), f"unknown key; valid: {', '.join(valid)}"
+            )
     return table
 
 
@@ -287,7 +289,9 @@ def _scenario(table: Any, defaults: Mapping[str, Any], where: str) -> Scenario:
             kw[k] = _number(t[k], f"{where}.{k}")
     if "control_period" in t:
         cp = t["control_period"]
-        kw["control_period"] = None if cp in (None, "none") else _number(cp, f"{where}.control_period")
+        kw["control_period"] = (
+            None if cp in (None, "none") else _number(cp, f"{where}.control_period")
+        )
     if "tags" in t:
         tags = t["tags"]
         if not isinstance(tags, list) or not all(isinstance(x, str) for x in tags):

@@ -69,6 +69,7 @@ __all__ = [
     "get_suite",
     "get_scenario",
     "register_scenario",
+    "unregister_scenario",
     "rest_to_rest",
     "scale_principal_moments",
 ]
@@ -559,8 +560,7 @@ def _catalogue() -> tuple[Scenario, ...]:
         rest_to_rest(
             90.0,
             name="unwinding-minus-q",
-            description="the same 90° start given as −q (w < 0): continuous quaternion laws "
-            "unwind",
+            description="the same 90° start given as −q (w < 0): continuous quaternion laws unwind",
             quaternion_sign=-1,
             tags=("unwinding",),
         ),
@@ -592,8 +592,7 @@ def _catalogue() -> tuple[Scenario, ...]:
         ),
         Scenario(
             name="inertia-uncertainty",
-            description="60° manoeuvre + seed-000 torque, true principal moments × (1.2, 1.2, "
-            "0.8)",
+            description="60° manoeuvre + seed-000 torque, true principal moments × (1.2, 1.2, 0.8)",
             initial_rotvec=tuple(deg(60.0) * np.array(SLEW_AXIS)),
             disturbances=(SEED000_DISTURBANCE,),
             uncertainty=UncertaintySpec((1.2, 1.2, 0.8)),
@@ -685,3 +684,13 @@ def register_scenario(
         old = SUITES[s]
         kept = tuple(x for x in old.scenarios if x.name != scenario.name)
         SUITES[s] = dataclasses.replace(old, scenarios=kept + (scenario,))
+
+
+def unregister_scenario(name: str) -> None:
+    """Remove scenario ``name`` from the catalogue and from every suite."""
+    get_scenario(name)
+    del SCENARIOS[name]
+    for k, suite in list(SUITES.items()):
+        if any(x.name == name for x in suite.scenarios):
+            kept = tuple(x for x in suite.scenarios if x.name != name)
+            SUITES[k] = dataclasses.replace(suite, scenarios=kept)

@@ -19,11 +19,12 @@ log errors) or not (Lee's large-angle error). The cases:
 Verdict per (case, controller), in this order:
 
 - ``"failed"``: the run raised (error text kept);
-- ``"unwinds"``: unwinding ratio ``∫‖e_Ω‖dt / θ₀ ≥ 1.5`` (SPEC §8.1: travelled ≥ 1.5× the
-  geodesic angle);
 - ``"chatters"``: at least ``chatter_reversals`` command reversals (:mod:`benchmarks.metrics`,
   ``command_reversals``: consecutive commands pointing in opposite directions while both are
-  ≥ 5 % of the peak);
+  ≥ 5 % of the peak) — checked first, because a chattering body's rate jitter also inflates
+  the path length;
+- ``"unwinds"``: unwinding ratio ``∫‖e_Ω‖dt / θ₀ ≥ 1.5`` (SPEC §8.1: travelled ≥ 1.5× the
+  geodesic angle);
 - ``"converges"``: final error ≤ ``converged_deg``;
 - ``"not converged"`` otherwise (too slow for the horizon, or stuck).
 
@@ -40,7 +41,6 @@ import time
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -63,7 +63,7 @@ __all__ = [
     "write_unwinding_report",
 ]
 
-VERDICTS = ("converges", "unwinds", "chatters", "not converged", "failed")
+VERDICTS = ("converges", "chatters", "unwinds", "not converged", "failed")
 
 
 @dataclass(frozen=True)
@@ -110,7 +110,9 @@ class UnwindingConfig:
                 raise ValueError(f"{name}: must be a non-negative integer, got {v!r}")
             object.__setattr__(self, name, int(v))
         object.__setattr__(
-            self, "unwinding_threshold", float(check_positive(self.unwinding_threshold, "unwinding_threshold"))
+            self,
+            "unwinding_threshold",
+            float(check_positive(self.unwinding_threshold, "unwinding_threshold")),
         )
 
 
@@ -176,12 +178,12 @@ def verdict(outcome: RunOutcome, cfg: UnwindingConfig = UnwindingConfig()) -> st
     if outcome.status != "ok":
         return "failed"
     m = outcome.metrics
-    ratio = m.get("unwinding_ratio", float("nan"))
-    if not math.isnan(ratio) and ratio >= cfg.unwinding_threshold:
-        return "unwinds"
     rev = m.get("command_reversals", float("nan"))
     if not math.isnan(rev) and rev >= cfg.chatter_reversals:
         return "chatters"
+    ratio = m.get("unwinding_ratio", float("nan"))
+    if not math.isnan(ratio) and ratio >= cfg.unwinding_threshold:
+        return "unwinds"
     if m.get("final_error_deg", float("inf")) <= cfg.converged_deg:
         return "converges"
     return "not converged"
@@ -249,7 +251,9 @@ def run_unwinding(
     attitude controller; register your own with :func:`benchmarks.controllers.register`)."""
     if controllers is None:
         controllers = tuple(
-            c for c in available_controllers() if cfg.spacecraft.actuator in get_controller(c).plants
+            c
+            for c in available_controllers()
+            if cfg.spacecraft.actuator in get_controller(c).plants
         )
     controllers = tuple(controllers)
     for c in controllers:
@@ -314,11 +318,16 @@ def write_unwinding_report(
         "config": {k: v for k, v in asdict(cfg).items() if k != "spacecraft"},
         "wall_time_s": result.wall_time_s,
         "records": [
-            {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in asdict(r).items()}
+            {
+                k: (None if isinstance(v, float) and math.isnan(v) else v)
+                for k, v in asdict(r).items()
+            }
             for r in recs
         ],
     }
-    (out / "unwinding.json").write_text(json.dumps(doc, indent=2, allow_nan=False), encoding="utf-8")
+    (out / "unwinding.json").write_text(
+        json.dumps(doc, indent=2, allow_nan=False), encoding="utf-8"
+    )
     figs = _figures(result, out / "figures") if figures else {}
 
     cases = list(dict.fromkeys(r.case for r in recs))
@@ -326,7 +335,8 @@ def write_unwinding_report(
         "# Unwinding and large-angle benchmark",
         "",
         f"{len(cases)} cases × {len(result.controllers)} controllers, {cfg.duration:g} s at "
-        f"dt {cfg.dt:g} s (control {cfg.control_period:g} s), wall time {result.wall_time_s:.1f} s. "
+        f"dt {cfg.dt:g} s (control {cfg.control_period:g} s), wall time "
+        f"{result.wall_time_s:.1f} s. "
         f"Unwinds: unwinding ratio ≥ {cfg.unwinding_threshold:g}; chatters: ≥ "
         f"{cfg.chatter_reversals} command reversals; converges: final error ≤ "
         f"{cfg.converged_deg:g}°.",
@@ -337,8 +347,12 @@ def write_unwinding_report(
     rows = []
     for c in result.controllers:
         vq, vmq = result.pair_verdicts(c)
-        rq = next(r for r in recs if r.kind == "pair" and r.controller == c and r.quaternion_sign > 0)
-        rm = next(r for r in recs if r.kind == "pair" and r.controller == c and r.quaternion_sign < 0)
+        rq = next(
+            r for r in recs if r.kind == "pair" and r.controller == c and r.quaternion_sign > 0
+        )
+        rm = next(
+            r for r in recs if r.kind == "pair" and r.controller == c and r.quaternion_sign < 0
+        )
         rows.append(
             [f"`{c}`", vq, _f(rq.unwinding_ratio), vmq, _f(rm.unwinding_ratio),
              "yes" if result.unwinds(c) else "no"]
@@ -355,8 +369,10 @@ def write_unwinding_report(
             cell = r.verdict
             if r.verdict == "converges" and not math.isnan(r.settling_time_s):
                 cell += f" ({r.settling_time_s:.0f} s)"
-            elif r.verdict in ("unwinds",):
+            elif r.verdict == "unwinds":
                 cell += f" (×{r.unwinding_ratio:.2f})"
+            elif r.verdict == "chatters":
+                cell += f" ({r.command_reversals:.0f} reversals)"
             row.append(cell)
         rows.append(row)
     lines += markdown_table(["controller"] + cases, rows)
@@ -390,7 +406,7 @@ def _figures(result: UnwindingResult, fig_dir: Path) -> dict[str, Path]:
 
     sweep = [r for r in recs if r.kind == "sweep"]
     if sweep:
-        fig, ax = plt.subplots(figsize=(8, 5), constrained_layout=True)
+        fig, ax = plt.subplots(figsize=(10, 5), constrained_layout=True)
         horizon = result.config.duration
         for c in result.controllers:
             rs = sorted((r for r in sweep if r.controller == c), key=lambda r: r.initial_angle_deg)
@@ -398,12 +414,14 @@ def _figures(result: UnwindingResult, fig_dir: Path) -> dict[str, Path]:
             y = [horizon * 1.05 if math.isnan(r.settling_time_s) else r.settling_time_s for r in rs]
             ax.plot(x, y, "o-", label=c, color=colors[c], lw=1.2, ms=4)
         ax.axhline(horizon, color="k", ls=":", lw=0.8)
-        ax.text(ax.get_xlim()[0], horizon * 1.01, " horizon (points above: not settled)", fontsize=7)
+        ax.text(
+            ax.get_xlim()[0], horizon * 1.01, " horizon (points above: not settled)", fontsize=7
+        )
         ax.set_xlabel("initial error angle θ₀ [deg]")
         ax.set_ylabel("settling time to 0.1° [s]")
         ax.set_title("settling time vs initial angle")
         ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=7, ncol=2)
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
         p = fig_dir / "settling_vs_angle.png"
         fig.savefig(p, dpi=90)
         plt.close(fig)
@@ -433,7 +451,7 @@ def _figures(result: UnwindingResult, fig_dir: Path) -> dict[str, Path]:
 
     rnd = [r for r in recs if r.kind == "random"]
     if rnd:
-        fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
+        fig, ax = plt.subplots(figsize=(10, 4.5), constrained_layout=True)
         for c in result.controllers:
             rs = [r for r in rnd if r.controller == c and not math.isnan(r.unwinding_ratio)]
             ax.scatter(
@@ -448,7 +466,7 @@ def _figures(result: UnwindingResult, fig_dir: Path) -> dict[str, Path]:
         ax.set_ylabel("unwinding ratio")
         ax.set_title("Haar-random starts")
         ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=7, ncol=2)
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
         p = fig_dir / "random_starts.png"
         fig.savefig(p, dpi=90)
         plt.close(fig)

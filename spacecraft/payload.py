@@ -245,6 +245,24 @@ class RotatingPayload:
         """Total payload torque T_p on the bus (sum of :meth:`torque_terms`)."""
         return sum(self.torque_terms(t, omega).values())
 
+    def _float_params(self) -> tuple:
+        """(mount columns 0, 1, 2; I_A[0:3, 2]; ρ; hinge; m) as Python floats, cached on first
+        use (the fields are read-only arrays, so the copy cannot go stale)."""
+        cached = self.__dict__.get("_floats")
+        if cached is None:
+            M = self.mount.tolist()
+            cached = (
+                tuple(r[0] for r in M),
+                tuple(r[1] for r in M),
+                tuple(r[2] for r in M),
+                tuple(self.inertia[:, 2].tolist()),
+                tuple(self.com_offset.tolist()),
+                tuple(self.hinge.tolist()),
+                self.mass,
+            )
+            object.__setattr__(self, "_floats", cached)
+        return cached
+
     def _torque_at(self, t: float, omega: np.ndarray) -> np.ndarray:
         """Fast path of :meth:`torque` for a scalar ``t`` and ``omega`` ``(..., 3)`` (the plant
         calls the source at every integration stage): the same four terms with 3-vector algebra
@@ -256,27 +274,44 @@ class RotatingPayload:
             ang, r_, a_ = self._profile.state(np.float64(t))
             alpha, rate, acc = self.phase + float(ang), float(r_), float(a_)
         c, s = math.cos(alpha), math.sin(alpha)
-        M = self.mount
+        # every 3-vector below is a tuple of Python floats (the parameters' float copies are
+        # made once, _float_params): the same per-component IEEE operations in the same order
+        # as on (3,) arrays, ~5× cheaper than ~20 numpy calls on 3-element arrays
+        m0, m1, a2, (i02, i12, i22), (r0, r1, r2), hinge, m = self._float_params()
         # R_A = M R_z(α): only its first two columns change with α
-        a0 = c * M[:, 0] + s * M[:, 1]
-        a1 = -s * M[:, 0] + c * M[:, 1]
-        a2 = M[:, 2]
-        I_A, rho, m = self.inertia, self.com_offset, self.mass
-        Ie = a0 * I_A[0, 2] + a1 * I_A[1, 2] + a2 * I_A[2, 2]  # R_A I_A e_z
-        ez_x_Ie = a0 * (-I_A[1, 2]) + a1 * I_A[0, 2]  # R_A (e_z × I_A e_z)
-        rc = self.hinge + a0 * rho[0] + a1 * rho[1] + a2 * rho[2]
-        rdd = a0 * (-rate * rate * rho[0] - acc * rho[1]) + a1 * (
-            -rate * rate * rho[1] + acc * rho[0]
+        a0 = tuple(c * x + s * y for x, y in zip(m0, m1, strict=True))
+        a1 = tuple(-s * x + c * y for x, y in zip(m0, m1, strict=True))
+        Ie = tuple(  # R_A I_A e_z
+            x * i02 + y * i12 + z * i22 for x, y, z in zip(a0, a1, a2, strict=True)
         )
-        rc_x_rdd = np.array(
-            (
-                rc[1] * rdd[2] - rc[2] * rdd[1],
-                rc[2] * rdd[0] - rc[0] * rdd[2],
-                rc[0] * rdd[1] - rc[1] * rdd[0],
+        ez_x_Ie = tuple(x * (-i12) + y * i02 for x, y in zip(a0, a1, strict=True))
+        rc = tuple(
+            hh + x * r0 + y * r1 + z * r2 for hh, x, y, z in zip(hinge, a0, a1, a2, strict=True)
+        )
+        k0 = -rate * rate * r0 - acc * r1
+        k1 = -rate * rate * r1 + acc * r0
+        rdd = tuple(x * k0 + y * k1 for x, y in zip(a0, a1, strict=True))
+        rc_x_rdd = (
+            rc[1] * rdd[2] - rc[2] * rdd[1],
+            rc[2] * rdd[0] - rc[0] * rdd[2],
+            rc[0] * rdd[1] - rc[1] * rdd[0],
+        )
+        rr = rate * rate
+        const = tuple(
+            -acc * x - rr * y - m * z for x, y, z in zip(Ie, ez_x_Ie, rc_x_rdd, strict=True)
+        )
+        h = tuple(rate * x for x in Ie)
+        if np.shape(omega) == (1, 3):
+            wx, wy, wz = omega[0].tolist()
+            return np.array(
+                [
+                    [
+                        const[0] - (wy * h[2] - wz * h[1]),
+                        const[1] - (wz * h[0] - wx * h[2]),
+                        const[2] - (wx * h[1] - wy * h[0]),
+                    ]
+                ]
             )
-        )
-        const = -acc * Ie - rate * rate * ez_x_Ie - m * rc_x_rdd
-        h = rate * Ie
         gyro = np.empty(np.shape(omega))
         wx, wy, wz = omega[..., 0], omega[..., 1], omega[..., 2]
         gyro[..., 0] = const[0] - (wy * h[2] - wz * h[1])

@@ -26,13 +26,30 @@ _P1 = np.array([1, 2, 0])
 _P2 = np.array([2, 0, 1])
 
 
+#: from this many rows on, :func:`_cross` works column by column (``take`` along the last axis
+#: of a large array is slow: measured 312 µs against 60 µs at B = 10 000, equal at B = 1000)
+_CROSS_COLUMNS_FROM = 512
+
+
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Batched cross product ``a × b`` on the last axis (``(..., 3)``, same shapes).
 
     ``a × b = a[[1,2,0]] b[[2,0,1]] − a[[2,0,1]] b[[1,2,0]]`` with ``take`` and in-place
     arithmetic: measured 1.6 µs against 13.5 µs for ``np.cross`` at B = 1, and no slower at
-    B = 1000 — this sits in every integration stage of every simulation.
+    B = 1000 — this sits in every integration stage of every simulation. Large 2-D batches use
+    the same products column by column (same arithmetic, same result).
     """
+    if a.ndim == 2 and a.shape[0] >= _CROSS_COLUMNS_FROM and a.shape == b.shape:
+        a0, a1, a2 = a[:, 0], a[:, 1], a[:, 2]
+        b0, b1, b2 = b[:, 0], b[:, 1], b[:, 2]
+        out = np.empty(a.shape)
+        np.multiply(a1, b2, out=out[:, 0])
+        out[:, 0] -= a2 * b1
+        np.multiply(a2, b0, out=out[:, 1])
+        out[:, 1] -= a0 * b2
+        np.multiply(a0, b1, out=out[:, 2])
+        out[:, 2] -= a1 * b0
+        return out
     p = a.take(_P1, axis=-1)
     p *= b.take(_P2, axis=-1)
     m = a.take(_P2, axis=-1)
@@ -99,8 +116,13 @@ class RigidBody:
     def _angular_acceleration_one(self, omega: np.ndarray, torque: np.ndarray) -> np.ndarray:
         """Single-body case on Python floats: ~3× faster than numpy on 1-element arrays
         (measured 1.7 µs vs 5.5 µs); the same arithmetic, checked against the batched path."""
-        w0, w1, w2 = omega[0].tolist()
-        t0, t1, t2 = torque[0].tolist()
+        w, tau = omega[0].tolist(), torque[0].tolist()
+        return np.array([self._angular_acceleration_floats(*w, *tau)])
+
+    def _angular_acceleration_floats(
+        self, w0: float, w1: float, w2: float, t0: float, t1: float, t2: float
+    ) -> tuple[float, float, float]:
+        """ω̇ on Python floats (the single-body route and the plant's float RK stages)."""
         (a, b, c), (d, e, f), (g, k, m) = self._J_rows
         j0 = a * w0 + b * w1 + c * w2
         j1 = d * w0 + e * w1 + f * w2
@@ -109,9 +131,7 @@ class RigidBody:
         r1 = t1 - (w2 * j0 - w0 * j2)
         r2 = t2 - (w0 * j1 - w1 * j0)
         (a, b, c), (d, e, f), (g, k, m) = self._J_inv_rows
-        return np.array(
-            [[a * r0 + b * r1 + c * r2, d * r0 + e * r1 + f * r2, g * r0 + k * r1 + m * r2]]
-        )
+        return a * r0 + b * r1 + c * r2, d * r0 + e * r1 + f * r2, g * r0 + k * r1 + m * r2
 
     def angular_acceleration_momentum(
         self,

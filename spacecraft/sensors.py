@@ -144,6 +144,8 @@ class StarTracker:
     seq: str = "ZYX"
     period: float = 0.25
     misalignment: np.ndarray | None = None
+    #: exp(m^) computed once (None for m = 0, where the product is skipped: R I = R exactly)
+    _mis_R: np.ndarray | None = field(init=False, repr=False, compare=False, default=None)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "noise_std", _sigma3(self.noise_std, "noise_std"))
@@ -156,14 +158,24 @@ class StarTracker:
         )
         if m.shape != (3,):
             raise ValueError(f"misalignment: expected shape (3,), got {m.shape}")
-        object.__setattr__(self, "misalignment", m.copy())
+        m = m.copy()
+        m.setflags(write=False)  # the cached exp(m^) below must not go stale
+        object.__setattr__(self, "misalignment", m)
+        mis = so3.exp(m) if m.any() else None
+        if mis is not None:
+            mis.setflags(write=False)
+        object.__setattr__(self, "_mis_R", mis)
 
     def measure_matrix(self, R: object, rng: np.random.Generator) -> np.ndarray:
-        """Noisy attitude matrices ``(B, 3, 3)``."""
+        """Noisy attitude matrices ``(B, 3, 3)``: R exp(m^) exp(δ^)."""
         R = _batch_R(R)
         rng = _check_rng(rng)
         delta = rng.standard_normal(R.shape[:-1]) * self.noise_std
-        return R @ so3.exp(self.misalignment) @ so3.exp(delta)
+        # exp(m^) is computed once at construction; for m = 0 it is I exactly and R I = R
+        # bitwise, so the product is skipped (so3.exp costs ~25 µs per call at B = 1)
+        if self._mis_R is not None:
+            R = R @ self._mis_R
+        return R @ so3.exp(delta)
 
     def measure(self, t: float, R: object, omega: object, rng: np.random.Generator) -> np.ndarray:
         """Measurement at sample time ``t`` in the configured ``output`` form."""

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 import types
 
@@ -28,6 +29,7 @@ from benchmarks.runner import (
     StackedReference,
     TimedController,
     run_suite,
+    sampled_for,
 )
 from benchmarks.scenarios import QUICK_SUITE, SEED000_SPACECRAFT, rest_to_rest
 from liecontrol.control import AttitudeController, AttitudeState, ConstantAttitude
@@ -43,7 +45,9 @@ def _strict_json(text: str) -> dict:
 def test_run_quick_suite_end_to_end(tmp_path, capsys):
     """The README command on a shortened horizon: report, CSV, JSON and figures."""
     out = tmp_path / "report"
-    code = cli.main(["run", "--suite", "quick", "--out", str(out), "--t-final", "4", "--no-progress"])
+    code = cli.main(
+        ["run", "--suite", "quick", "--out", str(out), "--t-final", "4", "--no-progress"]
+    )
     assert code == 0
     assert "report:" in capsys.readouterr().out
     md = (out / "report.md").read_text(encoding="utf-8")
@@ -105,6 +109,9 @@ def test_bad_input_gives_clear_errors(tmp_path, capsys):
     assert cli.main(["run", "--controllers", "pid-9000", "--out", "x"]) == 2
     err = capsys.readouterr().err
     assert "pid-9000" in err and "geometric-pd-log" in err
+    assert cli.main(["run", "--scenarios", "slew-90,slew-9000", "--out", "x"]) == 2
+    err = capsys.readouterr().err
+    assert "unknown scenario 'slew-9000'; valid scenarios: stabilisation" in err
     bad = tmp_path / "bad.toml"
     bad.write_text('[[scenario]]\nname = "b"\n[scenario.reference]\nknd = "x"\n')
     assert cli.main(["run", "--scenario-file", str(bad), "--out", "x"]) == 2
@@ -246,3 +253,9 @@ def test_registry_metadata_and_context():
     assert not ok and "SE(3)" in why
     for name, i in CONTROLLERS.items():
         assert i.description and i.name == name
+    # a controller that needs faster sampling flies the scenario at its own period
+    assert sampled_for(sc, get_controller("mrp-adrc")).control_period == 0.1
+    assert sampled_for(sc, get_controller("mpc-osqp")) is sc  # slower: held instead
+    odd = dataclasses.replace(get_controller("mrp-adrc"), control_period=0.15)
+    with pytest.raises(ValueError, match="^control_period: 'mrp-adrc' samples every 0.15 s"):
+        sampled_for(sc, odd)

@@ -229,6 +229,40 @@ def test_trapezoid_matches_numpy():
     assert trapezoid(y[:1], t[:1]).shape == (3, 2)
 
 
+@dataclass(frozen=True)
+class FakeResultCmd(FakeResult):
+    u_cmd: np.ndarray | None = None
+
+
+def test_command_reversals_count_sign_flips_above_the_floor():
+    t = np.arange(12.0)
+    axis = np.array([1.0, 0.0, 0.0])
+    # spacecraft 0: smooth accelerate/brake, one flip through a small command (below 5 % floor)
+    smooth = np.array([10, 8, 5, 2, 0.1, -0.2, -3, -5, -3, -1, -0.2, 0.0])
+    # spacecraft 1: a switching law chattering between ±1 (11 reversals), then one small flip
+    chatter = np.array([1, -1, 1, -1, 1, -1, 1, -1, 1, -1, 1, -1.0])
+    u_cmd = np.stack([smooth[:, None] * axis, chatter[:, None] * axis], axis=1)
+    K = t.shape[0]
+    res = FakeResultCmd(
+        t=t,
+        R=np.broadcast_to(np.eye(3), (K, 2, 3, 3)),
+        omega=np.zeros((K, 2, 3)),
+        R_d=np.broadcast_to(np.eye(3), (K, 2, 3, 3)),
+        omega_d=np.zeros((K, 2, 3)),
+        u=np.zeros((K, 2, 3)),
+        u_cmd=u_cmd,
+    )
+    m = compute_metrics(res)
+    np.testing.assert_array_equal(m.command_reversals, [0.0, 11.0])
+    # with a zero floor every sign change counts: 10 → … → 0.1 → −0.2 is one flip
+    m0 = compute_metrics(res, reversal_floor=1e-12)
+    np.testing.assert_array_equal(m0.command_reversals, [1.0, 11.0])
+    # no command in the log: not defined
+    assert np.isnan(compute_metrics(dataclasses.replace(res, u_cmd=None)).command_reversals).all()
+    with pytest.raises(ValueError, match="^reversal_floor"):
+        compute_metrics(res, reversal_floor=2.0)
+
+
 def test_bad_input_names_the_argument():
     t = np.linspace(0, 1, 5)
     res = regulation_log(t, 0 * t, 0 * t)

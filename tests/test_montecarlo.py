@@ -138,8 +138,17 @@ def test_unreachable_scheduler_is_a_clear_error(tmp_path, capsys):
         DaskExecutor("tcp://127.0.0.1:9", timeout=1.0)
     out = tmp_path / "mc"
     code = cli.main(
-        ["run", "--suite", "montecarlo", "--scheduler", "tcp://127.0.0.1:9", "--out", str(out),
-         "--scheduler-timeout", "1"]  # fmt: skip
+        [
+            "run",
+            "--suite",
+            "montecarlo",
+            "--scheduler",
+            "tcp://127.0.0.1:9",
+            "--out",
+            str(out),
+            "--scheduler-timeout",
+            "1",
+        ]  # fmt: skip
     )
     assert code == 2 and not out.exists()
     assert "cannot connect to the dask scheduler" in capsys.readouterr().err

@@ -26,6 +26,7 @@ from benchmarks.scenarios import (
     register_scenario,
     rest_to_rest,
     scale_principal_moments,
+    unregister_scenario,
 )
 from liecontrol.lie import so3
 
@@ -34,7 +35,15 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "benchmarks" / "scenarios"
 
 def test_catalogue_covers_spec_8_1():
     tags = {t for s in SCENARIOS.values() for t in s.tags}
-    assert {"stabilisation", "manoeuvre", "unwinding", "tracking", "uncertainty", "jitter", "se3"} <= tags
+    assert {
+        "stabilisation",
+        "manoeuvre",
+        "unwinding",
+        "tracking",
+        "uncertainty",
+        "jitter",
+        "se3",
+    } <= tags
     angles = {round(s.initial_error_deg, 3) for s in SCENARIOS.values() if "manoeuvre" in s.tags}
     assert {30.0, 90.0, 150.0, 179.0, 120.0} <= angles
     assert [s.name for s in QUICK_SUITE] == ["stabilisation", "slew-90", "slew-179"]
@@ -136,6 +145,11 @@ def test_register_scenario_adds_to_suites(monkeypatch):
         register_scenario(s)
     with pytest.raises(ValueError, match="^suite: unknown suite"):
         register_scenario(rest_to_rest(43.0), suites=("nope",))
+    unregister_scenario("my-42")
+    assert "my-42" not in mod.SCENARIOS
+    assert all(
+        x.name != "my-42" for x in mod.SUITES["quick"].scenarios + mod.SUITES["full"].scenarios
+    )
 
 
 def test_example_files_load():
@@ -172,7 +186,10 @@ def test_round_trip_through_the_file_schema(tmp_path):
 @pytest.mark.parametrize(
     ("text", "pattern"),
     [
-        ('[[scenario]]\nname = "a"\nfoo = 1\n', r"scenario\[0\] \(a\)\.foo: unknown key; valid: name"),
+        (
+            '[[scenario]]\nname = "a"\nfoo = 1\n',
+            r"scenario\[0\] \(a\)\.foo: unknown key; valid: name",
+        ),
         (
             '[[scenario]]\nname = "a"\n[scenario.reference]\nkind = "lvlh"\n',
             r"scenario\[0\] \(a\)\.reference\.kind: unknown reference kind 'lvlh'",
@@ -202,7 +219,7 @@ def test_round_trip_through_the_file_schema(tmp_path):
             r"scenario\[0\] \(a\)\.spacecraft\.preset: unknown preset 'hubble'; valid: seed000",
         ),
         ('[[scenario]]\ndescription = "x"\n', r"scenario\[0\]\.name: missing"),
-        ('[defaults]\ndt = 0.1\n', r"scenario: no \[\[scenario\]\] table found"),
+        ("[defaults]\ndt = 0.1\n", r"scenario: no \[\[scenario\]\] table found"),
         ('[[scenario]]\nname = "a"\n[[scenario]]\nname = "a"\n', r"scenario: duplicate names"),
         ('[[scenario]\nname = "a"\n', r"invalid TOML"),
         (
@@ -225,7 +242,13 @@ def test_file_level_errors(tmp_path):
     p.write_text("{}")
     with pytest.raises(sf.ScenarioFileError, match="unknown format '.json'"):
         sf.load_scenarios(p)
-    with pytest.raises(sf.ScenarioFileError, match=r"^scenario\.initial\.rotvec_deg: give one attitude form"):
-        sf.scenario_from_dict({"name": "a", "initial": {"rotvec": [0, 0, 0], "rotvec_deg": [0, 0, 0]}})
+    with pytest.raises(
+        sf.ScenarioFileError, match=r"^scenario\.initial\.rotvec_deg: give one attitude form"
+    ):
+        sf.scenario_from_dict(
+            {"name": "a", "initial": {"rotvec": [0, 0, 0], "rotvec_deg": [0, 0, 0]}}
+        )
     s = sf.scenario_from_dict({"name": "q", "initial": {"quaternion": [0.0, 0.0, 0.0, 1.0]}})
-    assert s.initial_error_deg == pytest.approx(180.0) and math.isclose(abs(s.initial_rotvec[2]), math.pi)
+    assert s.initial_error_deg == pytest.approx(180.0) and math.isclose(
+        abs(s.initial_rotvec[2]), math.pi
+    )

@@ -22,7 +22,9 @@ GEOMETRIC = ("geometric-pd-log", "geometric-pd-large-angle", "geometric-pd-trace
 @pytest.fixture(scope="module")
 def pair_result():
     # the q/−q pair only, coarse steps: the long way from −q at 90° is 270° (ratio 3)
-    cfg = UnwindingConfig(sweep_angles_deg=(), n_random=0, duration=250.0, dt=0.5, control_period=0.5)
+    cfg = UnwindingConfig(
+        sweep_angles_deg=(), n_random=0, duration=250.0, dt=0.5, control_period=0.5
+    )
     names = ("quaternion-pd-continuous", "quaternion-pd-switched", "mrp-pd") + GEOMETRIC
     return run_unwinding(names, cfg, executor="serial", progress=False)
 
@@ -81,6 +83,8 @@ def test_verdict_rules():
     assert verdict(_outcome(), cfg) == "converges"
     assert verdict(_outcome(unwinding_ratio=1.6), cfg) == "unwinds"
     assert verdict(_outcome(command_reversals=12.0), cfg) == "chatters"
+    # chattering inflates the path length: it takes precedence over unwinding
+    assert verdict(_outcome(command_reversals=12.0, unwinding_ratio=2.0), cfg) == "chatters"
     assert verdict(_outcome(final_error_deg=3.0), cfg) == "not converged"
     assert verdict(_outcome(unwinding_ratio=math.nan, final_error_deg=0.0), cfg) == "converges"
     assert verdict(RunOutcome("c", "x", "failed", "boom"), cfg) == "failed"

@@ -46,6 +46,7 @@ __all__ = [
     "rk4_step_unchecked",
     "rkmk4_step",
     "rkmk4_step_unchecked",
+    "rkmk4_step_floats",
     "integrate",
     "Trajectory",
     "RKMK4Field",
@@ -157,9 +158,21 @@ def rk4_step_unchecked(f: RK4Field, t: float, y: np.ndarray, h: float) -> np.nda
 
 
 def rkmk4_step_unchecked(
-    f: RKMK4Field, t: float, R: np.ndarray, x: np.ndarray, h: float
+    f: RKMK4Field,
+    t: float,
+    R: np.ndarray,
+    x: np.ndarray,
+    h: float,
+    *,
+    stage_attitude: bool = True,
 ) -> tuple[np.ndarray, np.ndarray]:
     """One RKMK4 step on SO(3) × ℝⁿ with no validation (hot path; see the module docstring).
+
+    ``stage_attitude=False`` declares that ``f`` does not read its ``R`` argument (e.g. a plant
+    without attitude-dependent torques): the stages then pass ``R=None`` instead of
+    ``R e^θ``. The chart update (dexp⁻¹) needs only θ, so the result is bitwise the same and
+    three of the four exponentials and 3×3 products per step are skipped (~12 % of a batched
+    closed-loop step at B = 1000).
 
     Stages (classical RK4 tableau on the chart θ, θ₁ = 0):
     K₁ = ω(t, R, x); θ₂ = h/2 K₁; K₂ = dexp⁻¹_θ₂ ω(t + h/2, R e^θ₂, x + h/2 ẋ₁); θ₃ = h/2 K₂;
@@ -168,17 +181,17 @@ def rkmk4_step_unchecked(
     R_{k+1} = R exp(h/6 (K₁ + 2K₂ + 2K₃ + K₄)), x_{k+1} = x + h/6 (ẋ₁ + 2ẋ₂ + 2ẋ₃ + ẋ₄).
     """
     if R.size == 9:
-        return _rkmk4_step_one(f, t, R, x, h)
+        return _rkmk4_step_one(f, t, R, x, h, stage_attitude)
     h2 = 0.5 * h
     w1, d1 = f(t, R, x)
     th = h2 * w1
-    w2, d2 = f(t + h2, R @ _exp(th), x + h2 * d1)
+    w2, d2 = f(t + h2, R @ _exp(th) if stage_attitude else None, x + h2 * d1)
     k2 = _dexpinv(th, w2)
     th = h2 * k2
-    w3, d3 = f(t + h2, R @ _exp(th), x + h2 * d2)
+    w3, d3 = f(t + h2, R @ _exp(th) if stage_attitude else None, x + h2 * d2)
     k3 = _dexpinv(th, w3)
     th = h * k3
-    w4, d4 = f(t + h, R @ _exp(th), x + h * d3)
+    w4, d4 = f(t + h, R @ _exp(th) if stage_attitude else None, x + h * d3)
     k4 = _dexpinv(th, w4)
     h6 = h / 6.0
     k2 += k3
@@ -196,7 +209,12 @@ def rkmk4_step_unchecked(
 
 
 def _rkmk4_step_one(
-    f: RKMK4Field, t: float, R: np.ndarray, x: np.ndarray, h: float
+    f: RKMK4Field,
+    t: float,
+    R: np.ndarray,
+    x: np.ndarray,
+    h: float,
+    stage_attitude: bool = True,
 ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`rkmk4_step_unchecked` for a single body: the Lie-algebra arithmetic runs on Python
     floats, several times faster than numpy on 1-element arrays; same scheme, same result."""
@@ -204,13 +222,13 @@ def _rkmk4_step_one(
     w1, d1 = f(t, R, x)
     a0, a1, a2 = w1.ravel().tolist()
     u0, u1, u2 = h2 * a0, h2 * a1, h2 * a2
-    w2, d2 = f(t + h2, R @ _exp_f(u0, u1, u2), x + h2 * d1)
+    w2, d2 = f(t + h2, R @ _exp_f(u0, u1, u2) if stage_attitude else None, x + h2 * d1)
     b0, b1, b2 = _dexpinv_f(u0, u1, u2, w2.ravel().tolist())
     u0, u1, u2 = h2 * b0, h2 * b1, h2 * b2
-    w3, d3 = f(t + h2, R @ _exp_f(u0, u1, u2), x + h2 * d2)
+    w3, d3 = f(t + h2, R @ _exp_f(u0, u1, u2) if stage_attitude else None, x + h2 * d2)
     c0, c1, c2 = _dexpinv_f(u0, u1, u2, w3.ravel().tolist())
     u0, u1, u2 = h * c0, h * c1, h * c2
-    w4, d4 = f(t + h, R @ _exp_f(u0, u1, u2), x + h * d3)
+    w4, d4 = f(t + h, R @ _exp_f(u0, u1, u2) if stage_attitude else None, x + h * d3)
     e0, e1, e2 = _dexpinv_f(u0, u1, u2, w4.ravel().tolist())
     h6 = h / 6.0
     dx = d2 + d3
@@ -224,6 +242,62 @@ def _rkmk4_step_one(
         h6 * (a2 + 2.0 * (b2 + c2) + e2),
     )
     return R_next, x + dx
+
+
+#: f(t, R, x) -> (omega, x_dot) on Python floats: x a list of n floats, omega 3 floats and
+#: x_dot n floats (sequences); R ``(1, 3, 3)`` or ``None`` (see ``stage_attitude``).
+RKMK4FloatField = Callable[[float, "np.ndarray | None", list], tuple[tuple[float, ...], list]]
+
+
+def rkmk4_step_floats(
+    f: RKMK4FloatField,
+    t: float,
+    R: np.ndarray,
+    x: list,
+    h: float,
+    stage_attitude: bool = True,
+) -> tuple[np.ndarray, list]:
+    """:func:`rkmk4_step_unchecked` for one body whose ℝⁿ state is a list of Python floats and
+    whose field returns floats: no numpy array is created in the stages (a single spacecraft's
+    plant costs more in array round trips than in arithmetic). Every operation is the one the
+    array route does, in the same order (``x + h/2·ẋ`` per element, ``dx = ((ẋ₂ + ẋ₃)·2 + ẋ₁ +
+    ẋ₄)·h/6``), so the result is bitwise the same. Returns ``(R_next (1, 3, 3), x_next list)``.
+    No validation (hot path of :meth:`spacecraft.plant.Spacecraft.step_packed`).
+    """
+    h2 = 0.5 * h
+    (a0, a1, a2), d1 = f(t, R, x)
+    u0, u1, u2 = h2 * a0, h2 * a1, h2 * a2
+    w2, d2 = f(
+        t + h2,
+        R @ _exp_f(u0, u1, u2) if stage_attitude else None,
+        [xi + h2 * di for xi, di in zip(x, d1, strict=True)],
+    )
+    b0, b1, b2 = _dexpinv_f(u0, u1, u2, w2)
+    u0, u1, u2 = h2 * b0, h2 * b1, h2 * b2
+    w3, d3 = f(
+        t + h2,
+        R @ _exp_f(u0, u1, u2) if stage_attitude else None,
+        [xi + h2 * di for xi, di in zip(x, d2, strict=True)],
+    )
+    c0, c1, c2 = _dexpinv_f(u0, u1, u2, w3)
+    u0, u1, u2 = h * c0, h * c1, h * c2
+    w4, d4 = f(
+        t + h,
+        R @ _exp_f(u0, u1, u2) if stage_attitude else None,
+        [xi + h * di for xi, di in zip(x, d3, strict=True)],
+    )
+    e0, e1, e2 = _dexpinv_f(u0, u1, u2, w4)
+    h6 = h / 6.0
+    x_next = [
+        xi + (((p2 + p3) * 2.0 + p1) + p4) * h6
+        for xi, p1, p2, p3, p4 in zip(x, d1, d2, d3, d4, strict=True)
+    ]
+    R_next = R @ _exp_f(
+        h6 * (a0 + 2.0 * (b0 + c0) + e0),
+        h6 * (a1 + 2.0 * (b1 + c1) + e1),
+        h6 * (a2 + 2.0 * (b2 + c2) + e2),
+    )
+    return R_next, x_next
 
 
 # ---------------------------------------------------------------------------------------------
