@@ -30,7 +30,7 @@ from benchmarks.scenarios import (
 )
 from liecontrol.lie import so3
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "benchmarks" / "scenarios"
+EXAMPLES = Path(__file__).resolve().parents[1] / "benchmarks" / "data"
 
 
 def test_catalogue_covers_spec_8_1():
