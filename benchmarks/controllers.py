@@ -363,6 +363,22 @@ def _tsm(ctx: ControllerContext) -> Any:
     return TerminalSlidingModeSO3(ctx.J, T=300.0, K=1e-4, delta0=0.03, delta1=5.0, base="reference")
 
 
+def _payload_pid_ff(ctx: ControllerContext) -> Any:
+    """SmallAnglePIDWithFeedforward (seed 003): 0.02 Hz Euler PID + identified harmonic
+    feed-forward at the seed-003 payload rate (90°/s), Δt_p = 0.1 s, Δt_c = 0.2 s, on from t = 0."""
+    from liecontrol.control.payload_compensation import SmallAnglePIDWithFeedforward
+    from spacecraft.payload import SEED003_SPIN_RATE
+
+    return SmallAnglePIDWithFeedforward(
+        ctx.J,
+        payload_frequency=SEED003_SPIN_RATE,
+        dt_c=0.2,
+        dt_p=0.1,
+        mode="identify",
+        compensation_start=0.0,
+    )
+
+
 def _se3_gains(ctx: ControllerContext) -> dict[str, Any]:
     from liecontrol.control.se3_control import pose_gains_from_bandwidth
 
@@ -411,6 +427,15 @@ def _register_builtins() -> None:
         )
     register("mrp-pd", _mrp_pd, family="chart")
     register("euler-tsm", _tsm, family="chart")
+    register(
+        "payload-pid-ff",
+        _payload_pid_ff,
+        family="chart",
+        control_period=0.1,
+        quick=False,
+        exclude_tags=("manoeuvre", "unwinding", "large-angle"),
+        notes="small-angle Euler PID: for pointing and jitter, not for large slews",
+    )
     register("se3-tracking", _se3_tracking, plants={"se3"}, family="se3", quick=False)
     register("bullo-murray-pd", _bullo_murray, plants={"se3"}, family="se3", quick=False)
 

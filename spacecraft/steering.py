@@ -427,7 +427,15 @@ def _saturate_unchecked(dd: np.ndarray, lim: float | np.ndarray) -> tuple[np.nda
         flag = peak > lim
         out = dd * (lim / peak) if flag else dd.copy()
         return out, np.full(dd.shape[:-1], flag)
-    peak = np.abs(dd).max(axis=-1)
+    a = np.abs(dd)
+    if a.ndim == 2 and a.shape[0] > _SMALL_BATCH:
+        # column-wise maxima: reducing the short last axis of a long (B, n) array is ~5× slower
+        # (max is exact and np.maximum propagates NaN like max, so the result is the same)
+        peak = a[:, 0].copy()
+        for j in range(1, a.shape[1]):
+            np.maximum(peak, a[:, j], out=peak)
+    else:
+        peak = a.max(axis=-1)
     saturated = peak > lim
     scale = np.where(saturated, lim / np.where(saturated, peak, 1.0), 1.0)
     return dd * scale[..., None], np.broadcast_to(saturated, peak.shape).copy()

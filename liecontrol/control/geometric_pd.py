@@ -343,9 +343,11 @@ class GeometricPD(AttitudeController):
             if M is not None:
                 return M
 
-        # R̃ᵀ = RᵀR_d maps desired-body vectors into the body frame
-        RtT = np.swapaxes(R, -1, -2) @ R_d
-        Rt = np.swapaxes(RtT, -1, -2)
+        # R̃ = R_dᵀR formed directly (the same products summed in the same order as (RᵀR_d)ᵀ),
+        # so the error kernel gets a contiguous array (so3.log would copy a transposed view);
+        # R̃ᵀ = RᵀR_d, which maps desired-body vectors into the body frame, is its view
+        Rt = np.swapaxes(R_d, -1, -2) @ R
+        RtT = np.swapaxes(Rt, -1, -2)
         if self.error == "trace":
             Psi, e_R = self._kernel(Rt, self.G)
         else:
