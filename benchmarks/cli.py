@@ -123,6 +123,16 @@ def _error(msg: str) -> int:
     return 2
 
 
+def _horizon(args: argparse.Namespace, duration: float) -> float:
+    """The run length [s] asked for by ``--t-final`` (absolute) or ``--horizon-scale`` (× the
+    default ``duration``); ``duration`` itself when neither is given."""
+    if args.t_final is not None:
+        return args.t_final
+    if args.horizon_scale is not None:
+        return duration * args.horizon_scale
+    return duration
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
     from .controllers import get_controller, quick_controllers
     from .executors import ExecutorUnavailable, make_executor
@@ -163,10 +173,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
             raise ValueError(f"horizon-scale: must be > 0, got {args.horizon_scale}")
     except ValueError as exc:
         return _error(str(exc))
-    if args.t_final is not None:
-        scenarios = tuple(s.with_duration(args.t_final) for s in scenarios)
-    elif args.horizon_scale is not None:
-        scenarios = tuple(s.with_duration(s.duration * args.horizon_scale) for s in scenarios)
+    if args.t_final is not None or args.horizon_scale is not None:
+        scenarios = tuple(s.with_duration(_horizon(args, s.duration)) for s in scenarios)
 
     try:
         executor = make_executor(
@@ -186,10 +194,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
             kw = {} if args.seed is None else {"seed": args.seed}
             cfg = unwinding.UnwindingConfig(**kw)
-            if args.t_final is not None:
-                cfg = dataclasses.replace(cfg, duration=args.t_final)
-            elif args.horizon_scale is not None:
-                cfg = dataclasses.replace(cfg, duration=cfg.duration * args.horizon_scale)
+            cfg = dataclasses.replace(cfg, duration=_horizon(args, cfg.duration))
             res = unwinding.run_unwinding(controllers, cfg, executor=executor, progress=progress)
             path = unwinding.write_unwinding_report(res, args.out, figures=figures)
             n_runs, n_failed = len(res.records), res.n_failed
@@ -209,10 +214,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 cfg = montecarlo.MonteCarloConfig(**kw)
             except ValueError as exc:
                 return _error(str(exc))
-            if args.t_final is not None:
-                cfg = dataclasses.replace(cfg, duration=args.t_final)
-            elif args.horizon_scale is not None:
-                cfg = dataclasses.replace(cfg, duration=cfg.duration * args.horizon_scale)
+            cfg = dataclasses.replace(cfg, duration=_horizon(args, cfg.duration))
             res = montecarlo.run_montecarlo(controllers, cfg, executor=executor, progress=progress)
             path = montecarlo.write_montecarlo_report(res, args.out, figures=figures)
             n_runs, n_failed = len(res.records), res.n_failed

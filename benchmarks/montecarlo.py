@@ -418,7 +418,7 @@ def write_montecarlo_report(
 ) -> Path:
     """``montecarlo.md`` (success rates, metric quantiles, failures), ``montecarlo.csv``/
     ``.json`` and histogram/box-plot figures; returns the Markdown path."""
-    from .report import fmt, markdown_table
+    from .report import figures_section, fmt, markdown_table
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -484,17 +484,14 @@ def write_montecarlo_report(
             seen.add(key)
             n = sum(1 for x in failed if (x["controller"], x["error"]) == key)
             lines.append(f"- `{r['controller']}` ({n} samples): {r['error']}")
-    if figs:
-        lines += ["", "## Figures", ""]
-        for name, p in figs.items():
-            lines += [f"### {name}", "", f"![{name}]({p.relative_to(out).as_posix()})", ""]
+    lines += figures_section(figs, out)
     path = out / "montecarlo.md"
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path
 
 
 def _figures(result: MonteCarloResult, fig_dir: Path) -> dict[str, Path]:
-    from .report import _plt, controller_colors
+    from .report import _plt, controller_colors, save_png
 
     plt = _plt()
     fig_dir.mkdir(parents=True, exist_ok=True)
@@ -523,10 +520,7 @@ def _figures(result: MonteCarloResult, fig_dir: Path) -> dict[str, Path]:
         ax.set_ylabel(label if key != "final_error_deg" else "log₁₀ final error [deg]")
         ax.grid(True, axis="y", alpha=0.3)
     fig.suptitle("Monte Carlo metric distributions (box plots)", fontsize=10)
-    p = fig_dir / "boxplots.png"
-    fig.savefig(p, dpi=90)
-    plt.close(fig)
-    out["metric distributions (box plots)"] = p
+    out["metric distributions (box plots)"] = save_png(fig, fig_dir / "boxplots.png")
 
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.5), constrained_layout=True)
     for c in result.controllers:
@@ -549,8 +543,6 @@ def _figures(result: MonteCarloResult, fig_dir: Path) -> dict[str, Path]:
     axes[1].set_ylabel(f"success rate [%] (final error ≤ {result.config.success_deg:g}°)")
     axes[1].set_ylim(0, 105)
     axes[1].grid(True, axis="y", alpha=0.3)
-    p = fig_dir / "histogram_success.png"
-    fig.savefig(p, dpi=90)
-    plt.close(fig)
-    out["settling-time histogram and success rate"] = p
+    path = save_png(fig, fig_dir / "histogram_success.png")
+    out["settling-time histogram and success rate"] = path
     return out

@@ -37,6 +37,7 @@ __all__ = [
     "write_figures",
     "fmt",
     "markdown_table",
+    "figures_section",
 ]
 
 #: (field, column title) of the per-metric tables, in order (SPEC §8.2).
@@ -80,6 +81,18 @@ def markdown_table(header: list[str], rows: list[list[str]]) -> list[str]:
     """Lines of a Markdown table (cells escaped)."""
     lines = ["| " + " | ".join(_esc(h) for h in header) + " |", "|" + "---|" * len(header)]
     lines += ["| " + " | ".join(_esc(c) for c in r) + " |" for r in rows]
+    return lines
+
+
+def figures_section(figs: dict[str, Path], root: Path) -> list[str]:
+    """Markdown lines of a "Figures" section embedding ``figs`` (``{title: path}``) with paths
+    relative to ``root`` (the report's folder); no lines when there are no figures."""
+    if not figs:
+        return []
+    lines = ["", "## Figures", ""]
+    for name, path in figs.items():
+        rel = Path(path).relative_to(root).as_posix()
+        lines += [f"### {name}", "", f"![{name}]({rel})", ""]
     return lines
 
 
@@ -193,11 +206,7 @@ def write_report(result: SuiteResult, out_dir: Path, *, figures: bool = True) ->
         lines += ["", "## Failures", ""]
         for o in failed:
             lines.append(f"- `{o.controller}` on `{o.scenario}`: {_esc(o.error or '')}")
-    if figs:
-        lines += ["", "## Figures", ""]
-        for name, path in figs.items():
-            rel = path.relative_to(out_dir).as_posix()
-            lines += [f"### {name}", "", f"![{name}]({rel})", ""]
+    lines += figures_section(figs, out_dir)
     path = out_dir / "report.md"
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path
@@ -267,6 +276,13 @@ def _plt() -> Any:
     return plt
 
 
+def save_png(fig: Any, path: Path) -> Path:
+    """Save a report figure (90 dpi) and close it (figures are not reused); return ``path``."""
+    fig.savefig(path, dpi=90)
+    _plt().close(fig)
+    return path
+
+
 def controller_colors(names: Sequence[str]) -> dict[str, Any]:
     """A distinct colour per controller (tab20), stable for a given list."""
     import matplotlib
@@ -322,10 +338,7 @@ def write_figures(result: SuiteResult, fig_dir: Path) -> dict[str, Path]:
         if handles:
             fig.legend(handles, labels, loc="outside right center", fontsize=7)
         fig.suptitle(f"{s.name}: {s.description}", fontsize=10)
-        path = fig_dir / f"{s.name}.png"
-        fig.savefig(path, dpi=90)
-        plt.close(fig)
-        out[s.name] = path
+        out[s.name] = save_png(fig, fig_dir / f"{s.name}.png")
     path = _overview_figure(result, fig_dir / "overview.png")
     if path is not None:
         out["overview"] = path
@@ -369,6 +382,4 @@ def _overview_figure(result: SuiteResult, path: Path) -> Path | None:
     ax.set_title(
         "settling time to 0.1° [s]\n(no: not settled, fail: failed, —: does not apply)", fontsize=9
     )
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-    return path
+    return save_png(fig, path)

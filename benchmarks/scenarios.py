@@ -46,7 +46,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from liecontrol._validation import as_array, check_inertia, check_positive, check_rotation_matrix
+from liecontrol._validation import (
+    as_array,
+    check_inertia,
+    check_inertia_3x3,
+    check_positive,
+    check_rotation_matrix,
+)
 
 __all__ = [
     "SEED000_INERTIA",
@@ -114,9 +120,7 @@ def _tuple3(x: object, name: str) -> tuple[float, float, float]:
 
 
 def _matrix3(x: object, name: str) -> tuple[tuple[float, ...], ...]:
-    J = check_inertia(x, name)
-    if J.shape != (3, 3):
-        raise ValueError(f"{name}: expected shape (3, 3), got {J.shape}")
+    J = check_inertia_3x3(x, name)
     return tuple(tuple(float(v) for v in row) for row in J)
 
 

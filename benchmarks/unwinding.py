@@ -302,7 +302,7 @@ def write_unwinding_report(
     Markdown path."""
     import csv
 
-    from .report import markdown_table
+    from .report import figures_section, markdown_table
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -386,17 +386,14 @@ def write_unwinding_report(
     if failed:
         lines += ["", "## Failures", ""]
         lines += [f"- `{r.controller}` on `{r.case}`: {r.error}" for r in failed]
-    if figs:
-        lines += ["", "## Figures", ""]
-        for name, p in figs.items():
-            lines += [f"### {name}", "", f"![{name}]({p.relative_to(out).as_posix()})", ""]
+    lines += figures_section(figs, out)
     path = out / "unwinding.md"
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path
 
 
 def _figures(result: UnwindingResult, fig_dir: Path) -> dict[str, Path]:
-    from .report import _plt, controller_colors
+    from .report import _plt, controller_colors, save_png
 
     plt = _plt()
     fig_dir.mkdir(parents=True, exist_ok=True)
@@ -422,10 +419,7 @@ def _figures(result: UnwindingResult, fig_dir: Path) -> dict[str, Path]:
         ax.set_title("settling time vs initial angle")
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
-        p = fig_dir / "settling_vs_angle.png"
-        fig.savefig(p, dpi=90)
-        plt.close(fig)
-        out["settling time vs initial angle"] = p
+        out["settling time vs initial angle"] = save_png(fig, fig_dir / "settling_vs_angle.png")
 
     pair = [r for r in recs if r.kind == "pair"]
     if pair:
@@ -444,10 +438,7 @@ def _figures(result: UnwindingResult, fig_dir: Path) -> dict[str, Path]:
         ax.set_title(f"q vs −q start at {result.config.pair_angle_deg:g}°")
         ax.legend(fontsize=8)
         ax.grid(True, axis="y", alpha=0.3)
-        p = fig_dir / "pair_unwinding_ratio.png"
-        fig.savefig(p, dpi=90)
-        plt.close(fig)
-        out["unwinding ratio, q vs −q"] = p
+        out["unwinding ratio, q vs −q"] = save_png(fig, fig_dir / "pair_unwinding_ratio.png")
 
     rnd = [r for r in recs if r.kind == "random"]
     if rnd:
@@ -467,8 +458,5 @@ def _figures(result: UnwindingResult, fig_dir: Path) -> dict[str, Path]:
         ax.set_title("Haar-random starts")
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
-        p = fig_dir / "random_starts.png"
-        fig.savefig(p, dpi=90)
-        plt.close(fig)
-        out["Haar-random starts"] = p
+        out["Haar-random starts"] = save_png(fig, fig_dir / "random_starts.png")
     return out

@@ -14,6 +14,7 @@ __all__ = [
     "check_shape_tail",
     "check_rotation_matrix",
     "check_inertia",
+    "check_inertia_3x3",
     "check_positive",
     "check_nonnegative",
     "ROTATION_ATOL",
@@ -86,6 +87,15 @@ def check_inertia(J: object, name: str = "J", rtol: float = 1e-9) -> np.ndarray:
             f"{name}: principal moments violate the triangle inequality "
             f"(J1 + J2 < J3 by {float(-slack.min()):.3e})"
         )
+    return a
+
+
+def check_inertia_3x3(J: object, name: str = "J") -> np.ndarray:
+    """:func:`check_inertia` for exactly one inertia matrix: also rejects a batch (shape not
+    ``(3, 3)``). Returns the validated float64 array (not a copy when ``J`` already is one)."""
+    a = check_inertia(J, name)
+    if a.shape != (3, 3):
+        raise ValueError(f"{name}: expected shape (3, 3), got {a.shape}")
     return a
 
 

@@ -384,7 +384,9 @@ class SgcmgActuator(Actuator):
         np.multiply(W[..., 4:], delta_dot, out=V[..., :4])
         np.multiply(W[..., :4], delta_dot, out=V[..., 4:])
         if hc[0] is None:
-            hc[0] = W @ M
+            h = W @ M
+            h.setflags(write=False)
+            hc[0] = h
         return hc[0], V @ self._M_rate
 
     def __repr__(self) -> str:
@@ -432,6 +434,7 @@ class SgcmgActuator(Actuator):
             # contiguous (B,) rows — the layout the batched steering algebra works in
             Y = self._K.T @ W.T
             h = Y[:3].T
+            h.setflags(write=False)  # shared through the cache (momentum() returns a copy)
             hc[0] = h
             A = Y[3:].reshape(3, 4, -1).transpose(2, 0, 1)
         h_dot_cmd = _cross(omega, h)
@@ -559,7 +562,9 @@ class SgcmgActuator(Actuator):
         if delta.ndim == 2 and delta.shape[0] > 1:
             W, hc = self._trig(delta)
             if hc[0] is None:
-                hc[0] = W @ self._fast
+                h = W @ self._fast
+                h.setflags(write=False)
+                hc[0] = h
             return hc[0].copy()  # the caller owns its result; the cached h stays intact
         W = np.empty(delta.shape[:-1] + (8,))
         np.sin(delta, out=W[..., :4])

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from liecontrol._validation import as_array, check_inertia
+from liecontrol._validation import as_array, check_inertia_3x3
 
 from .orbit import CircularOrbit
 
@@ -50,9 +50,7 @@ class GravityGradientTorque:
     orbit: CircularOrbit
 
     def __post_init__(self) -> None:
-        J = check_inertia(self.J, "J").copy()
-        if J.shape != (3, 3):
-            raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+        J = check_inertia_3x3(self.J, "J").copy()
         J.setflags(write=False)
         object.__setattr__(self, "J", J)
         if not isinstance(self.orbit, CircularOrbit):

@@ -36,7 +36,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Protocol, runtime_checkable
+from typing import ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -325,6 +325,8 @@ class RotatingPayloadTorque:
     """Disturbance source ``(t, R, omega) -> (B, 3)``: the sum of several payloads' torques."""
 
     payloads: Sequence[RotatingPayload]
+    #: the torque depends on t and ω only: the plant may pass ``R=None`` in its RK stages
+    uses_attitude: ClassVar[bool] = False
 
     def __post_init__(self) -> None:
         ps = (self.payloads,) if isinstance(self.payloads, RotatingPayload) else self.payloads

@@ -32,11 +32,31 @@ from liecontrol._validation import as_array, check_rotation_matrix
 from liecontrol.integrators.rk import rkmk4_step, rkmk4_step_floats, rkmk4_step_unchecked
 
 from .actuators import Actuator
-from .disturbances import DisturbanceSource
+from .disturbances import (
+    ConstantTorque,
+    DisturbanceSource,
+    Seed000Disturbance,
+    SumOfDisturbances,
+    ZeroDisturbance,
+)
 from .flexible import FlexibleModes
 from .rigid_body import RigidBody
 
 __all__ = ["PlantState", "Spacecraft"]
+
+#: sources known not to read the attitude (exact types: a subclass may override ``__call__``)
+_ATTITUDE_FREE = (ZeroDisturbance, ConstantTorque, Seed000Disturbance)
+
+
+def _reads_attitude(source: object) -> bool:
+    """Whether a disturbance source may read its ``R`` argument: ``False`` for the known
+    attitude-free sources, for a source with ``uses_attitude = False`` and for a sum of such
+    sources; ``True`` otherwise (the safe default)."""
+    if type(source) in _ATTITUDE_FREE:
+        return False
+    if isinstance(source, SumOfDisturbances):
+        return any(_reads_attitude(s) for s in source.sources.values())
+    return bool(getattr(source, "uses_attitude", True))
 
 
 @dataclass(frozen=True)
@@ -93,6 +113,7 @@ class Spacecraft:
     modes: FlexibleModes | None = None
     _Js_inv: np.ndarray | None = field(init=False, repr=False, default=None)
     _slices: tuple = field(init=False, repr=False, default=())
+    _stage_attitude: bool = field(init=False, repr=False, compare=False, default=True)
 
     def __post_init__(self) -> None:
         if not isinstance(self.body, RigidBody):
@@ -113,6 +134,13 @@ class Spacecraft:
             object.__setattr__(self, "_Js_inv", Js_inv)
         a, N = 3 + self.n_act, self.n_modes
         object.__setattr__(self, "_slices", (slice(3, a), slice(a, a + N), slice(a + N, a + 2 * N)))
+        # only the disturbance reads the attitude inside the RK stages: if it does not, the
+        # integrator may skip the stage attitudes R e^θ (:meth:`step_packed`)
+        object.__setattr__(
+            self,
+            "_stage_attitude",
+            self.disturbance is not None and _reads_attitude(self.disturbance),
+        )
 
     @property
     def n_act(self) -> int:
@@ -330,9 +358,10 @@ class Spacecraft:
     ) -> tuple[np.ndarray, np.ndarray]:
         """One RKMK4 step on packed arrays ``x = (ω, x_act, q, q̇)`` — the simulator's hot path:
         no validation, and a non-finite state is returned as is (the simulator checks)."""
-        # only the disturbance reads the attitude: without one the integrator may skip the
-        # stage attitudes R e^θ (same result, three exponentials and 3×3 products fewer)
-        stage_attitude = self.disturbance is not None
+        # only the disturbance reads the attitude: without one that does, the integrator skips
+        # the stage attitudes R e^θ and passes R=None (same result, three exponentials and 3×3
+        # products fewer per step)
+        stage_attitude = self._stage_attitude
         if x.shape[0] == 1 and self.modes is None:
             stage = getattr(self.actuator, "float_stage", lambda held: None)(held)
             if stage is not None:

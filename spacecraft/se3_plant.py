@@ -48,7 +48,7 @@ import numpy as np
 
 from liecontrol._linalg import cross as _cross
 from liecontrol._linalg import matvec as _mv
-from liecontrol._validation import as_array, check_inertia, check_nonnegative, check_positive
+from liecontrol._validation import as_array, check_inertia_3x3, check_nonnegative, check_positive
 from liecontrol.control.se3_control import (
     PoseController,
     PoseReference,
@@ -221,9 +221,7 @@ class SE3Plant:
         if m.ndim != 0:
             raise ValueError(f"m: must be a scalar, got shape {m.shape}")
         object.__setattr__(self, "m", float(check_positive(m, "m")))
-        J = check_inertia(self.J, "J")
-        if J.shape != (3, 3):
-            raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+        J = check_inertia_3x3(self.J, "J")
         J = J.copy()
         J.setflags(write=False)
         object.__setattr__(self, "J", J)

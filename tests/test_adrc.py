@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import SEED000_J
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -24,7 +25,7 @@ from liecontrol.control.base import AttitudeState
 from liecontrol.control.reference import ConstantAttitude
 from liecontrol.lie import so3
 
-J = np.array([[15053.0, 3000.0, -1000.0], [3000.0, 6510.0, 2000.0], [-1000.0, 2000.0, 11122.0]])
+J = SEED000_J
 
 
 class _S:

@@ -11,54 +11,17 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import SEED000_J, OnePerSpacecraft, seed000_spacecraft
 
-from liecontrol.control import AttitudeController, AttitudeState, ConstantAttitude
+from liecontrol.control import ConstantAttitude
 from liecontrol.control.geometric_pd import GeometricPD, gains_from_bandwidth
 from liecontrol.lie import so3
-from spacecraft import (
-    RigidBody,
-    SgcmgActuator,
-    SgcmgPyramid,
-    SingularityRobust,
-    Spacecraft,
-    simulate,
-)
+from spacecraft import simulate
 
-J = np.array([[15053.0, 3000.0, -1000.0], [3000.0, 6510.0, 2000.0], [-1000.0, 2000.0, 11122.0]])
+J = SEED000_J
 H0 = 300.0
 RATE_LIMIT = 1.0
 DT = 0.1
-
-
-class OnePerSpacecraft(AttitudeController):
-    """Spacecraft ``b`` is flown by ``controllers[b]``: several designs in one batched run."""
-
-    def __init__(self, controllers):
-        self.controllers = controllers
-
-    def reset(self, t0, batch_size):
-        assert batch_size == len(self.controllers)
-        for c in self.controllers:
-            c.reset(t0, 1)
-
-    def command(self, t, state, reference):
-        out = []
-        for b, c in enumerate(self.controllers):
-            s = slice(b, b + 1)
-            out.append(
-                c.command(t, AttitudeState(state.R[s], state.omega[s], state.h[s]), reference)
-            )
-        return np.concatenate(out, axis=0)
-
-    def diagnostics(self):
-        d = [c.diagnostics() for c in self.controllers]
-        return {k: np.concatenate([x[k] for x in d], axis=0) for k in d[0]}
-
-
-def _seed000_plant():
-    cluster = SgcmgPyramid(h0=H0, beta=np.deg2rad(54.73), gimbal_rate_limit=RATE_LIMIT)
-    actuator = SgcmgActuator(cluster, SingularityRobust(), delta0=np.deg2rad([45, -45, 45, -45]))
-    return Spacecraft(RigidBody(J), actuator)
 
 
 def _pd(error):
@@ -98,7 +61,7 @@ def _check_plant_health(plant, res):
 @pytest.fixture(scope="module")
 def maneuver_90():
     """90° rest-to-rest about a generic body axis, the three error functions in one batch."""
-    plant = _seed000_plant()
+    plant = seed000_spacecraft(h0=H0, gimbal_rate_limit=RATE_LIMIT)
     errors = ("trace", "log", "large_angle")
     axis = np.array([1.0, 2.0, 3.0]) / np.sqrt(14.0)
     R_d = so3.exp(np.deg2rad(90.0) * axis)
@@ -130,7 +93,7 @@ def test_large_angle_beats_trace_near_180deg():
     torque-free and creeps away from the antipode, while the large-angle error sin(θ/2) ≈ 1 pushes
     at once (survey seed 002; Lee 2012). Same linear design for both, so this is the error
     function's doing."""
-    plant = _seed000_plant()
+    plant = seed000_spacecraft(h0=H0, gimbal_rate_limit=RATE_LIMIT)
     R_d = so3.exp(np.deg2rad(179.0) * np.array([1.0, 0.0, 0.0]))
     res = simulate(
         plant,

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import attitude_reference as ref
 
 from liecontrol import errors as E
 from liecontrol.control import (
@@ -19,17 +20,6 @@ from liecontrol.lie import so3
 
 KINDS = ("trace", "large_angle", "log")
 J0 = np.array([[10.0, 0.5, -0.2], [0.5, 12.0, 0.3], [-0.2, 0.3, 8.0]])
-
-
-def ref(R_d, w_d=None, dw_d=None) -> AttitudeReference:
-    R_d = np.asarray(R_d, float)
-    shape = R_d.shape[:-2] + (3,)
-    z = np.zeros(shape)
-    return AttitudeReference(
-        R_d=R_d,
-        omega_d=z if w_d is None else np.asarray(w_d, float),
-        omega_dot_d=z if dw_d is None else np.asarray(dw_d, float),
-    )
 
 
 def make(kind="large_angle", k_R=3.0, k_Omega=8.0, J=J0, B=1, **kw) -> GeometricPD:

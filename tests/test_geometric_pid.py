@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import SEED000_J, OnePerSpacecraft, seed000_spacecraft
+from conftest import attitude_reference as ref
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
@@ -13,8 +15,6 @@ from scipy.integrate import solve_ivp
 
 from liecontrol import errors as E
 from liecontrol.control import (
-    AttitudeController,
-    AttitudeReference,
     AttitudeState,
     ConstantAttitude,
 )
@@ -28,69 +28,19 @@ from liecontrol.control.geometric_pid import (
 from liecontrol.lie import so3
 from spacecraft import (
     ConstantTorque,
-    RigidBody,
-    SgcmgActuator,
-    SgcmgPyramid,
-    SingularityRobust,
-    Spacecraft,
     simulate,
 )
 
 J0 = np.array([[10.0, 0.5, -0.2], [0.5, 12.0, 0.3], [-0.2, 0.3, 8.0]])
-# seed-000 spacecraft (as tests/test_closed_loop.py)
-J = np.array([[15053.0, 3000.0, -1000.0], [3000.0, 6510.0, 2000.0], [-1000.0, 2000.0, 11122.0]])
+J = SEED000_J
 D_CONST = np.array([0.02, 0.08, 0.02])  # constant part of the seed-000 disturbance [N m]
 OMEGA_N, ZETA, OMEGA_I = 0.03, 0.9, 0.006
-
-
-def ref(R_d, w_d=None, dw_d=None) -> AttitudeReference:
-    R_d = np.asarray(R_d, float)
-    z = np.zeros(R_d.shape[:-2] + (3,))
-    return AttitudeReference(
-        R_d=R_d,
-        omega_d=z if w_d is None else np.asarray(w_d, float),
-        omega_dot_d=z if dw_d is None else np.asarray(dw_d, float),
-    )
 
 
 def _gamma_by_hand(Jm, w, eta):
     """½(ω × η − J⁻¹(Jη × ω + Jω × η)), one spacecraft, with explicit matrices."""
     Ji = np.linalg.inv(Jm)
     return 0.5 * (np.cross(w, eta) - Ji @ (np.cross(Jm @ eta, w) + np.cross(Jm @ w, eta)))
-
-
-def _cmg_plant(disturbance=None):
-    cluster = SgcmgPyramid(h0=300.0, beta=np.deg2rad(54.73), gimbal_rate_limit=1.0)
-    act = SgcmgActuator(cluster, SingularityRobust(), delta0=np.deg2rad([45, -45, 45, -45]))
-    return Spacecraft(RigidBody(J), act, disturbance)
-
-
-class OnePerSpacecraft(AttitudeController):
-    """Spacecraft ``b`` is flown by ``controllers[b]``: several designs in one batched run."""
-
-    def __init__(self, controllers):
-        self.controllers = controllers
-
-    def reset(self, t0, batch_size):
-        assert batch_size == len(self.controllers)
-        for c in self.controllers:
-            c.reset(t0, 1)
-
-    def command(self, t, state, reference):
-        out = [
-            c.command(t, AttitudeState(state.R[b : b + 1], state.omega[b : b + 1]), reference)
-            for b, c in enumerate(self.controllers)
-        ]
-        return np.concatenate(out, axis=0)
-
-    def diagnostics(self):
-        d = [c.diagnostics() for c in self.controllers]
-        out = {}
-        for k in sorted(set().union(*d)):
-            like = next(x[k] for x in d if k in x)
-            fill = np.full_like(like, False if like.dtype == bool else np.nan)
-            out[k] = np.concatenate([x.get(k, fill) for x in d], axis=0)
-        return out  # keys missing for some controller: NaN (False) rows
 
 
 # ---------------------------------------------------------------------------------------------
@@ -367,7 +317,7 @@ def test_pid_removes_the_steady_error_pd_leaves_under_constant_torque():
         GeometricPD(J, kR_la, kW_la),
         IntegralPD(J, kR_la, kW_la, integral_gain(kR_la, OMEGA_I, c=OMEGA_N), c=OMEGA_N),
     ]
-    plant = _cmg_plant(ConstantTorque(D_CONST))
+    plant = seed000_spacecraft(ConstantTorque(D_CONST))
     res = simulate(
         plant,
         OnePerSpacecraft(designs),
@@ -403,7 +353,7 @@ def test_anti_windup_limits_the_integral_under_saturation():
         IntrinsicPID(J, kR, kW, kI, torque_limit=1.0),
         IntrinsicPID(J, kR, kW, kI, torque_limit=1.0, integral_limit=0.3),
     ]
-    plant = _cmg_plant(ConstantTorque(D_CONST))
+    plant = seed000_spacecraft(ConstantTorque(D_CONST))
     R_d = so3.exp(np.deg2rad(30.0) * np.array([1.0, 2.0, 3.0]) / np.sqrt(14.0))
     res = simulate(
         plant,

@@ -14,6 +14,7 @@ import logging
 
 import numpy as np
 import pytest
+from conftest import SEED000_J, seed000_spacecraft
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -28,16 +29,9 @@ from liecontrol.control.mpc import (
 )
 from liecontrol.integrators import lgvi_step
 from liecontrol.lie import so3
-from spacecraft import (
-    RigidBody,
-    SgcmgActuator,
-    SgcmgPyramid,
-    SingularityRobust,
-    Spacecraft,
-    simulate,
-)
+from spacecraft import simulate
 
-J = np.array([[15053.0, 3000.0, -1000.0], [3000.0, 6510.0, 2000.0], [-1000.0, 2000.0, 11122.0]])
+J = SEED000_J
 T = 1.0
 N = 20
 U_MAX = 20.0
@@ -250,16 +244,10 @@ def test_preview_equals_extrapolation_on_a_constant_rate_slew():
 # closed loop on the seed-000 SGCMG spacecraft
 
 
-def _seed000_plant():
-    cluster = SgcmgPyramid(h0=300.0, beta=np.deg2rad(54.73), gimbal_rate_limit=1.0)
-    actuator = SgcmgActuator(cluster, SingularityRobust(), delta0=np.deg2rad([45, -45, 45, -45]))
-    return Spacecraft(RigidBody(J), actuator)
-
-
 @pytest.fixture(scope="module")
 def manoeuvres():
     """30°, 90° and 170° rest-to-rest about a generic axis, one batch (one QP per spacecraft)."""
-    plant = _seed000_plant()
+    plant = seed000_spacecraft()
     axis = np.array([1.0, 2.0, 3.0]) / np.sqrt(14.0)
     angles = np.deg2rad([30.0, 90.0, 170.0])
     R_d = so3.exp(np.deg2rad(20.0) * np.array([0.0, 0.0, 1.0]))
@@ -367,7 +355,7 @@ def test_iteration_limit_triggers_configured_fallback_then_recovers(caplog):
 
 def test_fallback_recorded_in_simulation_log():
     """In a closed loop every fallback step shows up in the simulator's controller log."""
-    plant = _seed000_plant()
+    plant = seed000_spacecraft()
     ctrl = _mpc(horizon=5, solver_settings={"max_iter": 1, "polishing": False})
     res = simulate(
         plant,

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import scipy.optimize
+from conftest import SEED000_J
 
 from liecontrol.control import AttitudeReference, AttitudeState
 from liecontrol.control.mpc import SO3MPC
@@ -26,7 +27,7 @@ from spacecraft.mpc_constraints import (
 )
 from spacecraft.steering import SteeringLaw
 
-J = np.array([[15053.0, 3000.0, -1000.0], [3000.0, 6510.0, 2000.0], [-1000.0, 2000.0, 11122.0]])
+J = SEED000_J
 CLUSTER = SgcmgPyramid(h0=300.0, beta=np.deg2rad(54.73), gimbal_rate_limit=1.0)
 U_MAX = 20.0
 RATE = 0.02  # rad/s: tight, the CMGs then deliver only ~10 N·m

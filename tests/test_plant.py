@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import SEED000_J
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
@@ -27,9 +28,7 @@ from spacecraft import (
 )
 from spacecraft.rigid_body import _cross
 
-J_SEED = np.array(
-    [[15053.0, 3000.0, -1000.0], [3000.0, 6510.0, 2000.0], [-1000.0, 2000.0, 11122.0]]
-)
+J_SEED = SEED000_J
 J_SMALL = np.array([[10.0, 1.0, -0.5], [1.0, 14.0, 0.8], [-0.5, 0.8, 17.0]])
 
 vec3 = st.lists(st.floats(-2.0, 2.0), min_size=3, max_size=3).map(np.array)

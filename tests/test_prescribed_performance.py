@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import SEED000_J, seed000_spacecraft
+from conftest import attitude_reference as ref
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -24,28 +26,13 @@ from liecontrol.control.prescribed_performance import (
 from liecontrol.integrators import rkmk4_step
 from liecontrol.lie import so3
 from spacecraft import (
-    RigidBody,
     Seed000Disturbance,
-    SgcmgActuator,
-    SgcmgPyramid,
-    SingularityRobust,
-    Spacecraft,
     simulate,
 )
 
 J0 = np.array([[10.0, 0.5, -0.2], [0.5, 12.0, 0.3], [-0.2, 0.3, 8.0]])
-J = np.array([[15053.0, 3000.0, -1000.0], [3000.0, 6510.0, 2000.0], [-1000.0, 2000.0, 11122.0]])
+J = SEED000_J
 I3 = np.eye(3)
-
-
-def ref(R_d, w_d=None, dw_d=None) -> AttitudeReference:
-    R_d = np.asarray(R_d, float)
-    z = np.zeros(R_d.shape[:-2] + (3,))
-    return AttitudeReference(
-        R_d=R_d,
-        omega_d=z if w_d is None else np.asarray(w_d, float),
-        omega_dot_d=z if dw_d is None else np.asarray(dw_d, float),
-    )
 
 
 def _unit(v):
@@ -338,10 +325,8 @@ def test_funnel_is_never_left_on_the_sgcmg_spacecraft(case, rho_inf):
     initial errors. With the seed-000 disturbance, ρ_∞ = 0.003 is below the steady error the
     linear design (a PD with the same ω_n) would leave, max_i |K_R⁻¹ d|_i ≈ 0.007: the funnel
     forces the error down."""
-    cluster = SgcmgPyramid(h0=300.0, beta=np.deg2rad(54.73), gimbal_rate_limit=1.0)
-    act = SgcmgActuator(cluster, SingularityRobust(), delta0=np.deg2rad([45, -45, 45, -45]))
     dist = None if case == "nominal" else Seed000Disturbance()
-    plant = Spacecraft(RigidBody(J), act, dist)
+    plant = seed000_spacecraft(dist)
     decay = 0.01
     ctrl = PrescribedPerformance(J, rho_inf=rho_inf, decay=decay)
     reference = ConstantAttitude(I3) if case != "tracking+disturbed" else _Spin([0.0, 0.002, 0.001])

@@ -4,10 +4,9 @@ the sampling, the momentum envelope and the Lyapunov bookkeeping."""
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
+from conftest import quick_reproduction
 
 from benchmarks.reproductions import seed002
 from liecontrol import errors as E
@@ -18,9 +17,7 @@ from spacecraft import SgcmgPyramid
 
 @pytest.fixture(scope="module")
 def reproduction(tmp_path_factory):
-    out = tmp_path_factory.mktemp("seed002")
-    code = seed002.main(out, quick=True)
-    return code, out, json.loads((out / "results.json").read_text(encoding="utf-8"))
+    return quick_reproduction(seed002, tmp_path_factory.mktemp("seed002"))
 
 
 def test_every_lemma_row_passes(reproduction):

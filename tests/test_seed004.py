@@ -3,10 +3,9 @@ injection and the reference frame."""
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
+from conftest import quick_reproduction
 
 from benchmarks.reproductions import seed004
 from liecontrol.charts import euler
@@ -15,9 +14,7 @@ from liecontrol.control.terminal_sliding_mode import euler_feedback_linearisatio
 
 @pytest.fixture(scope="module")
 def reproduction(tmp_path_factory):
-    out = tmp_path_factory.mktemp("seed004")
-    code = seed004.main(out, quick=True)
-    return code, out, json.loads((out / "results.json").read_text(encoding="utf-8"))
+    return quick_reproduction(seed004, tmp_path_factory.mktemp("seed004"))
 
 
 def test_every_published_row_passes(reproduction):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import SEED000_J
 
 from liecontrol.control import ConstantAttitude, GeometricPD, gains_from_bandwidth
 from liecontrol.control.base import AttitudeController
@@ -19,7 +20,7 @@ from spacecraft import (
 from spacecraft.actuators import CmgCommand, FirstOrderServo
 
 P = SgcmgPyramid()
-J = np.array([[15053.0, 3000.0, -1000.0], [3000.0, 6510.0, 2000.0], [-1000.0, 2000.0, 11122.0]])
+J = SEED000_J
 RATE = np.array([0.3, -0.2, 0.1, 0.05])  # rad/s, below the 1 rad/s limit
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import SEED000_J
 from scipy.spatial.transform import Rotation
 
 from liecontrol.charts import quaternion
@@ -27,7 +28,7 @@ from spacecraft import (
     simulate,
 )
 
-J = np.array([[15053.0, 3000.0, -1000.0], [3000.0, 6510.0, 2000.0], [-1000.0, 2000.0, 11122.0]])
+J = SEED000_J
 
 
 def _pd(error="large_angle", omega_n=0.03):

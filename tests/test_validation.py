@@ -2,19 +2,20 @@
 
 import numpy as np
 import pytest
+from conftest import SEED000_J
 
 from liecontrol._validation import (
     as_array,
     check_inertia,
+    check_inertia_3x3,
     check_nonnegative,
     check_positive,
     check_rotation_matrix,
 )
 from liecontrol.control import AttitudeReference, ConstantAttitude
+from liecontrol.control.base import check_state_batch
 
-J_SEED000 = np.array(
-    [[15053.0, 3000.0, -1000.0], [3000.0, 6510.0, 2000.0], [-1000.0, 2000.0, 11122.0]]
-)
+J_SEED000 = SEED000_J
 
 
 def test_rotation_accepts_rotations_and_batches():
@@ -54,6 +55,25 @@ def test_inertia_accepts_seed000():
 def test_inertia_rejects(J, fragment):
     with pytest.raises(ValueError, match=rf"^J_plant: .*{fragment}"):
         check_inertia(J, "J_plant")
+
+
+def test_inertia_3x3_is_check_inertia_for_one_matrix():
+    np.testing.assert_array_equal(check_inertia_3x3(J_SEED000, "J"), check_inertia(J_SEED000))
+    with pytest.raises(ValueError, match=r"^J_est: expected shape \(3, 3\), got \(2, 3, 3\)"):
+        check_inertia_3x3(np.stack([J_SEED000, J_SEED000]), "J_est")
+    with pytest.raises(ValueError, match="^J: not positive definite"):
+        check_inertia_3x3(np.diag([1.0, -1.0, 1.0]))
+
+
+def test_state_batch_checks_shapes_and_reset_size():
+    R, w = np.broadcast_to(np.eye(3), (4, 3, 3)), np.zeros((4, 3))
+    assert check_state_batch(R, w, 4) == 4
+    with pytest.raises(ValueError, match=r"^state: batch size 4 differs from reset\(batch_size=2"):
+        check_state_batch(R, w, 2)
+    with pytest.raises(ValueError, match=r"^state: expected R \(B, 3, 3\) and omega \(B, 3\)"):
+        check_state_batch(R, np.zeros((3, 3)), 4)
+    with pytest.raises(ValueError, match="^state: expected"):
+        check_state_batch(np.eye(3), np.zeros(3), 1)
 
 
 def test_positive_and_nonnegative():

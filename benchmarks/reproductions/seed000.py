@@ -47,17 +47,14 @@ rates < 0.02 rad/s; the singularity measure stays large; the parameters are the 
 
 from __future__ import annotations
 
-import argparse
-import csv
-import json
 import pathlib
-import sys
 import time
 from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
 
+from benchmarks.reproductions._common import cli, save_figure, write_outputs
 from liecontrol.charts import euler, mrp
 from liecontrol.control.adapters import MrpChart
 from liecontrol.control.adrc import ADRCParams, MrpADRC
@@ -400,10 +397,7 @@ def _figures(result: dict, out_dir: pathlib.Path) -> list[pathlib.Path]:
         ax[0, j].set_title(f"ESO estimation errors, {title}")
         ax[2, j].set_xlabel("t [s]")
     ax[0, 0].legend()
-    fig.tight_layout()
-    paths.append(out_dir / "eso_errors.png")
-    fig.savefig(paths[-1], dpi=110)
-    plt.close(fig)
+    paths.append(save_figure(fig, out_dir / "eso_errors.png"))
 
     # ESO estimates vs truth, first 20 s (attitude and attitude rate, Figs 2–5)
     fig, ax = plt.subplots(2, 2, figsize=(11, 6), sharex=True)
@@ -421,10 +415,7 @@ def _figures(result: dict, out_dir: pathlib.Path) -> list[pathlib.Path]:
         ax[0, j].set_title(labels[b] + ", noisy")
         ax[1, j].set_xlabel("t [s]")
     ax[0, 0].legend(fontsize=7, ncol=2)
-    fig.tight_layout()
-    paths.append(out_dir / "eso_estimates.png")
-    fig.savefig(paths[-1], dpi=110)
-    plt.close(fig)
+    paths.append(save_figure(fig, out_dir / "eso_estimates.png"))
 
     # attitude, rates, torque, gimbal rates / angles, singularity (Figs 6–11), composite, noisy
     res = runs[0.5]["res"]
@@ -456,40 +447,25 @@ def _figures(result: dict, out_dir: pathlib.Path) -> list[pathlib.Path]:
     ax[2, 0].set_xlabel("t [s]")
     ax[2, 1].set_xlabel("t [s]")
     fig.suptitle("Seed 000: ADRC, composite ESO (β = 0.5), with sensor noise")
-    fig.tight_layout()
-    paths.append(out_dir / "attitude_gimbals.png")
-    fig.savefig(paths[-1], dpi=110)
-    plt.close(fig)
+    paths.append(save_figure(fig, out_dir / "attitude_gimbals.png"))
     return paths
 
 
 def main(out_dir: pathlib.Path, quick: bool = False) -> int:
     """Run, write ``table.md``, ``table.csv``, ``results.json`` and the figures into
     ``out_dir``; print the table; return 0 when every PASS/FAIL row passes."""
-    out_dir = pathlib.Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
     result = run(quick=quick)
     md = _markdown(result)
-    (out_dir / "table.md").write_text(md, encoding="utf-8")
-    with open(out_dir / "table.csv", "w", newline="", encoding="utf-8") as fh:
-        writer = csv.DictWriter(fh, fieldnames=list(result["rows"][0].keys()))
-        writer.writeheader()
-        writer.writerows(result["rows"])
     payload = {
         "config": asdict(result["config"]),
         "duration": result["duration"],
         "rows": result["rows"],
         "summary": {str(k): v for k, v in result["summary"].items()},
     }
-    (out_dir / "results.json").write_text(json.dumps(payload, indent=2, default=float))
-    _figures(result, out_dir)
+    write_outputs(out_dir, md, result["rows"], payload, figures=lambda d: _figures(result, d))
     print(md)
     return 0 if all(r["result"] != "FAIL" for r in result["rows"]) else 1
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=pathlib.Path, default=pathlib.Path("reproductions/seed000"))
-    ap.add_argument("--quick", action="store_true")
-    a = ap.parse_args()
-    sys.exit(main(a.out, a.quick))
+    cli(main, __doc__, "seed000")

@@ -32,16 +32,13 @@ least affected; under model error SRUKF degrades most, ISTSRUKF least.
 
 from __future__ import annotations
 
-import argparse
-import csv
-import json
 import pathlib
-import sys
 import time
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from benchmarks.reproductions._common import checks_section, cli, save_figure, write_outputs
 from liecontrol.charts import quaternion as quat
 from liecontrol.estimation import (
     ISTSRUKF,
@@ -328,10 +325,7 @@ def _figures(result: dict, out_dir: pathlib.Path) -> list[pathlib.Path]:
     for ax in axes[1]:
         ax.set_xlabel("t [s]")
     axes[0, 0].legend(fontsize=8)
-    fig.tight_layout()
-    p1 = out_dir / "seed001_errors.png"
-    fig.savefig(p1, dpi=110)
-    plt.close(fig)
+    p1 = save_figure(fig, out_dir / "seed001_errors.png")
     fig, ax = plt.subplots(figsize=(7, 3.5))
     for name in ("STF", "ISTSRUKF"):
         if name in result["errors"]:
@@ -340,10 +334,7 @@ def _figures(result: dict, out_dir: pathlib.Path) -> list[pathlib.Path]:
     ax.set_ylabel("max fading factor μ (mean over seeds)")
     ax.legend()
     ax.grid(True, which="both", alpha=0.3)
-    fig.tight_layout()
-    p2 = out_dir / "seed001_fading.png"
-    fig.savefig(p2, dpi=110)
-    plt.close(fig)
+    p2 = save_figure(fig, out_dir / "seed001_fading.png")
     return [p1, p2]
 
 
@@ -367,37 +358,21 @@ def _markdown(result: dict) -> str:
     for r in rows:
         lines.append(f"| {r['filter']} | {r['recovery_s']:.0f} | {r['max_fading']:.3g} | "
                      f"{r['wall_s']:.2f} |")
-    lines += ["", "## Published vs measured", "", "| published claim | measured | result |",
-              "|---|---|---|"]
-    for c in checks:
-        lines.append(f"| {c['claim']} | {c['measured']} | {c['result']} |")
+    lines += checks_section(checks)
     return "\n".join(lines) + "\n"
 
 
 def main(out_dir: pathlib.Path, quick: bool = False) -> int:
     """Run, write ``table.md``, ``table.csv``, ``results.json`` and the figures into
     ``out_dir``; print the table; return 0 when every published-claim row passes."""
-    out_dir = pathlib.Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
     result = run(quick=quick)
     md = _markdown(result)
-    (out_dir / "table.md").write_text(md, encoding="utf-8")
-    with open(out_dir / "table.csv", "w", newline="", encoding="utf-8") as fh:
-        writer = csv.DictWriter(fh, fieldnames=list(result["rows"][0].keys()))
-        writer.writeheader()
-        writer.writerows(result["rows"])
-    cfg = asdict(result["config"])
-    (out_dir / "results.json").write_text(
-        json.dumps({"config": cfg, "n_seeds": result["n_seeds"], "rows": result["rows"],
-                    "checks": result["checks"]}, indent=2, default=float), encoding="utf-8")
-    _figures(result, out_dir)
+    payload = {"config": asdict(result["config"]), "n_seeds": result["n_seeds"],
+               "rows": result["rows"], "checks": result["checks"]}
+    write_outputs(out_dir, md, result["rows"], payload, figures=lambda d: _figures(result, d))
     print(md)
     return 0 if all(c["result"] == "PASS" for c in result["checks"]) else 1
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=pathlib.Path, default=pathlib.Path("reproductions/seed001"))
-    ap.add_argument("--quick", action="store_true")
-    a = ap.parse_args()
-    sys.exit(main(a.out, a.quick))
+    cli(main, __doc__, "seed001")

@@ -56,16 +56,13 @@ momentum R₀Jω₀ fits inside 90 % of the momentum envelope along its directio
 
 from __future__ import annotations
 
-import argparse
-import csv
-import json
 import pathlib
-import sys
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from benchmarks.reproductions._common import cli, save_figure, write_outputs
 from liecontrol import errors as E
 from liecontrol.control import ConstantAttitude
 from liecontrol.control import region_of_attraction as roa
@@ -557,11 +554,7 @@ def _figures(result: dict, out_dir: pathlib.Path) -> list[pathlib.Path]:
     np.atleast_1d(axes)[0].legend(fontsize=6, loc="upper right")
     fig.suptitle("Seed 002: lemma regions (filled: inside, hollow: outside) and simulated "
                  "outcomes", fontsize=9)
-    fig.tight_layout()
-    p = out_dir / "seed002_regions.png"
-    fig.savefig(p, dpi=90)
-    plt.close(fig)
-    paths.append(p)
+    paths.append(save_figure(fig, out_dir / "seed002_regions.png", dpi=90))
 
     fig, axes = plt.subplots(1, len(res), figsize=(3.2 * len(res), 3.0), sharey=True)
     for ax, r in zip(np.atleast_1d(axes), res, strict=True):
@@ -573,40 +566,23 @@ def _figures(result: dict, out_dir: pathlib.Path) -> list[pathlib.Path]:
         ax.set_xlabel("t [s]")
         ax.grid(True, which="both", alpha=0.3)
     np.atleast_1d(axes)[0].set_ylabel("V(t) / V(0)  (inside samples)")
-    fig.tight_layout()
-    p = out_dir / "seed002_lyapunov.png"
-    fig.savefig(p, dpi=90)
-    plt.close(fig)
-    paths.append(p)
+    paths.append(save_figure(fig, out_dir / "seed002_lyapunov.png", dpi=90))
     return paths
 
 
 def main(out_dir: pathlib.Path, quick: bool = False) -> int:
     """Run, write ``table.md``, ``table.csv``, ``results.json`` and the figures into ``out_dir``;
     print the table; return 0 when every lemma row passes."""
-    out_dir = pathlib.Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
     result = run(quick=quick)
     md = _markdown(result)
-    (out_dir / "table.md").write_text(md, encoding="utf-8")
-    keys = list(result["rows"][1].keys())
-    with open(out_dir / "table.csv", "w", newline="", encoding="utf-8") as fh:
-        writer = csv.DictWriter(fh, fieldnames=keys, extrasaction="ignore")
-        writer.writeheader()
-        writer.writerows(result["rows"])
-    cfg = asdict(result["config"])
-    (out_dir / "results.json").write_text(
-        json.dumps({"config": cfg, "quick": quick, "rows": result["rows"],
-                    "sgcmg": result["sgcmg"]["row"]}, indent=2, default=float),
-        encoding="utf-8")
-    _figures(result, out_dir)
+    payload = {"config": asdict(result["config"]), "quick": quick, "rows": result["rows"],
+               "sgcmg": result["sgcmg"]["row"]}
+    write_outputs(out_dir, md, result["rows"], payload,
+                  fieldnames=list(result["rows"][1].keys()), extrasaction="ignore",
+                  figures=lambda d: _figures(result, d))
     print(md)
     return 0 if all(r["result"] == "PASS" for r in result["rows"]) else 1
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=pathlib.Path, default=pathlib.Path("reproductions/seed002"))
-    ap.add_argument("--quick", action="store_true")
-    a = ap.parse_args()
-    sys.exit(main(a.out, a.quick))
+    cli(main, __doc__, "seed002")

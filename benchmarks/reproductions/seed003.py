@@ -54,16 +54,13 @@ requirement (seed eq. (18)).
 
 from __future__ import annotations
 
-import argparse
-import csv
-import json
 import pathlib
-import sys
 import time
 from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
+from benchmarks.reproductions._common import checks_section, cli, save_figure, write_outputs
 from liecontrol.charts import euler
 from liecontrol.control.base import AttitudeState
 from liecontrol.control.geometric_pd import GeometricPD, gains_from_bandwidth
@@ -423,11 +420,7 @@ def _figures(result: dict, out_dir: pathlib.Path) -> list[pathlib.Path]:
     paths = []
 
     def save(fig, name: str) -> None:  # noqa: ANN001
-        fig.tight_layout()
-        p = out_dir / name
-        fig.savefig(p, dpi=110)
-        plt.close(fig)
-        paths.append(p)
+        paths.append(save_figure(fig, out_dir / name))
 
     # Fig. 2 analogue: payload torque over three revolutions
     m = (t >= t_on - 12.0) & (t < t_on)
@@ -561,14 +554,8 @@ def _markdown(result: dict) -> str:
         f"Peak rate in the {cfg.settle:g} s after the step switch-on (free transient, not "
         f"checked): {f3(f'{v:.5f}' for v in s['peak_rate_settle_deg_s'])} °/s. Peak wheel "
         f"momentum {f3(f'{v:.2f}' for v in s['peak_wheel_momentum_Nms'])} N m s.",
-        "",
-        "## Published vs measured",
-        "",
-        "| published claim | measured | result |",
-        "|---|---|---|",
     ]
-    for c in result["checks"]:
-        lines.append(f"| {c['claim']} | {c['measured']} | {c['result']} |")
+    lines += checks_section(result["checks"])
     lines += [
         "",
         "## Cost",
@@ -588,19 +575,12 @@ def _markdown(result: dict) -> str:
 
 
 def _write(result: dict, out_dir: pathlib.Path, figures: bool = True) -> str:
-    out_dir.mkdir(parents=True, exist_ok=True)
     md = _markdown(result)
-    (out_dir / "table.md").write_text(md, encoding="utf-8")
-    with open(out_dir / "table.csv", "w", newline="", encoding="utf-8") as fh:
-        writer = csv.DictWriter(fh, fieldnames=["claim", "measured", "result"])
-        writer.writeheader()
-        writer.writerows(result["checks"])
-    (out_dir / "results.json").write_text(
-        json.dumps({"config": asdict(result["config"]), "summary": result["summary"],
-                    "checks": result["checks"], "timing": result["timing"]},
-                   indent=2, default=float), encoding="utf-8")
-    if figures:
-        _figures(result, out_dir)
+    payload = {"config": asdict(result["config"]), "summary": result["summary"],
+               "checks": result["checks"], "timing": result["timing"]}
+    write_outputs(out_dir, md, result["checks"], payload,
+                  fieldnames=["claim", "measured", "result"],
+                  figures=(lambda d: _figures(result, d)) if figures else None)
     return md
 
 
@@ -619,8 +599,4 @@ def shortened(cfg: Seed003Config | None = None, **changes: float) -> Seed003Conf
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=pathlib.Path, default=pathlib.Path("reproductions/seed003"))
-    ap.add_argument("--quick", action="store_true")
-    a = ap.parse_args()
-    sys.exit(main(a.out, a.quick))
+    cli(main, __doc__, "seed003")

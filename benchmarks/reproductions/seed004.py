@@ -41,17 +41,14 @@ Also measured (not PASS/FAIL): wall time per controller call vs the geometric PD
 
 from __future__ import annotations
 
-import argparse
-import csv
-import json
 import pathlib
-import sys
 import time
 from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from liecontrol._validation import as_array, check_inertia
+from benchmarks.reproductions._common import checks_section, cli, save_figure, write_outputs
+from liecontrol._validation import as_array, check_inertia_3x3
 from liecontrol.charts import euler
 from liecontrol.control.base import AttitudeReference, AttitudeState
 from liecontrol.control.geometric_pd import GeometricPD, gains_from_bandwidth
@@ -117,9 +114,7 @@ class EulerModelErrorTorque:
     amp: float = 0.005
 
     def __post_init__(self) -> None:
-        J = check_inertia(self.J, "J")
-        if J.shape != (3, 3):
-            raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+        J = check_inertia_3x3(self.J, "J")
         object.__setattr__(self, "J", J.copy())
         object.__setattr__(self, "amp", float(as_array(self.amp, "amp", ())))
 
@@ -307,11 +302,7 @@ def _figures(result: dict, out_dir: pathlib.Path) -> list[pathlib.Path]:
         for ax in axes:
             ax.grid(True, which="both", alpha=0.3)
         axes[0].legend(fontsize=8)
-        fig.tight_layout()
-        p = out_dir / f"seed004_fig{j + 1}_{name.split()[0]}.png"
-        fig.savefig(p, dpi=110)
-        plt.close(fig)
-        paths.append(p)
+        paths.append(save_figure(fig, out_dir / f"seed004_fig{j + 1}_{name.split()[0]}.png"))
     fig, axes = plt.subplots(len(result["cases"]), 1, figsize=(7.5, 7), sharex=True)
     for ax, c in zip(np.atleast_1d(axes), result["cases"], strict=True):
         for i in range(3):
@@ -322,11 +313,7 @@ def _figures(result: dict, out_dir: pathlib.Path) -> list[pathlib.Path]:
     np.atleast_1d(axes)[0].legend(fontsize=8, ncol=3)
     np.atleast_1d(axes)[-1].set_xlabel("t [s]")
     fig.suptitle("Seed 004: body torque history", fontsize=10)
-    fig.tight_layout()
-    p = out_dir / "seed004_torque.png"
-    fig.savefig(p, dpi=110)
-    plt.close(fig)
-    paths.append(p)
+    paths.append(save_figure(fig, out_dir / "seed004_torque.png"))
     return paths
 
 
@@ -350,10 +337,7 @@ def _markdown(result: dict) -> str:
             f"| {r['T_s']:g} | {r['e_a1_at_T']:.2e} | {r['e_a2_at_T']:.2e} | "
             f"{r['e_a3_at_T']:.2e} | {r['max_abs_e_after_T']:.2e} | {r['sigma0_norm']:.1e} | "
             f"{r['peak_torque_Nm']:.1f} | {r['peak_torque_after_T_Nm']:.2f} | {r['wall_s']:.1f} |")
-    lines += ["", "## Published vs measured", "", "| published claim | measured | result |",
-              "|---|---|---|"]
-    for c in result["checks"]:
-        lines.append(f"| {c['claim']} | {c['measured']} | {c['result']} |")
+    lines += checks_section(result["checks"])
     lines += [
         "", "## Wall time per controller call (B = 1, controller alone, best of 3)", "",
         f"TSM wrapped by the Euler adapter: {tm['tsm_so3_us']:.0f} µs; bare chart law: "
@@ -367,28 +351,14 @@ def _markdown(result: dict) -> str:
 def main(out_dir: pathlib.Path, quick: bool = False) -> int:
     """Run, write ``table.md``, ``table.csv``, ``results.json`` and the PNG figures into
     ``out_dir``; print the table; return 0 when every published-claim row passes."""
-    out_dir = pathlib.Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
     result = run(quick=quick)
     md = _markdown(result)
-    (out_dir / "table.md").write_text(md, encoding="utf-8")
-    with open(out_dir / "table.csv", "w", newline="", encoding="utf-8") as fh:
-        writer = csv.DictWriter(fh, fieldnames=list(result["rows"][0].keys()))
-        writer.writeheader()
-        writer.writerows(result["rows"])
-    (out_dir / "results.json").write_text(
-        json.dumps({"config": asdict(result["config"]), "dt": result["dt"],
-                    "rows": result["rows"], "checks": result["checks"],
-                    "timing": result["timing"]}, indent=2, default=float),
-        encoding="utf-8")
-    _figures(result, out_dir)
+    payload = {"config": asdict(result["config"]), "dt": result["dt"], "rows": result["rows"],
+               "checks": result["checks"], "timing": result["timing"]}
+    write_outputs(out_dir, md, result["rows"], payload, figures=lambda d: _figures(result, d))
     print(md)
     return 0 if all(c["result"] == "PASS" for c in result["checks"]) else 1
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=pathlib.Path, default=pathlib.Path("reproductions/seed004"))
-    ap.add_argument("--quick", action="store_true")
-    a = ap.parse_args()
-    sys.exit(main(a.out, a.quick))
+    cli(main, __doc__, "seed004")

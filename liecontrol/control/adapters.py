@@ -81,12 +81,12 @@ import numpy as np
 
 from .._linalg import cross as _cross
 from .._linalg import matvec
-from .._validation import as_array, check_inertia, check_positive, check_rotation_matrix
+from .._validation import as_array, check_inertia_3x3, check_positive, check_rotation_matrix
 from ..charts import euler as _euler
 from ..charts import mrp as _mrp
 from ..charts import quaternion as _quat
 from ..exceptions import ChartSingularityError
-from .base import AttitudeController, AttitudeReference, AttitudeState
+from .base import AttitudeController, AttitudeReference, AttitudeState, check_state_batch
 
 __all__ = [
     "ChartState",
@@ -427,9 +427,7 @@ def _checked_inertia(J: object) -> np.ndarray:
     (the eigenvalue test would otherwise dominate the per-step cost)."""
     if _LAST_J and J is _LAST_J[0]:
         return J
-    Jv = check_inertia(J, "J")
-    if Jv.shape != (3, 3):
-        raise ValueError(f"J: expected shape (3, 3), got {Jv.shape}")
+    Jv = check_inertia_3x3(J, "J")
     # only an array that owns read-only data cannot change between samples
     if isinstance(J, np.ndarray) and not J.flags.writeable and J.base is None:
         _LAST_J[:] = [J]
@@ -630,13 +628,7 @@ class ChartAdapter(AttitudeController):
             raise RuntimeError(f"{type(self).__name__}.command: call reset(t0, batch_size) first")
         R = check_rotation_matrix(state.R, "R")
         w = as_array(state.omega, "omega", (3,))
-        if R.ndim != 3 or w.shape != (R.shape[0], 3):
-            raise ValueError(
-                f"state: expected R (B, 3, 3) and omega (B, 3), got {R.shape} and {w.shape}"
-            )
-        B = R.shape[0]
-        if B != self._batch:
-            raise ValueError(f"state: batch size {B} differs from reset(batch_size={self._batch})")
+        B = check_state_batch(R, w, self._batch)
         R_d = _as_batch(self._rotation(reference.R_d, "R_d"), B, (3, 3), "R_d")
         w_d = _as_batch(as_array(reference.omega_d, "omega_d"), B, (3,), "omega_d")
         dw_d = _as_batch(as_array(reference.omega_dot_d, "omega_dot_d"), B, (3,), "omega_dot_d")

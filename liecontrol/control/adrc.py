@@ -65,7 +65,7 @@ import numpy as np
 from scipy.linalg import expm
 
 from .._linalg import matvec
-from .._validation import as_array, check_inertia, check_nonnegative, check_positive
+from .._validation import as_array, check_inertia_3x3, check_nonnegative, check_positive
 from ..charts import mrp as _mrp
 from .adapters import ChartState, MrpChartAdapter, mrp_shadow_jacobian, mrp_shadow_map
 
@@ -264,9 +264,7 @@ class MrpADRCLaw:
         if eso_init not in ("measured", "zero"):
             raise ValueError(f"eso_init: expected 'measured' or 'zero', got {eso_init!r}")
         self.eso_init = eso_init
-        J = check_inertia(J, "J")
-        if J.shape != (3, 3):
-            raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+        J = check_inertia_3x3(J, "J")
         if not isinstance(params, ADRCParams):
             raise ValueError(f"params: expected ADRCParams, got {type(params).__name__}")
         self.J = J.copy()

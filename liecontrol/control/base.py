@@ -13,7 +13,7 @@ import numpy as np
 
 from .._validation import as_array
 
-__all__ = ["AttitudeState", "AttitudeReference", "AttitudeController"]
+__all__ = ["AttitudeState", "AttitudeReference", "AttitudeController", "check_state_batch"]
 
 
 @dataclass(frozen=True)
@@ -80,3 +80,16 @@ class AttitudeController(abc.ABC):
     def diagnostics(self) -> dict[str, np.ndarray]:
         """Controller internals to log at the last sample, as ``(B, ...)`` arrays."""
         return {}
+
+
+def check_state_batch(R: np.ndarray, omega: np.ndarray, batch_size: int) -> int:
+    """Check that validated ``R`` ``(B, 3, 3)`` and ``omega`` ``(B, 3)`` of an
+    :class:`AttitudeState` form one batch of the size given to ``reset``; return ``B``."""
+    if R.ndim != 3 or omega.shape != (R.shape[0], 3):
+        raise ValueError(
+            f"state: expected R (B, 3, 3) and omega (B, 3), got {R.shape} and {omega.shape}"
+        )
+    B = R.shape[0]
+    if B != batch_size:
+        raise ValueError(f"state: batch size {B} differs from reset(batch_size={batch_size})")
+    return B

@@ -32,7 +32,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._linalg import cross as _cross
-from .._validation import check_inertia
+from .._validation import check_inertia_3x3
 from .adapters import ChartState, MrpChartAdapter, QuaternionChartAdapter
 from .geometric_pd import _apply_gain, check_gain
 
@@ -40,9 +40,7 @@ __all__ = ["QuaternionPD", "MrpPD", "QuaternionPDLaw", "MrpPDLaw"]
 
 
 def _inertia(J: object) -> np.ndarray:
-    J = check_inertia(J, "J")
-    if J.shape != (3, 3):
-        raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+    J = check_inertia_3x3(J, "J")
     J = J.copy()
     J.setflags(write=False)
     return J

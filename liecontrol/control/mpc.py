@@ -83,14 +83,14 @@ import scipy.sparse as sp
 from .._validation import (
     ROTATION_ATOL,
     as_array,
-    check_inertia,
+    check_inertia_3x3,
     check_positive,
     check_rotation_matrix,
 )
 from ..integrators.lgvi import lgvi_step_unchecked
 from ..lie import so3
 from ..lie.so3 import _LOG_SYMMETRIC_COS
-from .base import AttitudeController, AttitudeReference, AttitudeState
+from .base import AttitudeController, AttitudeReference, AttitudeState, check_state_batch
 from .geometric_pd import GeometricPD, gains_from_bandwidth
 
 __all__ = [
@@ -297,9 +297,7 @@ def stage0_model(
     ``t + T`` under ``u_bar``) and ``B0 (6, 3)`` with ``x_1 ≈ x1 + B0 (u_0 − u_bar)`` (``None``
     if ``jacobian=False``).
     """
-    J = check_inertia(J, "J")
-    if J.shape != (3, 3):
-        raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+    J = check_inertia_3x3(J, "J")
     dt = check_positive(dt, "dt")
     if not isinstance(dt, float):
         raise ValueError("dt: must be a scalar")
@@ -798,9 +796,7 @@ class SO3MPC(AttitudeController):
         accept_inaccurate: bool = False,
         exact_stage0_jacobian: bool = False,
     ) -> None:
-        J = check_inertia(J, "J")
-        if J.shape != (3, 3):
-            raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+        J = check_inertia_3x3(J, "J")
         self.J = J.copy()
         self.J.setflags(write=False)
         self.N = _check_int(horizon, "horizon", 1)
@@ -965,13 +961,7 @@ class SO3MPC(AttitudeController):
             raise RuntimeError("SO3MPC.command: call reset(t0, batch_size) first")
         R = _check_rotations(state.R, "R")
         w = as_array(state.omega, "omega", (3,))
-        if R.ndim != 3 or w.shape != (R.shape[0], 3):
-            raise ValueError(
-                f"state: expected R (B, 3, 3) and omega (B, 3), got {R.shape} and {w.shape}"
-            )
-        B = R.shape[0]
-        if B != self._batch:
-            raise ValueError(f"state: batch size {B} differs from reset(batch_size={self._batch})")
+        B = check_state_batch(R, w, self._batch)
         R_d = reference.R_d
         # a read-only array owning its data (ConstantAttitude's R_d) cannot change: checked once
         if not (isinstance(R_d, np.ndarray) and R_d is self._checked_R_d):

@@ -73,7 +73,7 @@ import math
 
 import numpy as np
 
-from .._validation import as_array, check_inertia, check_nonnegative, check_positive
+from .._validation import as_array, check_inertia_3x3, check_nonnegative, check_positive
 from ..charts import euler as _euler
 from .adapters import ChartState, EulerChartAdapter
 from .base import AttitudeController, AttitudeReference, AttitudeState
@@ -119,9 +119,7 @@ def pid_gains(
 
     ``integral_ratio`` r = 0 gives a PD (k_i = 0). Units: N·m/rad, N·m/(rad·s), N·m·s/rad.
     """
-    Jm = check_inertia(J, "J")
-    if Jm.shape != (3, 3):
-        raise ValueError(f"J: expected shape (3, 3), got {Jm.shape}")
+    Jm = check_inertia_3x3(J, "J")
     wn = 2.0 * math.pi * _scalar(check_positive(bandwidth_hz, "bandwidth_hz"), "bandwidth_hz")
     z = _scalar(check_positive(zeta, "zeta"), "zeta")
     r = _scalar(check_nonnegative(integral_ratio, "integral_ratio"), "integral_ratio")
@@ -315,9 +313,7 @@ class SmallAnglePIDLaw:
         gyro_momentum: str = "actuator",
         integral_limit: float | None = None,
     ) -> None:
-        Jm = check_inertia(J, "J")
-        if Jm.shape != (3, 3):
-            raise ValueError(f"J: expected shape (3, 3), got {Jm.shape}")
+        Jm = check_inertia_3x3(J, "J")
         self.J = Jm.copy()
         for name, g in (("kp", kp), ("ki", ki), ("kd", kd)):
             a = np.array(check_nonnegative(g, name), dtype=np.float64)
@@ -445,9 +441,7 @@ class SmallAnglePIDWithFeedforward(AttitudeController):
         integral_limit: float | None = None,
         hold_correction: bool = True,
     ) -> None:
-        Jm = check_inertia(J, "J")
-        if Jm.shape != (3, 3):
-            raise ValueError(f"J: expected shape (3, 3), got {Jm.shape}")
+        Jm = check_inertia_3x3(J, "J")
         self.J = Jm.copy()
         self.omega_p = _scalar(
             check_positive(payload_frequency, "payload_frequency"), "payload_frequency"

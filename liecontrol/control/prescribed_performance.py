@@ -59,7 +59,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import as_array, check_inertia, check_positive
+from .._validation import as_array, check_inertia_3x3, check_positive
 from .base import AttitudeController, AttitudeReference, AttitudeState
 from .geometric_pd import GeometricPD, _cross
 
@@ -303,9 +303,7 @@ class PrescribedPerformance(AttitudeController):
         q_min: float = 0.1,
         z_max: float = 0.999,
     ) -> None:
-        J = check_inertia(J, "J")
-        if J.shape != (3, 3):
-            raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+        J = check_inertia_3x3(J, "J")
         self.funnel = Funnel(rho_inf=rho_inf, decay=decay, rho0=rho0, margin=margin)
         default = ppc_gains(0.03, 0.9)
         gains = []

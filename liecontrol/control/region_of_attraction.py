@@ -47,7 +47,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validation import as_array, check_inertia, check_positive
+from .._validation import as_array, check_inertia_3x3, check_positive
 from ..errors import DEFAULT_G, DERIVATIVE_FACTOR, _check_kind, check_error_weight
 
 __all__ = [
@@ -66,9 +66,7 @@ __all__ = [
 
 
 def _inertia(J: object) -> np.ndarray:
-    J = check_inertia(J, "J")
-    if J.shape != (3, 3):
-        raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+    J = check_inertia_3x3(J, "J")
     return J
 
 

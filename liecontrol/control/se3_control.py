@@ -66,7 +66,7 @@ import numpy as np
 
 from .._linalg import cross as _cross
 from .._linalg import matvec as _mv
-from .._validation import as_array, check_inertia, check_positive
+from .._validation import as_array, check_inertia, check_inertia_3x3, check_positive
 from ..errors import se3_log_error
 from ..lie import se3, so3
 from .geometric_pd import check_gain
@@ -244,9 +244,7 @@ class _PoseControllerBase(PoseController):
         if m_a.ndim != 0:
             raise ValueError(f"m: must be a scalar, got shape {m_a.shape}")
         self.m = float(check_positive(m_a, "m"))
-        J = check_inertia(J, "J")
-        if J.shape != (3, 3):
-            raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+        J = check_inertia_3x3(J, "J")
         self.J = J.copy()
         self.J.setflags(write=False)
         self.k_R = check_gain(k_R, "k_R")

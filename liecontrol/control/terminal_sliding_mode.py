@@ -68,7 +68,7 @@ import numpy as np
 
 from .._linalg import cross as _cross
 from .._linalg import matvec as _mv
-from .._validation import as_array, check_inertia, check_nonnegative, check_positive
+from .._validation import as_array, check_inertia_3x3, check_nonnegative, check_positive
 from ..charts.euler import LOCK_TOL, _elem, _parse, from_matrix, rates_matrix
 from .adapters import EulerChartAdapter
 
@@ -221,9 +221,7 @@ def euler_feedback_linearisation(
         ValueError: bad shapes, non-finite input, invalid ``J`` or ``seq``.
         ChartSingularityError: at gimbal lock (instead of NaN/inf).
     """
-    J = check_inertia(J, "J")
-    if J.shape != (3, 3):
-        raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+    J = check_inertia_3x3(J, "J")
     a = as_array(angles, "angles", (3,))
     w = as_array(omega, "omega", (3,))
     wb = None if omega_base is None else as_array(omega_base, "omega_base", (3,))
@@ -479,9 +477,7 @@ class TerminalSlidingMode:
         seq: str = "ZYX",
         lock_tol: float = LOCK_TOL,
     ) -> None:
-        J = check_inertia(J, "J")
-        if J.shape != (3, 3):
-            raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+        J = check_inertia_3x3(J, "J")
         self.J = J.copy()
         self.J.setflags(write=False)
         self._J_inv = np.linalg.inv(self.J)

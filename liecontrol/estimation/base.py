@@ -32,7 +32,7 @@ from .._validation import as_array, check_positive
 from .cholesky import NotPositiveDefiniteError, chol_solve, nearest_pd_sqrt, solve_lower
 from .unscented import cholesky_or_raise
 
-__all__ = ["Filter", "logger", "psd_sqrt"]
+__all__ = ["Filter", "ManifoldFilter", "logger", "psd_sqrt"]
 
 logger = logging.getLogger("liecontrol.estimation")
 
@@ -227,3 +227,17 @@ class Filter(abc.ABC):
             raise NotPositiveDefiniteError(
                 f"x: non-finite state or covariance after {where} in {self.name}"
             )
+
+
+class ManifoldFilter(Filter):
+    """A :class:`Filter` whose state lives on a manifold: the covariance is over the ``model.d``
+    error coordinates and errors are ``x_true ⊟ x̂`` (the model's ``normalize``/``boxminus``)."""
+
+    @property
+    def cov_dim(self) -> int:
+        return int(self.model.d)
+
+    def error(self, x_true: object) -> np.ndarray:
+        """x_true ⊟ x̂ (rotation-vector attitude error, body frame)."""
+        xt = self.model.normalize(np.asarray(x_true, dtype=np.float64)[None, :])
+        return self.model.boxminus(xt, self._x[None, :])[0]

@@ -27,13 +27,13 @@ from typing import Any
 
 import numpy as np
 
-from .base import Filter, tri_solve_gain
+from .base import ManifoldFilter, tri_solve_gain
 from .unscented import UTWeights, sigma_points, ut_weights
 
 __all__ = ["ManifoldUKF"]
 
 
-class ManifoldUKF(Filter):
+class ManifoldUKF(ManifoldFilter):
     """UKF with tangent-space attitude sigma points (covariance dimension ``model.d``).
 
     ``model`` must provide ``n, d, m, f, h, boxplus, boxminus, Q_err, R, z_mean, z_residual,
@@ -47,15 +47,6 @@ class ManifoldUKF(Filter):
                  pd_policy: str = "repair") -> None:
         super().__init__(model, x0, P0, pd_policy=pd_policy)
         self.weights: UTWeights = ut_weights(int(model.d), alpha, beta, kappa)
-
-    @property
-    def cov_dim(self) -> int:
-        return int(self.model.d)
-
-    def error(self, x_true: object) -> np.ndarray:
-        """x_true ⊟ x̂ (rotation-vector attitude error, body frame)."""
-        xt = self.model.normalize(np.asarray(x_true, dtype=np.float64)[None, :])
-        return self.model.boxminus(xt, self._x[None, :])[0]
 
     def _predict(self, u: np.ndarray, dt: float) -> None:
         w = self.weights

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from .base import Filter, tri_solve_gain
+from .base import ManifoldFilter, tri_solve_gain
 
 __all__ = ["MEKF", "numerical_error_transition"]
 
@@ -37,20 +37,11 @@ def numerical_error_transition(model: Any, x: np.ndarray, u: np.ndarray, dt: flo
     return ((D[:d] - D[d:]) / (2.0 * eps)).T
 
 
-class MEKF(Filter):
+class MEKF(ManifoldFilter):
     """Multiplicative EKF; ``model`` as for :class:`~liecontrol.estimation.manifold_ukf.ManifoldUKF`
     plus ``measurement_jacobian`` (and optionally ``error_transition``). ``P0`` is d × d."""
 
     name = "MEKF"
-
-    @property
-    def cov_dim(self) -> int:
-        return int(self.model.d)
-
-    def error(self, x_true: object) -> np.ndarray:
-        """x_true ⊟ x̂ (rotation-vector attitude error, body frame)."""
-        xt = self.model.normalize(np.asarray(x_true, dtype=np.float64)[None, :])
-        return self.model.boxminus(xt, self._x[None, :])[0]
 
     def _predict(self, u: np.ndarray, dt: float) -> None:
         m = self.model

@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._validation import as_array, check_inertia, check_nonnegative, check_positive
+from .._validation import as_array, check_inertia_3x3, check_nonnegative, check_positive
 from ..charts import quaternion as quat
 from ..integrators.rk import rk4_step_unchecked
 from ..lie import so3
@@ -187,9 +187,7 @@ class GyrolessAttitudeModel(_EulerMeasurement):
     d: int = field(default=6, init=False)
 
     def __post_init__(self) -> None:
-        J = check_inertia(self.J, "J")
-        if J.shape != (3, 3):
-            raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+        J = check_inertia_3x3(self.J, "J")
         object.__setattr__(self, "J", J.copy())
         object.__setattr__(self, "_Jinv", np.linalg.inv(J))
         check_nonnegative(self.sigma_q, "sigma_q")

@@ -44,7 +44,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import as_array, check_inertia, check_positive, check_rotation_matrix
+from .._validation import (
+    as_array,
+    check_inertia,
+    check_inertia_3x3,
+    check_positive,
+    check_rotation_matrix,
+)
 from .lgvi import RigidBodyLGVI
 
 __all__ = ["SE3RigidBodyLGVI", "SE3LGVITrajectory", "lgvi_se3_step", "ForceAndMoment"]
@@ -218,9 +224,7 @@ class SE3RigidBodyLGVI:
         max_iter: int = 30,
     ) -> None:
         self._m = _check_mass(m)
-        J = check_inertia(J, "J")
-        if J.shape != (3, 3):
-            raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+        J = check_inertia_3x3(J, "J")
         self._rot = RigidBodyLGVI(J, tol=tol, max_iter=max_iter)
         self._J = self._rot.J
         self._Jinv = np.linalg.inv(self._J)

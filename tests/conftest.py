@@ -1,0 +1,80 @@
+"""Shared test helpers: the seed-000 spacecraft, a per-spacecraft controller multiplexer and
+the quick run of a seed reproduction.
+
+Test modules import these directly (``from conftest import ...``; ``tests/`` is on ``sys.path``
+under pytest's default import mode).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from liecontrol.control import AttitudeController, AttitudeReference, AttitudeState
+from spacecraft import RigidBody, SgcmgActuator, SgcmgPyramid, SingularityRobust, Spacecraft
+
+#: Seed-000 inertia [kg·m²] (SPEC §6.1); read-only because every test module shares it.
+SEED000_J = np.array(
+    [[15053.0, 3000.0, -1000.0], [3000.0, 6510.0, 2000.0], [-1000.0, 2000.0, 11122.0]]
+)
+SEED000_J.setflags(write=False)
+
+
+def seed000_spacecraft(
+    disturbance: object = None, h0: float = 300.0, gimbal_rate_limit: float = 1.0
+) -> Spacecraft:
+    """The seed-000 spacecraft: :data:`SEED000_J`, a 4-SGCMG pyramid (β = 54.73°, h₀ = 300 N·m·s,
+    gimbal rate limit 1 rad/s) with SR steering, gimbals at (45°, −45°, 45°, −45°)."""
+    cluster = SgcmgPyramid(h0=h0, beta=np.deg2rad(54.73), gimbal_rate_limit=gimbal_rate_limit)
+    actuator = SgcmgActuator(cluster, SingularityRobust(), delta0=np.deg2rad([45, -45, 45, -45]))
+    return Spacecraft(RigidBody(SEED000_J), actuator, disturbance)
+
+
+def attitude_reference(R_d, w_d=None, dw_d=None) -> AttitudeReference:
+    """An :class:`AttitudeReference` at ``R_d`` (any batch shape) with ω_d, ω̇_d zero unless
+    given."""
+    R_d = np.asarray(R_d, float)
+    z = np.zeros(R_d.shape[:-2] + (3,))
+    return AttitudeReference(
+        R_d=R_d,
+        omega_d=z if w_d is None else np.asarray(w_d, float),
+        omega_dot_d=z if dw_d is None else np.asarray(dw_d, float),
+    )
+
+
+class OnePerSpacecraft(AttitudeController):
+    """Spacecraft ``b`` is flown by ``controllers[b]``: several designs in one batched run."""
+
+    def __init__(self, controllers):
+        self.controllers = controllers
+
+    def reset(self, t0, batch_size):
+        assert batch_size == len(self.controllers)
+        for c in self.controllers:
+            c.reset(t0, 1)
+
+    def command(self, t, state, reference):
+        out = []
+        for b, c in enumerate(self.controllers):
+            s = slice(b, b + 1)
+            h = None if state.h is None else state.h[s]
+            out.append(c.command(t, AttitudeState(state.R[s], state.omega[s], h), reference))
+        return np.concatenate(out, axis=0)
+
+    def diagnostics(self):
+        d = [c.diagnostics() for c in self.controllers]
+        out = {}
+        for k in sorted(set().union(*d)):
+            like = next(x[k] for x in d if k in x)
+            fill = np.full_like(like, False if like.dtype == bool else np.nan)
+            out[k] = np.concatenate([x.get(k, fill) for x in d], axis=0)
+        return out  # keys missing for some controller: NaN (False) rows
+
+
+def quick_reproduction(module: object, out: Path) -> tuple[int, Path, dict]:
+    """Run a seed reproduction's ``main(out, quick=True)``; return its exit code, ``out`` and the
+    parsed ``results.json``."""
+    code = module.main(out, quick=True)
+    return code, out, json.loads((out / "results.json").read_text(encoding="utf-8"))
