@@ -16,6 +16,11 @@ stage, so sources must be pure functions of their arguments. The library:
 
 Sources compose with :class:`SumOfDisturbances`, which also reports each source's torque
 (:meth:`SumOfDisturbances.components`) for the logs.
+
+A source whose torque does not depend on the attitude sets the class attribute
+``uses_attitude = False``: the plant then skips forming the attitude at the inner integration
+stages (a subclass that does read ``R`` must set it back to ``True``). Sources without the
+attribute are assumed to read ``R``.
 """
 
 from __future__ import annotations
@@ -23,6 +28,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
@@ -44,6 +50,8 @@ DisturbanceSource = Callable[[float, np.ndarray, np.ndarray], np.ndarray]
 class ZeroDisturbance:
     """No external torque."""
 
+    uses_attitude: ClassVar[bool] = False
+
     def __call__(self, t: float, R: np.ndarray, omega: np.ndarray) -> np.ndarray:
         return np.zeros(omega.shape)
 
@@ -51,6 +59,8 @@ class ZeroDisturbance:
 @dataclass(frozen=True)
 class ConstantTorque:
     """A body-fixed constant torque ``(3,)`` (same for every spacecraft) or ``(B, 3)`` [N·m]."""
+
+    uses_attitude: ClassVar[bool] = False
 
     torque: np.ndarray
 
@@ -78,6 +88,8 @@ class Seed000Disturbance:
         n: orbit rate [rad/s] (default 0.0011, SPEC §5.3).
         scale: multiplies the whole torque (robustness sweeps; 1 = the paper's values).
     """
+
+    uses_attitude: ClassVar[bool] = False
 
     n: float = 0.0011
     scale: float = 1.0
@@ -133,6 +145,11 @@ class SumOfDisturbances:
                 raise ValueError(f"sources: entry {name!r} is not callable")
         object.__setattr__(self, "sources", dict(src))
         object.__setattr__(self, "_items", tuple(src.items()))
+
+    @property
+    def uses_attitude(self) -> bool:
+        """Whether any source reads the attitude (see the module docstring)."""
+        return any(getattr(src, "uses_attitude", True) for _, src in self._items)
 
     def components(self, t: float, R: np.ndarray, omega: np.ndarray) -> dict[str, np.ndarray]:
         """Each source's torque ``(B, 3)``, by name."""

@@ -32,30 +32,15 @@ from liecontrol._validation import as_array, check_rotation_matrix
 from liecontrol.integrators.rk import rkmk4_step, rkmk4_step_floats, rkmk4_step_unchecked
 
 from .actuators import Actuator
-from .disturbances import (
-    ConstantTorque,
-    DisturbanceSource,
-    Seed000Disturbance,
-    SumOfDisturbances,
-    ZeroDisturbance,
-)
+from .disturbances import DisturbanceSource
 from .flexible import FlexibleModes
 from .rigid_body import RigidBody
 
 __all__ = ["PlantState", "Spacecraft"]
 
-#: sources known not to read the attitude (exact types: a subclass may override ``__call__``)
-_ATTITUDE_FREE = (ZeroDisturbance, ConstantTorque, Seed000Disturbance)
-
-
 def _reads_attitude(source: object) -> bool:
-    """Whether a disturbance source may read its ``R`` argument: ``False`` for the known
-    attitude-free sources, for a source with ``uses_attitude = False`` and for a sum of such
-    sources; ``True`` otherwise (the safe default)."""
-    if type(source) in _ATTITUDE_FREE:
-        return False
-    if isinstance(source, SumOfDisturbances):
-        return any(_reads_attitude(s) for s in source.sources.values())
+    """Whether a disturbance source may read its ``R`` argument (``uses_attitude``, see
+    :mod:`spacecraft.disturbances`); ``True`` when it does not say (the safe default)."""
     return bool(getattr(source, "uses_attitude", True))
 
 
