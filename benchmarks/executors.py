@@ -19,6 +19,7 @@ payload), so the results do not depend on the executor.
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import os
 import sys
@@ -55,10 +56,8 @@ def describe_exception(exc: BaseException) -> str:
     text = f"{type(exc).__name__}: {exc}".strip()
     where_t = getattr(exc, "time", None)
     if where_t is not None and "t=" not in text and "t = " not in text:
-        try:
+        with contextlib.suppress(TypeError, ValueError):  # a non-numeric .time: no suffix
             text += f" (at t={float(where_t):.3g} s)"
-        except (TypeError, ValueError):
-            pass
     tb = traceback.extract_tb(exc.__traceback__)
     if tb:
         text += f" [{tb[-1].filename.rsplit('/', 1)[-1]}:{tb[-1].lineno}]"

@@ -24,6 +24,7 @@ the number of spacecraft it served (per spacecraft per control step).
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -473,12 +474,10 @@ def pack_infos(infos: dict[str, ControllerInfo]) -> dict[str, tuple[str, Any]]:
 
     out: dict[str, tuple[str, Any]] = {}
     for name, info in infos.items():
-        try:
+        with contextlib.suppress(Exception):  # closures, lambdas, local classes: next route
             pickle.dumps(info)
             out[name] = ("obj", info)
             continue
-        except Exception:  # noqa: BLE001 - closures, lambdas, local classes
-            pass
         try:
             import cloudpickle
 
@@ -655,7 +654,7 @@ def _timed_pose(inner: Any) -> Any:
     from liecontrol.control import PoseController
 
     class TimedPoseController(TimedController, PoseController):
-        pass
+        """The timing proxy, registered as a pose controller (wrench seam)."""
 
     return TimedPoseController(inner)
 
