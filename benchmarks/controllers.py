@@ -436,8 +436,8 @@ def _register_builtins() -> None:
         exclude_tags=("manoeuvre", "unwinding", "large-angle"),
         notes="small-angle Euler PID: for pointing and jitter, not for large slews",
     )
-    register("se3-tracking", _se3_tracking, plants={"se3"}, family="se3", quick=False)
-    register("bullo-murray-pd", _bullo_murray, plants={"se3"}, family="se3", quick=False)
+    register("se3-tracking", _se3_tracking, plants={"se3"}, family="se3")
+    register("bullo-murray-pd", _bullo_murray, plants={"se3"}, family="se3")
 
 
 _register_builtins()
