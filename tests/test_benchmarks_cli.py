@@ -51,21 +51,27 @@ def test_run_quick_suite_end_to_end(tmp_path, capsys):
     assert code == 0
     assert "report:" in capsys.readouterr().out
     md = (out / "report.md").read_text(encoding="utf-8")
-    assert "| controller | stabilisation | slew-90 | slew-179 |" in md
+    assert "| controller | stabilisation | slew-90 | slew-179 | proximity-approach |" in md
     quick = quick_controllers()
     assert len(quick) >= 3 and "geometric-pd-log" in quick
     for c in quick:
         assert f"| `{c}` |" in md
     # a 4 s run cannot settle a 90° slew; the stabilisation has no unwinding ratio
     assert "not settled" in md and "n/a" in md and "FAILED" not in md
-    n = 3 * len(quick)
+    n = 4 * len(quick)  # every pair has a row; SE(3) vs attitude mismatches say "n/a"
     with open(out / "metrics.csv", newline="", encoding="utf-8") as f:
         rows = list(csv.DictReader(f))
-    assert len(rows) == n and all(r["status"] == "ok" for r in rows)
+    assert len(rows) == n
+    scenarios = {s.name: s for s in QUICK_SUITE}
+    for r in rows:  # "n/a" exactly where the controller does not apply (SE(3) vs attitude)
+        applies, _ = get_controller(r["controller"]).applies(scenarios[r["scenario"]])
+        assert r["status"] == ("ok" if applies else "n/a"), (r["scenario"], r["controller"])
     doc = _strict_json((out / "metrics.json").read_text(encoding="utf-8"))
     assert doc["suite"] == "quick" and len(doc["results"]) == n
     by_name = {(r["scenario"], r["controller"]): r for r in doc["results"]}
     for row in rows:
+        if row["status"] != "ok":
+            continue
         m = by_name[(row["scenario"], row["controller"])]["metrics"]
         assert float(row["initial_error_deg"]) == pytest.approx(m["initial_error_deg"])
     slew = by_name[("slew-179", "geometric-pd-log")]["metrics"]
@@ -92,8 +98,14 @@ def test_horizon_scale_controller_subset_and_scenario_file(tmp_path):
     )  # fmt: skip
     assert code == 0
     doc = _strict_json((out / "metrics.json").read_text(encoding="utf-8"))
-    assert [s["name"] for s in doc["scenarios"]] == ["stabilisation", "slew-90", "slew-179", "mine"]
-    assert [s["duration"] for s in doc["scenarios"]] == [3.0, 3.0, 3.0, 0.01]
+    assert [s["name"] for s in doc["scenarios"]] == [
+        "stabilisation",
+        "slew-90",
+        "slew-179",
+        "proximity-approach",
+        "mine",
+    ]
+    assert [s["duration"] for s in doc["scenarios"]] == [3.0, 3.0, 3.0, 2.0, 0.01]
     assert {r["controller"] for r in doc["results"]} == {"geometric-pd-log", "mrp-pd"}
     assert not (out / "figures").exists()
     # a file alone runs only its scenarios

@@ -46,7 +46,12 @@ def test_catalogue_covers_spec_8_1():
     } <= tags
     angles = {round(s.initial_error_deg, 3) for s in SCENARIOS.values() if "manoeuvre" in s.tags}
     assert {30.0, 90.0, 150.0, 179.0, 120.0} <= angles
-    assert [s.name for s in QUICK_SUITE] == ["stabilisation", "slew-90", "slew-179"]
+    assert [s.name for s in QUICK_SUITE] == [
+        "stabilisation",
+        "slew-90",
+        "slew-179",
+        "proximity-approach",
+    ]
     assert get_suite("full").scenarios == tuple(SCENARIOS.values())
     assert SCENARIOS["proximity-approach"].plant == "se3"
     assert SCENARIOS["payload-jitter"].plant == "wheels"
