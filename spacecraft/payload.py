@@ -43,7 +43,7 @@ from scipy.optimize import least_squares
 
 from liecontrol._validation import (
     as_array,
-    check_inertia,
+    check_inertia_3x3,
     check_nonnegative,
     check_positive,
     check_rotation_matrix,
@@ -164,10 +164,7 @@ class RotatingPayload:
         if not isinstance(m, float):
             raise ValueError(f"mass: expected a scalar, got shape {np.shape(self.mass)}")
         object.__setattr__(self, "mass", m)
-        I_A = as_array(self.inertia, "inertia")
-        if I_A.shape != (3, 3):
-            raise ValueError(f"inertia: expected shape (3, 3), got {I_A.shape}")
-        check_inertia(I_A, "inertia")
+        I_A = check_inertia_3x3(self.inertia, "inertia")
         for name in ("hinge", "com_offset"):
             v = as_array(getattr(self, name), name)
             if v.shape != (3,):
@@ -425,9 +422,7 @@ def jitter_estimate(
         zeta: closed-loop damping ratio ξ (≥ 0).
         omega_p: disturbance frequency [rad/s] for amplitude input.
     """
-    Jm = check_inertia(J, "J")
-    if Jm.shape != (3, 3):
-        raise ValueError(f"J: expected shape (3, 3), got {Jm.shape}")
+    Jm = check_inertia_3x3(J, "J")
     Jd = np.diag(Jm).copy()
     omega_n = check_nonnegative(omega_n, "omega_n")
     zeta = check_nonnegative(zeta, "zeta")

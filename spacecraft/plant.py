@@ -38,6 +38,7 @@ from .rigid_body import RigidBody
 
 __all__ = ["PlantState", "Spacecraft"]
 
+
 def _reads_attitude(source: object) -> bool:
     """Whether a disturbance source may read its ``R`` argument (``uses_attitude``, see
     :mod:`spacecraft.disturbances`); ``True`` when it does not say (the safe default)."""
@@ -84,7 +85,9 @@ class Spacecraft:
     appendage modes (SPEC §5.1, §5.4).
 
     Args:
-        body: the rigid body (inertia ``J`` of the whole spacecraft).
+        body: the rigid body (inertia ``J`` of the whole spacecraft; with per-spacecraft
+            inertias ``J`` ``(B, 3, 3)`` every state of this plant has batch size ``B``, and
+            flexible ``modes`` are not supported).
         actuator: e.g. :class:`spacecraft.actuators.SgcmgActuator` or
             :class:`spacecraft.actuators.IdealTorqueActuator`.
         disturbance: a callable ``(t, R, omega) -> (B, 3)`` body torque [N·m], or ``None``.
@@ -99,6 +102,7 @@ class Spacecraft:
     _Js_inv: np.ndarray | None = field(init=False, repr=False, default=None)
     _slices: tuple = field(init=False, repr=False, default=())
     _stage_attitude: bool = field(init=False, repr=False, compare=False, default=True)
+    _float_route: bool = field(init=False, repr=False, compare=False, default=False)
 
     def __post_init__(self) -> None:
         if not isinstance(self.body, RigidBody):
@@ -113,6 +117,11 @@ class Spacecraft:
                 raise ValueError(
                     f"modes: expected FlexibleModes or None, got {type(self.modes).__name__}"
                 )
+            if self.body.batch_size is not None:
+                raise ValueError(
+                    "modes: flexible modes need one body inertia shared by the batch (body.J of "
+                    f"shape (3, 3)), got per-spacecraft inertias of shape {self.body.J.shape}"
+                )
             Js_inv = np.linalg.inv(self.modes.schur_inertia(self.body.J))
             Js_inv = 0.5 * (Js_inv + Js_inv.T)
             Js_inv.setflags(write=False)
@@ -125,6 +134,10 @@ class Spacecraft:
             self,
             "_stage_attitude",
             self.disturbance is not None and _reads_attitude(self.disturbance),
+        )
+        # one rigid spacecraft may run its RK stages on Python floats (:meth:`step_packed`)
+        object.__setattr__(
+            self, "_float_route", self.modes is None and self.body._J_rows is not None
         )
 
     @property
@@ -184,7 +197,9 @@ class Spacecraft:
         ``R0`` is ``(3, 3)`` or ``(B, 3, 3)``; ``omega0`` ``(3,)`` or ``(B, 3)`` (default zero);
         ``x_act0`` ``(n,)`` or ``(B, n)`` (default ``actuator.initial_state``); with flexible
         modes ``q0`` and ``q_dot0`` ``(N,)`` or ``(B, N)`` (default zero). The batch size is
-        ``batch`` if given, else the largest leading dimension found; single arrays broadcast.
+        ``batch`` if given, else the largest leading dimension found, else the body's number of
+        per-spacecraft inertias (``body.J`` ``(B, 3, 3)``), which it must equal; single arrays
+        broadcast.
         """
         R0 = check_rotation_matrix(R0, "R0")
         if R0.ndim not in (2, 3):
@@ -217,7 +232,17 @@ class Spacecraft:
             raise ValueError(
                 f"R0: batch sizes of R0/omega0/x_act0/q0/q_dot0/batch disagree: {sorted(sizes)}"
             )
-        B = sizes.pop() if sizes else 1
+        B_body = self.body.batch_size
+        if B_body is not None and sizes and B_body not in sizes:
+            given = (("R0", R0 if R0.ndim == 3 else None), ("omega0", w0), ("x_act0", xa),
+                     ("q0", modal["q0"]), ("q_dot0", modal["q_dot0"]))  # fmt: skip
+            batched = [n for n, a in given if a is not None and a.ndim > 1]
+            name = "batch" if batch is not None else batched[0]
+            raise ValueError(
+                f"{name}: batch size {sizes.pop()} does not match the body's {B_body} "
+                f"per-spacecraft inertias (body.J of shape {self.body.J.shape})"
+            )
+        B = sizes.pop() if sizes else (1 if B_body is None else B_body)
         if B < 1:
             raise ValueError(f"batch: must be >= 1, got {B}")
         R = np.broadcast_to(R0, (B, 3, 3)).copy()
@@ -247,6 +272,12 @@ class Spacecraft:
         if R.ndim != 3:
             raise ValueError(f"{name}.R: expected shape (B, 3, 3), got {R.shape}")
         B = R.shape[0]
+        B_body = self.body.batch_size
+        if B_body is not None and B != B_body:
+            raise ValueError(
+                f"{name}.R: batch size {B} does not match the body's {B_body} per-spacecraft "
+                f"inertias (body.J of shape {self.body.J.shape})"
+            )
         w = as_array(state.omega, f"{name}.omega")
         if w.shape != (B, 3):
             raise ValueError(f"{name}.omega: expected shape {(B, 3)}, got {w.shape}")
@@ -347,7 +378,7 @@ class Spacecraft:
         # the stage attitudes R e^θ and passes R=None (same result, three exponentials and 3×3
         # products fewer per step)
         stage_attitude = self._stage_attitude
-        if x.shape[0] == 1 and self.modes is None:
+        if x.shape[0] == 1 and self._float_route:
             stage = getattr(self.actuator, "float_stage", lambda held: None)(held)
             if stage is not None:
                 R_next, x_next = rkmk4_step_floats(

@@ -58,39 +58,98 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return p
 
 
+def _inertia_columns(M: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rows ``M[:, j, :]`` ``(B, 3)`` of a batch of symmetric matrices, contiguous: ``M v`` is
+    then ``v_0 M_0 + v_1 M_1 + v_2 M_2`` (:meth:`RigidBody._times`)."""
+    cols = tuple(np.ascontiguousarray(M[:, j, :]) for j in range(3))
+    for c in cols:
+        c.setflags(write=False)
+    return cols  # type: ignore[return-value]
+
+
 @dataclass(frozen=True)
 class RigidBody:
     """Rigid body with inertia ``J`` about its centre of mass, in body axes [kg·m²].
 
-    ``J`` is validated (finite, symmetric, positive definite, triangle inequality) and stored
-    read-only together with its inverse ``J_inv`` (precomputed: the simulator needs ``J⁻¹`` at
-    every integration stage).
+    ``J`` is ``(3, 3)`` (one inertia shared by every spacecraft of a batch) or ``(B, 3, 3)``
+    (one per spacecraft: ``J[b]`` is the inertia of spacecraft ``b``, e.g. a Monte Carlo inertia
+    error per sample; the plant's batch size must then be ``B``). Each inertia is validated
+    (finite, symmetric, positive definite, triangle inequality; errors name ``J[b]``) and stored
+    read-only together with its inverse ``J_inv`` (same shape, precomputed: the simulator needs
+    ``J⁻¹`` at every integration stage).
 
     Example:
         >>> body = RigidBody(np.diag([10.0, 20.0, 30.0]))
         >>> body.angular_acceleration(np.zeros((1, 3)), np.array([[1.0, 0.0, 0.0]]))
         array([[0.1, 0. , 0. ]])
+        >>> RigidBody(np.stack([np.diag([10.0, 20.0, 30.0])] * 4)).batch_size
+        4
     """
 
     J: np.ndarray
     J_inv: np.ndarray = field(init=False, repr=False, compare=False)
-    _J_rows: tuple = field(init=False, repr=False, compare=False)
-    _J_inv_rows: tuple = field(init=False, repr=False, compare=False)
+    # Python-float rows of J and J⁻¹ for the single-spacecraft route (shared J, or B = 1)
+    _J_rows: tuple | None = field(init=False, repr=False, compare=False)
+    _J_inv_rows: tuple | None = field(init=False, repr=False, compare=False)
+    # per-spacecraft J: contiguous rows (B, 3) of J and J⁻¹ (None for a shared J)
+    _J_cols: tuple | None = field(init=False, repr=False, compare=False)
+    _J_inv_cols: tuple | None = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        J = check_inertia(self.J, "J")
-        if J.shape != (3, 3):
-            raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+        J = as_array(self.J, "J", (3, 3))
+        if J.ndim not in (2, 3) or J.shape[0] < 1:
+            raise ValueError(f"J: expected shape (3, 3) or (B, 3, 3) with B >= 1, got {J.shape}")
+        try:
+            check_inertia(J, "J")
+        except ValueError:
+            if J.ndim == 2:
+                raise
+            # name the first offending spacecraft (the loop only runs on the error path)
+            for b in range(J.shape[0]):
+                check_inertia(J[b], f"J[{b}]")
+            raise
         # symmetrise exactly so that J_inv is symmetric and energy is computed consistently
-        J = 0.5 * (J + J.T)
+        J = 0.5 * (J + np.swapaxes(J, -1, -2))
         J_inv = np.linalg.inv(J)
-        J_inv = 0.5 * (J_inv + J_inv.T)
+        J_inv = 0.5 * (J_inv + np.swapaxes(J_inv, -1, -2))
         J.setflags(write=False)
         J_inv.setflags(write=False)
         object.__setattr__(self, "J", J)
         object.__setattr__(self, "J_inv", J_inv)
-        object.__setattr__(self, "_J_rows", tuple(map(tuple, J.tolist())))
-        object.__setattr__(self, "_J_inv_rows", tuple(map(tuple, J_inv.tolist())))
+        one = J.ndim == 2 or J.shape[0] == 1
+        for attr, M in (("_J_rows", J), ("_J_inv_rows", J_inv)):
+            rows = tuple(map(tuple, M.reshape(3, 3).tolist())) if one else None
+            object.__setattr__(self, attr, rows)
+        batched = J.ndim == 3
+        object.__setattr__(self, "_J_cols", _inertia_columns(J) if batched else None)
+        object.__setattr__(self, "_J_inv_cols", _inertia_columns(J_inv) if batched else None)
+
+    @property
+    def batch_size(self) -> int | None:
+        """``B`` for per-spacecraft inertias ``J`` ``(B, 3, 3)``; ``None`` for a shared ``J``."""
+        return None if self.J.ndim == 2 else int(self.J.shape[0])
+
+    @staticmethod
+    def _times(cols: tuple, v: np.ndarray) -> np.ndarray:
+        """``M_b v_b`` for per-spacecraft symmetric ``M`` given as its rows ``cols``
+        (:func:`_inertia_columns`), ``v`` ``(..., B, 3)``. Component ``i`` is summed as
+        ``v_0 M_0i + v_1 M_1i + v_2 M_2i``, the order of the float route
+        (:meth:`_angular_acceleration_floats`), and measured 11 µs against 15 µs for
+        ``einsum`` and 22 µs for a stacked ``matmul`` at B = 1000 (81/133/216 µs at 10 000)."""
+        out = v[..., 0:1] * cols[0]
+        out += v[..., 1:2] * cols[1]
+        out += v[..., 2:3] * cols[2]
+        return out
+
+    def inertia_times(self, v: np.ndarray) -> np.ndarray:
+        """``J v`` ``(..., 3)``; per spacecraft with ``J`` ``(B, 3, 3)`` (``v`` ``(..., B, 3)``)."""
+        cols = self._J_cols
+        return v @ self.J if cols is None else self._times(cols, v)
+
+    def inverse_inertia_times(self, v: np.ndarray) -> np.ndarray:
+        """``J⁻¹ v`` ``(..., 3)`` (per spacecraft like :meth:`inertia_times`)."""
+        cols = self._J_inv_cols
+        return v @ self.J_inv if cols is None else self._times(cols, v)
 
     # -- dynamics ------------------------------------------------------------------------------
 
@@ -98,7 +157,8 @@ class RigidBody:
         """``ω̇ = J⁻¹ (−ω × J ω + τ)`` with ``τ = u + T_d`` the total body torque (SPEC §5.1).
 
         Args:
-            omega: ``(..., 3)`` body angular velocity [rad/s].
+            omega: ``(..., 3)`` body angular velocity [rad/s] (``(..., B, 3)`` with
+                per-spacecraft ``J`` ``(B, 3, 3)``).
             torque: ``(..., 3)`` total torque on the body about the centre of mass, body axes
                 [N·m]: internal actuator torque ``u = −ḣ − ω × h`` plus disturbances.
 
@@ -106,12 +166,16 @@ class RigidBody:
             ``(..., 3)`` body angular acceleration [rad/s²].
 
         No input validation: this is the integrator's hot path; :class:`spacecraft.plant.
-        Spacecraft` validates once at the boundary.
+        Spacecraft` validates once at the boundary (including that its batch is ``B``).
         """
-        if omega.shape == (1, 3) and torque.shape == (1, 3):
+        if omega.shape == (1, 3) and torque.shape == (1, 3) and self._J_rows is not None:
             return self._angular_acceleration_one(omega, torque)
-        Jw = omega @ self.J  # J symmetric: (J ω)ᵀ = ωᵀ J, batched as a row-vector product
-        return (torque - _cross(omega, Jw)) @ self.J_inv
+        cols = self._J_cols
+        if cols is None:
+            Jw = omega @ self.J  # J symmetric: (J ω)ᵀ = ωᵀ J, batched as a row-vector product
+            return (torque - _cross(omega, Jw)) @ self.J_inv
+        rhs = torque - _cross(omega, self._times(cols, omega))
+        return self._times(self._J_inv_cols, rhs)
 
     def _angular_acceleration_one(self, omega: np.ndarray, torque: np.ndarray) -> np.ndarray:
         """Single-body case on Python floats: ~3× faster than numpy on 1-element arrays
@@ -122,7 +186,8 @@ class RigidBody:
     def _angular_acceleration_floats(
         self, w0: float, w1: float, w2: float, t0: float, t1: float, t2: float
     ) -> tuple[float, float, float]:
-        """ω̇ on Python floats (the single-body route and the plant's float RK stages)."""
+        """ω̇ on Python floats (the single-body route and the plant's float RK stages; needs a
+        shared ``J`` or ``B = 1``)."""
         (a, b, c), (d, e, f), (g, k, m) = self._J_rows
         j0 = a * w0 + b * w1 + c * w2
         j1 = d * w0 + e * w1 + f * w2
@@ -148,17 +213,17 @@ class RigidBody:
         omega = as_array(omega, "omega", (3,))
         h = as_array(h, "h", (3,))
         h_dot = as_array(h_dot, "h_dot", (3,))
-        rhs = -np.cross(omega, omega @ self.J + h) - h_dot
+        rhs = -np.cross(omega, self.inertia_times(omega) + h) - h_dot
         if disturbance is not None:
             rhs = rhs + as_array(disturbance, "disturbance", (3,))
-        return rhs @ self.J_inv
+        return self.inverse_inertia_times(rhs)
 
     # -- invariants ----------------------------------------------------------------------------
 
     def body_momentum(self, omega: np.ndarray, h: np.ndarray | None = None) -> np.ndarray:
         """Total body-axis angular momentum ``H = J ω + h`` [N·m·s], shape ``(..., 3)``."""
         omega = as_array(omega, "omega", (3,))
-        H = omega @ self.J
+        H = self.inertia_times(omega)
         if h is not None:
             H = H + as_array(h, "h", (3,))
         return H
@@ -175,7 +240,7 @@ class RigidBody:
     def kinetic_energy(self, omega: np.ndarray) -> np.ndarray:
         """Rotational kinetic energy of the bus ``½ ωᵀ J ω`` [J], shape ``(...)``."""
         omega = as_array(omega, "omega", (3,))
-        return 0.5 * np.einsum("...i,...i->...", omega @ self.J, omega)
+        return 0.5 * np.einsum("...i,...i->...", self.inertia_times(omega), omega)
 
 
 # -- parameter uncertainty (SPEC §5.4) -------------------------------------------------------------

@@ -405,3 +405,71 @@ def test_se3_log_error_agrees_with_lie_se3():
     np.testing.assert_allclose(
         E.se3_log_error(g, g_d), se3.log(se3.compose(se3.inverse(g_d), g)), atol=1e-9
     )
+
+
+# ----------------------------------------------------------------------------------------------
+# unchecked kernels (used by GeometricPD.command on already-checked input)
+
+
+def _relative_rotations() -> np.ndarray:
+    """R̃ over the whole range: tiny angles (Taylor branch), generic, near π and exactly π."""
+    rng = np.random.default_rng(5)
+    axes = rng.normal(size=(40, 3))
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    angles = np.concatenate(
+        [
+            [0.0, 1e-9, 1e-5, 9e-4],
+            rng.uniform(0, np.pi, 28),
+            np.pi - np.array([1e-3, 1e-7]),
+            [np.pi] * 6,
+        ]
+    )
+    return np.stack([rodrigues(t, n) for t, n in zip(angles, axes, strict=True)])
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_unchecked_kernels_match_the_direct_formulas_to_round_off(kind):
+    """The unchecked kernels (θ from the log's atan2, one BLAS product for G R̃, the cosine form of
+    Ψ only where θ ≥ π/2) agree with the formulas written out on so3.log and plain matmuls, for
+    every batch shape and for a strided (transposed-view) stack."""
+    Rt = _relative_rotations()
+    phi = so3.log(Rt)
+    theta = np.linalg.norm(phi, axis=-1)
+    if kind == "trace":
+        GR = G_TEST @ Rt
+        Psi_ref = np.trace(G_TEST) - np.trace(GR, axis1=-2, axis2=-1)
+        D = GR - np.swapaxes(Rt, -1, -2) @ G_TEST
+        e_ref = 0.5 * np.stack((D[:, 2, 1], D[:, 0, 2], D[:, 1, 0]), axis=-1)
+    elif kind == "large_angle":
+        Psi_ref = np.where(
+            theta < 0.5 * np.pi, 4.0 * np.sin(theta / 4) ** 2, 2.0 - 2.0 * np.cos(theta / 2)
+        )
+        # sin(θ/2)/θ, with its series ½ − θ²/48 where the quotient loses digits
+        hs = np.sin(theta / 2) / np.maximum(theta, 1e-300)
+        hs = np.where(theta < 1e-3, 0.5 - theta**2 / 48, hs)
+        e_ref = hs[:, None] * phi
+    else:
+        Psi_ref, e_ref = 0.5 * theta**2, phi
+    kernel = E._KERNELS[kind]
+    args = (G_TEST,) if kind == "trace" else ()
+    strided = np.ascontiguousarray(Rt.transpose(1, 0, 2)).transpose(1, 0, 2)
+    for R_in, shape in ((Rt, (40,)), (strided, (40,)), (Rt.reshape(4, 10, 3, 3), (4, 10))):
+        Psi, e_R = kernel(R_in, *args)
+        assert Psi.shape == shape and e_R.shape == shape + (3,)
+        np.testing.assert_allclose(Psi.reshape(-1), Psi_ref, rtol=1e-14, atol=1e-15)
+        np.testing.assert_allclose(e_R.reshape(-1, 3), e_ref, rtol=1e-14, atol=1e-15)
+    for i in (0, 3, 17, 39):  # no batch dimension
+        Psi, e_R = kernel(Rt[i], *args)
+        assert Psi.shape == () and e_R.shape == (3,)
+        np.testing.assert_allclose(Psi, Psi_ref[i], rtol=1e-14, atol=1e-15)
+        np.testing.assert_allclose(e_R, e_ref[i], rtol=1e-14, atol=1e-15)
+    assert E.ATTITUDE_ERRORS[kind](Rt, np.eye(3), *args)[0].shape == (40,)
+
+
+def test_batch_shapes_that_do_not_broadcast_name_the_second_argument():
+    R2, R3 = np.tile(np.eye(3), (2, 1, 1)), np.tile(np.eye(3), (3, 1, 1))
+    with pytest.raises(ValueError, match=r"^R_d: batch shape \(3,\) does not broadcast with R's"):
+        E.log_error(R2, R3)
+    g2, g3 = np.tile(np.eye(4), (2, 1, 1)), np.tile(np.eye(4), (3, 1, 1))
+    with pytest.raises(ValueError, match=r"^g_d: batch shape \(3,\) does not broadcast with g's"):
+        E.se3_log_error(g2, g3)

@@ -248,3 +248,29 @@ def test_star_tracker_cached_misalignment():
     st0 = StarTracker(noise_std=1e-4, output="matrix")
     got0 = st0.measure(0.0, R, None, np.random.default_rng(1))
     np.testing.assert_array_equal(got0, R @ so3.exp(np.zeros(3)) @ so3.exp(delta))
+
+
+@pytest.mark.parametrize("disturbance", [None, Seed000Disturbance()])
+@pytest.mark.parametrize("B", [3, 600])  # 600: the column-wise cross product (≥ 512 rows)
+def test_per_spacecraft_inertia_step_is_bitwise_the_float_route(disturbance, B):
+    """The (B, 3, 3) inertia route sums J ω and J⁻¹ r in the float route's order: every
+    spacecraft of a batched-J step is bitwise its own single-spacecraft float step."""
+    from spacecraft import perturbed_inertia
+
+    rng = np.random.default_rng(3)
+    Js = perturbed_inertia(J, rng, 0.2, axis_std=0.1, size=B)
+    actuator = SgcmgActuator(SgcmgPyramid(h0=300.0), SingularityRobust())
+    plant = Spacecraft(RigidBody(Js), actuator, disturbance)
+    assert not plant._float_route and Spacecraft(RigidBody(Js[:1]), actuator)._float_route
+    R = so3.exp(rng.normal(size=(B, 3)))
+    x = np.concatenate([0.02 * rng.normal(size=(B, 3)), rng.normal(size=(B, 4))], 1)
+    held = actuator.command(rng.normal(size=(B, 3)), x[:, :3], x[:, 3:], 0.0)
+    R_new, x_new = plant.step_packed(1.0, R, x, held, 0.1)
+    for b in (0, 1, B - 1):
+        s = slice(b, b + 1)
+        one = Spacecraft(RigidBody(Js[b]), actuator, disturbance)
+        assert one._float_route
+        held_b = CmgCommand(held.delta_dot[s], held.saturated[s], held.h_dot_cmd[s])
+        R1, x1 = one.step_packed(1.0, R[s], x[s], held_b, 0.1)
+        np.testing.assert_array_equal(R_new[s], R1)
+        np.testing.assert_array_equal(x_new[s], x1)

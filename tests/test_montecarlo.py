@@ -16,7 +16,7 @@ from benchmarks.montecarlo import (
     run_montecarlo,
     write_montecarlo_report,
 )
-from benchmarks.scenarios import SEED000_SPACECRAFT
+from benchmarks.scenarios import SEED000_SPACECRAFT, scale_principal_moments
 from liecontrol.control import AttitudeController
 
 CFG = MonteCarloConfig(n_samples=6, chunk_size=3, duration=20.0, seed=7)
@@ -48,11 +48,23 @@ def test_samples_are_seeded_haar_and_physical():
     assert angles.max() > np.deg2rad(170)
     rates = np.rad2deg(np.linalg.norm(s.omega0, axis=-1))
     assert rates.max() <= 0.5 and rates.min() >= 0
+    # one inertia error per sample: U(1 ± 0.2) on each principal moment, physical, axes kept
+    assert s.inertia_scale.shape == (4000, 3) and s.J.shape == (4000, 3, 3)
     assert np.all(np.abs(s.inertia_scale - 1) <= 0.2)
+    # (not centred: draws breaking the triangle inequality are rejected, so the mean shifts)
+    assert np.all(s.inertia_scale.min(axis=0) < 0.81) and np.all(s.inertia_scale.max(axis=0) > 1.19)
     lam = np.linalg.eigvalsh(s.J)
-    assert lam[0] + lam[1] >= lam[2]
+    assert np.all(lam[:, 0] + lam[:, 1] >= lam[:, 2])
+    lam0, V = np.linalg.eigh(SEED000_SPACECRAFT.J)
+    np.testing.assert_allclose(
+        np.einsum("ji,bjk,ki->bi", V, s.J, V), lam0 * s.inertia_scale, rtol=1e-12
+    )
+    for k in (0, 1, 3999):  # the scenarios' single-matrix route
+        Jk = scale_principal_moments(SEED000_SPACECRAFT.J, s.inertia_scale[k])
+        np.testing.assert_allclose(s.J[k], Jk, rtol=0, atol=1e-12 * np.abs(Jk).max())
     again = chunk_samples(cfg, 0)
     np.testing.assert_array_equal(again.R0, s.R0)
+    np.testing.assert_array_equal(again.J, s.J)
     c2 = MonteCarloConfig(n_samples=10, chunk_size=4)
     assert c2.n_chunks == 3 and len(chunk_samples(c2, 2).sample) == 2
     assert not np.array_equal(chunk_samples(c2, 0).R0[:2], chunk_samples(c2, 1).R0[:2])
@@ -88,6 +100,31 @@ def test_batched_path_equals_per_spacecraft_path(serial):
         np.testing.assert_allclose(b["final_omega"], r["final_omega"], rtol=0, atol=1e-12)
         for k in ("final_error_deg", "peak_rate_deg_s", "effort_Nms", "unwinding_ratio"):
             assert b[k] == pytest.approx(r[k], rel=1e-12, abs=1e-12)
+
+
+def test_draws_and_results_do_not_depend_on_chunking(serial):
+    """Every sample is seeded on its own: its draws are bitwise the same for any chunk_size,
+    and so are the runs up to the batched/single round-off (1e-12)."""
+    import dataclasses
+
+    whole = chunk_samples(dataclasses.replace(CFG, chunk_size=6), 0)
+    for size in (1, 2, 4):
+        cfg = dataclasses.replace(CFG, chunk_size=size)
+        parts = [chunk_samples(cfg, i) for i in range(cfg.n_chunks)]
+        for name in ("inertia_scale", "J", "R0", "omega0", "sample"):
+            got = np.concatenate([getattr(p, name) for p in parts])
+            np.testing.assert_array_equal(got, getattr(whole, name))
+    assert len({tuple(x) for x in whole.inertia_scale}) == 6  # one inertia error per sample
+    other = run_montecarlo(
+        NAMES, dataclasses.replace(CFG, chunk_size=4), executor="serial", progress=False
+    )
+    a = {(r["controller"], r["sample"]): r for r in serial.records}
+    assert {r["chunk"] for r in other.records} == {0, 1} and len(other.records) == 12
+    for r in other.records:
+        b = a[(r["controller"], r["sample"])]
+        assert r["inertia_scale"] == b["inertia_scale"]
+        np.testing.assert_allclose(r["final_R"], b["final_R"], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(r["final_omega"], b["final_omega"], rtol=0, atol=1e-12)
 
 
 def test_process_and_dask_executors_give_identical_results(serial):

@@ -546,3 +546,17 @@ def test_non_finite_or_bad_states_raise_on_the_fast_path():
     with pytest.raises(ValueError, match="^R_d"):
         ctrl.command(0.0, AttitudeState(np.eye(3)[None], np.zeros((1, 3))),
                      AttitudeReference(-np.eye(3), np.zeros(3), np.zeros(3)))  # fmt: skip
+
+
+def test_batched_states_use_the_shared_fast_check_and_still_raise():
+    """B > 1 goes through ``rotations_pass_fast`` too: a bad matrix anywhere in the batch still
+    gets check_rotation_matrix's message."""
+    ctrl = _mpc(horizon=2)
+    ctrl.reset(0.0, 2)
+    ref = AttitudeReference.regulation(np.eye(3))
+    for bad, msg in ((np.diag([1.0, 1.0, -1.0]), "reflection"), (1.01 * np.eye(3), "orthonormal")):
+        R = np.stack([np.eye(3), bad])
+        with pytest.raises(ValueError, match=f"^R: .*{msg}"):
+            ctrl.command(0.0, AttitudeState(R, np.zeros((2, 3))), ref)
+    u = ctrl.command(0.0, AttitudeState(np.stack([np.eye(3)] * 2), np.zeros((2, 3))), ref)
+    np.testing.assert_allclose(u, 0.0, atol=1e-9)

@@ -399,3 +399,160 @@ def test_controller_with_perturbed_inertia_still_regulates():
     R_d = so3.exp(np.array([0.5, -0.3, 0.4]))
     res = simulate(plant, ctrl, ConstantAttitude(R_d), plant.initial_state(np.eye(3)), 60.0, 0.1)
     assert res.attitude_error_angle()[-1, 0] < 1e-3
+
+
+# --------------------------------------------------------- per-spacecraft inertia (issue 7)
+def _inertias(B: int, seed: int = 21) -> np.ndarray:
+    from spacecraft import perturbed_inertia
+
+    return perturbed_inertia(J_SEED, np.random.default_rng(seed), 0.2, axis_std=0.1, size=B)
+
+
+def test_per_spacecraft_inertia_is_validated_each():
+    Js = _inertias(5)
+    body = RigidBody(Js)
+    assert body.batch_size == 5 and RigidBody(J_SEED).batch_size is None
+    assert body.J.shape == body.J_inv.shape == (5, 3, 3)
+    np.testing.assert_allclose(body.J_inv @ Js, np.broadcast_to(np.eye(3), (5, 3, 3)), atol=1e-13)
+    assert not body.J.flags.writeable and not body.J_inv.flags.writeable
+    bad = Js.copy()
+    bad[3] = np.diag([1.0, 1.0, 3.0])  # triangle inequality
+    with pytest.raises(ValueError, match=r"^J\[3\]: principal moments violate"):
+        RigidBody(bad)
+    bad = Js.copy()
+    bad[1, 0, 1] += 50.0  # asymmetric
+    with pytest.raises(ValueError, match=r"^J\[1\]: not symmetric"):
+        RigidBody(bad)
+    bad = Js.copy()
+    bad[4] = -bad[4]
+    with pytest.raises(ValueError, match=r"^J\[4\]: not positive definite"):
+        RigidBody(bad)
+    for shape in ((0, 3, 3), (2, 2, 3, 3)):
+        with pytest.raises(ValueError, match=r"^J: expected shape \(3, 3\) or \(B, 3, 3\)"):
+            RigidBody(np.zeros(shape))
+    with pytest.raises(ValueError, match="^J:"):
+        RigidBody(np.full((2, 3, 3), np.nan))
+    # never mutates its input
+    Js_copy = Js.copy()
+    RigidBody(Js)
+    np.testing.assert_array_equal(Js, Js_copy)
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), B=st.integers(1, 7))
+def test_per_spacecraft_body_equals_one_body_per_spacecraft(seed, B):
+    """Each spacecraft of a (B, 3, 3) body behaves as RigidBody(J[b]) alone; ω̇ is also checked
+    against an independent route (np.linalg.solve of J ω̇ = τ − ω × Jω)."""
+    rng = np.random.default_rng(seed)
+    Js = _inertias(B, seed)
+    body = RigidBody(Js)
+    w = 0.1 * rng.normal(size=(B, 3))
+    tau = rng.normal(size=(B, 3))
+    h = 50.0 * rng.normal(size=(B, 3))
+    acc = body.angular_acceleration(w, tau)
+    ref = np.linalg.solve(Js, (tau - np.cross(w, np.einsum("bij,bj->bi", Js, w)))[..., None])
+    np.testing.assert_allclose(acc, ref[..., 0], rtol=1e-10, atol=1e-15)
+    H = body.body_momentum(w, h)
+    E = body.kinetic_energy(w)
+    mom = body.angular_acceleration_momentum(w, h, tau, -tau)
+    for b in range(B):
+        one = RigidBody(Js[b])
+        s = slice(b, b + 1)
+        np.testing.assert_allclose(acc[s], one.angular_acceleration(w[s], tau[s]), rtol=1e-13)
+        np.testing.assert_allclose(H[b], one.body_momentum(w[b], h[b]), rtol=1e-13, atol=1e-12)
+        assert E[b] == pytest.approx(float(one.kinetic_energy(w[b])), rel=1e-13)
+        np.testing.assert_allclose(
+            mom[b], one.angular_acceleration_momentum(w[b], h[b], tau[b], -tau[b]), rtol=1e-12
+        )
+    # with a batch of one the single-spacecraft float route is taken, same numbers
+    one = RigidBody(Js[:1])
+    assert one._J_rows is not None
+    np.testing.assert_allclose(one.angular_acceleration(w[:1], tau[:1]), acc[:1], rtol=1e-14)
+
+
+def _flight(J, B, rng_seed=5, disturbance=None, t_final=30.0):
+    from liecontrol.control import ConstantAttitude
+    from liecontrol.control.geometric_pd import GeometricPD, gains_from_bandwidth
+    from spacecraft import simulate
+
+    rng = np.random.default_rng(rng_seed)
+    R0 = so3.random(rng, B)
+    w0 = 0.005 * rng.normal(size=(B, 3))
+    k_R, k_W = gains_from_bandwidth(J_SEED, 0.1, 0.9, error="large_angle", matrix=True)
+    ctrl = GeometricPD(J_SEED, k_R, k_W, error="large_angle")  # nominal model J
+    act = SgcmgActuator(SgcmgPyramid(h0=300.0), SingularityRobust())
+    plant = Spacecraft(RigidBody(J), act, disturbance)
+    return plant, R0, w0, lambda p, R, w: simulate(
+        p, ctrl, ConstantAttitude(np.eye(3)), p.initial_state(R, w), t_final, 0.1,
+        control_period=0.2,
+    )  # fmt: skip
+
+
+def test_batched_inertia_simulation_equals_per_spacecraft_runs():
+    """Issue 7: a batch with one true inertia per spacecraft flies exactly (1e-12) as the
+    spacecraft flown one by one, each with its own J, under a controller with the nominal J."""
+    B = 4
+    Js = _inertias(B)
+    plant, R0, w0, fly = _flight(Js, B, disturbance=Seed000Disturbance())
+    res = fly(plant, R0, w0)
+    assert np.abs(res.omega[-1]).max() > 0  # a real manoeuvre, not a trivial rest
+    for b in range(B):
+        one = Spacecraft(RigidBody(Js[b]), plant.actuator, plant.disturbance)
+        r1 = fly(one, R0[b], w0[b])
+        np.testing.assert_allclose(res.R[:, b], r1.R[:, 0], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(res.omega[:, b], r1.omega[:, 0], rtol=0, atol=1e-12)
+        d, d1 = res.actuator["delta"][:, b], r1.actuator["delta"][:, 0]
+        np.testing.assert_allclose(d, d1, rtol=0, atol=1e-12)
+    # the inertias matter: the shared nominal J gives a different flight
+    shared, *_ = _flight(J_SEED, B)
+    assert np.abs(fly(shared, R0, w0).omega[-1] - res.omega[-1]).max() > 1e-6
+
+
+def test_per_spacecraft_inertia_conserves_each_inertial_momentum():
+    """Physics of the batched-J plant (independent of the per-spacecraft comparison): without
+    external torque each spacecraft's R (J_b ω + h) stays constant under momentum exchange."""
+    rng = np.random.default_rng(8)
+    B = 3
+    Js = _inertias(B, 2)
+    plant = Spacecraft(RigidBody(Js), SgcmgActuator(SgcmgPyramid(), SingularityRobust()))
+    state = plant.initial_state(so3.random(rng, B), omega0=0.02 * rng.normal(size=(B, 3)))
+    H0 = plant.inertial_momentum(state)
+    np.testing.assert_allclose(
+        H0,
+        np.einsum("bij,bj->bi", state.R, np.einsum("bij,bj->bi", Js, state.omega)
+                  + plant.actuator_momentum(state)),
+        rtol=1e-13,
+    )  # fmt: skip
+    for k in range(200):
+        held = plant.command(20.0 * rng.normal(size=(B, 3)), state, 0.1 * k)
+        state = plant.step(state, held, 0.1 * k, 0.1)
+    H = plant.inertial_momentum(state)
+    assert np.abs(H - H0).max() < 1e-9 * np.abs(H0).max() + 1e-9
+    assert plant.mechanical_energy(state).shape == (B,)
+
+
+def test_per_spacecraft_inertia_batch_must_match():
+    from liecontrol.control import ConstantAttitude
+    from liecontrol.control.geometric_pd import GeometricPD
+    from spacecraft import FlexibleModes, simulate
+
+    Js = _inertias(4)
+    plant = Spacecraft(RigidBody(Js), IdealTorqueActuator())
+    assert plant.initial_state(np.eye(3)).batch_size == 4  # the body fixes B
+    assert plant.initial_state(so3.random(np.random.default_rng(0), 4)).batch_size == 4
+    with pytest.raises(ValueError, match=r"^R0: batch size 3 does not match the body's 4"):
+        plant.initial_state(np.eye(3)[None].repeat(3, 0))
+    with pytest.raises(ValueError, match="^omega0: batch size 2 does not match"):
+        plant.initial_state(np.eye(3), omega0=np.zeros((2, 3)))
+    with pytest.raises(ValueError, match="^batch: batch size 5 does not match"):
+        plant.initial_state(np.eye(3), batch=5)
+    shared = Spacecraft(RigidBody(J_SEED), IdealTorqueActuator())
+    wrong = shared.initial_state(np.eye(3), batch=2)
+    with pytest.raises(ValueError, match=r"^initial_state\.R: batch size 2 does not match"):
+        simulate(plant, GeometricPD(J_SEED, 1.0, 1.0), ConstantAttitude(np.eye(3)), wrong, 1.0, 0.1)
+    with pytest.raises(ValueError, match=r"^state\.R: batch size 2 does not match"):
+        plant.step(wrong, np.zeros((2, 3)), 0.0, 0.1)
+    modes = FlexibleModes([[2.0, 0.0, 0.5]], frequencies=[1.2])
+    with pytest.raises(ValueError, match=r"^modes: flexible modes need one body inertia shared"):
+        Spacecraft(RigidBody(Js), IdealTorqueActuator(), modes=modes)
+    Spacecraft(RigidBody(Js[0]), IdealTorqueActuator(), modes=modes)  # shared J: fine

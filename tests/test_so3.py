@@ -416,3 +416,43 @@ def test_validate():
         so3.validate(R2)
     with pytest.raises(ValueError, match=r"^rng:"):
         so3.random(np.random.default_rng(0).integers, 3)
+
+
+# ---------------------------------------------------------------- unchecked kernel (hot paths)
+
+
+def test_log_angle_unchecked_is_log_and_its_angle_for_any_layout():
+    """``_log_angle_unchecked`` returns log's vector bit for bit, θ = ‖ω‖ to round-off (θ checked
+    against scipy's rotation-vector norm), and reads strided stacks (a transposed product, as the
+    geometric PD forms it) without a different result."""
+    W = np.vstack([W_SMALL, W_MID, W_NEAR_PI, PI * _AXES])
+    R = so3.exp(W)
+    phi, theta = so3._log_angle_unchecked(R)
+    np.testing.assert_array_equal(phi, so3.log(R))
+    np.testing.assert_allclose(theta, np.linalg.norm(phi, axis=-1), rtol=1e-15, atol=0)
+    ref = np.linalg.norm(Rotation.from_matrix(R).as_rotvec(), axis=-1)
+    np.testing.assert_allclose(theta, ref, rtol=1e-12, atol=1e-15)
+    strided = np.ascontiguousarray(R.transpose(1, 0, 2)).transpose(1, 0, 2)
+    assert not strided.flags.c_contiguous
+    phi_s, theta_s = so3._log_angle_unchecked(strided)
+    np.testing.assert_array_equal(phi_s, phi)
+    np.testing.assert_array_equal(theta_s, theta)
+    one_phi, one_theta = so3._log_angle_unchecked(R[3])
+    assert one_phi.shape == (3,) and one_theta.shape == ()
+    np.testing.assert_array_equal(one_phi, phi[3])
+
+
+def test_log_floats_is_log_on_python_floats_and_defers_near_pi():
+    """The one-matrix float kernel (geometric PD and MPC hot paths) agrees with log to round-off
+    below log's symmetric-part switch (cos θ ≥ −0.999, θ ≤ π − 0.0447) and returns None above."""
+    W = np.vstack([W_SMALL, W_MID, np.zeros((1, 3)), W_NEAR_PI, PI * _AXES])
+    R = so3.exp(W)
+    ref = so3.log(R)
+    cos = 0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0)
+    for Ri, li, ci in zip(R, ref, cos, strict=True):
+        out = so3._log_floats(*Ri.ravel().tolist())
+        if ci < -0.999:
+            assert out is None
+        else:
+            np.testing.assert_allclose(out, li, rtol=1e-15, atol=1e-300)
+    assert so3._log_floats(*[np.nan] * 9) is None

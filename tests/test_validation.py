@@ -11,6 +11,8 @@ from liecontrol._validation import (
     check_nonnegative,
     check_positive,
     check_rotation_matrix,
+    check_spd,
+    rotations_pass_fast,
 )
 from liecontrol.control import AttitudeReference, ConstantAttitude
 from liecontrol.control.base import check_state_batch
@@ -63,6 +65,78 @@ def test_inertia_3x3_is_check_inertia_for_one_matrix():
         check_inertia_3x3(np.stack([J_SEED000, J_SEED000]), "J_est")
     with pytest.raises(ValueError, match="^J: not positive definite"):
         check_inertia_3x3(np.diag([1.0, -1.0, 1.0]))
+
+
+def test_inertia_3x3_checks_the_shape_before_the_physics():
+    # a (2, 2) matrix gets the single-matrix message, not check_inertia's "(..., 3, 3)"
+    with pytest.raises(ValueError, match=r"^inertia: expected shape \(3, 3\), got \(2, 2\)"):
+        check_inertia_3x3(np.eye(2), "inertia")
+
+
+def _accepted(R):
+    try:
+        check_rotation_matrix(R, "R")
+    except ValueError:
+        return False
+    return True
+
+
+def _rotation_cases():
+    """Rotations near and past the tolerance, reflections, non-finite, batches, other dtypes."""
+    rng = np.random.default_rng(7)
+    q = rng.normal(size=(6, 4))
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    w, x, y, z = q.T
+    Rs = np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+            np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
+        ],
+        -2,
+    )
+    cases = [Rs[0], Rs, Rs[:1], Rs.reshape(2, 3, 3, 3), Rs[:0], np.eye(3)]
+    for eps in (3e-10, 2e-9):  # inside and outside ROTATION_ATOL = 1e-9 on RᵀR − I
+        P = Rs.copy()
+        P[2, 0, 1] += eps
+        cases += [P, P[2]]
+    F = Rs.copy()
+    F[4] = F[4] @ np.diag([1.0, 1.0, -1.0])
+    cases += [F, F[4], -np.eye(3)]
+    for bad in (np.nan, np.inf):
+        N = Rs.copy()
+        N[1, 2, 2] = bad
+        cases += [N, N[1]]
+    return cases
+
+
+@pytest.mark.parametrize("R", _rotation_cases())
+def test_rotations_pass_fast_accepts_exactly_what_the_full_check_accepts(R):
+    assert rotations_pass_fast(R) == _accepted(R)
+
+
+@pytest.mark.parametrize(
+    "R",
+    [np.eye(3).tolist(), np.eye(3, dtype=np.float32), np.eye(3, dtype=int), np.eye(4), "abc"],
+)
+def test_rotations_pass_fast_defers_anything_not_a_float64_stack(R):
+    # False only means "run check_rotation_matrix" (which converts or raises)
+    assert rotations_pass_fast(R) is False
+
+
+def test_check_spd_eigenvalues_and_messages():
+    A = np.array([[2.0, 0.5, 0.0], [0.5, 1.0, 0.0], [0.0, 0.0, 3.0]])
+    np.testing.assert_allclose(check_spd(A, "W"), np.sort(np.linalg.eigvals(A).real))
+    with pytest.raises(ValueError, match=r"^K_x: gain matrix not symmetric \(max \|K − Kᵀ\|"):
+        check_spd(A + np.triu(np.ones((3, 3)), 1), "K_x", symbol="K", what="gain matrix ")
+    with pytest.raises(ValueError, match=r"^G: not positive definite \(smallest eigenvalue"):
+        check_spd(np.diag([1.0, 0.0, 2.0]), "G")
+    # a relative floor rejects an eigenvalue at round-off level of the largest
+    check_spd(np.diag([1e-13, 1.0]), "W")
+    with pytest.raises(ValueError, match=r"^W: not positive definite"):
+        check_spd(np.diag([1e-13, 1.0]), "W", pd_rtol=1e-12)
+    with pytest.raises(ValueError, match=r"^W: expected a square matrix"):
+        check_spd(np.ones((2, 3)), "W")
 
 
 def test_state_batch_checks_shapes_and_reset_size():

@@ -25,13 +25,15 @@ import math
 import numpy as np
 
 from .._validation import (
-    ROTATION_ATOL,
     as_array,
-    check_inertia,
+    check_inertia_3x3,
     check_positive,
     check_rotation_matrix,
+    check_spd,
+    rotations_pass_fast,
 )
 from ..errors import _KERNELS, DEFAULT_G, _check_kind, check_error_weight
+from ..lie import so3
 from .base import AttitudeController, AttitudeReference, AttitudeState
 
 __all__ = ["GeometricPD", "check_gain", "gains_from_bandwidth", "linear_error_slope"]
@@ -48,15 +50,7 @@ def check_gain(k: object, name: str) -> float | np.ndarray:
         return np.diag(a)
     if a.shape != (3, 3):
         raise ValueError(f"{name}: expected a scalar, shape (3,) or (3, 3), got {a.shape}")
-    scale = float(np.abs(a).max())
-    asym = float(np.abs(a - a.T).max())
-    if asym > 1e-9 * max(scale, 1e-300):
-        raise ValueError(f"{name}: gain matrix not symmetric (max |K − Kᵀ| = {asym:.2e})")
-    eig = np.linalg.eigvalsh(a)
-    if eig[0] <= 0:
-        raise ValueError(
-            f"{name}: gain matrix not positive definite (smallest eigenvalue {eig[0]:.3e})"
-        )
+    check_spd(a, name, symbol="K", what="gain matrix ")
     return a.copy()
 
 
@@ -107,9 +101,7 @@ def gains_from_bandwidth(
     the linear design suggests; check the regions of attraction of the chosen gains with
     :mod:`liecontrol.control.region_of_attraction`.
     """
-    J = check_inertia(J, "J")
-    if J.shape != (3, 3):
-        raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+    J = check_inertia_3x3(J, "J")
     omega_n = check_positive(omega_n, "omega_n")
     zeta = check_positive(zeta, "zeta")
     s_min = linear_error_slope(error, G, "min")
@@ -144,45 +136,6 @@ def _apply_gain(K: float | np.ndarray, x: np.ndarray) -> np.ndarray:
 # raise the usual messages (or convert, e.g. lists). One spacecraft runs on Python floats.
 
 _F64 = np.dtype(np.float64)
-_EYE3 = np.eye(3)
-_EYE3.setflags(write=False)
-# so3.log switches to the symmetric-part axis below this cos θ; the float route defers to it
-_LOG_NEAR_PI_COS = -0.999
-
-
-def _rotations_pass(R: np.ndarray) -> bool:
-    """True iff ``check_rotation_matrix(R)`` would accept ``R`` (finite, ``max |RᵀR − I| ≤
-    ROTATION_ATOL``, det ≥ 0) — NaN/inf make the comparison False, so they are rejected too.
-    The determinant is the triple product instead of ``np.linalg.det`` (near-orthonormal
-    matrices have det ≈ ±1: the sign is unambiguous)."""
-    if R.shape == (1, 3, 3):
-        a, b, c, d, e, f, g, h, k = R.ravel().tolist()
-        err = max(
-            abs(a * a + d * d + g * g - 1.0),
-            abs(b * b + e * e + h * h - 1.0),
-            abs(c * c + f * f + k * k - 1.0),
-            abs(a * b + d * e + g * h),
-            abs(a * c + d * f + g * k),
-            abs(b * c + e * f + h * k),
-        )
-        det = a * (e * k - f * h) - b * (d * k - f * g) + c * (d * h - e * g)
-        return err <= ROTATION_ATOL and det >= 0.0
-    if R.size == 0:
-        return True
-    # in place on the one temporary (the batched controller calls this at every sample); the
-    # copy: matmul with both operands on the same memory takes a ~1.6× slower route
-    G = np.swapaxes(R, -1, -2) @ R.copy()
-    G -= _EYE3
-    np.abs(G, out=G)
-    if not G.max() <= ROTATION_ATOL:
-        return False
-    c0, c1, c2 = R[..., :, 0], R[..., :, 1], R[..., :, 2]
-    det = (
-        c0[..., 0] * (c1[..., 1] * c2[..., 2] - c1[..., 2] * c2[..., 1])
-        - c0[..., 1] * (c1[..., 0] * c2[..., 2] - c1[..., 2] * c2[..., 0])
-        + c0[..., 2] * (c1[..., 0] * c2[..., 1] - c1[..., 1] * c2[..., 0])
-    )
-    return bool(np.all(det >= 0.0))
 
 
 def _vectors_pass(x: object, shape: tuple[int, ...]) -> bool:
@@ -241,9 +194,7 @@ class GeometricPD(AttitudeController):
         error: str = "large_angle",
         G: object = None,
     ) -> None:
-        J = check_inertia(J, "J")
-        if J.shape != (3, 3):
-            raise ValueError(f"J: expected shape (3, 3), got {J.shape}")
+        J = check_inertia_3x3(J, "J")
         self.J = J.copy()
         self.J.setflags(write=False)
         self.k_R = check_gain(k_R, "k_R")
@@ -292,12 +243,9 @@ class GeometricPD(AttitudeController):
         # a read-only array owning its data (e.g. ConstantAttitude's R_d) cannot change between
         # steps, so once validated it is not re-checked on this hot path
         if not (isinstance(R_d, np.ndarray) and R_d is self._checked_R_d):
+            # rotations_pass_fast checks the dtype and the (3, 3) tail itself
             if not (
-                isinstance(R_d, np.ndarray)
-                and R_d.dtype == _F64
-                and R_d.ndim in (2, 3)
-                and R_d.shape[-2:] == (3, 3)
-                and _rotations_pass(R_d.reshape(-1, 3, 3))
+                isinstance(R_d, np.ndarray) and R_d.ndim in (2, 3) and rotations_pass_fast(R_d)
             ):
                 R_d = check_rotation_matrix(R_d, "R_d")
             if not R_d.flags.writeable and R_d.base is None:
@@ -322,11 +270,9 @@ class GeometricPD(AttitudeController):
         R, w = state.R, state.omega
         if not (
             isinstance(R, np.ndarray)
-            and R.dtype == _F64
             and R.ndim == 3
-            and R.shape[1:] == (3, 3)
             and _vectors_pass(w, (R.shape[0], 3))
-            and _rotations_pass(R)
+            and rotations_pass_fast(R)
         ):
             R = check_rotation_matrix(R, "R")
             w = as_array(w, "omega", (3,))
@@ -343,11 +289,19 @@ class GeometricPD(AttitudeController):
             if M is not None:
                 return M
 
-        # R̃ = R_dᵀR formed directly (the same products summed in the same order as (RᵀR_d)ᵀ),
-        # so the error kernel gets a contiguous array (so3.log would copy a transposed view);
-        # R̃ᵀ = RᵀR_d, which maps desired-body vectors into the body frame, is its view
-        Rt = np.swapaxes(R_d, -1, -2) @ R
+        # R̃ = R_dᵀR formed directly; R̃ᵀ = RᵀR_d, which maps desired-body vectors into the body
+        # frame, is its view
+        if R_d.ndim == 2:
+            # one reference for the batch: R_dᵀR_b for every b as one BLAS product
+            # (3, 3) @ (3, 3B); numpy's broadcast (3, 3) @ (B, 3, 3) matmul loops over the small
+            # matrices ~3× slower. The (B, 3, 3) result is a transposed view, which the kernels
+            # read without copying.
+            Rt = (R_d.T @ R.transpose(1, 0, 2).reshape(3, 3 * B)).reshape(3, B, 3)
+            Rt = Rt.transpose(1, 0, 2)
+        else:
+            Rt = np.swapaxes(R_d, -1, -2) @ R
         RtT = np.swapaxes(Rt, -1, -2)
+        # R, R_d were checked above: the unchecked kernels of liecontrol.errors skip the checks
         if self.error == "trace":
             Psi, e_R = self._kernel(Rt, self.G)
         else:
@@ -384,10 +338,6 @@ class GeometricPD(AttitudeController):
             [r[i] * q[j] + r[3 + i] * q[3 + j] + r[6 + i] * q[6 + j] for j in range(3)]
             for i in range(3)
         ]
-        # Rt = RtT ᵀ; so3.log(Rt) with v = (Rt − Rtᵀ)^∨ written in RtT's entries
-        v0 = T[1][2] - T[2][1]
-        v1 = T[2][0] - T[0][2]
-        v2 = T[0][1] - T[1][0]
         if self.error == "trace":
             G = self._G_rows
             # (G Rt)_ij = Σ_m G_im Rt_mj with Rt_mj = T_jm
@@ -400,19 +350,12 @@ class GeometricPD(AttitudeController):
             e1 = 0.5 * (GR[0][2] - GR[2][0])
             e2 = 0.5 * (GR[1][0] - GR[0][1])
         else:
-            sn = v0 * v0
-            sn += v1 * v1
-            sn += v2 * v2
-            sn = math.sqrt(sn) * 0.5
-            cs = T[0][0] + T[1][1]
-            cs += T[2][2]
-            cs = (cs - 1.0) * 0.5
-            if cs < _LOG_NEAR_PI_COS:
+            # so3.log(R̃) on floats, R̃ = RtTᵀ given row by row; None near π (see the docstring)
+            (a, b, c), (d, e, f), (g, h, k) = T
+            phi = so3._log_floats(a, d, g, b, e, h, c, f, k)
+            if phi is None:
                 return None
-            theta = math.atan2(sn, cs)
-            zero = 1.0 if sn == 0.0 else 0.0
-            fac = (theta + zero) / ((sn + zero) + (sn + zero))
-            p0, p1, p2 = v0 * fac, v1 * fac, v2 * fac
+            p0, p1, p2 = phi
             sq = p0 * p0 + p1 * p1 + p2 * p2
             if self.error == "log":
                 Psi = 0.5 * sq

@@ -72,7 +72,6 @@ from __future__ import annotations
 
 import copy
 import logging
-import math
 from collections.abc import Callable
 from typing import Any
 
@@ -81,15 +80,15 @@ import scipy.linalg
 import scipy.sparse as sp
 
 from .._validation import (
-    ROTATION_ATOL,
     as_array,
     check_inertia_3x3,
     check_positive,
     check_rotation_matrix,
+    check_spd,
+    rotations_pass_fast,
 )
 from ..integrators.lgvi import lgvi_step_unchecked
 from ..lie import so3
-from ..lie.so3 import _LOG_SYMMETRIC_COS
 from .base import AttitudeController, AttitudeReference, AttitudeState, check_state_batch
 from .geometric_pd import GeometricPD, gains_from_bandwidth
 
@@ -341,42 +340,10 @@ def _stage0(J, Jinv, dt, R, omega, R_d1, omega_d1, u_bar, jacobian):
 
 
 def _log_one(M: np.ndarray) -> np.ndarray:
-    """``so3.log`` of one rotation ``(3, 3)`` on Python floats (the same formula: θ = atan2(s, c),
-    ω = θ/(2 sin θ) (M − Mᵀ)^∨); nearer π than ``so3``'s switch it defers to ``so3.log``."""
-    m00, m01, m02, m10, m11, m12, m20, m21, m22 = M.ravel().tolist()
-    c = 0.5 * (m00 + m11 + m22 - 1.0)
-    if not c >= _LOG_SYMMETRIC_COS:  # also NaN
-        return so3.log(M)
-    v0, v1, v2 = m21 - m12, m02 - m20, m10 - m01
-    s = 0.5 * math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
-    k = 0.5 if s == 0.0 else math.atan2(s, c) / (2.0 * s)
-    return np.array([k * v0, k * v1, k * v2])
-
-
-def _check_rotations(R: object, name: str) -> np.ndarray:
-    """``check_rotation_matrix`` with a Python-float fast path for a single matrix (the same
-    tolerance; anything that fails it goes through ``check_rotation_matrix`` for the message)."""
-    a = R if isinstance(R, np.ndarray) and R.dtype == np.float64 else None
-    if a is None or a.size != 9 or a.shape[-2:] != (3, 3):
-        return check_rotation_matrix(R, name)
-    r00, r01, r02, r10, r11, r12, r20, r21, r22 = a.ravel().tolist()
-    # columns' Gram matrix RᵀR − I and det R = c0 · (c1 × c2)
-    err = max(
-        abs(r00 * r00 + r10 * r10 + r20 * r20 - 1.0),
-        abs(r01 * r01 + r11 * r11 + r21 * r21 - 1.0),
-        abs(r02 * r02 + r12 * r12 + r22 * r22 - 1.0),
-        abs(r00 * r01 + r10 * r11 + r20 * r21),
-        abs(r00 * r02 + r10 * r12 + r20 * r22),
-        abs(r01 * r02 + r11 * r12 + r21 * r22),
-    )
-    det = (
-        r00 * (r11 * r22 - r21 * r12)
-        - r10 * (r01 * r22 - r21 * r02)
-        + r20 * (r01 * r12 - r11 * r02)
-    )
-    if err <= ROTATION_ATOL and det > 0.0:  # False for NaN/inf
-        return a
-    return check_rotation_matrix(a, name)
+    """``so3.log`` of one checked rotation ``(3, 3)`` on Python floats (``so3._log_floats``);
+    nearer π than ``so3``'s switch to the symmetric-part axis it defers to ``so3.log``."""
+    p = so3._log_floats(*M.ravel().tolist())
+    return so3.log(M) if p is None else np.array(p)
 
 
 def _error_fast(R: np.ndarray, w: np.ndarray, R_d: np.ndarray, w_d: np.ndarray) -> np.ndarray:
@@ -400,12 +367,8 @@ def check_weight(W: object, name: str, n: int) -> np.ndarray:
         return np.diag(a)
     if a.shape != (n, n):
         raise ValueError(f"{name}: expected shape ({n},) or ({n}, {n}), got {a.shape}")
-    scale = float(np.abs(a).max())
-    if float(np.abs(a - a.T).max()) > 1e-9 * max(scale, 1e-300):
-        raise ValueError(f"{name}: not symmetric")
-    eig = np.linalg.eigvalsh(a)
-    if eig[0] <= 1e-12 * max(eig[-1], 1e-300):
-        raise ValueError(f"{name}: not positive definite (smallest eigenvalue {eig[0]:.3e})")
+    # a relative floor: an eigenvalue at round-off level of the largest counts as singular
+    check_spd(a, name, symbol="W", pd_rtol=1e-12)
     return 0.5 * (a + a.T)
 
 
@@ -959,13 +922,16 @@ class SO3MPC(AttitudeController):
         """Full body torque ``(B, 3)`` [N·m]; ``|u_i| ≤ u_max_i`` always (fallback included)."""
         if self._batch is None:
             raise RuntimeError("SO3MPC.command: call reset(t0, batch_size) first")
-        R = _check_rotations(state.R, "R")
+        R = state.R
+        if not rotations_pass_fast(R):
+            R = check_rotation_matrix(R, "R")
         w = as_array(state.omega, "omega", (3,))
         B = check_state_batch(R, w, self._batch)
         R_d = reference.R_d
         # a read-only array owning its data (ConstantAttitude's R_d) cannot change: checked once
         if not (isinstance(R_d, np.ndarray) and R_d is self._checked_R_d):
-            R_d = _check_rotations(R_d, "R_d")
+            if not rotations_pass_fast(R_d):
+                R_d = check_rotation_matrix(R_d, "R_d")
             if not R_d.flags.writeable and R_d.base is None:
                 self._checked_R_d = R_d
         w_d = as_array(reference.omega_d, "omega_d", (3,))

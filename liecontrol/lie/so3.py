@@ -15,6 +15,8 @@ robotics* (2018), App. B. The logarithm near π uses the symmetric part of R (SP
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .._validation import as_array, check_finite, check_rotation_matrix, check_shape_tail
@@ -257,13 +259,20 @@ def log(R: object) -> np.ndarray:
     from (R − Rᵀ)^∨ (SPEC §2): accurate to round-off up to and including θ = π. At exactly θ = π
     both ±π n are logarithms; the one returned is deterministic but arbitrary.
     """
-    R = _mat(R, "R")
+    return _log_angle_unchecked(_mat(R, "R"))[0]
+
+
+def _log_angle_unchecked(R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`log` and the angle θ, ``(..., 3)`` and ``(...)``, for an **already validated**
+    finite float64 ``(..., 3, 3)`` array (no checks: callers on hot paths that have checked
+    ``R`` themselves). θ is the ``atan2`` angle of :func:`log` (‖ω‖ = θ to round-off)."""
     shape = R.shape[:-2]
-    M = R.reshape(-1, 9)
+    # entries as (n,) views: no copy for any layout of a 3-D stack (e.g. a transposed product)
+    M = R.reshape(-1, 3, 3)
     out = np.empty((M.shape[0], 3))
-    v0 = np.subtract(M[:, 7], M[:, 5], out=out[:, 0])
-    v1 = np.subtract(M[:, 2], M[:, 6], out=out[:, 1])
-    v2 = np.subtract(M[:, 3], M[:, 1], out=out[:, 2])
+    v0 = np.subtract(M[:, 2, 1], M[:, 1, 2], out=out[:, 0])
+    v1 = np.subtract(M[:, 0, 2], M[:, 2, 0], out=out[:, 1])
+    v2 = np.subtract(M[:, 1, 0], M[:, 0, 1], out=out[:, 2])
     s = v0 * v0
     tmp = v1 * v1
     s += tmp
@@ -271,8 +280,8 @@ def log(R: object) -> np.ndarray:
     s += tmp
     np.sqrt(s, out=s)
     s *= 0.5  # sin θ
-    c = np.add(M[:, 0], M[:, 4])
-    c += M[:, 8]
+    c = np.add(M[:, 0, 0], M[:, 1, 1])
+    c += M[:, 2, 2]
     c -= 1.0
     c *= 0.5  # cos θ
     theta = np.arctan2(s, c)
@@ -285,8 +294,29 @@ def log(R: object) -> np.ndarray:
     out *= tmp[:, None]
     big = np.flatnonzero(c < _LOG_SYMMETRIC_COS)
     if big.size:
-        out[big] = _log_near_pi(M[big], theta[big])
-    return out.reshape(shape + (3,))
+        out[big] = _log_near_pi(M[big].reshape(-1, 9), theta[big])
+    return out.reshape(shape + (3,)), theta.reshape(shape)
+
+
+def _log_floats(
+    m00: float, m01: float, m02: float,
+    m10: float, m11: float, m12: float,
+    m20: float, m21: float, m22: float,
+) -> tuple[float, float, float] | None:  # fmt: skip
+    """:func:`log` of one **already validated** rotation given by its entries, on Python floats
+    (numpy's per-call overhead dominates for one matrix): the same operations in the same order
+    as :func:`_log_angle_unchecked` (results agree to round-off: only numpy's and libm's atan2
+    may differ, in the last bit). ``None`` where
+    cos θ < −0.999 (or NaN): there :func:`log` takes the axis from the symmetric part, which the
+    caller gets from :func:`log` itself."""
+    v0, v1, v2 = m21 - m12, m02 - m20, m10 - m01
+    s = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2) * 0.5  # sin θ
+    c = (m00 + m11 + m22 - 1.0) * 0.5  # cos θ
+    if not c >= _LOG_SYMMETRIC_COS:
+        return None
+    # θ/(2 sin θ), its limit ½ at θ = 0 (exactly log's (θ + z)/(2(s + z)), z = [s = 0])
+    k = 0.5 if s == 0.0 else math.atan2(s, c) / (s + s)
+    return v0 * k, v1 * k, v2 * k
 
 
 def right_jacobian(w: object) -> np.ndarray:
