@@ -636,7 +636,11 @@ QUICK_SUITE: tuple[Scenario, ...] = tuple(s for s in SCENARIOS.values() if "quic
 #: ``montecarlo`` are run by :mod:`benchmarks.unwinding` / :mod:`benchmarks.montecarlo` (the
 #: CLI dispatches on the name) — their entries here list the scenarios they are built from.
 SUITES: dict[str, Suite] = {
-    "quick": Suite("quick", "stabilisation, 90° and 179° slews, SE(3) proximity approach (< 1 min)", QUICK_SUITE),
+    "quick": Suite(
+        "quick",
+        "stabilisation, 90° and 179° slews, SE(3) proximity approach (< 1 min)",
+        QUICK_SUITE,
+    ),
     "full": Suite("full", "the whole SPEC §8.1 catalogue", tuple(SCENARIOS.values())),
     "unwinding": Suite(
         "unwinding",
