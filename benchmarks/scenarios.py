@@ -471,8 +471,11 @@ class Scenario:
 
     @property
     def initial_error_deg(self) -> float:
-        """Geodesic angle between the initial and the desired attitude [deg]."""
-        return float(np.rad2deg(np.linalg.norm(self.initial_rotvec)))
+        """Geodesic angle between the initial and the desired attitude [deg] (SE(3): of the
+        chaser relative to its docking pose)."""
+        px = self.proximity
+        rotvec = px.initial_rotvec if px is not None else self.initial_rotvec
+        return float(np.rad2deg(np.linalg.norm(rotvec)))
 
     @property
     def initial_quaternion(self) -> np.ndarray:
