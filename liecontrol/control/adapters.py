@@ -49,7 +49,7 @@ The chart-law protocol (what the wrapped ``law`` must provide)::
         batched = True                     # optional; False → the simulator steps per spacecraft
         def reset(self, t0: float, batch_size: int) -> None: ...
         def __call__(self, t: float, s: ChartState) -> np.ndarray:   # body torque (B, 3) [N m]
-            ...
+            return -self.kp * (s.y - s.y_d) - self.kd * (s.y_dot - s.y_d_dot)  # e.g. a chart PD
         def diagnostics(self) -> dict[str, np.ndarray]: ...           # optional, (B, ...) arrays
         def on_shadow_switch(self, state_mask, desired_mask) -> None: ...  # optional, MRP only
 
