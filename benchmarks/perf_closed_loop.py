@@ -21,15 +21,9 @@ Reference point: a compiled C++ framework does ~48 000 steps/s single-run on thi
 
 from __future__ import annotations
 
-import os
-import sys
+from benchmarks._perf import pin_blas_threads
 
-#: thread-count variables of the BLAS/OpenMP runtimes numpy may use; they are read when numpy
-#: is first imported, so they are set here, before the imports below (unless already set)
-THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
-_NUMPY_PRELOADED = "numpy" in sys.modules
-for _name in THREAD_VARS:
-    os.environ.setdefault(_name, "1")
+pin_blas_threads()  # before numpy is imported
 
 import argparse  # noqa: E402
 import cProfile  # noqa: E402
@@ -38,9 +32,7 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from liecontrol.control import ConstantAttitude  # noqa: E402
-from liecontrol.control.geometric_pd import GeometricPD, gains_from_bandwidth  # noqa: E402
-from liecontrol.lie import so3  # noqa: E402
+from benchmarks._perf import seed000_inertia, seed000_pd_loop, thread_settings  # noqa: E402
 from spacecraft import (  # noqa: E402
     RigidBody,
     SgcmgActuator,
@@ -50,30 +42,16 @@ from spacecraft import (  # noqa: E402
     simulate,
 )
 
-J_SEED000 = np.array(
-    [[15053.0, 3000.0, -1000.0], [3000.0, 6510.0, 2000.0], [-1000.0, 2000.0, 11122.0]]
-)
+J_SEED000 = seed000_inertia()
 
-
-def thread_settings() -> str:
-    """The thread-count variables in effect, e.g. ``OPENBLAS_NUM_THREADS=1 ...``."""
-    s = " ".join(f"{v}={os.environ.get(v, 'unset')}" for v in THREAD_VARS)
-    if _NUMPY_PRELOADED:
-        s += " (numpy was imported before this module: the runtime may not have applied them)"
-    return s
 
 
 def _setup(batch: int, rng: np.random.Generator):
     plant = Spacecraft(
         RigidBody(J_SEED000), SgcmgActuator(SgcmgPyramid(h0=300.0), SingularityRobust())
     )
-    k_R, k_W = gains_from_bandwidth(J_SEED000, 0.03, 0.9, error="large_angle", matrix=True)
-    ctrl = GeometricPD(J_SEED000, k_R, k_W, error="large_angle")
-    if batch == 1:
-        R_d = so3.exp(np.deg2rad(90.0) * np.array([1.0, 2.0, 3.0]) / np.sqrt(14.0))
-    else:
-        R_d = so3.exp(rng.normal(size=(batch, 3)) * 0.8)
-    return plant, ctrl, ConstantAttitude(R_d), plant.initial_state(np.eye(3), batch=batch)
+    ctrl, ref = seed000_pd_loop(batch, rng)
+    return plant, ctrl, ref, plant.initial_state(np.eye(3), batch=batch)
 
 
 def measure(

@@ -20,14 +20,9 @@ unless the environment sets them, and are printed.
 
 from __future__ import annotations
 
-import os
-import sys
+from benchmarks._perf import pin_blas_threads
 
-#: read when numpy is first imported, hence set before the imports below (unless already set)
-THREAD_VARS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
-_NUMPY_PRELOADED = "numpy" in sys.modules
-for _name in THREAD_VARS:
-    os.environ.setdefault(_name, "1")
+pin_blas_threads()  # before numpy is imported
 
 import argparse  # noqa: E402
 import time  # noqa: E402
@@ -35,8 +30,7 @@ import timeit  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from liecontrol.control import ConstantAttitude  # noqa: E402
-from liecontrol.control.geometric_pd import GeometricPD, gains_from_bandwidth  # noqa: E402
+from benchmarks._perf import seed000_inertia, seed000_pd_loop, thread_settings  # noqa: E402
 from liecontrol.lie import so3  # noqa: E402
 from spacecraft import (  # noqa: E402
     SEED003_PAYLOAD,
@@ -57,9 +51,7 @@ from spacecraft import (  # noqa: E402
     simulate,
 )
 
-J_SEED000 = np.array(
-    [[15053.0, 3000.0, -1000.0], [3000.0, 6510.0, 2000.0], [-1000.0, 2000.0, 11122.0]]
-)
+J_SEED000 = seed000_inertia()
 #: three appendage modes (two solar-array bending modes and one torsion mode)
 MODES = FlexibleModes(
     coupling=np.array([[20.0, 3.0, 1.0], [2.0, 15.0, -3.0], [4.0, -2.0, 12.0]]),
@@ -91,12 +83,7 @@ def _setup(case: int, batch: int, rng: np.random.Generator) -> tuple:
         SumOfDisturbances(sources) if sources else None,
         MODES if case >= 4 else None,
     )
-    k_R, k_W = gains_from_bandwidth(J_SEED000, 0.03, 0.9, error="large_angle", matrix=True)
-    ctrl = GeometricPD(J_SEED000, k_R, k_W, error="large_angle")
-    if batch == 1:
-        R_d = so3.exp(np.deg2rad(90.0) * np.array([1.0, 2.0, 3.0]) / np.sqrt(14.0))
-    else:
-        R_d = so3.exp(rng.normal(size=(batch, 3)) * 0.8)
+    ctrl, ref = seed000_pd_loop(batch, rng)
     kw: dict = {}
     if case >= 5:
         kw = {
@@ -107,15 +94,8 @@ def _setup(case: int, batch: int, rng: np.random.Generator) -> tuple:
             "measurement": StarTrackerGyro(),
             "rng": np.random.default_rng(1),
         }
-    return plant, ctrl, ConstantAttitude(R_d), plant.initial_state(np.eye(3), batch=batch), kw
+    return plant, ctrl, ref, plant.initial_state(np.eye(3), batch=batch), kw
 
-
-def thread_settings() -> str:
-    """The thread-count variables in effect."""
-    s = " ".join(f"{v}={os.environ.get(v, 'unset')}" for v in THREAD_VARS)
-    if _NUMPY_PRELOADED:
-        s += " (numpy was imported before this module: the runtime may not have applied them)"
-    return s
 
 
 def measure(
