@@ -334,17 +334,21 @@ def _check_state(R: object, x: object, rname: str = "R", xname: str = "x"):
     return Ra, xa
 
 
-def _checked_rkmk4_field(f: RKMK4Field, batch: tuple[int, ...], n: int) -> RKMK4Field:
-    """Wrap f so a wrong shape or a non-finite value in its output raises a ValueError."""
+def _checked_lie_field(
+    f: Callable, batch: tuple[int, ...], n: int, dim: int = 3, name: str = "omega"
+) -> Callable:
+    """Wrap a field ``f(t, G, x) -> (velocity (batch, dim), x_dot (batch, n))`` so a wrong shape
+    or a non-finite value in its output raises a ValueError (SO(3): ``omega``, dim 3; SE(3):
+    ``xi``, dim 6 — shared with :mod:`.rkmk_se3`)."""
 
-    def g(t: float, R: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        out = f(t, R, x)
+    def g(t: float, G: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        out = f(t, G, x)
         if not (isinstance(out, tuple) and len(out) == 2):
-            raise ValueError("f: must return a tuple (omega, x_dot)")
+            raise ValueError(f"f: must return a tuple ({name}, x_dot)")
         w = np.asarray(out[0], dtype=np.float64)
         d = np.asarray(out[1], dtype=np.float64)
-        if w.shape != batch + (3,):
-            raise ValueError(f"f: returned omega of shape {w.shape}, expected {batch + (3,)}")
+        if w.shape != batch + (dim,):
+            raise ValueError(f"f: returned {name} of shape {w.shape}, expected {batch + (dim,)}")
         if d.shape != batch + (n,):
             raise ValueError(f"f: returned x_dot of shape {d.shape}, expected {batch + (n,)}")
         if not (np.isfinite(w).all() and np.isfinite(d).all()):
@@ -395,7 +399,7 @@ def rkmk4_step(
     t = _check_t(t)
     h = _check_h(h)
     R, x = _check_state(R, x)
-    g = _checked_rkmk4_field(f, R.shape[:-2], x.shape[-1])
+    g = _checked_lie_field(f, R.shape[:-2], x.shape[-1])
     return rkmk4_step_unchecked(g, t, R, x, h)
 
 
@@ -446,7 +450,7 @@ def integrate(
     save_every = _check_count(save_every, "save_every", minimum=1)
     batch, n = R0.shape[:-2], x0.shape[-1]
     # validate f's output once at t0; the loop then runs the unchecked step
-    _checked_rkmk4_field(f, batch, n)(t0, R0, x0)
+    _checked_lie_field(f, batch, n)(t0, R0, x0)
 
     K = n_steps // save_every + 1
     ts = np.empty(K)

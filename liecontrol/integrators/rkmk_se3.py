@@ -35,6 +35,7 @@ import numpy as np
 from .._linalg import matvec as _mv
 from .._validation import as_array, check_positive
 from ..lie import se3
+from .rk import _checked_lie_field
 
 __all__ = [
     "rkmk4_se3_step",
@@ -90,22 +91,7 @@ def _check_state(g: object, x: object, gname: str = "g", xname: str = "x"):
 def _checked_field(f: object, batch: tuple[int, ...], n: int) -> SE3Field:
     if not callable(f):
         raise ValueError(f"f: must be callable, got {type(f).__name__}")
-
-    def fc(t: float, g: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        out = f(t, g, x)
-        if not (isinstance(out, tuple) and len(out) == 2):
-            raise ValueError("f: must return a tuple (xi, x_dot)")
-        xi = np.asarray(out[0], dtype=np.float64)
-        d = np.asarray(out[1], dtype=np.float64)
-        if xi.shape != batch + (6,):
-            raise ValueError(f"f: returned xi of shape {xi.shape}, expected {batch + (6,)}")
-        if d.shape != batch + (n,):
-            raise ValueError(f"f: returned x_dot of shape {d.shape}, expected {batch + (n,)}")
-        if not (np.isfinite(xi).all() and np.isfinite(d).all()):
-            raise ValueError(f"f: returned a non-finite value at t = {t!r}")
-        return xi, d
-
-    return fc
+    return _checked_lie_field(f, batch, n, dim=6, name="xi")
 
 
 def rkmk4_se3_step(
