@@ -1,23 +1,32 @@
-"""Command line of the benchmark suite (SPEC §8)::
+"""Command line of the benchmark suite::
 
     python -m benchmarks run --suite quick --out report/        # the README's main command
     python -m benchmarks run --suite full|unwinding|montecarlo --out DIR
         [--controllers a,b] [--scenarios a,b] [--scenario-file FILE ...]
         [--t-final S | --horizon-scale X]
         [--jobs N] [--executor serial|process|dask] [--scheduler tcp://host:8786]
-        [--samples N] [--chunk-size N] [--seed S]            (montecarlo)
-        [--no-progress] [--no-figures]
+        [--samples N] [--chunk-size N] [--seed S] [--resume]  (montecarlo)
+        [--no-progress] [--no-figures] [--sweep-bandwidth W1,W2,...]
+        [--plugin MODULE_OR_FILE.py ...]
     python -m benchmarks run --list          # suites, scenarios, controllers, reproductions
     python -m benchmarks throughput [--controller NAME] [--batch 1,256] [--steps N]
-    python -m benchmarks reproduce NAME --out DIR [--quick]
-    python -m benchmarks reproduce --list
+    python -m benchmarks reproduce NAME --out DIR [--quick] [--plugin ...]
+    python -m benchmarks reproduce --list    # each paper reproduction with its citation
 
 ``run`` exits 0 when every run completed, 1 when some failed (they are in the report with their
 error), 2 for bad arguments (unknown names are listed with the valid ones; a malformed scenario
-file names the offending key; an unreachable dask scheduler is reported before anything runs).
+file names the offending key; an unreachable dask scheduler is reported before anything runs; a
+selection in which no controller applies to any scenario says why). ``--plugin`` (repeatable)
+imports a module by name or a ``.py`` file before anything else, so the code in it can call
+:func:`benchmarks.controllers.register` or :func:`benchmarks.scenarios.register_scenario`; a
+plug-in that fails to import or registers a taken name is reported in one line (exit 2).
+Plug-ins reach the ``process`` executor's workers (forked after the import), not remote dask
+workers. Output piped into a reader that stops early (``--list | head``) ends quietly.
 ``--scenario-file`` adds the file's scenarios (TOML, or YAML when PyYAML is installed) to the
 suite given with ``--suite``, or runs them alone when ``--suite`` is not given. ``reproduce``
-imports ``benchmarks.reproductions.<NAME>`` and returns its ``main(out_dir, quick)`` exit code.
+runs the paper reproduction NAME (:mod:`benchmarks.reproductions`; ``--list`` describes each
+with its citation) and returns its ``main(out_dir, quick)`` exit code (0 when it ran: the
+verdicts in its table are findings, not errors).
 """
 
 from __future__ import annotations
@@ -25,22 +34,71 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import importlib
-import pkgutil
+import importlib.util
+import os
 import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
+from types import ModuleType
 
-__all__ = ["main", "build_parser", "available_reproductions"]
+__all__ = ["main", "build_parser", "available_reproductions", "load_plugins", "PluginError"]
+
+#: Plug-in files already imported in this process (resolved path → module): loading the same
+#: file twice must not register its controllers twice.
+_LOADED_FILES: dict[Path, ModuleType] = {}
+
+
+class PluginError(ValueError):
+    """A ``--plugin`` that could not be imported (the message names it and the problem)."""
 
 
 def available_reproductions() -> list[str]:
-    """Module names of the ``benchmarks.reproductions`` package (private ``_x`` excluded)."""
+    """Names of the paper reproductions (:mod:`benchmarks.reproductions`)."""
     from . import reproductions
 
-    return sorted(
-        m.name for m in pkgutil.iter_modules(reproductions.__path__) if not m.name.startswith("_")
-    )
+    return reproductions.available()
+
+
+def _one_line(exc: BaseException) -> str:
+    text = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def load_plugins(specs: Sequence[str]) -> list[ModuleType]:
+    """Import every ``--plugin``: a path ending in ``.py`` (or containing a path separator) is
+    executed as a module; anything else is imported by module name (``importlib``). Raises
+    :class:`PluginError` with one line ``plugin NAME: Type: message`` when one fails (missing
+    file, syntax error, an exception at import such as a duplicate registration)."""
+    modules = []
+    for spec in specs:
+        is_file = spec.endswith(".py") or "/" in spec or os.sep in spec
+        try:
+            if is_file:
+                path = Path(spec).resolve()
+                if path in _LOADED_FILES:
+                    modules.append(_LOADED_FILES[path])
+                    continue
+                if not path.is_file():
+                    raise FileNotFoundError(f"no such file {spec}")
+                name = f"liecontrol_plugin_{path.stem}_{len(_LOADED_FILES)}"
+                mspec = importlib.util.spec_from_file_location(name, path)
+                if mspec is None or mspec.loader is None:
+                    raise ImportError(f"cannot import {spec} as a Python module")
+                module = importlib.util.module_from_spec(mspec)
+                sys.modules[name] = module  # dataclasses and pickling look modules up here
+                try:
+                    mspec.loader.exec_module(module)
+                except BaseException:
+                    sys.modules.pop(name, None)
+                    raise
+                _LOADED_FILES[path] = module
+            else:
+                module = importlib.import_module(spec)
+        except Exception as exc:  # noqa: BLE001 - any failure of user code becomes one line
+            raise PluginError(f"plugin {spec}: {_one_line(exc)}") from exc
+        modules.append(module)
+    return modules
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -73,25 +131,54 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--executor", choices=("serial", "process", "dask"), default=None)
     r.add_argument("--scheduler", default=None, help="dask scheduler address (tcp://host:port)")
     r.add_argument(
-        "--scheduler-timeout", type=float, default=10.0, help="dask connection timeout [s]"
+        "--scheduler-timeout",
+        type=float,
+        default=10.0,
+        help="seconds to wait for the dask scheduler, and again for its first worker",
     )
     r.add_argument("--samples", type=int, default=None, help="Monte Carlo samples")
     r.add_argument("--chunk-size", type=int, default=None, help="Monte Carlo batch size")
     r.add_argument("--seed", type=int, default=None, help="Monte Carlo / unwinding seed")
+    r.add_argument(
+        "--resume",
+        action="store_true",
+        help="Monte Carlo: keep the chunks in OUT/montecarlo.chunks.jsonl, run only the rest",
+    )
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
     r.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    r.add_argument(
+        "--sweep-bandwidth",
+        default=None,
+        metavar="W1,W2,...",
+        help="run the selection once per closed-loop natural frequency ω_n [rad/s] (every "
+        "controller re-tuned to it) and write sweep.md with each controller's front over ω_n",
+    )
     r.add_argument("--list", action="store_true", help="list suites, scenarios and controllers")
+    r.add_argument(
+        "--plugin",
+        action="append",
+        default=[],
+        metavar="MODULE_OR_FILE.py",
+        help="import user code that registers controllers/scenarios first (repeatable)",
+    )
 
     t = sub.add_parser("throughput", help="Monte Carlo throughput: batched vs single runs")
     t.add_argument("--controller", default="geometric-pd-large-angle")
     t.add_argument("--batch", default="1,256", help="comma-separated batch sizes")
     t.add_argument("--steps", type=int, default=600, help="plant steps per run (dt = 0.1 s)")
 
-    rep = sub.add_parser("reproduce", help="reproduce a seed paper's published results")
+    rep = sub.add_parser("reproduce", help="reproduce a source paper's published results")
     rep.add_argument("name", nargs="?", help="reproduction name (see --list)")
     rep.add_argument("--out", type=Path, default=None, help="output folder")
     rep.add_argument("--quick", action="store_true", help="shortened run (tests, smoke checks)")
-    rep.add_argument("--list", action="store_true", help="list the available reproductions")
+    rep.add_argument("--list", action="store_true", help="list the reproductions and papers")
+    rep.add_argument(
+        "--plugin",
+        action="append",
+        default=[],
+        metavar="MODULE_OR_FILE.py",
+        help="import user code first (repeatable)",
+    )
     return p
 
 
@@ -114,8 +201,16 @@ def _print_listing() -> None:
         )
         print(f"  {c:26s} [{', '.join(sorted(info.plants))}; {flags}] {info.description}")
     print("reproductions:")
-    for r in available_reproductions() or ["(none yet)"]:
-        print(f"  {r}")
+    _print_reproductions("  ")
+
+
+def _print_reproductions(indent: str) -> None:
+    from . import reproductions
+
+    for name in reproductions.available():
+        mod = reproductions.load(name)
+        print(f"{indent}{name:26s} {mod.SUMMARY}")
+        print(f"{indent}{'':26s} {mod.CITATION}")
 
 
 def _error(msg: str) -> int:
@@ -131,6 +226,34 @@ def _horizon(args: argparse.Namespace, duration: float) -> float:
     if args.horizon_scale is not None:
         return duration * args.horizon_scale
     return duration
+
+
+def _check_selection(scenarios: Sequence, controllers: Sequence[str] | None) -> None:
+    """``ValueError`` (one line, saying why) when no selected controller applies to any selected
+    scenario, so nothing would run."""
+    from .controllers import available_controllers, get_controller
+
+    if not scenarios:
+        raise ValueError("nothing to run: the selection has no scenario")
+    names = tuple(available_controllers()) if controllers is None else tuple(controllers)
+    if not names:
+        raise ValueError("nothing to run: the selection has no controller")
+    why: dict[str, list[str]] = {}
+    for c in names:
+        info = get_controller(c)
+        for s in scenarios:
+            ok, reason = info.applies(s)
+            if ok:
+                return
+            why.setdefault(reason or "does not apply", []).append(
+                f"{c} (plants: {', '.join(sorted(info.plants))}) on {s.name} (plant: {s.plant})"
+            )
+    parts = [f"{', '.join(pairs[:3])}{' …' if len(pairs) > 3 else ''}: {reason}"
+             for reason, pairs in why.items()]
+    raise ValueError(
+        "nothing to run: no selected controller applies to any selected scenario ("
+        + "; ".join(parts) + ")"
+    )
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
@@ -171,10 +294,15 @@ def _cmd_run(args: argparse.Namespace) -> int:
             raise ValueError(f"t-final: must be > 0, got {args.t_final}")
         if args.horizon_scale is not None and not args.horizon_scale > 0:
             raise ValueError(f"horizon-scale: must be > 0, got {args.horizon_scale}")
+        if suite_name not in ("unwinding", "montecarlo"):
+            _check_selection(scenarios, controllers)
     except ValueError as exc:
         return _error(str(exc))
     if args.t_final is not None or args.horizon_scale is not None:
-        scenarios = tuple(s.with_duration(_horizon(args, s.duration)) for s in scenarios)
+        try:  # a horizon shorter than a scenario's step is rejected by the scenario
+            scenarios = tuple(s.with_duration(_horizon(args, s.duration)) for s in scenarios)
+        except ValueError as exc:
+            return _error(str(exc))
 
     try:
         executor = make_executor(
@@ -215,18 +343,58 @@ def _cmd_run(args: argparse.Namespace) -> int:
             except ValueError as exc:
                 return _error(str(exc))
             cfg = dataclasses.replace(cfg, duration=_horizon(args, cfg.duration))
-            res = montecarlo.run_montecarlo(controllers, cfg, executor=executor, progress=progress)
+            journal = args.out / "montecarlo.chunks.jsonl"
+            try:
+                res = montecarlo.run_montecarlo(
+                    controllers,
+                    cfg,
+                    executor=executor,
+                    progress=progress,
+                    journal=journal,
+                    resume=args.resume,
+                )
+            except montecarlo.MonteCarloInterrupted as exc:
+                print(
+                    f"interrupted: {exc.kept} of {exc.total} chunks saved in {journal}; "
+                    "run the same command with --resume to finish",
+                    file=sys.stderr,
+                )
+                return 130
+            except ValueError as exc:  # a journal written for another configuration
+                return _error(str(exc))
             path = montecarlo.write_montecarlo_report(res, args.out, figures=figures)
             n_runs, n_failed = len(res.records), res.n_failed
         else:
-            from .report import write_report
+            from .report import write_report, write_sweep_report
             from .runner import run_suite
 
-            result = run_suite(
-                scenarios, controllers, suite=suite_name, executor=executor, progress=progress
-            )
-            path = write_report(result, args.out, figures=figures)
-            n_runs, n_failed = len(result.outcomes), result.n_failed
+            if args.sweep_bandwidth:
+                from .controllers import GainRule
+
+                try:
+                    ws = [float(w) for w in args.sweep_bandwidth.split(",") if w.strip()]
+                    if not ws or len(set(ws)) != len(ws):
+                        raise ValueError("expected distinct comma-separated values")
+                    rules = {w: GainRule(omega_n=w) for w in ws}
+                except ValueError as exc:
+                    return _error(f"sweep-bandwidth: {args.sweep_bandwidth!r}: {exc}")
+                sweep = {}
+                for w, rule in rules.items():
+                    sweep[w] = run_suite(
+                        scenarios, controllers, suite=f"{suite_name} (ω_n = {w:g} rad/s)",
+                        executor=executor, progress=progress, gain_rule=rule,
+                    )  # fmt: skip
+                    write_report(sweep[w], args.out / f"omega_n-{w:g}", figures=figures)
+                path = write_sweep_report(sweep, args.out, figures=figures)
+                n_runs = sum(len(r.outcomes) for r in sweep.values())
+                n_failed = sum(r.n_failed for r in sweep.values())
+            else:
+                result = run_suite(
+                    scenarios, controllers, suite=suite_name, executor=executor,
+                    progress=progress,
+                )  # fmt: skip
+                path = write_report(result, args.out, figures=figures)
+                n_runs, n_failed = len(result.outcomes), result.n_failed
     print(
         f"report: {path} ({n_runs} runs, {n_failed} failed, "
         f"{time.perf_counter() - t0:.1f} s, executor {executor.name})"
@@ -260,29 +428,54 @@ def _cmd_throughput(args: argparse.Namespace) -> int:
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
-    names = available_reproductions()
-    valid = ", ".join(names) if names else "(none available yet)"
+    from . import reproductions
+
     if args.list:
-        print("reproductions: " + valid)
+        print("reproductions (python -m benchmarks reproduce NAME --out DIR [--quick]):")
+        _print_reproductions("  ")
         return 0
+    valid = ", ".join(reproductions.available())
     if not args.name:
         return _error(f"reproduce needs a NAME; valid reproductions: {valid}")
-    if args.name not in names:
-        return _error(f"unknown reproduction {args.name!r}; valid reproductions: {valid}")
-    module = importlib.import_module(f"benchmarks.reproductions.{args.name}")
+    try:
+        module = reproductions.load(args.name)
+    except ValueError as exc:
+        return _error(str(exc).removeprefix("name: "))
     entry = getattr(module, "main", None)
     if not callable(entry):
-        return _error(f"benchmarks.reproductions.{args.name} has no main(out_dir, quick) function")
+        return _error(f"{module.__name__} has no main(out_dir, quick) function")
     out = args.out if args.out is not None else Path("reproductions") / args.name
     out.mkdir(parents=True, exist_ok=True)
+    print(f"{args.name}: {module.CITATION}", flush=True)
     return int(entry(out, quick=args.quick))
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of ``python -m benchmarks`` and ``liecontrol-bench``; returns the exit code."""
-    args = build_parser().parse_args(None if argv is None else list(argv))
+def _dispatch(args: argparse.Namespace) -> int:
+    if getattr(args, "plugin", None):
+        try:
+            load_plugins(args.plugin)
+        except PluginError as exc:
+            return _error(str(exc))
     if args.command == "run":
         return _cmd_run(args)
     if args.command == "throughput":
         return _cmd_throughput(args)
     return _cmd_reproduce(args)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``python -m benchmarks`` and ``liecontrol-bench``; returns the exit code.
+
+    A reader that closes our stdout early (``... --list | head``) is not an error: the rest of
+    the output is dropped without a ``BrokenPipeError`` traceback."""
+    args = build_parser().parse_args(None if argv is None else list(argv))
+    try:
+        code = _dispatch(args)
+        sys.stdout.flush()
+    except BrokenPipeError:
+        # Python's documented recipe: point stdout at devnull so the interpreter's final flush
+        # at exit does not raise again and print "Exception ignored ... BrokenPipeError"
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 0
+    return code

@@ -1,4 +1,4 @@
-"""Registry of benchmark controllers with their metadata (SPEC §6, §8).
+"""Registry of benchmark controllers with their metadata and their tuning.
 
 Adding a controller is one :func:`register` call::
 
@@ -8,28 +8,33 @@ The factory receives a :class:`ControllerContext` — the controller's model ine
 nominal one: with :class:`~benchmarks.scenarios.UncertaintySpec` the plant's true inertia
 differs), the control period, the batch size it will be stepped with, the initial error
 quaternion with the scenario's sign (``q_hint``, for the q/−q unwinding cases), the reference
-trajectory and, for SE(3) scenarios, the :class:`~benchmarks.scenarios.ProximitySpec` and the
-plant's gravity wrench — and returns a fresh controller
-(:class:`liecontrol.control.AttitudeController` or, with ``plants={"se3"}``,
+trajectory, the closed-loop spec to tune to (``rule``) and, for SE(3) scenarios, the
+:class:`~benchmarks.scenarios.ProximitySpec` and the plant's gravity wrench — and returns a fresh
+controller (:class:`liecontrol.control.AttitudeController` or, with ``plants={"se3"}``,
 :class:`liecontrol.control.PoseController`). The metadata (:class:`ControllerInfo`) say whether
 ``command`` is vectorized over the batch (``batched``), which plants it applies to (``plants``:
 ``"sgcmg"``, ``"wheels"``, ``"ideal"`` attitude plants or ``"se3"``), scenario tags it must not
-run on, its own sampling period (held between samples) and whether it is in the quick suite.
+run on, its own sampling period if its design needs one and whether it is in the quick suite.
 
-Gain rule (one rule for every controller so the comparison is fair; :class:`GainRule`): the
-closed loop linearised about ``R = R_d`` is ``J δθ̈ + K_Ω δθ̇ + K_R S δθ = 0`` with ``S = s I`` the
-error coordinate's slope (``s = 1`` log, ``½`` large-angle, ``½(tr G − g_max)`` trace, ``½`` for
-the quaternion vector part, ``¼`` for the MRP); choosing
+Tuning (one protocol for every controller, so the comparison is at equal aggressiveness): every
+built-in attitude factory calls :mod:`liecontrol.control.tuning` — the public layer users call on
+their own spacecraft — with the scenario's spacecraft (:func:`actuator_limits`) and the spec
+:func:`spec_for` = (:class:`GainRule` ω_n, ζ; the scenario's control period). Each family's
+small-angle closed loop then has natural frequency ω_n and damping ζ on all three principal axes
+of the full inertia (checked by ``tests/test_tuning.py`` with
+:func:`liecontrol.control.tuning.measure_small_angle_response`). Nothing is carried over from a
+paper's tuning: the ADRC gets Gao's bandwidth parameterisation, the terminal sliding mode a
+prescribed time from the spec's settling time, the MPC LQR-matched weights and the actuator's
+torque box. A spec a controller cannot meet — the sample period too long for ω_n, an actuator
+that cannot deliver the step's torque or momentum, a family limitation — raises
+:class:`~liecontrol.control.tuning.TuningInfeasible`, and :meth:`ControllerInfo.applies` then
+reports the pair as not applicable with that reason.
 
-    K_R = ω_n² J / s,     K_Ω = 2 ζ ω_n J
-
-(:func:`liecontrol.control.geometric_pd.gains_from_bandwidth` with ``matrix=True``) gives every
-axis the same natural frequency ω_n and damping ratio ζ. The defaults ω_n = 0.03 rad/s, ζ = 0.9
-keep the 179° slew's peak body momentum (linear estimate ≈ 0.37 ω_n θ₀ âᵀJâ ≈ 470 N·m·s about the
-slew axis) inside the 4 × 300 N·m·s pyramid's momentum envelope, and settle a small error to 0.1°
-in ≈ 5/(ζ ω_n) ≈ 3 min. Integral actions use ``K_I = (ω_n/5) K_R`` with a 0.3 N·m anti-windup
-clamp (:data:`INTEGRAL_LIMIT`); the MPC's weights give the same bandwidth; seed 000's ADRC keeps
-the paper's parameters.
+The defaults ω_n = 0.03 rad/s, ζ = 0.9 keep the 179° slew's peak body momentum (linear estimate
+≈ 0.39 ω_n θ₀ ‖Jâ‖ ≈ 570 N·m·s about the slew axis) inside the 4 × 300 N·m·s pyramid's momentum
+envelope (≥ 850 N·m·s in every direction), and settle a small error to 2 % in ≈ 157 s. Integral
+actions place their extra pole at −ω_n/5 with a 0.3 N·m anti-windup clamp
+(:data:`INTEGRAL_LIMIT`).
 """
 
 from __future__ import annotations
@@ -40,7 +45,13 @@ from typing import Any
 
 import numpy as np
 
-from liecontrol._validation import check_positive
+from liecontrol._validation import as_array, as_int, check_positive, check_positive_scalar
+from liecontrol.control.tuning import (
+    ActuatorLimits,
+    ClosedLoopSpec,
+    TuningInfeasible,
+    check_actuator,
+)
 
 from .scenarios import ProximitySpec, Scenario, SpacecraftSpec
 
@@ -60,6 +71,10 @@ __all__ = [
     "quick_controllers",
     "applicable",
     "geometric_pd_factory",
+    "actuator_limits",
+    "spec_for",
+    "tuned_spec",
+    "INTEGRAL_LIMIT",
 ]
 
 #: Plant tags of attitude scenarios (the actuator kinds of :class:`SpacecraftSpec`).
@@ -74,13 +89,14 @@ class GainRule:
     zeta: float = 0.9
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "omega_n", check_positive(self.omega_n, "omega_n"))
-        object.__setattr__(self, "zeta", check_positive(self.zeta, "zeta"))
+        object.__setattr__(self, "omega_n", check_positive_scalar(self.omega_n, "omega_n"))
+        object.__setattr__(self, "zeta", check_positive_scalar(self.zeta, "zeta"))
 
 
 DEFAULT_GAIN_RULE = GainRule()
 #: Anti-windup clamp of the integral torque of the PID variants [N·m]: ≈ 3× the constant part
-#: of the seed-000 disturbance (|(0.02, 0.08, 0.02)| ≈ 0.085 N·m), which the integral must cancel.
+#: of the ADRC paper's disturbance (|(0.02, 0.08, 0.02)| ≈ 0.085 N·m), which the integral must
+#: cancel.
 INTEGRAL_LIMIT = 0.3
 
 
@@ -97,6 +113,8 @@ class ControllerContext:
         reference: the reference trajectory ``t -> AttitudeReference`` (or ``PoseReference``).
         proximity: the SE(3) scenario data, or ``None``.
         gravity: the SE(3) plant's gravity wrench ``g -> (B, 6)`` (feed-forward), or ``None``.
+        rule: the closed-loop spec every factory tunes to (:class:`GainRule`; the runner's
+            ``gain_rule``, e.g. a bandwidth sweep).
     """
 
     spacecraft: SpacecraftSpec
@@ -106,6 +124,31 @@ class ControllerContext:
     reference: Callable[[float], Any] | None = None
     proximity: ProximitySpec | None = None
     gravity: Callable[[np.ndarray], np.ndarray] | None = None
+    rule: GainRule = DEFAULT_GAIN_RULE
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.spacecraft, SpacecraftSpec):
+            raise ValueError(
+                f"spacecraft: expected a SpacecraftSpec, got {type(self.spacecraft).__name__}"
+            )
+        object.__setattr__(
+            self, "control_period", check_positive_scalar(self.control_period, "control_period")
+        )
+        object.__setattr__(self, "batch_size", as_int(self.batch_size, "batch_size", 1))
+        if self.q_hint is not None:
+            q = as_array(self.q_hint, "q_hint")
+            if q.shape != (self.batch_size, 4):
+                raise ValueError(f"q_hint: expected shape ({self.batch_size}, 4), got {q.shape}")
+            object.__setattr__(self, "q_hint", q)
+        for name in ("reference", "gravity"):
+            if getattr(self, name) is not None and not callable(getattr(self, name)):
+                raise ValueError(f"{name}: must be callable or None")
+        if self.proximity is not None and not isinstance(self.proximity, ProximitySpec):
+            raise ValueError(
+                f"proximity: expected a ProximitySpec or None, got {type(self.proximity).__name__}"
+            )
+        if not isinstance(self.rule, GainRule):
+            raise ValueError(f"rule: expected a GainRule, got {type(self.rule).__name__}")
 
     @property
     def J(self) -> np.ndarray:
@@ -160,13 +203,52 @@ class ControllerInfo:
     family: str = "geometric"
     notes: str = ""
 
-    def applies(self, scenario: Scenario) -> tuple[bool, str]:
-        """``(True, "")`` or ``(False, reason)`` for ``scenario``."""
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name:
+            raise ValueError(f"name: expected a non-empty str, got {self.name!r}")
+        if not callable(self.factory):
+            raise ValueError(f"factory: must be callable as factory(ctx), got {self.factory!r}")
+        for name in ("description", "family", "notes"):
+            if not isinstance(getattr(self, name), str):
+                raise ValueError(f"{name}: expected a str, got {getattr(self, name)!r}")
+        for name in ("plants", "exclude_tags"):
+            v = getattr(self, name)
+            if isinstance(v, str) or not isinstance(v, (set, frozenset, tuple, list)):
+                raise ValueError(f"{name}: expected a set of tags, got {v!r}")
+            if not all(isinstance(x, str) for x in v):
+                raise ValueError(f"{name}: every tag must be a str, got {sorted(map(repr, v))}")
+            object.__setattr__(self, name, frozenset(v))
+        if self.control_period is not None:
+            object.__setattr__(
+                self,
+                "control_period",
+                check_positive_scalar(self.control_period, "control_period"),
+            )
+
+    def applies(self, scenario: Scenario, rule: GainRule | None = None) -> tuple[bool, str]:
+        """``(True, "")`` or ``(False, reason)`` for ``scenario`` tuned to ``rule`` (default
+        :data:`DEFAULT_GAIN_RULE`): wrong plant, an excluded tag, or a factory that raises
+        :class:`~liecontrol.control.tuning.TuningInfeasible` for this scenario (the reason is
+        its message). Other factory errors are left for the run to record."""
         if scenario.plant not in self.plants:
             return False, "SE(3) controller" if "se3" in self.plants else "attitude controller"
         hit = sorted(self.exclude_tags.intersection(scenario.tags))
         if hit:
             return False, self.notes or f"excluded for tag {hit[0]!r}"
+        q = np.asarray(scenario.initial_quaternion, dtype=np.float64).reshape(1, 4)
+        ctx = ControllerContext(
+            spacecraft=scenario.spacecraft,
+            control_period=self.control_period or scenario.control_period or scenario.dt,
+            q_hint=q,
+            proximity=scenario.proximity,
+            rule=rule or DEFAULT_GAIN_RULE,
+        )
+        try:
+            self.factory(ctx)
+        except TuningInfeasible as exc:
+            return False, f"cannot be tuned: {exc}"
+        except Exception:  # noqa: BLE001 - not a tuning verdict: the run records the error
+            return True, ""
         return True, ""
 
 
@@ -258,117 +340,232 @@ def make_controller(name: str, ctx: ControllerContext | SpacecraftSpec) -> Any:
     return info.factory(ctx)
 
 
-def applicable(scenario: Scenario, names: tuple[str, ...] | None = None) -> tuple[str, ...]:
-    """Names (default: all registered) that apply to ``scenario``."""
+def applicable(
+    scenario: Scenario, names: tuple[str, ...] | None = None, rule: GainRule | None = None
+) -> tuple[str, ...]:
+    """Names (default: all registered) that apply to ``scenario`` (tuned to ``rule``)."""
+    if not isinstance(scenario, Scenario):
+        raise ValueError(f"scenario: expected a Scenario, got {type(scenario).__name__}")
+    if rule is not None and not isinstance(rule, GainRule):
+        raise ValueError(f"rule: expected a GainRule or None, got {type(rule).__name__}")
+    if isinstance(names, str):
+        raise ValueError(f"names: expected a sequence of controller names, got {names!r}")
     names = available_controllers() if names is None else names
-    return tuple(n for n in names if get_controller(n).applies(scenario)[0])
+    if isinstance(names, str) or not isinstance(names, (tuple, list)):
+        raise TypeError(f"names: expected a tuple of controller names, got {type(names).__name__}")
+    return tuple(n for n in names if get_controller(n).applies(scenario, rule)[0])
+
+
+# --------------------------------------------------------------------------- tuning inputs
+
+
+def actuator_limits(spacecraft: SpacecraftSpec) -> ActuatorLimits:
+    """What ``spacecraft``'s actuator can deliver, for the tuning protocol.
+
+    - ``"sgcmg"``: torque box ``δ̇_max / max_i Σ_j |A⁺_ij|`` — the largest per-axis torque that
+      the pseudo-inverse steering delivers from the initial gimbal angles without exceeding the
+      gimbal-rate limit (``A`` the cluster Jacobian); momentum: the smallest radius of the
+      saturation envelope, ``min_â h₀ Σ_i √(1 − (â·g_i)²)`` over 4003 directions
+      (``g_i`` the gimbal axes); the gimbal-rate limit.
+    - ``"wheels"`` (wheel spin axes ``W``, orthogonal or pyramid): torque box
+      ``τ_w / max_i Σ_j |W⁺_ij|`` (the pseudo-inverse distribution within each wheel's torque
+      limit), momentum ``min_â h_w Σ_i |â·w_i|`` with ``h_w = I_w Ω_max`` (the smallest radius of
+      the wheels' momentum envelope).
+    - ``"ideal"``: its ``max_torque`` (``None``: unlimited), no momentum limit.
+    """
+    if not isinstance(spacecraft, SpacecraftSpec):
+        raise TypeError(f"spacecraft: expected SpacecraftSpec, got {type(spacecraft).__name__}")
+    return _actuator_limits(spacecraft)
+
+
+_LIMITS_CACHE: dict[SpacecraftSpec, ActuatorLimits] = {}
+
+
+def _fibonacci_sphere(n: int) -> np.ndarray:
+    """``n`` nearly uniform unit vectors (Fibonacci lattice), ``(n, 3)``."""
+    i = np.arange(n) + 0.5
+    phi, th = np.arccos(1.0 - 2.0 * i / n), np.pi * (1.0 + 5.0**0.5) * i
+    return np.stack((np.cos(th) * np.sin(phi), np.sin(th) * np.sin(phi), np.cos(phi)), 1)
+
+
+#: Directions over which momentum envelopes are minimised (plus the body axes, where the
+#: orthogonal wheels' envelope has its minimum).
+_DIRECTIONS = np.concatenate((np.eye(3), _fibonacci_sphere(4000)))
+
+
+def _actuator_limits(sc: SpacecraftSpec) -> ActuatorLimits:
+    if sc in _LIMITS_CACHE:
+        return _LIMITS_CACHE[sc]
+    if sc.actuator == "sgcmg":
+        from spacecraft.sgcmg import SgcmgPyramid
+
+        cl = SgcmgPyramid(
+            h0=sc.h0, beta=float(np.deg2rad(sc.beta_deg)), gimbal_rate_limit=sc.gimbal_rate_limit
+        )
+        A = cl.jacobian(np.deg2rad(np.array(sc.delta0_deg)))
+        u_max = sc.gimbal_rate_limit / float(np.abs(np.linalg.pinv(A)).sum(axis=1).max())
+        g = _DIRECTIONS @ cl.gimbal_axes()
+        env = sc.h0 * np.sqrt(np.clip(1.0 - g**2, 0.0, None)).sum(1)
+        out = ActuatorLimits(u_max, float(env.min()), sc.gimbal_rate_limit)
+    elif sc.actuator == "wheels":
+        from spacecraft.actuators import orthogonal_wheel_axes, pyramid_wheel_axes
+
+        layout = getattr(sc, "wheel_layout", "orthogonal")
+        W = pyramid_wheel_axes() if layout == "pyramid" else orthogonal_wheel_axes()
+        u_max = sc.wheel_max_torque / float(np.abs(np.linalg.pinv(W)).sum(axis=1).max())
+        h_w = sc.wheel_inertia * sc.wheel_max_speed
+        out = ActuatorLimits(u_max, float((h_w * np.abs(_DIRECTIONS @ W).sum(1)).min()))
+    else:
+        out = ActuatorLimits(sc.max_torque)
+    _LIMITS_CACHE[sc] = out
+    return out
+
+
+def spec_for(ctx: ControllerContext) -> ClosedLoopSpec:
+    """The closed-loop spec of ``ctx``: its rule's (ω_n, ζ) at its control period (raises
+    :class:`~liecontrol.control.tuning.TuningInfeasible` if the period is too long for ω_n)."""
+    if not isinstance(ctx, ControllerContext):
+        raise ValueError(f"ctx: expected a ControllerContext, got {type(ctx).__name__}")
+    return ClosedLoopSpec(ctx.rule.omega_n, ctx.rule.zeta, ctx.control_period)
+
+
+def _step_rotvec(ctx: ControllerContext) -> np.ndarray:
+    """Rotation vector of the largest initial error in the batch (from ``q_hint``)."""
+    if ctx.q_hint is None:
+        return np.zeros(3)
+    q = np.asarray(ctx.q_hint, dtype=np.float64).reshape(-1, 4)
+    q = q * np.where(q[:, :1] < 0.0, -1.0, 1.0)  # the physical rotation: w ≥ 0
+    v = np.linalg.norm(q[:, 1:], axis=1)
+    ang = 2.0 * np.arctan2(v, q[:, 0])
+    k = int(np.argmax(ang))
+    return q[k, 1:] * (ang[k] / v[k]) if v[k] > 0 else np.zeros(3)
+
+
+def tuned_spec(ctx: ControllerContext) -> tuple[ClosedLoopSpec, ActuatorLimits]:
+    """``(spec, limits)`` for an attitude factory: :func:`spec_for` checked against the
+    spacecraft's :func:`actuator_limits` for the scenario's initial error (a rest-to-rest step of
+    that size; :func:`liecontrol.control.tuning.check_actuator`)."""
+    if not isinstance(ctx, ControllerContext):
+        raise ValueError(f"ctx: expected a ControllerContext, got {type(ctx).__name__}")
+    spec = spec_for(ctx)
+    limits = actuator_limits(ctx.spacecraft)
+    check_actuator(ctx.J, spec, limits, _step_rotvec(ctx))
+    return spec, limits
 
 
 # --------------------------------------------------------------------------- built-in factories
 
 
-def geometric_pd_factory(error: str, rule: GainRule = DEFAULT_GAIN_RULE) -> ControllerFactory:
+def geometric_pd_factory(error: str) -> ControllerFactory:
     """Factory of a :class:`~liecontrol.control.geometric_pd.GeometricPD` with error function
-    ``error`` and gains from ``rule`` (module docstring)."""
+    ``error``, tuned by :func:`liecontrol.control.tuning.tune_geometric_pd`."""
+    from liecontrol.errors import ATTITUDE_ERRORS as _errors
+
+    if not isinstance(error, str) or error not in _errors:
+        # checked now, not when the factory is first called inside a benchmark run
+        raise ValueError(f"error: expected one of {tuple(_errors)}, got {error!r}")
 
     def make(ctx: ControllerContext) -> Any:
-        from liecontrol.control.geometric_pd import GeometricPD, gains_from_bandwidth
+        from liecontrol.control.geometric_pd import GeometricPD
+        from liecontrol.control.tuning import tune_geometric_pd
 
-        k_R, k_Omega = gains_from_bandwidth(
-            ctx.J, rule.omega_n, rule.zeta, error=error, matrix=True
-        )
-        return GeometricPD(ctx.J, k_R, k_Omega, error=error)
+        spec, _ = tuned_spec(ctx)
+        return GeometricPD(ctx.J, **tune_geometric_pd(ctx.J, spec, error=error))
 
-    make.__doc__ = f"GeometricPD(error={error!r}), ω_n={rule.omega_n} rad/s, ζ={rule.zeta}"
+    make.__doc__ = f"GeometricPD(error={error!r}): K_R = ω_n²J/s, K_Ω = 2ζω_nJ"
     return make
 
 
-def _pd_gains(ctx: ControllerContext, slope: float, rule: GainRule) -> tuple[np.ndarray, ...]:
-    J = ctx.J
-    return rule.omega_n**2 * J / slope, 2.0 * rule.zeta * rule.omega_n * J
+def _intrinsic_pid(ctx: ControllerContext) -> Any:
+    """IntrinsicPID (log error, Maithripala & Berg): spec pair + integral pole at −ω_n/5."""
+    from liecontrol.control.geometric_pid import IntrinsicPID
+    from liecontrol.control.tuning import tune_intrinsic_pid
+
+    spec, _ = tuned_spec(ctx)
+    return IntrinsicPID(ctx.J, **tune_intrinsic_pid(ctx.J, spec), integral_limit=INTEGRAL_LIMIT)
 
 
-def _intrinsic_pid(ctx: ControllerContext, rule: GainRule = DEFAULT_GAIN_RULE) -> Any:
-    """IntrinsicPID (log error, Maithripala & Berg), K_I = (ω_n/5) K_R, 0.3 N·m clamp."""
-    from liecontrol.control.geometric_pid import IntrinsicPID, integral_gain
+def _integral_pd(ctx: ControllerContext) -> Any:
+    """IntegralPD (large-angle error, ∫(e_Ω + c e_R), c = ω_n): integral pole at −ω_n/5."""
+    from liecontrol.control.geometric_pid import IntegralPD
+    from liecontrol.control.tuning import tune_integral_pd
 
-    k_R, k_W = _pd_gains(ctx, 1.0, rule)
-    k_I = integral_gain(k_R, rule.omega_n / 5.0)
-    return IntrinsicPID(ctx.J, k_R, k_W, k_I, error="log", integral_limit=INTEGRAL_LIMIT)
-
-
-def _integral_pd(ctx: ControllerContext, rule: GainRule = DEFAULT_GAIN_RULE) -> Any:
-    """IntegralPD (large-angle error, ∫(e_Ω + c e_R)), c = ω_n, K_I = (ω_n/5)K_R/c, 0.3 N·m cap."""
-    from liecontrol.control.geometric_pid import IntegralPD, integral_gain
-
-    k_R, k_W = _pd_gains(ctx, 0.5, rule)
-    c = rule.omega_n
-    k_I = integral_gain(k_R, rule.omega_n / 5.0, c=c)
-    return IntegralPD(ctx.J, k_R, k_W, k_I, c=c, error="large_angle", integral_limit=INTEGRAL_LIMIT)
+    spec, _ = tuned_spec(ctx)
+    return IntegralPD(ctx.J, **tune_integral_pd(ctx.J, spec), integral_limit=INTEGRAL_LIMIT)
 
 
-def _prescribed_performance(ctx: ControllerContext, rule: GainRule = DEFAULT_GAIN_RULE) -> Any:
-    """PrescribedPerformance: funnel ρ_∞ = 0.002, decay 0.02 1/s, ppc_gains(ω_n, ζ)."""
-    from liecontrol.control.prescribed_performance import PrescribedPerformance, ppc_gains
+def _prescribed_performance(ctx: ControllerContext) -> Any:
+    """PrescribedPerformance: funnel ρ_∞ = 0.002, 3× the initial error, decaying at ζω_n/4."""
+    from liecontrol.control.prescribed_performance import PrescribedPerformance
+    from liecontrol.control.tuning import tune_prescribed_performance
 
-    k1, k2, kc = ppc_gains(rule.omega_n, rule.zeta)
-    return PrescribedPerformance(ctx.J, rho_inf=0.002, decay=0.02, k1=k1, k2=k2, kc=kc)
+    spec, _ = tuned_spec(ctx)
+    return PrescribedPerformance(ctx.J, **tune_prescribed_performance(ctx.J, spec))
 
 
-def _mpc(ctx: ControllerContext, rule: GainRule = DEFAULT_GAIN_RULE) -> Any:
-    """SO3MPC (OSQP), N = 20 × 1 s, |u_i| ≤ 50 N·m, weights ≈ the common bandwidth."""
+def _mpc(ctx: ControllerContext) -> Any:
+    """SO3MPC (OSQP), N = 10 at the control period, LQR-matched Q/R, the actuator's torque box."""
     from liecontrol.control.mpc import SO3MPC
+    from liecontrol.control.tuning import tune_mpc
 
-    # per axis, the continuous LQR of J θ̈ = u with cost q_ξθ² + q_ωω² + u² has the gains
-    # k₁ = √q_ξ, k₂ = √(q_ω + 2J√q_ξ); matching k₁ = ω_n²J, k₂ = 2ζω_nJ (the common rule) on the
-    # largest principal moment gives the weights below
-    lam = float(np.linalg.eigvalsh(ctx.J)[-1])
-    w = rule.omega_n
-    q_xi = (w**2 * lam) ** 2
-    q_w = (2.0 * rule.zeta * w * lam) ** 2 - 2.0 * w**2 * lam**2
-    Q = [q_xi] * 3 + [max(q_w, 1e-6 * q_xi)] * 3
-    return SO3MPC(ctx.J, horizon=20, dt=1.0, Q=Q, R=[1.0] * 3, u_max=50.0)
+    spec, limits = tuned_spec(ctx)
+    return SO3MPC(ctx.J, **tune_mpc(ctx.J, spec, limits))
 
 
 def _adrc(ctx: ControllerContext) -> Any:
-    """MrpADRC (seed 000): MRP ESO + AFC with the paper's parameters, error-MRP chart."""
-    from liecontrol.control.adrc import PAPER, MrpADRC
+    """MrpADRC (Wu, Huang, Wei & Guo's ESO), Gao bandwidth tuning: ω_c = ω_n, ω_o = 5ω_c."""
+    from liecontrol.control.adrc import MrpADRC
+    from liecontrol.control.tuning import tune_mrp_adrc
 
-    return MrpADRC(ctx.J, PAPER, base="reference")
+    spec, _ = tuned_spec(ctx)
+    return MrpADRC(ctx.J, **tune_mrp_adrc(ctx.J, spec), base="reference")
 
 
-def _quaternion_pd(sign_mode: str, rule: GainRule = DEFAULT_GAIN_RULE) -> ControllerFactory:
+def _quaternion_pd(sign_mode: str) -> ControllerFactory:
     def make(ctx: ControllerContext) -> Any:
         from liecontrol.control.chart_baselines import QuaternionPD
+        from liecontrol.control.tuning import tune_quaternion_pd
 
-        k_p, k_d = _pd_gains(ctx, 0.5, rule)
-        return QuaternionPD(ctx.J, k_p, k_d, sign_mode=sign_mode, q_hint=ctx.q_hint)
+        spec, _ = tuned_spec(ctx)
+        return QuaternionPD(
+            ctx.J, **tune_quaternion_pd(ctx.J, spec), sign_mode=sign_mode, q_hint=ctx.q_hint
+        )
 
-    make.__doc__ = f"QuaternionPD(sign_mode={sign_mode!r}) on the error quaternion (Wie & Barba)"
+    make.__doc__ = (
+        f"QuaternionPD(sign_mode={sign_mode!r}) on the error quaternion (Wie & Barba), "
+        "k_p = 2ω_n²J, k_d = 2ζω_nJ"
+    )
     return make
 
 
-def _mrp_pd(ctx: ControllerContext, rule: GainRule = DEFAULT_GAIN_RULE) -> Any:
+def _mrp_pd(ctx: ControllerContext) -> Any:
     """MrpPD with shadow-set switching (Schaub & Junkins), K = 4ω_n²J, P = 2ζω_nJ."""
     from liecontrol.control.chart_baselines import MrpPD
+    from liecontrol.control.tuning import tune_mrp_pd
 
-    K, P = _pd_gains(ctx, 0.25, rule)
-    return MrpPD(ctx.J, K, P)
+    spec, _ = tuned_spec(ctx)
+    return MrpPD(ctx.J, **tune_mrp_pd(ctx.J, spec))
 
 
 def _tsm(ctx: ControllerContext) -> Any:
-    """TerminalSlidingModeSO3 (seed 004): ZYX Euler error chart, T = 300 s, K = 1e-4 rad/s²."""
+    """TerminalSlidingModeSO3 (Liu, Tang & Yu), ZYX Euler chart: T = spec settling, poles −ω_n."""
     from liecontrol.control.terminal_sliding_mode import TerminalSlidingModeSO3
+    from liecontrol.control.tuning import tune_euler_tsm
 
-    return TerminalSlidingModeSO3(ctx.J, T=300.0, K=1e-4, delta0=0.03, delta1=5.0, base="reference")
+    spec, _ = tuned_spec(ctx)
+    return TerminalSlidingModeSO3(ctx.J, **tune_euler_tsm(ctx.J, spec), base="reference")
 
 
 def _payload_pid_ff(ctx: ControllerContext) -> Any:
-    """SmallAnglePIDWithFeedforward (seed 003): 0.02 Hz Euler PID + identified harmonic
-    feed-forward at the seed-003 payload rate (90°/s), Δt_p = 0.1 s, Δt_c = 0.2 s, on from t = 0."""
+    """SmallAnglePIDWithFeedforward (Wang, Chu, Zhang & Yuan): Euler PID + payload feed-forward.
+
+    PID at the spec (diagonal inertia only), identified harmonic feed-forward at the payload rate
+    (90°/s), Δt_p = 0.1 s, Δt_c = 0.2 s, on from t = 0."""
     from liecontrol.control.payload_compensation import SmallAnglePIDWithFeedforward
+    from liecontrol.control.tuning import tune_small_angle_pid
     from spacecraft.payload import SEED003_SPIN_RATE
 
+    spec, _ = tuned_spec(ctx)
     return SmallAnglePIDWithFeedforward(
         ctx.J,
         payload_frequency=SEED003_SPIN_RATE,
@@ -376,14 +573,22 @@ def _payload_pid_ff(ctx: ControllerContext) -> Any:
         dt_p=0.1,
         mode="identify",
         compensation_start=0.0,
+        **tune_small_angle_pid(ctx.J, spec),
     )
+
+
+#: SE(3) pose-loop bandwidths at the default rule [rad/s]; a rule with another ω_n scales both.
+SE3_OMEGA_ATT, SE3_OMEGA_POS = 0.1, 0.05
 
 
 def _se3_gains(ctx: ControllerContext) -> dict[str, Any]:
     from liecontrol.control.se3_control import pose_gains_from_bandwidth
 
     px = ctx.proximity
-    return pose_gains_from_bandwidth(px.mass, px.J, omega_att=0.1, omega_pos=0.05)
+    k = ctx.rule.omega_n / DEFAULT_GAIN_RULE.omega_n
+    return pose_gains_from_bandwidth(
+        px.mass, px.J, omega_att=SE3_OMEGA_ATT * k, omega_pos=SE3_OMEGA_POS * k
+    )
 
 
 def _se3_tracking(ctx: ControllerContext) -> Any:
@@ -414,9 +619,8 @@ def _register_builtins() -> None:
     register("geometric-pid-intrinsic", _intrinsic_pid, family="geometric")
     register("geometric-integral-pd", _integral_pd, family="geometric")
     register("prescribed-performance", _prescribed_performance, family="geometric")
-    register("mpc-osqp", _mpc, batched=False, control_period=1.0, family="mpc")
-    # the paper's ESO (gains up to 800) needs ≤ 0.1 s sampling: at 0.2 s the loop chatters
-    register("mrp-adrc", _adrc, family="chart", control_period=0.1)
+    register("mpc-osqp", _mpc, batched=False, family="mpc")
+    register("mrp-adrc", _adrc, family="chart")
     for mode in ("continuous", "switched", "hysteretic"):
         # on the quick suite's q-starts the three sign modes fly the same trajectory
         register(
@@ -431,6 +635,7 @@ def _register_builtins() -> None:
         "payload-pid-ff",
         _payload_pid_ff,
         family="chart",
+        # the feed-forward of the 90°/s payload harmonic needs a 0.1 s hold (its own design)
         control_period=0.1,
         quick=False,
         exclude_tags=("manoeuvre", "unwinding", "large-angle"),

@@ -35,24 +35,43 @@ time, ``T = t_f − t₀``; integrals are trapezoidal over the logged samples):
   (accelerate/brake, overshoot), a law switching between ±q every sample reverses at each one;
   NaN when the log has no ``u_cmd``.
 
-Gimbal metrics are NaN when the log has no SGCMG actuator arrays (e.g. an ideal torque actuator).
+- **actuator use** (chosen by what the actuator logs; NaN where it does not apply):
+  SGCMG pyramid — peak gimbal rate, the same as a fraction of the gimbal-rate limit, minimum
+  singularity measure; reaction wheels — peak ``max_{t,i} |Ω_i| / Ω_max,i`` (fraction of the
+  speed limit), time with a wheel at its speed limit (``wheel_speed_saturation_time_s``: the
+  momentum is saturated) and with a wheel torque clipped (``torque_saturation_time_s``); both
+  — peak stored momentum ``max_t ‖h‖``; every actuator — ``saturation_time_s``, the time with
+  any limit active (gimbal rate; wheel torque or speed; the ideal actuator's torque box), and
+  the peak delivered torque ``max_t ‖u‖``.
+
+Verdicts: :func:`judge` turns a run's metrics into ``success`` / ``degraded`` / ``failed`` /
+``error`` / ``not-applicable`` plus flags, with the scenario's tolerances (rules in its
+docstring).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from liecontrol._validation import check_positive
+from liecontrol._validation import as_array, as_scalar, check_positive, check_positive_scalar
 
 __all__ = [
     "Metrics",
     "UNITS",
+    "RUN_UNITS",
     "DESCRIPTIONS",
+    "VERDICTS",
+    "FLAGS",
+    "NEAR_SINGULAR_M",
+    "CHATTER_REVERSALS",
+    "DIVERGENCE_MARGIN_DEG",
+    "judge",
     "compute_metrics",
     "error_angle",
     "rate_error",
@@ -76,6 +95,9 @@ def error_angle(R: np.ndarray, R_d: np.ndarray) -> np.ndarray:
 
     ``θ = atan2(½‖(E − Eᵀ)^∨‖, ½(tr E − 1))``: accurate at 0 and at π (unlike ``arccos``).
     """
+    R = as_array(R, "R", (3, 3))
+    R_d = as_array(R_d, "R_d", (3, 3))
+    _broadcast("R_d", R_d.shape[:-2], "R", R.shape[:-2])
     E = np.swapaxes(R_d, -1, -2) @ R
     s = 0.5 * np.linalg.norm(_vee_skew(E), axis=-1)
     c = 0.5 * (np.trace(E, axis1=-2, axis2=-1) - 1.0)
@@ -86,12 +108,36 @@ def rate_error(
     R: np.ndarray, omega: np.ndarray, R_d: np.ndarray, omega_d: np.ndarray
 ) -> np.ndarray:
     """Body rate error ``e_Ω = ω − RᵀR_d ω_d`` (SPEC §6 item 1), shape ``omega.shape``."""
+    R = as_array(R, "R", (3, 3))
+    omega = as_array(omega, "omega", (3,))
+    R_d = as_array(R_d, "R_d", (3, 3))
+    omega_d = as_array(omega_d, "omega_d", (3,))
+    _broadcast("omega", omega.shape[:-1], "R", R.shape[:-2])
+    _broadcast("R_d", R_d.shape[:-2], "R", R.shape[:-2])
+    _broadcast("omega_d", omega_d.shape[:-1], "R", R.shape[:-2])
     Rt_Rd = np.swapaxes(R, -1, -2) @ R_d
     return omega - (Rt_Rd @ omega_d[..., None])[..., 0]
 
 
+def _broadcast(name: str, shape: tuple[int, ...], other: str, other_shape: tuple) -> None:
+    """Raise naming ``name`` unless its batch shape broadcasts with ``other``'s."""
+    try:
+        np.broadcast_shapes(shape, other_shape)
+    except ValueError:
+        raise ValueError(
+            f"{name}: batch shape {shape} does not broadcast with {other}'s {other_shape}"
+        ) from None
+
+
 def trapezoid(y: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """Trapezoidal ``∫ y dt`` over axis 0 (``y`` is ``(K, ...)``, ``t`` is ``(K,)``)."""
+    """Trapezoidal ``∫ y dt`` over axis 0 (``y`` is ``(K, ...)``, ``t`` is ``(K,)``; lists are
+    accepted)."""
+    y = as_array(y, "y")
+    t = as_array(t, "t")
+    if y.ndim < 1 or y.shape[0] == 0:
+        raise ValueError(f"y: expected shape (K, ...) with K >= 1, got {y.shape}")
+    if t.shape != (y.shape[0],):
+        raise ValueError(f"t: expected shape ({y.shape[0]},) to match y, got {t.shape}")
     if y.shape[0] < 2:
         return np.zeros(y.shape[1:])
     dt = np.diff(t).reshape((-1,) + (1,) * (y.ndim - 1))
@@ -104,6 +150,15 @@ def settling_time(t: np.ndarray, err: np.ndarray, threshold: float) -> np.ndarra
     The crossing between the last sample above the threshold and the next one is linearly
     interpolated; if no sample exceeds the threshold the result is ``t[0]``.
     """
+    t = as_array(t, "t")
+    err = as_array(err, "err")
+    threshold = as_scalar(threshold, "threshold")
+    if err.ndim not in (1, 2) or err.shape[0] == 0:
+        raise ValueError(f"err: expected shape (K,) or (K, B) with K >= 1, got {err.shape}")
+    if t.shape != (err.shape[0],):
+        raise ValueError(f"t: expected shape ({err.shape[0]},) to match err, got {t.shape}")
+    if err.ndim == 1:  # one series: the (K, 1) case, returned as a scalar array
+        return settling_time(t, err[:, None], threshold)[0]
     K = err.shape[0]
     above = err > threshold
     # index of the last sample above the threshold (-1 when none)
@@ -144,6 +199,12 @@ class Metrics:
     peak_gimbal_rate_rad_s: np.ndarray
     min_singularity: np.ndarray
     saturation_time_s: np.ndarray
+    peak_gimbal_rate_frac: np.ndarray
+    peak_wheel_speed_frac: np.ndarray
+    wheel_speed_saturation_time_s: np.ndarray
+    torque_saturation_time_s: np.ndarray
+    peak_momentum_Nms: np.ndarray
+    peak_torque_Nm: np.ndarray
     path_angle_deg: np.ndarray
     unwinding_ratio: np.ndarray
     unwound: np.ndarray
@@ -183,10 +244,27 @@ UNITS: dict[str, str] = {
     "peak_gimbal_rate_rad_s": "rad/s",
     "min_singularity": "-",
     "saturation_time_s": "s",
+    "peak_gimbal_rate_frac": "-",
+    "peak_wheel_speed_frac": "-",
+    "wheel_speed_saturation_time_s": "s",
+    "torque_saturation_time_s": "s",
+    "peak_momentum_Nms": "N·m·s",
+    "peak_torque_Nm": "N·m",
     "path_angle_deg": "deg",
     "unwinding_ratio": "-",
     "unwound": "bool",
     "command_reversals": "-",
+}
+
+#: Units of the quantities the runner adds to a run's metrics (SE(3) runs, timing).
+RUN_UNITS: dict[str, str] = {
+    "controller_time_us": "µs",
+    "sim_wall_time_s": "s",
+    "final_position_error_m": "m",
+    "steady_position_error_max_m": "m",
+    "position_settling_time_s": "s",
+    "peak_force_N": "N",
+    "force_effort_Ns": "N·s",
 }
 
 #: One-line meaning of each field (for reports).
@@ -205,11 +283,25 @@ DESCRIPTIONS: dict[str, str] = {
     "effort_sq_N2m2s": "∫‖u‖²dt",
     "peak_gimbal_rate_rad_s": "max over time and gimbals of |δ̇_i|",
     "min_singularity": "min over time of m = √det(ÂÂᵀ)",
-    "saturation_time_s": "time with the gimbal-rate limit active",
+    "saturation_time_s": "time with any actuator limit active (gimbal rate; wheel torque or "
+    "speed; torque box)",
+    "peak_gimbal_rate_frac": "peak gimbal rate / gimbal-rate limit",
+    "peak_wheel_speed_frac": "max over time and wheels of |Ω_i| / Ω_max",
+    "wheel_speed_saturation_time_s": "time with a wheel at its speed limit (momentum saturated)",
+    "torque_saturation_time_s": "time with a wheel torque clipped at its limit",
+    "peak_momentum_Nms": "max over time of the stored actuator momentum ‖h‖",
+    "peak_torque_Nm": "max over time of ‖u‖, the torque delivered on the body",
     "path_angle_deg": "∫‖ω − RᵀR_dω_d‖dt (length of the error path on SO(3))",
     "unwinding_ratio": "path angle / initial geodesic angle (≥ 1.5: unwound)",
     "unwound": "unwinding ratio ≥ 1.5",
     "command_reversals": "consecutive commands with u_k·u_{k−1} < 0 (both ≥ 5 % of the peak)",
+    "controller_time_us": "mean wall time of one controller call per spacecraft",
+    "sim_wall_time_s": "wall time of the simulation the run was batched in",
+    "final_position_error_m": "SE(3): ‖p − p_d‖ at the last sample",
+    "steady_position_error_max_m": "SE(3): max ‖p − p_d‖ over the final 10 % of the run",
+    "position_settling_time_s": "SE(3): first time after which ‖p − p_d‖ stays below tolerance",
+    "peak_force_N": "SE(3): max ‖F‖ over the run",
+    "force_effort_Ns": "SE(3): ∫‖F‖dt, the force delivered on the chaser",
 }
 
 
@@ -217,6 +309,16 @@ def _actuator_array(result: Any, key: str) -> np.ndarray | None:
     act = getattr(result, "actuator", None) or {}
     a = act.get(key) if isinstance(act, dict) else None
     return None if a is None else np.asarray(a)
+
+
+def _flag_time(t: np.ndarray, flags: np.ndarray | None, K: int, B: int) -> np.ndarray:
+    """``Σ_k any_i flag_{k,b,i} (t_{k+1} − t_k)`` per spacecraft (left rectangle: a flagged
+    sample counts until the next one); NaN when the log has no such flag."""
+    if flags is None:
+        return np.full(B, np.nan)
+    # per-unit flags (K, B, n) count when any unit of that spacecraft is limited
+    f = np.asarray(flags).reshape(K, B, -1).any(axis=-1)
+    return (f[:-1].astype(np.float64) * np.diff(t)[:, None]).sum(axis=0)
 
 
 def compute_metrics(
@@ -227,6 +329,8 @@ def compute_metrics(
     unwinding_threshold: float = 1.5,
     min_geodesic_deg: float = 1.0,
     reversal_floor: float = 0.05,
+    gimbal_rate_limit: float | None = None,
+    wheel_max_speed: float | np.ndarray | None = None,
 ) -> Metrics:
     """Compute the SPEC §8.2 metrics of every spacecraft of a simulation log.
 
@@ -241,19 +345,35 @@ def compute_metrics(
         min_geodesic_deg: initial error below which overshoot/unwinding are not defined (NaN).
         reversal_floor: fraction of the peak command norm below which a command does not count
             for ``command_reversals``.
+        gimbal_rate_limit: the SGCMG gimbal-rate limit [rad/s] for ``peak_gimbal_rate_frac``
+            (``None``: NaN).
+        wheel_max_speed: the wheels' speed limit [rad/s], scalar or per wheel, for
+            ``peak_wheel_speed_frac`` (``None``: NaN). The log's ``actuator`` dict may also
+            hold ``wheel_speed (K,B,N)``, ``speed_saturated``/``torque_saturated (K,B,N)`` and
+            ``h (K,B,3)``.
 
     Returns:
         :class:`Metrics` with ``(B,)`` arrays.
     """
-    settle_threshold_deg = check_positive(settle_threshold_deg, "settle_threshold_deg")
-    steady_fraction = check_positive(steady_fraction, "steady_fraction")
+    missing = [a for a in ("t", "R", "omega", "R_d", "omega_d", "u") if not hasattr(result, a)]
+    if missing:
+        raise ValueError(
+            f"result: expected a SimulationResult (an object with t, R, omega, R_d, omega_d, u "
+            f"and actuator), got {type(result).__name__} without {', '.join(missing)}"
+        )
+    settle_threshold_deg = check_positive_scalar(settle_threshold_deg, "settle_threshold_deg")
+    steady_fraction = check_positive_scalar(steady_fraction, "steady_fraction")
     if steady_fraction > 1.0:
         raise ValueError(f"steady_fraction: must be in (0, 1], got {steady_fraction}")
-    unwinding_threshold = check_positive(unwinding_threshold, "unwinding_threshold")
-    min_geodesic_deg = check_positive(min_geodesic_deg, "min_geodesic_deg")
-    reversal_floor = check_positive(reversal_floor, "reversal_floor")
+    unwinding_threshold = check_positive_scalar(unwinding_threshold, "unwinding_threshold")
+    min_geodesic_deg = check_positive_scalar(min_geodesic_deg, "min_geodesic_deg")
+    reversal_floor = check_positive_scalar(reversal_floor, "reversal_floor")
     if reversal_floor > 1.0:
         raise ValueError(f"reversal_floor: must be in (0, 1], got {reversal_floor}")
+    if gimbal_rate_limit is not None:
+        gimbal_rate_limit = check_positive_scalar(gimbal_rate_limit, "gimbal_rate_limit")
+    if wheel_max_speed is not None:
+        wheel_max_speed = check_positive(wheel_max_speed, "wheel_max_speed")
 
     t = np.asarray(result.t, dtype=np.float64)
     R = np.asarray(result.R, dtype=np.float64)
@@ -307,6 +427,7 @@ def compute_metrics(
     overshoot_pct = np.where(defined, 100.0 * overshoot / np.where(defined, theta0, 1.0), np.nan)
 
     u_norm = np.linalg.norm(u, axis=-1)
+    peak_torque = u_norm.max(axis=0)
     effort = trapezoid(u_norm, t)
     effort_sq = trapezoid(u_norm**2, t)
 
@@ -317,14 +438,25 @@ def compute_metrics(
         peak_gimbal = np.full(B, np.nan)
     sing = _actuator_array(result, "singularity")
     min_sing = sing.min(axis=0) if sing is not None else np.full(B, np.nan)
-    sat = _actuator_array(result, "saturated")
-    if sat is not None:
-        # per-gimbal flags (K, B, 4) count when any gimbal of that spacecraft is limited
-        sat = sat.reshape(K, B, -1).any(axis=-1)
-        dts = np.diff(t)
-        sat_time = (sat[:-1].astype(np.float64) * dts[:, None]).sum(axis=0)
+    sat_time = _flag_time(t, _actuator_array(result, "saturated"), K, B)
+    speed_sat_time = _flag_time(t, _actuator_array(result, "speed_saturated"), K, B)
+    torque_sat_time = _flag_time(t, _actuator_array(result, "torque_saturated"), K, B)
+    if gimbal_rate_limit is not None and delta_dot is not None and delta_dot.size:
+        gimbal_frac = peak_gimbal / gimbal_rate_limit
     else:
-        sat_time = np.full(B, np.nan)
+        gimbal_frac = np.full(B, np.nan)
+    wheel_speed = _actuator_array(result, "wheel_speed")
+    if wheel_max_speed is not None and wheel_speed is not None and wheel_speed.size:
+        ws = wheel_speed.reshape(K, B, -1)
+        lim = np.broadcast_to(np.asarray(wheel_max_speed, dtype=np.float64), ws.shape[-1:])
+        wheel_frac = (np.abs(ws) / lim).max(axis=(0, 2))
+    else:
+        wheel_frac = np.full(B, np.nan)
+    h_act = _actuator_array(result, "h")
+    if h_act is not None and h_act.shape == (K, B, 3):
+        peak_h = np.linalg.norm(h_act, axis=-1).max(axis=0)
+    else:
+        peak_h = np.full(B, np.nan)
 
     u_cmd = getattr(result, "u_cmd", None)
     if u_cmd is not None and np.shape(u_cmd) == (K, B, 3):
@@ -357,8 +489,148 @@ def compute_metrics(
         peak_gimbal_rate_rad_s=peak_gimbal,
         min_singularity=np.asarray(min_sing, dtype=np.float64),
         saturation_time_s=sat_time,
+        peak_gimbal_rate_frac=np.asarray(gimbal_frac, dtype=np.float64),
+        peak_wheel_speed_frac=np.asarray(wheel_frac, dtype=np.float64),
+        wheel_speed_saturation_time_s=speed_sat_time,
+        torque_saturation_time_s=torque_sat_time,
+        peak_momentum_Nms=np.asarray(peak_h, dtype=np.float64),
+        peak_torque_Nm=peak_torque,
         path_angle_deg=path * RAD2DEG,
         unwinding_ratio=ratio,
         unwound=np.asarray(unwound, dtype=bool),
         command_reversals=reversals,
     )
+
+
+# --------------------------------------------------------------------------- verdicts
+
+#: Verdicts of :func:`judge`, best first.
+VERDICTS: tuple[str, ...] = ("success", "degraded", "failed", "error", "not-applicable")
+#: Flags :func:`judge` can raise (``constraint-violated`` is reserved for constrained
+#: scenarios; no catalogue scenario defines a state constraint yet).
+FLAGS: tuple[str, ...] = (
+    "attitude-not-converged",
+    "position-not-converged",
+    "diverged",
+    "unwound",
+    "actuator-saturated",
+    "momentum-saturated",
+    "near-singular",
+    "chattering",
+    "constraint-violated",
+    "exception",
+)
+#: Singularity measure below which a run is flagged ``near-singular``. m = √det(ÂÂᵀ) of the
+#: normalised Jacobian is ≈ 1.09 at the pyramid's zero-momentum null-motion equilibrium and 0
+#: at a singular gimbal set; the gimbal rate the pseudo-inverse asks for a given torque grows
+#: like 1/σ_min, and at m = 0.2 the smallest singular value is already a few times below the
+#: equilibrium's, so torque accuracy and gimbal-rate headroom are visibly degraded.
+NEAR_SINGULAR_M = 0.2
+#: ``command_reversals`` from which a run is flagged ``chattering``: a smooth law reverses its
+#: torque a handful of times (accelerate, brake, one or two overshoots) over a whole run; a law
+#: that switches sign from sample to sample reverses hundreds of times.
+CHATTER_REVERSALS = 20
+#: A run has ``diverged`` when it ends at least this much farther from the target than it
+#: started [deg] (a bounded steady offset under a constant disturbance is not divergence: it is
+#: ``attitude-not-converged``).
+DIVERGENCE_MARGIN_DEG = 30.0
+
+
+def _num(m: dict[str, Any], key: str) -> float:
+    v = m.get(key)
+    if v is None or isinstance(v, bool):
+        return float("nan") if v is None else float(v)
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        return float("nan")
+
+
+def judge(
+    scenario: Any,
+    metrics: dict[str, Any],
+    *,
+    status: str = "ok",
+    error: str | None = None,
+) -> tuple[str, tuple[str, ...]]:
+    """Verdict and flags of one run of ``scenario`` from its ``metrics`` (a
+    :meth:`Metrics.as_dict` record, plus the SE(3) keys the runner adds).
+
+    ``scenario`` needs ``attitude_tolerance_deg``, ``position_tolerance_m`` and ``plant``
+    (a :class:`benchmarks.scenarios.Scenario`). ``status``/``error`` are the run's
+    (:class:`benchmarks.runner.RunOutcome`): ``"n/a"`` → ``not-applicable``; ``"failed"`` →
+    ``error`` (flag ``diverged`` when the simulation stopped on a non-finite state, else
+    ``exception``). For a completed run every rule below is checked and the worst verdict wins:
+
+    ============================================================  ======================  =========
+    rule                                                          flag                    verdict
+    ============================================================  ======================  =========
+    ``steady_error_max_deg`` > ``attitude_tolerance_deg`` or NaN  attitude-not-converged  failed
+    SE(3): ``steady_position_error_max_m`` > ``position_tol…``    position-not-converged  failed
+    a metric is non-finite (NaN/inf state), or the run ends ≥ 30°   diverged                failed
+    farther from the target than it started
+    ``unwound`` (unwinding ratio ≥ 1.5)                            unwound                 degraded
+    ``saturation_time_s`` > 0 (gimbal rate / torque box;           actuator-saturated      degraded
+    on wheels ``torque_saturation_time_s`` > 0)
+    ``wheel_speed_saturation_time_s`` > 0                          momentum-saturated      degraded
+    ``min_singularity`` < :data:`NEAR_SINGULAR_M` (0.2)            near-singular           degraded
+    ``command_reversals`` ≥ :data:`CHATTER_REVERSALS` (20)         chattering              degraded
+    none of the above                                              —                       success
+    ============================================================  ======================  =========
+
+    So ``success`` needs every error channel of the scenario within its tolerance, no
+    divergence, no unwinding, and no actuator limit or near-singularity on the way.
+
+    Returns:
+        ``(verdict, flags)`` with ``verdict`` in :data:`VERDICTS` and ``flags`` a tuple of
+        :data:`FLAGS` entries in the order of the table.
+    """
+    if status == "n/a":
+        return "not-applicable", ()
+    if status != "ok":
+        text = (error or "").lower()
+        diverged = "diverged" in text or "non-finite" in text or "nan" in text.split()
+        return "error", ("diverged",) if diverged else ("exception",)
+    if not isinstance(metrics, dict):
+        raise TypeError(f"metrics: expected a dict of metric values, got {type(metrics).__name__}")
+    tol = float(scenario.attitude_tolerance_deg)
+    flags: list[str] = []
+    failed = False
+    steady = _num(metrics, "steady_error_max_deg")
+    if not steady <= tol:  # NaN counts as not converged
+        flags.append("attitude-not-converged")
+        failed = True
+    is_pose = scenario.plant == "se3"
+    if is_pose:
+        ptol = float(scenario.position_tolerance_m)
+        pos = _num(metrics, "steady_position_error_max_m")
+        if math.isnan(pos):
+            pos = _num(metrics, "final_position_error_m")
+        if not pos <= ptol:
+            flags.append("position-not-converged")
+            failed = True
+    th0, thf = _num(metrics, "initial_error_deg"), _num(metrics, "final_error_deg")
+    core = [steady, thf, _num(metrics, "effort_Nms")]
+    moved_away = thf >= th0 + DIVERGENCE_MARGIN_DEG
+    if is_pose:
+        pos_f = _num(metrics, "final_position_error_m")
+        core.append(pos_f)
+    if not all(math.isfinite(v) for v in core) or moved_away:
+        flags.append("diverged")
+        failed = True
+    if metrics.get("unwound"):
+        flags.append("unwound")
+    sat = _num(metrics, "saturation_time_s")
+    wheel_torque = _num(metrics, "torque_saturation_time_s")
+    wheel_speed = _num(metrics, "wheel_speed_saturation_time_s")
+    if (wheel_torque > 0) if math.isfinite(wheel_torque) else (sat > 0):
+        flags.append("actuator-saturated")
+    if wheel_speed > 0:
+        flags.append("momentum-saturated")
+    if _num(metrics, "min_singularity") < NEAR_SINGULAR_M:
+        flags.append("near-singular")
+    if _num(metrics, "command_reversals") >= CHATTER_REVERSALS:
+        flags.append("chattering")
+    if failed:
+        return "failed", tuple(flags)
+    return ("degraded" if flags else "success"), tuple(flags)

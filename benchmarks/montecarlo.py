@@ -1,4 +1,4 @@
-"""Monte Carlo sweep (SPEC §8.1 last item, §8.2 success rate, §8.4 executors).
+"""Monte Carlo sweep of the benchmark suite: random initial conditions, success rate, executors.
 
 Samples: initial attitudes uniform on SO(3) (Haar: ``scipy`` ``Rotation.random``), initial body
 rates with a uniform random direction and magnitude ``U(0, max_rate_deg_s)``, and an inertia error
@@ -22,14 +22,20 @@ sample. Tasks run on an executor (:mod:`benchmarks.executors`): serial, local pr
 dask.distributed cluster (``--scheduler ADDRESS``) — the results are identical (same seeds); a
 task that fails is reported (its samples are "failed" with the error), never dropped.
 
+Journal. With ``journal=PATH`` each finished chunk's records are appended to a JSON-lines file as
+the chunk completes (the CLI writes ``OUT/montecarlo.chunks.jsonl``), so an interrupted sweep
+keeps its finished chunks; ``resume=True`` reruns only the missing ones (docs/montecarlo.md).
+
 Success: the run completed and its final attitude error is ≤ ``success_deg``.
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import json
 import math
+import os
 import time
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
@@ -39,7 +45,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from liecontrol._validation import check_inertia, check_positive
+from liecontrol._validation import as_scalar, check_inertia, check_positive_scalar
 
 from .controllers import ControllerContext, ControllerInfo, available_controllers, get_controller
 from .executors import Executor, TaskFailure, describe_exception, make_executor
@@ -53,12 +59,14 @@ __all__ = [
     "chunk_samples",
     "run_chunk",
     "run_montecarlo",
+    "read_journal",
+    "MonteCarloInterrupted",
     "measure_throughput",
     "write_montecarlo_report",
     "RECORD_METRICS",
 ]
 
-#: Per-sample metrics kept in the records (SPEC §8.2).
+#: Per-sample metrics kept in the records (see :mod:`benchmarks.metrics`).
 RECORD_METRICS = (
     "initial_error_deg",
     "final_error_deg",
@@ -113,15 +121,19 @@ class MonteCarloConfig:
         if self.seed < 0:
             raise ValueError(f"seed: must be >= 0, got {self.seed}")
         for name in ("duration", "dt", "control_period", "success_deg", "log_period"):
-            object.__setattr__(self, name, float(check_positive(getattr(self, name), name)))
-        r = float(self.max_rate_deg_s)
-        if not (math.isfinite(r) and r >= 0):
+            object.__setattr__(self, name, check_positive_scalar(getattr(self, name), name))
+        r = as_scalar(self.max_rate_deg_s, "max_rate_deg_s")
+        if not r >= 0:
             raise ValueError(f"max_rate_deg_s: must be finite and >= 0, got {self.max_rate_deg_s}")
         object.__setattr__(self, "max_rate_deg_s", r)
-        e = float(self.inertia_error)
-        if not (math.isfinite(e) and 0 <= e < 1):
+        e = as_scalar(self.inertia_error, "inertia_error")
+        if not 0 <= e < 1:
             raise ValueError(f"inertia_error: must be in [0, 1), got {self.inertia_error}")
         object.__setattr__(self, "inertia_error", e)
+        if not isinstance(self.spacecraft, SpacecraftSpec):
+            raise TypeError(
+                f"spacecraft: must be a SpacecraftSpec, got {type(self.spacecraft).__name__}"
+            )
         for name in ("control_period", "log_period"):
             ratio = getattr(self, name) / self.dt
             if abs(ratio - round(ratio)) > 1e-9 * ratio or round(ratio) < 1:
@@ -167,6 +179,8 @@ def _draw_sample(
 def chunk_samples(cfg: MonteCarloConfig, chunk: int) -> ChunkSamples:
     """Draw chunk ``chunk`` of ``cfg``: samples ``chunk·chunk_size …``, each deterministic in
     ``(seed, sample index)`` alone (so independent of ``chunk_size``)."""
+    if not isinstance(cfg, MonteCarloConfig):
+        raise ValueError(f"cfg: expected a MonteCarloConfig, got {type(cfg).__name__}")
     if isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)):
         raise ValueError(f"chunk: must be an integer, got {chunk!r}")
     if not 0 <= chunk < cfg.n_chunks:
@@ -328,13 +342,28 @@ def run_montecarlo(
     scheduler: str | None = None,
     batched: bool | None = None,
     progress: bool = True,
+    journal: str | Path | None = None,
+    resume: bool = False,
 ) -> MonteCarloResult:
     """Run the sweep for ``controllers`` (default: the attitude controllers of the quick suite).
 
     ``batched=None`` follows each controller's registration; ``False`` forces sample-by-sample
     runs (the reference path the batched one is checked against); ``True`` forces the batched
     path. Returns a :class:`MonteCarloResult` with one record per (controller, sample).
+
+    ``journal``: a JSON-lines file to which each finished chunk's records are appended (and
+    flushed) as it completes, so an interrupted sweep keeps what it finished
+    (:func:`read_journal`). ``resume=True`` reuses the chunks already in ``journal`` (written for
+    the same configuration, else ``ValueError``) and runs only the others; without it an
+    existing journal is started afresh. An interruption (Ctrl-C) raises
+    :class:`MonteCarloInterrupted` (a ``KeyboardInterrupt``) saying how many chunks were kept.
     """
+    if not isinstance(resume, (bool, np.bool_)):
+        raise TypeError(f"resume: must be a bool, got {resume!r}")
+    if resume and journal is None:
+        raise ValueError("resume: needs a journal file to resume from")
+    if journal is not None:
+        _check_path(journal, "journal")
     from tqdm.auto import tqdm
 
     from .controllers import quick_controllers
@@ -359,21 +388,65 @@ def run_montecarlo(
         for c in controllers
         for i in range(cfg.n_chunks)
     ]
+    done: dict[tuple[str, int, bool], list[dict[str, Any]]] = {}
+    header: dict[str, Any] = {}
+    if journal is not None:
+        header = _journal_header(cfg)
+        if resume:  # checked before anything runs: a journal of another configuration
+            done = _load_journal(Path(journal), header)
+    todo = [t for t in tasks if (t.controller, t.chunk, t.batched) not in done]
     own = not isinstance(executor, Executor)
+    # the executor first: a scheduler that cannot be reached leaves an existing journal alone
     ex = (
         executor
         if isinstance(executor, Executor)
         else make_executor(executor, jobs=jobs, scheduler=scheduler)
     )
     t0 = time.perf_counter()
+    writer: _JournalWriter | None = None
+
+    n_kept = 0  # chunks finished (and journaled) in this call
+
+    def finished(i: int, value: Any) -> None:
+        nonlocal n_kept
+        if isinstance(value, TaskFailure):
+            return  # executor-level failures are not kept: a resume reruns them
+        if writer is not None:
+            t = todo[i]
+            writer.write(t.controller, t.chunk, t.batched, value)
+        n_kept += 1
+
     try:
-        with tqdm(total=len(tasks), desc="monte carlo", unit="chunk", disable=not progress) as bar:
-            results = ex.map(run_chunk, tasks, on_done=lambda i: bar.update(1))
+        if journal is not None:
+            writer = _JournalWriter(Path(journal), header, append=resume and bool(done))
+        with tqdm(
+            total=len(tasks),
+            initial=len(tasks) - len(todo),
+            desc="monte carlo",
+            unit="chunk",
+            disable=not progress,
+        ) as bar:
+            results = ex.map(run_chunk, todo, on_done=lambda i: bar.update(1), on_result=finished)
+    except KeyboardInterrupt as exc:
+        if own:
+            ex.close()
+        kept = len(tasks) - len(todo) + n_kept
+        if writer is not None:
+            writer.close()
+            with contextlib.suppress(ValueError):  # the file is the truth (a Ctrl-C can land
+                # between a chunk's write and its count)
+                kept = len({(e["controller"], e["chunk"]) for e in read_journal(journal)[1]})
+        raise MonteCarloInterrupted(kept, len(tasks), journal) from exc
     finally:
         if own:
             ex.close()
+        if writer is not None:
+            writer.close()
+    by_key = dict(zip(((t.controller, t.chunk, t.batched) for t in todo), results, strict=True))
+    by_key.update(done)
     records: list[dict[str, Any]] = []
-    for task, res in zip(tasks, results, strict=True):
+    for task in tasks:
+        res = by_key[(task.controller, task.chunk, task.batched)]
         if isinstance(res, TaskFailure):
             s = chunk_samples(cfg, task.chunk)
             records += [
@@ -384,6 +457,117 @@ def run_montecarlo(
         else:
             records += res
     return MonteCarloResult(cfg, controllers, tuple(records), time.perf_counter() - t0, ex.name)
+
+
+class MonteCarloInterrupted(KeyboardInterrupt):
+    """A sweep stopped by Ctrl-C: ``kept`` of ``total`` chunks are in ``journal`` (if any)."""
+
+    def __init__(self, kept: int, total: int, journal: str | Path | None) -> None:
+        super().__init__(f"interrupted after {kept} of {total} chunks")
+        self.kept, self.total, self.journal = kept, total, journal
+
+
+_JOURNAL_FORMAT = "liecontrol-montecarlo-journal/1"
+
+
+def _check_path(v: Any, name: str) -> str | os.PathLike:
+    if not isinstance(v, (str, os.PathLike)) or str(v) == "":
+        raise TypeError(f"{name}: must be a file path (str or Path), got {v!r}")
+    return v
+
+
+def _journal_header(cfg: MonteCarloConfig) -> dict[str, Any]:
+    import liecontrol
+
+    # the dataclass repr is exact (floats print round-trip) and covers the spacecraft, so two
+    # configurations with the same fingerprint draw and fly the same samples
+    return {
+        "format": _JOURNAL_FORMAT,
+        "config": repr(cfg),
+        "liecontrol": liecontrol.__version__,
+    }
+
+
+def _json_default(v: Any) -> Any:
+    if isinstance(v, np.generic):
+        return v.item()
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    raise TypeError(f"record: cannot store {type(v).__name__} in the journal")
+
+
+class _JournalWriter:
+    """Appends one JSON line per finished chunk, flushed and fsync'ed: what a crash or Ctrl-C
+    leaves behind is every chunk reported done (the last line at worst cut short)."""
+
+    def __init__(self, path: Path, header: dict[str, Any], *, append: bool) -> None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        self.path = path
+        self._fh = open(path, "a" if append else "w", encoding="utf-8")  # noqa: SIM115
+        if not append:
+            self._line(header)
+
+    def _line(self, obj: dict[str, Any]) -> None:
+        # NaN/inf (e.g. an unsettled run's settling time) are written as the JSON extensions
+        # NaN/Infinity, which json.loads reads back: a resumed sweep gets the same floats
+        self._fh.write(json.dumps(obj, default=_json_default) + "\n")
+        self._fh.flush()
+        os.fsync(self._fh.fileno())
+
+    def write(self, controller: str, chunk: int, batched: bool, records: list) -> None:
+        self._line({"controller": controller, "chunk": chunk, "batched": batched,
+                    "records": records})  # fmt: skip
+
+    def close(self) -> None:
+        self._fh.close()
+
+
+def read_journal(journal: str | Path) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """The header and the chunk entries (``controller``, ``chunk``, ``batched``, ``records``) of
+    a sweep's journal, in completion order. A last line cut short by a crash is skipped; any
+    other malformed line raises ``ValueError`` naming the line."""
+    p = Path(_check_path(journal, "journal"))
+    if not p.is_file():
+        raise ValueError(f"journal: no such file {str(p)!r}")
+    lines = p.read_text(encoding="utf-8").splitlines()
+    entries: list[dict[str, Any]] = []
+    header: dict[str, Any] | None = None
+    for n, line in enumerate(lines, start=1):
+        try:
+            obj = json.loads(line)
+        except json.JSONDecodeError:
+            if n == len(lines):  # a write cut short by the interruption
+                break
+            raise ValueError(f"journal: {p}: line {n} is not valid JSON") from None
+        if header is None:
+            if not isinstance(obj, dict) or obj.get("format") != _JOURNAL_FORMAT:
+                raise ValueError(f"journal: {p} is not a Monte Carlo journal ({_JOURNAL_FORMAT})")
+            header = obj
+        elif not isinstance(obj, dict) or not {"controller", "chunk", "records"} <= obj.keys():
+            raise ValueError(f"journal: {p}: line {n} is not a chunk entry")
+        else:
+            entries.append(obj)
+    if header is None:
+        raise ValueError(f"journal: {p} is empty")
+    return header, entries
+
+
+def _load_journal(path: Path, header: dict[str, Any]) -> dict[tuple, list[dict[str, Any]]]:
+    if not path.exists():
+        return {}
+    old, entries = read_journal(path)
+    for key in ("config", "liecontrol"):
+        if old.get(key) != header[key]:
+            raise ValueError(
+                f"resume: {path} was written for another {key} ({str(old.get(key))[:200]}, "
+                f"now {str(header[key])[:200]}); remove it or run without resume"
+            )
+    # keep only the complete entries and rewrite the file without a cut-short last line
+    good = [json.dumps(old, default=_json_default)] + [
+        json.dumps(e, default=_json_default) for e in entries
+    ]
+    path.write_text("\n".join(good) + "\n", encoding="utf-8")
+    return {(e["controller"], e["chunk"], bool(e.get("batched"))): e["records"] for e in entries}
 
 
 def measure_throughput(

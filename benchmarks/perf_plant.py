@@ -140,7 +140,7 @@ def micro_costs(batch: int, number: int = 200, repeat: int = 7) -> dict[str, flo
 
     truth = AttitudeState(R=R, omega=w, h=np.zeros((batch, 3)))
     calls = {
-        "rigid body ω̇": lambda: body.angular_acceleration(w, tau),
+        "rigid body ω̇": lambda: body.angular_acceleration_unchecked(w, tau),
         "seed-000 torque": lambda: Seed000Disturbance()(1.0, R, w),
         "gravity gradient": lambda: GravityGradientTorque(J_SEED000, CircularOrbit())(1.0, R, w),
         "rotating payload": lambda: RotatingPayloadTorque([SEED003_PAYLOAD])(1.0, R, w),

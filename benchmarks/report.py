@@ -1,14 +1,21 @@
-"""Report folder of a suite run (SPEC §8.4): ``report.md``, ``metrics.csv``, ``metrics.json`` and
-PNG figures (matplotlib, Agg backend).
+"""Report folder of a suite run: ``report.md``, ``metrics.csv``, ``metrics.json`` and PNG
+figures (matplotlib, Agg backend).
 
-``report.md`` holds a summary table (controllers × scenarios: settling time or why not) and one
-controllers × scenarios table per metric; cells of failed runs say ``FAILED`` and the error text
-is listed below. A pair whose controller does not apply to the scenario (status ``"n/a"``: an
-SE(3) controller on an attitude plant and vice versa) reads ``does not apply`` (the summary says
-why). Metrics not defined for a run (NaN, e.g. the unwinding ratio when the run starts at the
-reference) read ``n/a``; a NaN settling time reads ``not settled``. No cell is ever empty.
-Figures: one per scenario (all controllers overlaid) and a controllers × scenarios overview of
-the settling time. Exact definitions: :mod:`benchmarks.metrics` and ``docs/benchmarks.md``.
+``report.md`` holds the scenarios with their tolerances, the verdict rules, a summary table
+(controllers × scenarios: the verdict of :func:`benchmarks.metrics.judge` and its flags, with
+the settling time or the final error), the Pareto fronts, and one controllers × scenarios table
+per metric — actuator metrics only over the scenarios whose plant has that actuator (gimbal
+metrics on SGCMG plants, wheel metrics on wheel plants, force on SE(3)). Cells of failed runs
+say ``FAILED`` and the error text is listed below. A pair whose controller does not apply to the
+scenario reads ``does not apply`` (the summary says why). Metrics not defined for a run (NaN)
+read ``n/a``; a NaN settling time reads ``not settled``. No cell is ever empty.
+
+Figures: per scenario the time histories (panels chosen by the plant, every panel with its time
+axis) and a Pareto figure (performance vs control effort and vs peak actuator use, one marker
+per controller, verdict by fill), plus ``overview.png`` coloured by verdict. Controllers are told
+apart by a colour-blind-safe palette (Okabe & Ito) combined with line styles and markers.
+:func:`write_sweep_report` writes the bandwidth sweep (``--sweep-bandwidth``). Exact metric
+definitions: :mod:`benchmarks.metrics` and ``docs/benchmarks.md``.
 """
 
 from __future__ import annotations
@@ -18,51 +25,117 @@ import json
 import math
 import platform
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from .metrics import UNITS
+from .metrics import (
+    CHATTER_REVERSALS,
+    DESCRIPTIONS,
+    NEAR_SINGULAR_M,
+    RUN_UNITS,
+    UNITS,
+    VERDICTS,
+)
 from .runner import RunOutcome, SuiteResult
+from .tuning_report import tuning_section
 
 __all__ = [
     "TABLE_METRICS",
     "POSE_METRICS",
+    "METRIC_PLANTS",
     "NOT_APPLICABLE",
+    "PALETTE",
+    "VERDICT_COLORS",
     "write_report",
     "write_csv",
     "write_json",
     "write_figures",
+    "write_pareto_figure",
+    "write_sweep_report",
+    "pareto_front",
+    "performance",
+    "peak_actuator_use",
+    "controller_colors",
+    "controller_styles",
     "fmt",
     "markdown_table",
     "figures_section",
 ]
 
-#: (field, column title) of the per-metric tables, in order (SPEC §8.2).
+#: (field, column title) of the per-metric tables, in order.
 TABLE_METRICS: tuple[tuple[str, str], ...] = (
-    ("settling_time_s", "Settling time to 0.1° [s]"),
+    ("settling_time_s", "Settling time to the scenario's attitude tolerance [s]"),
     ("steady_error_max_deg", "Steady-state error (max over final 10 %) [deg]"),
     ("peak_rate_deg_s", "Peak rate ‖ω − RᵀR_dω_d‖ [deg/s]"),
     ("overshoot_deg", "Overshoot along the initial error axis [deg]"),
-    ("effort_Nms", "∫‖u‖dt [N·m·s]"),
-    ("peak_gimbal_rate_rad_s", "Peak gimbal rate [rad/s]"),
-    ("min_singularity", "Minimum singularity measure m"),
-    ("saturation_time_s", "Time in gimbal-rate saturation [s]"),
-    ("unwinding_ratio", "Unwinding ratio (path angle / geodesic angle; ≥ 1.5 unwound)"),
+    ("effort_Nms", "Control effort ∫‖u‖dt [N·m·s]"),
+    ("peak_torque_Nm", "Peak torque ‖u‖ [N·m]"),
+    ("saturation_time_s", "Time with an actuator limit active [s]"),
+    ("peak_gimbal_rate_rad_s", "SGCMG: peak gimbal rate [rad/s]"),
+    ("peak_gimbal_rate_frac", "SGCMG: peak gimbal rate / limit [-]"),
+    ("min_singularity", f"SGCMG: minimum singularity measure m [-] (< {NEAR_SINGULAR_M}: flagged)"),
+    ("peak_momentum_Nms", "Peak stored actuator momentum ‖h‖ [N·m·s]"),
+    ("peak_wheel_speed_frac", "Wheels: peak wheel speed / speed limit [-]"),
+    ("wheel_speed_saturation_time_s", "Wheels: time at the speed limit (momentum saturated) [s]"),
+    ("torque_saturation_time_s", "Wheels: time with a wheel torque clipped [s]"),
+    ("unwinding_ratio", "Unwinding ratio (path angle / geodesic angle; ≥ 1.5 unwound) [-]"),
+    ("command_reversals", f"Command reversals (≥ {CHATTER_REVERSALS}: chattering) [-]"),
     ("controller_time_us", "Controller wall time per control step and spacecraft [µs]"),
 )
 #: Extra tables when a suite has SE(3) runs.
 POSE_METRICS: tuple[tuple[str, str], ...] = (
     ("final_position_error_m", "SE(3): final position error [m]"),
-    ("position_settling_time_s", "SE(3): position settling time to 0.1 m [s]"),
+    ("steady_position_error_max_m", "SE(3): position error, max over final 10 % [m]"),
+    ("position_settling_time_s", "SE(3): position settling time to the tolerance [s]"),
     ("peak_force_N", "SE(3): peak force ‖F‖ [N]"),
+    ("force_effort_Ns", "SE(3): force effort ∫‖F‖dt [N·s]"),
 )
+#: Plants on which a metric is defined (tables show only those scenarios); absent: all.
+METRIC_PLANTS: dict[str, frozenset[str]] = {
+    "saturation_time_s": frozenset({"sgcmg", "wheels", "ideal"}),
+    "peak_gimbal_rate_rad_s": frozenset({"sgcmg"}),
+    "peak_gimbal_rate_frac": frozenset({"sgcmg"}),
+    "min_singularity": frozenset({"sgcmg"}),
+    "peak_momentum_Nms": frozenset({"sgcmg", "wheels"}),
+    "peak_wheel_speed_frac": frozenset({"wheels"}),
+    "wheel_speed_saturation_time_s": frozenset({"wheels"}),
+    "torque_saturation_time_s": frozenset({"wheels"}),
+    "command_reversals": frozenset({"sgcmg", "wheels", "ideal"}),
+    "final_position_error_m": frozenset({"se3"}),
+    "steady_position_error_max_m": frozenset({"se3"}),
+    "position_settling_time_s": frozenset({"se3"}),
+    "peak_force_N": frozenset({"se3"}),
+    "force_effort_Ns": frozenset({"se3"}),
+}
 #: Cell text of a pair whose controller does not apply to the scenario.
 NOT_APPLICABLE = "does not apply"
+#: Okabe & Ito's colour-blind-safe palette (yellow left out: unreadable on white).
+PALETTE: tuple[str, ...] = (
+    "#000000",
+    "#E69F00",
+    "#56B4E9",
+    "#009E73",
+    "#0072B2",
+    "#D55E00",
+    "#CC79A7",
+)
+_LINESTYLES = ("-", "--", ":", "-.")
+_MARKERS = ("o", "s", "^", "D", "v", "P", "X", "<", ">", "h", "*", "p", "d")
+#: Fill colour of each verdict (overview, Pareto legend).
+VERDICT_COLORS: dict[str, str] = {
+    "success": "#009E73",
+    "degraded": "#E69F00",
+    "failed": "#D55E00",
+    "error": "#CC79A7",
+    "not-applicable": "#d9d9d9",
+}
+#: Values below this are drawn at it on log axes (the panel says so).
+LOG_FLOOR = 1e-6
 
-CSV_LEAD = ("scenario", "controller", "status", "error")
+CSV_LEAD = ("scenario", "controller", "status", "verdict", "flags", "error")
 
 
 def _esc(text: str, limit: int | None = None) -> str:
@@ -126,26 +199,34 @@ def _cell(o: RunOutcome, key: str) -> str:
     return s
 
 
+def _verdict_text(o: RunOutcome) -> str:
+    flags = f" ({', '.join(o.flags)})" if o.flags else ""
+    return f"**{o.verdict or '?'}**{flags}"
+
+
 def _summary_cell(o: RunOutcome) -> str:
     if o.status == "n/a":
-        return f"{NOT_APPLICABLE} ({_esc(o.error or '', 60)})"
+        return f"not-applicable: {NOT_APPLICABLE} ({_esc(o.error or '', 60)})"
     if o.status != "ok":
-        return "FAILED: " + _esc(o.error or "", 90)
+        return f"{_verdict_text(o)} FAILED: " + _esc(o.error or "", 90)
     m = o.metrics
-    ts = m["settling_time_s"]
+    ts = m.get("settling_time_s", float("nan"))
     if math.isnan(ts):
-        txt = f"not settled; θ_f = {_fmt(m['final_error_deg'])}°"
+        txt = f"θ_f = {_fmt(m.get('final_error_deg'))}°"
     else:
-        txt = f"settled in {_fmt(ts)} s"
-    if m.get("unwound"):
-        txt += ", unwound"
+        txt = f"t_s = {_fmt(ts)} s"
     if "final_position_error_m" in m:
-        txt += f"; position error {_fmt(m['final_position_error_m'])} m"
-    return txt
+        txt += f", ‖Δp‖_f = {_fmt(m['final_position_error_m'])} m"
+    return f"{_verdict_text(o)}; {txt}"
 
 
-def _table(result: SuiteResult, cell: Callable[[RunOutcome], str]) -> list[str]:
-    names = [s.name for s in result.scenarios]
+def _table(
+    result: SuiteResult,
+    cell: Callable[[RunOutcome], str],
+    plants: frozenset[str] | None = None,
+) -> list[str]:
+    scs = [s for s in result.scenarios if plants is None or s.plant in plants]
+    names = [s.name for s in scs]
     rows = []
     for c in result.controllers:
         rows.append([f"`{c}`"] + [cell(result.outcome(s, c)) for s in names])
@@ -157,6 +238,240 @@ def _table(result: SuiteResult, cell: Callable[[RunOutcome], str]) -> list[str]:
     return lines
 
 
+# --------------------------------------------------------------------------- Pareto
+
+
+def _check_run(scenario: Any, metrics: Any) -> None:
+    if getattr(scenario, "plant", None) not in ("sgcmg", "wheels", "ideal", "se3"):
+        raise TypeError(f"scenario: expected a Scenario, got {type(scenario).__name__}")
+    if not isinstance(metrics, Mapping):
+        raise TypeError(f"metrics: expected a mapping of metrics, got {type(metrics).__name__}")
+
+
+def performance(scenario: Any, metrics: Mapping[str, Any]) -> tuple[float, str]:
+    """The performance axis of the Pareto figure: SE(3) — the position settling time [s];
+    attitude — the settling time [s] when the scenario starts outside its attitude tolerance (a
+    manoeuvre), else the RMS attitude error over the final 10 % [deg] (regulation: nothing to
+    settle). Returns ``(value, label)``; a run that does not settle gives NaN."""
+    _check_run(scenario, metrics)
+    if scenario.plant == "se3":
+        v = metrics.get("position_settling_time_s")
+        return (float("nan") if v is None else float(v)), "position settling time [s]"
+    if scenario.initial_error_deg > scenario.attitude_tolerance_deg:
+        return float(metrics.get("settling_time_s", float("nan"))), "settling time [s]"
+    return float(metrics.get("steady_error_rms_deg", float("nan"))), "steady RMS error [deg]"
+
+
+def peak_actuator_use(scenario: Any, metrics: Mapping[str, Any]) -> tuple[float, str]:
+    """Peak actuator use by plant: SGCMG — peak gimbal rate / limit; wheels — peak wheel speed
+    / limit; ideal torque — peak ‖u‖ [N·m]; SE(3) — peak ‖F‖ [N]. Returns ``(value, label)``."""
+    _check_run(scenario, metrics)
+    key, label = {
+        "sgcmg": ("peak_gimbal_rate_frac", "peak gimbal rate / limit [-]"),
+        "wheels": ("peak_wheel_speed_frac", "peak wheel speed / limit [-]"),
+        "ideal": ("peak_torque_Nm", "peak torque ‖u‖ [N·m]"),
+        "se3": ("peak_force_N", "peak force ‖F‖ [N]"),
+    }[scenario.plant]
+    v = metrics.get(key)
+    return (float("nan") if v is None else float(v)), label
+
+
+def _effort(scenario: Any, metrics: Mapping[str, Any]) -> tuple[float, str]:
+    """Control effort of the Pareto figure: ∫‖u‖dt [N·m·s]; SE(3): ∫‖F‖dt [N·s] (the force
+    dominates the approach's cost)."""
+    if scenario.plant == "se3":
+        v = metrics.get("force_effort_Ns")
+        return (float("nan") if v is None else float(v)), "force effort ∫‖F‖dt [N·s]"
+    v = metrics.get("effort_Nms")
+    return (float("nan") if v is None else float(v)), "control effort ∫‖u‖dt [N·m·s]"
+
+
+def _scale_axis(ax: Any, values: Sequence[float], axis: str = "x") -> str:
+    """Log scale when the finite ``values`` span more than a decade, else linear; at most five
+    ticks either way (narrow ranges of large numbers must not crowd the labels). Returns the
+    suffix for the axis label."""
+    from matplotlib.ticker import MaxNLocator
+
+    v = [x for x in values if math.isfinite(x) and x > 0]
+    log = bool(v) and max(v) / min(v) > 10.0
+    if log:
+        from matplotlib.ticker import NullFormatter
+
+        (ax.set_xscale if axis == "x" else ax.set_yscale)("log")
+        # minor-tick labels of a log axis spanning a few decades collide
+        (ax.xaxis if axis == "x" else ax.yaxis).set_minor_formatter(NullFormatter())
+        return " (log)"
+    loc = ax.xaxis if axis == "x" else ax.yaxis
+    loc.set_major_locator(MaxNLocator(5))
+    ax.ticklabel_format(axis=axis, style="sci", scilimits=(-3, 4), useOffset=True)
+    return ""
+
+
+def pareto_front(points: Mapping[str, tuple[float, float]]) -> list[str]:
+    """Names whose ``(x, y)`` no other point dominates (both minimised: another point is at
+    least as good in both and strictly better in one); non-finite points are never on it.
+    Sorted by ``x``."""
+    if not isinstance(points, Mapping):
+        raise TypeError(f"points: expected a mapping name -> (x, y), got {type(points).__name__}")
+    pts = {}
+    for k, v in points.items():
+        try:
+            x, y = (float(c) for c in v)
+        except (TypeError, ValueError):
+            raise ValueError(f"points: {k!r} must map to two numbers (x, y), got {v!r}") from None
+        if math.isfinite(x) and math.isfinite(y):
+            pts[k] = (x, y)
+    front = []
+    for k, (x, y) in pts.items():
+        dominated = any(
+            (x2 <= x and y2 <= y) and (x2 < x or y2 < y) for k2, (x2, y2) in pts.items() if k2 != k
+        )
+        if not dominated:
+            front.append(k)
+    return sorted(front, key=lambda k: (pts[k][0], pts[k][1]))
+
+
+def _pareto_points(
+    result: SuiteResult, scenario: Any
+) -> tuple[dict[str, tuple[float, float, float]], str, str]:
+    """``{controller: (performance, effort, peak use)}`` over completed, converged runs."""
+    out: dict[str, tuple[float, float, float]] = {}
+    perf_label, use_label = "", ""
+    for c in result.controllers:
+        o = result.outcome(scenario.name, c)
+        if o.status != "ok":
+            continue
+        perf, perf_label = performance(scenario, o.metrics)
+        use, use_label = peak_actuator_use(scenario, o.metrics)
+        out[c] = (perf, _effort(scenario, o.metrics)[0], use)
+    return out, perf_label, use_label
+
+
+def _fronts(result: SuiteResult, scenario: Any) -> tuple[list[str], list[str]]:
+    """Pareto fronts (performance vs effort, performance vs peak actuator use) among the runs
+    whose verdict is success or degraded (a run that failed is on no front)."""
+    pts, _, _ = _pareto_points(result, scenario)
+    ok = {
+        c: v
+        for c, v in pts.items()
+        if result.outcome(scenario.name, c).verdict in ("success", "degraded")
+    }
+    effort = pareto_front({c: (v[1], v[0]) for c, v in ok.items()})
+    use = pareto_front({c: (v[2], v[0]) for c, v in ok.items()})
+    return effort, use
+
+
+def write_pareto_figure(result: SuiteResult, scenario: Any, path: Path) -> Path | None:
+    """Performance vs control effort and vs peak actuator use for ``scenario``: one marker per
+    controller (its colour and shape), filled for ``success``, hollow for ``degraded``, hollow
+    with a grey cross for ``failed``; runs that did not settle are drawn at the top edge
+    (marked). The Pareto front of the success/degraded runs is drawn as a step line."""
+    plt = _plt()
+    pts, perf_label, use_label = _pareto_points(result, scenario)
+    if not pts:
+        return None
+    styles = controller_styles(result.controllers)
+    finite = [v[0] for v in pts.values() if math.isfinite(v[0])]
+    top = (max(finite) * 1.15 if finite else 1.0) or 1.0
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.8), constrained_layout=True)
+    fronts = _fronts(result, scenario)
+    any_unsettled = False
+    effort_label = _effort(scenario, {})[1]
+    for ax, j, xlabel, front in (
+        (axes[0], 1, effort_label, fronts[0]),
+        (axes[1], 2, use_label, fronts[1]),
+    ):
+        for c, v in pts.items():
+            o = result.outcome(scenario.name, c)
+            st = styles[c]
+            y = v[0] if math.isfinite(v[0]) else top
+            any_unsettled |= not math.isfinite(v[0])
+            x = v[j]
+            if not math.isfinite(x):
+                continue
+            filled = o.verdict == "success"
+            ax.plot(
+                [x], [y], linestyle="none", marker=st["marker"], markersize=9,
+                markeredgecolor=st["color"], markeredgewidth=1.6,
+                markerfacecolor=st["color"] if filled else "none", label=c,
+            )  # fmt: skip
+            if o.verdict in ("failed", "error"):
+                ax.plot([x], [y], linestyle="none", marker="x", color="0.45", markersize=12)
+        fp = [(pts[c][j], pts[c][0]) for c in front]
+        if len(fp) > 1:
+            xs, ys = zip(*sorted(fp), strict=True)
+            ax.step(xs, ys, where="post", color="0.3", lw=1.0, ls="--", label="Pareto front")
+        if any_unsettled:
+            ax.axhline(top, color="0.6", lw=0.8, ls=":")
+            ax.set_title("markers on the dotted top line did not settle", fontsize=8)
+        xlabel += _scale_axis(ax, [v[j] for v in pts.values()], "x")
+        _scale_axis(ax, [v[0] for v in pts.values()] + [top], "y")
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(perf_label)
+        ax.grid(True, alpha=0.3)
+    handles, labels = axes[0].get_legend_handles_labels()
+    seen: dict[str, Any] = {}
+    for h, lab in zip(handles, labels, strict=True):
+        seen.setdefault(lab, h)
+    from matplotlib.lines import Line2D
+
+    extra = [
+        Line2D([], [], ls="none", marker="o", color="0.3", markerfacecolor="0.3", label="success"),
+        Line2D([], [], ls="none", marker="o", color="0.3", markerfacecolor="none",
+               label="degraded"),
+        Line2D([], [], ls="none", marker="x", color="0.45", label="failed"),
+    ]  # fmt: skip
+    fig.legend(
+        list(seen.values()) + extra,
+        list(seen) + ["success (filled)", "degraded (hollow)", "failed (×)"],
+        loc="outside right center",
+        fontsize=7,
+    )
+    fig.suptitle(f"{scenario.name}: Pareto view (lower-left is better)", fontsize=10)
+    return save_png(fig, path)
+
+
+def _tolerance_text(s: Any) -> str:
+    if s.plant == "se3":
+        return f"θ ≤ {s.attitude_tolerance_deg:g}°, ‖Δp‖ ≤ {s.position_tolerance_m:g} m"
+    return f"θ ≤ {s.attitude_tolerance_deg:g}°"
+
+
+def _plant_text(s: Any) -> str:
+    if s.plant == "se3":
+        return "SE(3) chaser"
+    sp = s.spacecraft
+    if sp.actuator == "sgcmg":
+        txt = f"SGCMG pyramid h₀ {sp.h0:g} N·m·s, δ̇ ≤ {sp.gimbal_rate_limit:g} rad/s"
+    elif sp.actuator == "wheels":
+        n = 4 if sp.wheel_layout == "pyramid" else 3
+        txt = (
+            f"{n} wheels ({sp.wheel_layout}), ≤ {sp.wheel_max_torque:g} N·m, "
+            f"≤ {sp.wheel_max_speed:g} rad/s"
+        )
+    else:
+        txt = "ideal torque" + (f" ≤ {sp.max_torque:g} N·m" if sp.max_torque else "")
+    if s.sensors is not None:
+        est = s.sensors.estimator
+        txt += "; sensed" + ("" if est == "none" else f" via {est.upper()}")
+    return txt
+
+
+VERDICT_RULES = (
+    "Verdicts (`benchmarks.metrics.judge`): **success** — every error channel of the scenario "
+    "(attitude; position on SE(3)) within its tolerance over the final 10 % of the run, no "
+    "divergence, no unwinding, no actuator limit reached and no near-singular gimbal set; "
+    "**degraded** — converged, but flagged `unwound`, `actuator-saturated` (any time with a "
+    "gimbal-rate, wheel-torque or torque-box limit active), `momentum-saturated` (a wheel at "
+    f"its speed limit), `near-singular` (SGCMG singularity measure m < {NEAR_SINGULAR_M}) or "
+    f"`chattering` (≥ {CHATTER_REVERSALS} command reversals); **failed** — an error channel "
+    "out of tolerance (`attitude-not-converged`, `position-not-converged`) or `diverged` (ends "
+    "at least 30° farther from the target than it started, or a non-finite state); "
+    "**error** — the run raised (its message is listed under Failures); "
+    "**not-applicable** — the controller is not defined for that plant."
+)
+
+
 def write_report(result: SuiteResult, out_dir: Path, *, figures: bool = True) -> Path:
     """Write the whole report folder; returns the path of ``report.md``."""
     out_dir = Path(out_dir)
@@ -164,43 +479,81 @@ def write_report(result: SuiteResult, out_dir: Path, *, figures: bool = True) ->
     write_csv(result, out_dir / "metrics.csv")
     write_json(result, out_dir / "metrics.json")
     figs = write_figures(result, out_dir / "figures") if figures else {}
+    counts = {v: sum(o.verdict == v for o in result.outcomes) for v in VERDICTS}
 
     lines = [
         f"# Benchmark report — suite `{result.suite}`",
         "",
         f"Generated {time.strftime('%Y-%m-%d %H:%M:%S')} on Python {platform.python_version()}, "
         f"numpy {np.__version__}; suite wall time {result.wall_time_s:.1f} s; "
-        f"{len(result.outcomes)} pairs: {result.n_ok} ok, {result.n_failed} failed, "
-        f"{len(result.outcomes) - result.n_ok - result.n_failed} do not apply; "
-        f"executor: {result.executor}.",
+        f"{len(result.outcomes)} pairs: "
+        + ", ".join(f"{n} {v}" for v, n in counts.items())
+        + f"; executor: {result.executor}.",
         "",
         "Metric definitions: `docs/benchmarks.md` / `benchmarks.metrics`. Angles are the "
         "geodesic error θ between R and R_d; NaN metrics read *n/a* (not defined for that "
-        "run), a run whose final error is above 0.1° is *not settled*, *does not apply* marks a "
-        "controller that is not defined for that plant (SE(3) vs attitude).",
+        "run, e.g. gimbal metrics on a wheel plant), a run whose final error is above the "
+        "scenario's tolerance is *not settled*, *does not apply* marks a controller that is not "
+        "defined for that plant (SE(3) vs attitude).",
+        "",
+        VERDICT_RULES,
         "",
         "## Scenarios",
         "",
-        "| scenario | description | initial error [deg] | duration [s] | dt [s] "
-        "| control period [s] |",
-        "|---|---|---|---|---|---|",
+        "| scenario | description | plant | initial error [deg] | tolerance | duration [s] "
+        "| dt [s] | control period [s] |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for s in result.scenarios:
         lines.append(
-            f"| {s.name} | {_esc(s.description)} | {s.initial_error_deg:.1f} | {s.duration:g} "
+            f"| {s.name} | {_esc(s.description)} | {_esc(_plant_text(s))} "
+            f"| {s.initial_error_deg:.1f} | {_tolerance_text(s)} | {s.duration:g} "
             f"| {s.dt:g} | {s.control_period if s.control_period is not None else s.dt:g} |"
         )
     lines += ["", "## Controllers", ""]
     for c in result.controllers:
         lines.append(f"- `{c}`: {_esc(result.descriptions.get(c, ''))}")
-    lines += ["", "## Summary", ""]
+    lines += [""]
+    lines += tuning_section(result)
+    lines += [
+        "## Summary",
+        "",
+        "Verdict (flags); t_s: settling time to the attitude tolerance, θ_f: final attitude "
+        "error when it does not settle, ‖Δp‖_f: final position error (SE(3)).",
+        "",
+    ]
     lines += _table(result, _summary_cell)
+    lines += [
+        "",
+        "## Pareto fronts",
+        "",
+        "Per scenario, the controllers no other controller beats in both performance (settling "
+        "time; for regulation scenarios the steady RMS error) and cost — control effort ∫‖u‖dt, "
+        "or peak actuator use (gimbal rate or wheel speed as a fraction of its limit; torque or "
+        "force on ideal and SE(3) plants). Only success/degraded runs compete. Figures: "
+        "`figures/<scenario>-pareto.png`.",
+        "",
+        "| scenario | front: performance vs effort | front: performance vs peak actuator use |",
+        "|---|---|---|",
+    ]
+    for s in result.scenarios:
+        f_eff, f_use = _fronts(result, s)
+        lines.append(
+            f"| {s.name} | {', '.join(f'`{c}`' for c in f_eff) or 'none'} "
+            f"| {', '.join(f'`{c}`' for c in f_use) or 'none'} |"
+        )
     tables = list(TABLE_METRICS)
-    if any("final_position_error_m" in o.metrics for o in result.outcomes):
+    if any(s.plant == "se3" for s in result.scenarios):
         tables += list(POSE_METRICS)
     for key, title in tables:
+        plants = METRIC_PLANTS.get(key)
+        if plants is not None and not any(s.plant in plants for s in result.scenarios):
+            continue
         lines += ["", f"### {title}", ""]
-        lines += _table(result, lambda o, k=key: _cell(o, k))
+        if plants is not None and any(s.plant not in plants for s in result.scenarios):
+            lines += [f"Scenarios whose plant has no such quantity are left out. "
+                      f"{_esc(DESCRIPTIONS.get(key, ''))}.", ""]  # fmt: skip
+        lines += _table(result, lambda o, k=key: _cell(o, k), plants)
     failed = [o for o in result.outcomes if o.status == "failed"]
     if failed:
         lines += ["", "## Failures", ""]
@@ -222,14 +575,14 @@ def _metric_keys(result: SuiteResult) -> list[str]:
 
 
 def write_csv(result: SuiteResult, path: Path) -> None:
-    """One row per (scenario, controller); empty metric cells for failed runs, ``nan`` for
-    undefined metrics."""
+    """One row per (scenario, controller): status, verdict, flags (``;``-separated), error,
+    then the metrics (empty cells for failed runs, ``nan`` for undefined metrics)."""
     keys = _metric_keys(result)
     with open(path, "w", newline="", encoding="utf-8") as f:
         w = csv.writer(f)
         w.writerow(list(CSV_LEAD) + keys)
         for o in result.outcomes:
-            row = [o.scenario, o.controller, o.status, o.error or ""]
+            row = [o.scenario, o.controller, o.status, o.verdict, ";".join(o.flags), o.error or ""]
             row += [o.metrics.get(k, "") for k in keys]
             w.writerow(row)
 
@@ -241,16 +594,17 @@ def _json_value(v: Any) -> Any:
 
 
 def write_json(result: SuiteResult, path: Path) -> None:
-    """Everything in ``metrics.csv`` plus units, scenarios and run metadata (NaN → null)."""
+    """Everything in ``metrics.csv`` plus units, scenarios (with their tolerances) and run
+    metadata (NaN → null)."""
     import dataclasses
 
     keys = _metric_keys(result)
-    units = dict(UNITS)
-    units.update({"controller_time_us": "µs", "sim_wall_time_s": "s"})
+    units = {**UNITS, **RUN_UNITS}
     doc = {
         "suite": result.suite,
         "wall_time_s": result.wall_time_s,
         "units": {k: units.get(k, "") for k in keys},
+        "verdict_rules": VERDICT_RULES,
         "scenarios": [dataclasses.asdict(s) for s in result.scenarios],
         "controllers": list(result.controllers),
         "results": [
@@ -258,6 +612,8 @@ def write_json(result: SuiteResult, path: Path) -> None:
                 "scenario": o.scenario,
                 "controller": o.controller,
                 "status": o.status,
+                "verdict": o.verdict,
+                "flags": list(o.flags),
                 "error": o.error,
                 "metrics": {k: _json_value(o.metrics[k]) for k in keys if k in o.metrics},
             }
@@ -283,62 +639,110 @@ def save_png(fig: Any, path: Path) -> Path:
     return path
 
 
-def controller_colors(names: Sequence[str]) -> dict[str, Any]:
-    """A distinct colour per controller (tab20), stable for a given list."""
-    import matplotlib
+def controller_styles(names: Sequence[str]) -> dict[str, dict[str, str]]:
+    """``{name: {"color", "ls", "marker"}}``: the colour cycles through :data:`PALETTE`, the
+    line style changes every len(PALETTE) controllers and every controller has its own marker,
+    so up to 28 controllers are distinct without relying on colour alone."""
+    if isinstance(names, str) or not all(isinstance(c, str) for c in names):
+        raise TypeError(f"names: expected a sequence of controller names, got {names!r}")
+    n = len(PALETTE)
+    return {
+        c: {
+            "color": PALETTE[i % n],
+            "ls": _LINESTYLES[(i // n) % len(_LINESTYLES)],
+            "marker": _MARKERS[i % len(_MARKERS)],
+        }
+        for i, c in enumerate(names)
+    }
 
-    cmap = matplotlib.colormaps["tab20"]
-    return {n: cmap(i % 20) for i, n in enumerate(names)}
+
+def controller_colors(names: Sequence[str]) -> dict[str, Any]:
+    """A colour per controller (:func:`controller_styles`' colour), stable for a given list."""
+    return {c: st["color"] for c, st in controller_styles(names).items()}
+
+
+#: Time-history panels: (series key, y label, log scale, plants, reference line).
+_PANELS: tuple[tuple[str, str, bool, frozenset[str], tuple[float, str] | None], ...] = (
+    ("error_deg", "attitude error θ [deg]", True, frozenset({"sgcmg", "wheels", "ideal", "se3"}),
+     None),
+    ("rate_deg_s", "‖ω − RᵀR_dω_d‖ [deg/s]", True, frozenset({"sgcmg", "wheels", "ideal", "se3"}),
+     None),
+    ("gimbal_rate_rad_s", "max |δ̇ᵢ| [rad/s]", False, frozenset({"sgcmg"}), None),
+    ("singularity", "singularity measure m [-]", False, frozenset({"sgcmg"}),
+     (NEAR_SINGULAR_M, "near-singular")),
+    ("wheel_speed_frac", "max |Ωᵢ| / Ω_max [-]", False, frozenset({"wheels"}), (1.0, "limit")),
+    ("momentum_Nms", "stored momentum ‖h‖ [N·m·s]", False, frozenset({"wheels"}), None),
+    ("torque_Nm", "torque ‖u‖ [N·m]", False, frozenset({"ideal"}), None),
+    ("position_error_m", "position error ‖p − p_d‖ [m]", True, frozenset({"se3"}), None),
+    ("force_N", "force ‖F‖ [N]", False, frozenset({"se3"}), None),
+)  # fmt: skip
 
 
 def write_figures(result: SuiteResult, fig_dir: Path) -> dict[str, Path]:
-    """One 2×2 PNG per scenario, all controllers overlaid: attitude error (log scale), rate
-    error norm, max gimbal rate and singularity measure (SE(3): position error), plus
-    ``overview.png``, the settling-time map controllers × scenarios. Returns
-    ``{name: path}``."""
+    """Per scenario: the time histories (all controllers overlaid; panels chosen by the plant:
+    attitude and rate error on every plant, gimbal rate and singularity measure on SGCMG
+    plants, wheel speed and momentum on wheel plants, torque on ideal ones, position error and
+    force on SE(3); every panel with its own time axis; log panels say where they clip) and
+    the Pareto figure; plus ``overview.png``, the verdict map. Returns ``{name: path}``."""
     plt = _plt()
     fig_dir = Path(fig_dir)
     fig_dir.mkdir(parents=True, exist_ok=True)
-    all_panels = (
-        ("error_deg", "attitude error θ [deg]", True),
-        ("rate_deg_s", "‖ω − RᵀR_dω_d‖ [deg/s]", True),
-        ("gimbal_rate_rad_s", "max |δ̇ᵢ| [rad/s]", False),
-        ("singularity", "singularity measure m", False),
-        ("position_error_m", "position error ‖p − p_d‖ [m]", True),
-    )
-    colors = controller_colors(result.controllers)
+    styles = controller_styles(result.controllers)
     out: dict[str, Path] = {}
     for s in result.scenarios:
         runs = [result.outcome(s.name, c) for c in result.controllers]
         runs = [o for o in runs if o.status != "n/a" and "t" in o.series]
         if not runs:
             continue
-        keys = [p for p in all_panels if any(p[0] in o.series for o in runs)][:4]
-        fig, axes = plt.subplots(2, 2, figsize=(12, 7.5), sharex=True, constrained_layout=True)
-        for ax, (key, label, log) in zip(axes.flat, keys, strict=False):
+        panels = [p for p in _PANELS if s.plant in p[3] and any(p[0] in o.series for o in runs)]
+        ncol = 2
+        nrow = max(1, math.ceil(len(panels) / ncol))
+        fig, axes = plt.subplots(
+            nrow, ncol, figsize=(12, 3.4 * nrow + 0.8), constrained_layout=True, squeeze=False
+        )
+        for ax, (key, label, log, _, ref) in zip(axes.flat, panels, strict=False):
+            clipped = False
             for o in runs:
                 if key not in o.series:
                     continue
                 y = np.asarray(o.series[key], dtype=float)
                 if log:
-                    y = np.maximum(y, 1e-6)  # log axis: clip exact zeros
+                    clipped |= bool(np.any(y < LOG_FLOOR))
+                    y = np.maximum(y, LOG_FLOOR)
+                t = np.asarray(o.series["t"], dtype=float)
+                st = styles[o.controller]
                 lab = o.controller if o.status == "ok" else f"{o.controller} (failed)"
-                ax.plot(o.series["t"], y, label=lab, lw=1.1, color=colors[o.controller])
+                ax.plot(
+                    t, y, label=lab, lw=1.2, color=st["color"], ls=st["ls"],
+                    marker=st["marker"], markersize=4, markevery=max(1, len(t) // 8),
+                )  # fmt: skip
             if log:
                 ax.set_yscale("log")
             if key == "error_deg":
-                ax.axhline(0.1, color="k", ls=":", lw=0.8)
-            ax.set_ylabel(label)
+                ax.axhline(s.attitude_tolerance_deg, color="0.4", ls=":", lw=0.9)
+            if key == "position_error_m":
+                ax.axhline(s.position_tolerance_m, color="0.4", ls=":", lw=0.9)
+            if ref is not None:
+                ax.axhline(ref[0], color="0.4", ls=":", lw=0.9)
+            title = label
+            if log and clipped:
+                title += f"  (log; values < {LOG_FLOOR:g} drawn at {LOG_FLOOR:g})"
+            elif key in ("error_deg", "position_error_m"):
+                title += "  (dotted: tolerance)"
+            ax.set_title(title, fontsize=8)
+            ax.set_ylabel(label, fontsize=8)
+            ax.set_xlabel("t [s]", fontsize=8)
             ax.grid(True, alpha=0.3)
-        for ax in axes.flat[len(keys) :]:
+        for ax in axes.flat[len(panels) :]:
             ax.set_visible(False)
-        for ax in axes[1]:
-            ax.set_xlabel("t [s]")
         handles, labels = axes[0, 0].get_legend_handles_labels()
         if handles:
             fig.legend(handles, labels, loc="outside right center", fontsize=7)
         fig.suptitle(f"{s.name}: {s.description}", fontsize=10)
         out[s.name] = save_png(fig, fig_dir / f"{s.name}.png")
+        pareto = write_pareto_figure(result, s, fig_dir / f"{s.name}-pareto.png")
+        if pareto is not None:
+            out[f"{s.name} (Pareto)"] = pareto
     path = _overview_figure(result, fig_dir / "overview.png")
     if path is not None:
         out["overview"] = path
@@ -346,40 +750,144 @@ def write_figures(result: SuiteResult, fig_dir: Path) -> dict[str, Path]:
 
 
 def _overview_figure(result: SuiteResult, path: Path) -> Path | None:
-    """Heat map of the settling time / duration: green fast, red not settled, grey n/a."""
+    """Verdict map controllers × scenarios, coloured by verdict; the cell text is the
+    settling time [s] for success/degraded runs, the first flag for failed ones."""
     plt = _plt()
     import matplotlib.colors as mcolors
+    from matplotlib.patches import Patch
 
     C, S = len(result.controllers), len(result.scenarios)
-    val = np.full((C, S), np.nan)
+    if C == 0 or S == 0:
+        return None
+    order = list(VERDICTS)
+    val = np.zeros((C, S))
     text = [["" for _ in range(S)] for _ in range(C)]
     for i, c in enumerate(result.controllers):
         for j, s in enumerate(result.scenarios):
             o = result.outcome(s.name, c)
+            v = o.verdict or ("not-applicable" if o.status == "n/a" else "error")
+            val[i, j] = order.index(v)
             if o.status == "n/a":
                 text[i][j] = "—"
             elif o.status != "ok":
-                val[i, j], text[i][j] = 1.2, "fail"
+                text[i][j] = "error"
             else:
                 ts = o.metrics.get("settling_time_s", float("nan"))
-                if isinstance(ts, float) and math.isnan(ts):
-                    val[i, j], text[i][j] = 1.1, "no"
+                short = {"attitude-not-converged": "no conv.", "position-not-converged": "pos.",
+                         "diverged": "diverged"}  # fmt: skip
+                if v == "failed":
+                    text[i][j] = short.get(o.flags[0], o.flags[0]) if o.flags else "failed"
+                elif isinstance(ts, float) and math.isfinite(ts):
+                    text[i][j] = f"{ts:.0f}"
                 else:
-                    val[i, j], text[i][j] = float(ts) / s.duration, f"{float(ts):.0f}"
-    if np.all(np.isnan(val)):
-        return None
+                    text[i][j] = v
+                if v == "degraded":
+                    text[i][j] += "*"
+    cmap = mcolors.ListedColormap([VERDICT_COLORS[v] for v in order])
     fig, ax = plt.subplots(
-        figsize=(max(5.5, 2.5 + 0.75 * S), 1.2 + 0.38 * C), constrained_layout=True
+        figsize=(max(6.5, 3.0 + 0.8 * S), 1.6 + 0.38 * C), constrained_layout=True
     )
-    cmap = mcolors.LinearSegmentedColormap.from_list("settle", ["#2e7d32", "#fdd835", "#c62828"])
-    cmap = cmap.with_extremes(bad="#d0d0d0")
-    ax.imshow(np.ma.masked_invalid(val), cmap=cmap, vmin=0.0, vmax=1.2, aspect="auto")
+    ax.imshow(val, cmap=cmap, vmin=-0.5, vmax=len(order) - 0.5, aspect="auto")
     for i in range(C):
         for j in range(S):
             ax.text(j, i, text[i][j], ha="center", va="center", fontsize=7)
     ax.set_xticks(range(S), [s.name for s in result.scenarios], rotation=40, ha="right", fontsize=8)
     ax.set_yticks(range(C), list(result.controllers), fontsize=8)
     ax.set_title(
-        "settling time to 0.1° [s]\n(no: not settled, fail: failed, —: does not apply)", fontsize=9
+        "verdict per run; number: settling time [s], *: degraded (flags in report.md)", fontsize=9
     )
+    ax.legend(
+        handles=[Patch(color=VERDICT_COLORS[v], label=v) for v in order],
+        loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7,
+    )  # fmt: skip
     return save_png(fig, path)
+
+
+# --------------------------------------------------------------------------- bandwidth sweep
+
+
+def write_sweep_report(
+    results: Mapping[float, SuiteResult], out_dir: Path, *, figures: bool = True
+) -> Path:
+    """Bandwidth sweep (``--sweep-bandwidth``): ``results`` maps each closed-loop natural
+    frequency ω_n [rad/s] to the suite run tuned to it. Writes ``sweep.md`` (per scenario a
+    controllers × ω_n table of verdict, performance and effort) and per scenario
+    ``figures/<scenario>-sweep.png``: performance vs control effort with one line per
+    controller through its ω_n points (verdict by fill, as in the Pareto figure), so
+    controllers are compared at equal aggressiveness. Returns the path of ``sweep.md``."""
+    if not results:
+        raise ValueError("results: empty sweep")
+    plt = _plt()
+    out_dir = Path(out_dir)
+    fig_dir = out_dir / "figures"
+    fig_dir.mkdir(parents=True, exist_ok=True)
+    ws = sorted(results)
+    first = results[ws[0]]
+    styles = controller_styles(first.controllers)
+    lines = [
+        "# Bandwidth sweep",
+        "",
+        "Every controller re-tuned to each closed-loop natural frequency ω_n (same damping); "
+        "one full report per ω_n in `omega_n-<value>/`. Cells: verdict, performance (settling "
+        "time [s], or steady RMS error [deg] for regulation scenarios), effort ∫‖u‖dt [N·m·s].",
+        "",
+        VERDICT_RULES,
+    ]
+    figs: dict[str, Path] = {}
+    for s in first.scenarios:
+        lines += ["", f"## {s.name}", ""]
+        header = ["controller"] + [f"ω_n = {w:g} rad/s" for w in ws]
+        rows = []
+        fig, ax = plt.subplots(figsize=(9, 5), constrained_layout=True)
+        plotted = False
+        perf_label, eff_label = "", ""
+        for c in first.controllers:
+            row = [f"`{c}`"]
+            xs, ys = [], []
+            for w in ws:
+                o = results[w].outcome(s.name, c)
+                if o.status == "n/a":
+                    row.append(NOT_APPLICABLE)
+                    continue
+                if o.status != "ok":
+                    row.append(f"{o.verdict}")
+                    continue
+                perf, perf_label = performance(s, o.metrics)
+                eff, eff_label = _effort(s, o.metrics)
+                row.append(f"{o.verdict}; {_fmt(perf)}; {_fmt(eff)}")
+                if math.isfinite(perf) and math.isfinite(eff):
+                    xs.append(eff)
+                    ys.append(perf)
+                    st = styles[c]
+                    ax.plot(
+                        [eff], [perf], ls="none", marker=st["marker"], markersize=8,
+                        markeredgecolor=st["color"],
+                        markerfacecolor=st["color"] if o.verdict == "success" else "none",
+                    )  # fmt: skip
+                    ax.annotate(f"{w:g}", (eff, perf), fontsize=6, xytext=(3, 3),
+                                textcoords="offset points")  # fmt: skip
+            rows.append(row)
+            if xs:
+                st = styles[c]
+                ax.plot(xs, ys, color=st["color"], ls=st["ls"], marker=st["marker"],
+                        markersize=0.1, lw=1.1, label=c)  # fmt: skip
+                plotted = True
+        lines += markdown_table(header, rows)
+        if plotted and figures:
+            xs_all = [x for line in ax.get_lines() for x in np.atleast_1d(line.get_xdata())]
+            ax.set_xlabel(eff_label + _scale_axis(ax, [float(x) for x in xs_all], "x"))
+            ax.set_ylabel(perf_label)
+            ax.grid(True, alpha=0.3)
+            ax.legend(fontsize=7, loc="best")
+            ax.set_title(
+                f"{s.name}: each controller over ω_n (labels: ω_n [rad/s]; filled: success, "
+                "hollow: degraded; failed runs left out)",
+                fontsize=9,
+            )
+            figs[f"{s.name} (sweep)"] = save_png(fig, fig_dir / f"{s.name}-sweep.png")
+        else:
+            plt.close(fig)
+    lines += figures_section(figs, out_dir)
+    path = out_dir / "sweep.md"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path

@@ -27,18 +27,32 @@ from __future__ import annotations
 import contextlib
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from liecontrol._validation import (
+    as_array,
+    as_int,
+    as_scalar,
+    check_inertia,
+    check_positive_scalar,
+    check_rotation_matrix,
+)
 from liecontrol.control import AttitudeController, AttitudeReference, AttitudeState
 
-from .controllers import ControllerContext, ControllerInfo, get_controller
+from .controllers import (
+    DEFAULT_GAIN_RULE,
+    ControllerContext,
+    ControllerInfo,
+    GainRule,
+    get_controller,
+)
 from .executors import Executor, TaskFailure, describe_exception, make_executor
-from .metrics import compute_metrics, error_angle, rate_error
-from .scenarios import DisturbanceSpec, ReferenceSpec, Scenario, SpacecraftSpec
+from .metrics import compute_metrics, error_angle, judge, rate_error, settling_time, trapezoid
+from .scenarios import DisturbanceSpec, ReferenceSpec, Scenario, SensorSpec, SpacecraftSpec
 
 __all__ = [
     "RunOutcome",
@@ -53,7 +67,10 @@ __all__ = [
     "build_disturbance",
     "build_plant",
     "build_reference",
+    "build_sensors",
+    "FilteredAttitude",
     "initial_state",
+    "with_verdict",
     "run_suite",
     "run_group",
     "MAX_SERIES_POINTS",
@@ -73,6 +90,7 @@ class TimedController(AttitudeController):
     """
 
     def __init__(self, inner: Any) -> None:
+        _check_controller_like(inner, "inner")
         self.inner = inner
         self.batched = bool(getattr(inner, "batched", True))
         self.total_time = 0.0
@@ -105,8 +123,9 @@ class HeldController(AttitudeController):
     sampled faster. ``calls`` of an inner :class:`TimedController` count real samples only."""
 
     def __init__(self, inner: Any, period: float) -> None:
+        _check_controller_like(inner, "inner")
         self.inner = inner
-        self.period = float(period)
+        self.period = check_positive_scalar(period, "period")
         self.batched = bool(getattr(inner, "batched", True))
         self._t_next = -math.inf
         self._held: np.ndarray | None = None
@@ -143,6 +162,9 @@ class StackedController(AttitudeController):
     batched = True
 
     def __init__(self, members: Sequence[Any], sizes: Sequence[int]) -> None:
+        members, sizes = _check_stack(members, "members", sizes)
+        for i, m in enumerate(members):
+            _check_controller_like(m, f"members[{i}]")
         if len(members) != len(sizes) or not members:
             raise ValueError("members: need one batch size per member and at least one member")
         if any(int(n) < 1 for n in sizes):
@@ -196,6 +218,10 @@ class StackedReference:
     def __init__(
         self, references: Sequence[Callable[[float], AttitudeReference]], sizes: Sequence[int]
     ) -> None:
+        references, sizes = _check_stack(references, "references", sizes)
+        for i, r in enumerate(references):
+            if not callable(r):
+                raise ValueError(f"references[{i}]: must be callable as reference(t)")
         from liecontrol.control import ConstantAttitude
 
         self.references = tuple(references)
@@ -232,6 +258,17 @@ class ConstantRateReference:
     omega_d: np.ndarray
     t0: float = 0.0
 
+    def __post_init__(self) -> None:
+        R = check_rotation_matrix(self.R_d0, "R_d0")
+        if R.shape != (3, 3):
+            raise ValueError(f"R_d0: expected shape (3, 3), got {R.shape}")
+        w = as_array(self.omega_d, "omega_d")
+        if w.shape != (3,):
+            raise ValueError(f"omega_d: expected shape (3,), got {w.shape}")
+        object.__setattr__(self, "R_d0", R)
+        object.__setattr__(self, "omega_d", w)
+        object.__setattr__(self, "t0", as_scalar(self.t0, "t0"))
+
     def __call__(self, t: float) -> AttitudeReference:
         from liecontrol.lie import so3
 
@@ -243,11 +280,28 @@ class ConstantRateReference:
 # --------------------------------------------------------------------------- plant from data
 
 
+def _need(obj: Any, cls: type, name: str) -> None:
+    """Raise ``"{name}: expected a {cls}, got …"`` unless ``obj`` is a ``cls``."""
+    if not isinstance(obj, cls):
+        raise ValueError(f"{name}: expected a {cls.__name__}, got {type(obj).__name__} {obj!r}")
+
+
+def _check_controller_like(obj: Any, name: str) -> None:
+    """Raise naming ``name`` unless ``obj`` has the controller interface (reset, command)."""
+    for method in ("reset", "command"):
+        if not callable(getattr(obj, method, None)):
+            raise ValueError(
+                f"{name}: expected a controller (reset/command methods), got "
+                f"{type(obj).__name__} without {method}()"
+            )
+
+
 def build_steering(spec: SpacecraftSpec, cluster: Any) -> Any:
     """Steering law named by ``spec.steering``: ``"pinv-null-motion"`` (seed 000),
     ``"pinv"``, ``"sr"`` (singularity-robust)."""
     from spacecraft.steering import PseudoInverse, PseudoInverseNullMotion, SingularityRobust
 
+    _need(spec, SpacecraftSpec, "spec")
     laws = {
         "pinv-null-motion": lambda: PseudoInverseNullMotion(cluster=cluster),
         "pinv": PseudoInverse,
@@ -266,6 +320,7 @@ def build_actuator(spec: SpacecraftSpec) -> Any:
     from spacecraft.actuators import IdealTorqueActuator, ReactionWheelAssembly, SgcmgActuator
     from spacecraft.sgcmg import SgcmgPyramid
 
+    _need(spec, SpacecraftSpec, "spec")
     if spec.actuator == "sgcmg":
         cluster = SgcmgPyramid(
             h0=spec.h0,
@@ -278,7 +333,12 @@ def build_actuator(spec: SpacecraftSpec) -> Any:
             delta0=np.deg2rad(np.array(spec.delta0_deg)),
         )
     if spec.actuator == "wheels":
-        return ReactionWheelAssembly.orthogonal(
+        make = (
+            ReactionWheelAssembly.pyramid
+            if spec.wheel_layout == "pyramid"
+            else ReactionWheelAssembly.orthogonal
+        )
+        return make(
             wheel_inertia=spec.wheel_inertia,
             max_torque=spec.wheel_max_torque,
             max_speed=spec.wheel_max_speed,
@@ -291,6 +351,12 @@ def build_disturbance(specs: Sequence[DisturbanceSpec], true_J: np.ndarray) -> A
     Gravity gradient uses the plant's **true** inertia ``true_J``."""
     from spacecraft.disturbances import ConstantTorque, Seed000Disturbance, SumOfDisturbances
 
+    if isinstance(specs, (str, DisturbanceSpec)) or not isinstance(specs, Iterable):
+        raise ValueError(f"specs: expected a sequence of DisturbanceSpec, got {specs!r}")
+    specs = tuple(specs)
+    for i, spec in enumerate(specs):
+        _need(spec, DisturbanceSpec, f"specs[{i}]")
+    true_J = check_inertia(true_J, "true_J")  # (3, 3) or per spacecraft (B, 3, 3)
     sources: dict[str, Any] = {}
     for i, spec in enumerate(specs):
         kw = spec.kwargs
@@ -332,9 +398,17 @@ def build_plant(
     from spacecraft.plant import Spacecraft
     from spacecraft.rigid_body import RigidBody
 
+    _need(spec, SpacecraftSpec, "spec")
     if isinstance(disturbances, DisturbanceSpec):
         disturbances = (disturbances,)
-    J = spec.J if true_inertia is None else np.asarray(true_inertia, dtype=np.float64)
+    if isinstance(disturbances, str) or not isinstance(disturbances, Iterable):
+        raise ValueError(
+            f"disturbances: expected a DisturbanceSpec or a sequence of them, got {disturbances!r}"
+        )
+    disturbances = tuple(disturbances)
+    for i, d in enumerate(disturbances):
+        _need(d, DisturbanceSpec, f"disturbances[{i}]")
+    J = spec.J if true_inertia is None else check_inertia(true_inertia, "true_inertia")
     return Spacecraft(
         body=RigidBody(J),
         actuator=build_actuator(spec),
@@ -346,6 +420,7 @@ def build_reference(spec: ReferenceSpec | Scenario) -> Callable[[float], Attitud
     """Reference trajectory of a :class:`ReferenceSpec` (or of a scenario's)."""
     if isinstance(spec, Scenario):
         spec = spec.reference
+    _need(spec, ReferenceSpec, "spec")
     if spec.kind == "constant":
         from liecontrol.control import ConstantAttitude
 
@@ -357,9 +432,140 @@ def build_reference(spec: ReferenceSpec | Scenario) -> Callable[[float], Attitud
     return ConstantRateReference(spec.R_d, np.array(spec.rate))
 
 
+class FilteredAttitude:
+    """Measurement hook (``simulate(..., measurement=...)``) that runs an attitude filter per
+    spacecraft between the sensors and the controller: at each control sample it predicts
+    with the held gyro reading over the time since the last sample and updates with the star
+    tracker's roll/pitch/yaw; the controller gets ``R(q̂)`` and ``ω̃ − b̂``.
+
+    The filter (:class:`liecontrol.estimation.MEKF` or
+    :class:`liecontrol.estimation.ManifoldUKF`) runs on
+    :class:`liecontrol.estimation.GyroAttitudeModel` (state: attitude quaternion and gyro bias;
+    Lefferts, Markley & Shuster 1982) with the sensors' noise levels. It starts at the first
+    star-tracker sample with zero bias and ``P₀ = diag(σ_z², σ_z², σ_z², σ_b², σ_b², σ_b²)``.
+
+    Args:
+        spec: the scenario's :class:`~benchmarks.scenarios.SensorSpec` (``estimator`` ``"mekf"``
+            or ``"ukf"``).
+        attitude, rate: sensor names in ``simulate(..., sensors=...)``.
+    """
+
+    def __init__(self, spec: SensorSpec, attitude: str = "star_tracker", rate: str = "gyro"):
+        _need(spec, SensorSpec, "spec")
+        for name, v in (("attitude", attitude), ("rate", rate)):
+            if not isinstance(v, str) or not v.isidentifier():
+                raise ValueError(f"{name}: expected a sensor name (an identifier), got {v!r}")
+        if spec.estimator not in ("mekf", "ukf"):
+            raise ValueError(f"spec: estimator must be 'mekf' or 'ukf', got {spec.estimator!r}")
+        self.spec = spec
+        self.attitude, self.rate = attitude, rate
+        self._filters: list[Any] = []
+        self._t_last: float | None = None
+        self._z_last: np.ndarray | None = None
+
+    def required(self) -> tuple[str, ...]:
+        return (self.attitude, self.rate)
+
+    def reset(self, t0: float, batch_size: int) -> None:
+        self._filters = []
+        self._t_last = None
+        self._z_last = None
+
+    def _model(self) -> Any:
+        from liecontrol.estimation import GyroAttitudeModel
+
+        sp = self.spec
+        # the filter needs positive noise levels even for a noiseless sensor
+        sigma_z = max(sp.attitude_noise_rad, 1e-7)
+        return GyroAttitudeModel(
+            sigma_v=max(sp.gyro_noise_density, 1e-9),
+            sigma_u=sp.gyro_bias_rw,
+            sigma_z=np.full(3, sigma_z),
+        )
+
+    def __call__(self, t: float, outputs: Any, truth: AttitudeState) -> AttitudeState:
+        from liecontrol.charts import quaternion as quat
+        from liecontrol.estimation import MEKF, ManifoldUKF, euler_rpy_from_quaternion
+
+        q_meas = np.asarray(outputs[self.attitude], dtype=np.float64)  # (B, 4) scalar-first
+        w_meas = np.asarray(outputs[self.rate], dtype=np.float64)  # (B, 3)
+        z = euler_rpy_from_quaternion(q_meas)
+        B = q_meas.shape[0]
+        if not self._filters:
+            model = self._model()
+            sz = float(model.sigma_z[0])
+            # initial bias uncertainty: 10× the largest configured bias, at least 1e-5 rad/s
+            sb = max(10.0 * float(np.max(np.abs(self.spec.gyro_bias))), 1e-5)
+            P0 = np.diag([sz**2] * 3 + [sb**2] * 3)
+            cls = MEKF if self.spec.estimator == "mekf" else ManifoldUKF
+            self._filters = [
+                cls(model, np.concatenate([q_meas[b], np.zeros(3)]), P0) for b in range(B)
+            ]
+        else:
+            dt = float(t) - float(self._t_last)
+            # a star-tracker sample held over several control samples is used once
+            fresh = self._z_last is None or not np.array_equal(z, self._z_last)
+            for b, f in enumerate(self._filters):
+                if dt > 0.0:
+                    f.predict(w_meas[b], dt)
+                if fresh:
+                    f.update(z[b])
+        self._t_last = float(t)
+        self._z_last = z
+        xs = np.stack([f.x for f in self._filters])
+        R = quat.to_matrix(xs[:, :4] / np.linalg.norm(xs[:, :4], axis=-1, keepdims=True))
+        return AttitudeState(
+            R=R, omega=w_meas - xs[:, 4:], h=truth.h, actuator_state=truth.actuator_state
+        )
+
+
+def _check_stack(items: Any, name: str, sizes: Any) -> tuple[list, list[int]]:
+    """``(items, sizes)`` of a stacked batch as lists, validated: non-empty, one positive
+    integer size per item (messages name ``name`` or ``sizes``)."""
+    if isinstance(items, str) or not isinstance(items, Iterable):
+        raise ValueError(f"{name}: expected a sequence, got {type(items).__name__}")
+    items = list(items)
+    if isinstance(sizes, str) or not isinstance(sizes, Iterable):
+        raise ValueError(f"sizes: expected a sequence of batch sizes, got {sizes!r}")
+    sizes = [as_int(n, "sizes", 1) for n in np.asarray(sizes, dtype=object).ravel()]
+    if not items or len(sizes) != len(items):
+        raise ValueError(
+            f"sizes: expected one batch size per entry of {name} ({len(items)}), got {len(sizes)}"
+        )
+    if sum(sizes) > 10**7:
+        raise ValueError(f"sizes: a stacked batch of {sum(sizes)} spacecraft is too large")
+    return items, sizes
+
+
+def build_sensors(spec: SensorSpec) -> tuple[dict[str, Any], Any, np.random.Generator]:
+    """``(sensors, measurement hook, rng)`` for ``simulate`` from a
+    :class:`~benchmarks.scenarios.SensorSpec`: a quaternion star tracker and a rate gyro both
+    sampled every ``spec.period``; the hook is :class:`spacecraft.simulator.StarTrackerGyro`
+    (raw measurements) or :class:`FilteredAttitude`; ``rng = default_rng(spec.seed)``."""
+    from spacecraft.sensors import RateGyro, StarTracker
+    from spacecraft.simulator import StarTrackerGyro
+
+    _need(spec, SensorSpec, "spec")
+    sensors = {
+        "star_tracker": StarTracker(
+            noise_std=spec.attitude_noise_rad, output="quaternion", period=spec.period
+        ),
+        "gyro": RateGyro(
+            noise_density=spec.gyro_noise_density,
+            bias_rw_std=spec.gyro_bias_rw,
+            initial_bias=np.array(spec.gyro_bias),
+            period=spec.period,
+        ),
+    }
+    hook: Any = StarTrackerGyro() if spec.estimator == "none" else FilteredAttitude(spec)
+    return sensors, hook, np.random.default_rng(spec.seed)
+
+
 def initial_state(scenario: Scenario, t0: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """``(R₀, ω₀)`` of an attitude scenario: ``R₀ = R_d(t₀) exp(initial_rotvec^)``,
     ``ω₀ = initial_rate + R₀ᵀR_d(t₀) ω_d(t₀)`` (the scenario stores errors)."""
+    _need(scenario, Scenario, "scenario")
+    t0 = as_scalar(t0, "t0")
     ref = build_reference(scenario)(t0)
     R_d = np.asarray(ref.R_d, dtype=np.float64)
     R0 = R_d @ scenario.error0
@@ -383,8 +589,14 @@ class RunOutcome:
             ``sim_wall_time_s`` (wall time of the simulation this pair was batched in); SE(3)
             runs add ``final_position_error_m``, ``peak_force_N``, ``position_settling_time_s``.
         series: decimated time series for the figures: ``t`` [s], ``error_deg``,
-            ``rate_deg_s`` (‖ω − RᵀR_dω_d‖), ``gimbal_rate_rad_s`` (max_i |δ̇_i|),
-            ``singularity`` (m), ``position_error_m`` (SE(3)); empty when nothing was logged.
+            ``rate_deg_s`` (‖ω − RᵀR_dω_d‖), ``torque_Nm`` (‖u‖); SGCMG: ``gimbal_rate_rad_s``
+            (max_i |δ̇_i|), ``singularity`` (m); wheels: ``wheel_speed_frac``
+            (max_i |Ω_i|/Ω_max), ``momentum_Nms`` (‖h‖); SE(3): ``position_error_m``,
+            ``force_N``; empty when nothing was logged.
+        verdict: :func:`benchmarks.metrics.judge`'s verdict (``success``, ``degraded``,
+            ``failed``, ``error``, ``not-applicable``); ``""`` until judged (:func:`run_suite`
+            judges every outcome).
+        flags: the judge's flags (``actuator-saturated``, ``unwound`` ...).
     """
 
     scenario: str
@@ -393,6 +605,17 @@ class RunOutcome:
     error: str | None = None
     metrics: dict[str, Any] = field(default_factory=dict)
     series: dict[str, np.ndarray] = field(default_factory=dict)
+    verdict: str = ""
+    flags: tuple[str, ...] = ()
+
+
+def with_verdict(outcome: RunOutcome, scenario: Scenario) -> RunOutcome:
+    """``outcome`` with :attr:`RunOutcome.verdict`/``flags`` set by
+    :func:`benchmarks.metrics.judge` against ``scenario``'s tolerances."""
+    import dataclasses
+
+    verdict, flags = judge(scenario, outcome.metrics, status=outcome.status, error=outcome.error)
+    return dataclasses.replace(outcome, verdict=verdict, flags=flags)
 
 
 @dataclass(frozen=True)
@@ -406,6 +629,7 @@ class SuiteResult:
     wall_time_s: float
     executor: str = "serial"
     descriptions: dict[str, str] = field(default_factory=dict)
+    gain_rule: GainRule | None = None  # the spec the run was tuned to (None: the default)
 
     def outcome(self, scenario: str, controller: str) -> RunOutcome:
         for o in self.outcomes:
@@ -426,7 +650,7 @@ def _decimate(K: int) -> np.ndarray:
     return np.unique(np.linspace(0, K - 1, min(K, MAX_SERIES_POINTS)).astype(int))
 
 
-def _series(result: Any, b: int) -> dict[str, np.ndarray]:
+def _series(result: Any, b: int, wheel_max_speed: float | None = None) -> dict[str, np.ndarray]:
     """Decimated per-spacecraft series for the figures."""
     t = np.asarray(result.t)
     K = t.shape[0]
@@ -441,12 +665,18 @@ def _series(result: Any, b: int) -> dict[str, np.ndarray]:
         "t": t[idx],
         "error_deg": np.rad2deg(error_angle(R, R_d)),
         "rate_deg_s": np.rad2deg(np.linalg.norm(rate_error(R, w, R_d, w_d), axis=-1)),
+        "torque_Nm": np.linalg.norm(np.asarray(result.u)[idx, b], axis=-1),
     }
     act = getattr(result, "actuator", None) or {}
     if "delta_dot" in act:
         out["gimbal_rate_rad_s"] = np.abs(np.asarray(act["delta_dot"])[idx, b]).max(axis=-1)
     if "singularity" in act:
         out["singularity"] = np.asarray(act["singularity"])[idx, b]
+    if "wheel_speed" in act and wheel_max_speed is not None:
+        ws = np.abs(np.asarray(act["wheel_speed"])[idx, b])
+        out["wheel_speed_frac"] = (ws / np.asarray(wheel_max_speed, dtype=np.float64)).max(-1)
+    if "wheel_speed" in act and "h" in act:
+        out["momentum_Nms"] = np.linalg.norm(np.asarray(act["h"])[idx, b], axis=-1)
     return out
 
 
@@ -461,9 +691,10 @@ class GroupTask:
 
     pairs: tuple[tuple[Scenario, str], ...]
     infos: dict[str, ControllerInfo]
+    rule: GainRule | None = None  # closed-loop spec the factories tune to (None: default)
 
     def __reduce__(self) -> tuple:
-        return (_rebuild_task, (self.pairs, pack_infos(self.infos)))
+        return (_rebuild_task, (self.pairs, pack_infos(self.infos), self.rule))
 
 
 def pack_infos(infos: dict[str, ControllerInfo]) -> dict[str, tuple[str, Any]]:
@@ -502,8 +733,10 @@ def unpack_infos(packed: dict[str, tuple[str, Any]]) -> dict[str, ControllerInfo
     return out
 
 
-def _rebuild_task(pairs: tuple, packed: dict[str, tuple[str, Any]]) -> GroupTask:
-    return GroupTask(pairs, unpack_infos(packed))
+def _rebuild_task(
+    pairs: tuple, packed: dict[str, tuple[str, Any]], rule: GainRule | None = None
+) -> GroupTask:
+    return GroupTask(pairs, unpack_infos(packed), rule)
 
 
 def _members(
@@ -523,7 +756,12 @@ def _members(
     return out
 
 
-def _make_member(info: ControllerInfo, scenarios: Sequence[Scenario], ref: Any) -> TimedController:
+def _make_member(
+    info: ControllerInfo,
+    scenarios: Sequence[Scenario],
+    ref: Any,
+    rule: GainRule | None = None,
+) -> TimedController:
     sc0 = scenarios[0]
     ctx = ControllerContext(
         spacecraft=sc0.spacecraft,
@@ -531,6 +769,7 @@ def _make_member(info: ControllerInfo, scenarios: Sequence[Scenario], ref: Any) 
         batch_size=len(scenarios),
         q_hint=np.stack([s.initial_quaternion for s in scenarios]),
         reference=ref,
+        rule=rule or DEFAULT_GAIN_RULE,
     )
     ctrl = info.factory(ctx)
     timed = TimedController(ctrl)
@@ -547,7 +786,9 @@ def _log_every(s: Scenario) -> int:
 
 
 def _simulate_attitude(
-    pairs: Sequence[tuple[Scenario, str]], infos: dict[str, ControllerInfo]
+    pairs: Sequence[tuple[Scenario, str]],
+    infos: dict[str, ControllerInfo],
+    rule: GainRule | None = None,
 ) -> list[RunOutcome]:
     """Simulate ``pairs`` (same :meth:`Scenario.batch_key`) as one batch; raises on failure."""
     from spacecraft.simulator import simulate
@@ -565,13 +806,17 @@ def _simulate_attitude(
             if len(ref_list) == 1
             else StackedReference(tuple(ref_list), (1,) * len(ref_list))
         )
-        members.append(_make_member(infos[c], scs, ref))
+        members.append(_make_member(infos[c], scs, ref, rule))
         refs.extend(ref_list)
         sizes.append(len(idx))
     ctrl = StackedController(members, sizes)
     ref = StackedReference(tuple(refs), (1,) * len(refs))
     starts = [initial_state(pairs[i][0]) for i in order]
     state = plant.initial_state(np.stack([r for r, _ in starts]), np.stack([w for _, w in starts]))
+    sense: dict[str, Any] = {}
+    if sc0.sensors is not None:
+        sensors, hook, rng = build_sensors(sc0.sensors)
+        sense = {"sensors": sensors, "measurement": hook, "rng": rng}
     t_start = time.perf_counter()
     result = simulate(
         plant,
@@ -582,25 +827,41 @@ def _simulate_attitude(
         dt=sc0.dt,
         control_period=sc0.control_period,
         log_every=_log_every(sc0),
+        **sense,
     )
     wall = time.perf_counter() - t_start
-    metrics = compute_metrics(result)
+    sp = sc0.spacecraft
+    limits = {
+        "gimbal_rate_limit": sp.gimbal_rate_limit if sp.actuator == "sgcmg" else None,
+        "wheel_max_speed": sp.wheel_max_speed if sp.actuator == "wheels" else None,
+    }
+    # the settling threshold is each scenario's attitude tolerance (one pass per distinct one)
+    by_tol = {
+        tol: compute_metrics(result, settle_threshold_deg=tol, **limits)
+        for tol in {s.attitude_tolerance_deg for s, _ in pairs}
+    }
     outcomes: dict[int, RunOutcome] = {}
     b = 0
     for m, (c, idx) in zip(members, groups, strict=True):
         timed = m.inner if isinstance(m, HeldController) else m
         per_sc = timed.mean_time_per_call / len(idx)
         for i in idx:
-            mm = metrics.as_dict(b)
+            mm = by_tol[pairs[i][0].attitude_tolerance_deg].as_dict(b)
             mm["controller_time_us"] = 1e6 * per_sc
             mm["sim_wall_time_s"] = wall
-            outcomes[i] = RunOutcome(pairs[i][0].name, c, "ok", None, mm, _series(result, b))
+            series = _series(result, b, limits["wheel_max_speed"])
+            outcomes[i] = RunOutcome(pairs[i][0].name, c, "ok", None, mm, series)
             b += 1
     return [outcomes[i] for i in range(len(pairs))]
 
 
-def _pose_metrics(res: Any) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """Attitude metrics of the pose log (via a duck-typed attitude log) plus position ones."""
+def _pose_metrics(
+    res: Any, attitude_tol_deg: float = 0.1, position_tol_m: float = 0.1
+) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """Attitude metrics of the pose log (via a duck-typed attitude log) plus position ones:
+    final and steady-state (max over the final 10 %) position error, position settling time to
+    ``position_tol_m`` (first time after which ‖p − p_d‖ stays below it, interpolated as the
+    attitude's; NaN if the last sample is above), peak force."""
 
     @dataclass(frozen=True)
     class _AttitudeView:
@@ -621,19 +882,17 @@ def _pose_metrics(res: Any) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         omega_d=np.asarray(res.xi_d)[..., :3],
         u=np.asarray(res.wrench)[..., :3],
     )
-    m = compute_metrics(view).as_dict(0)
+    m = compute_metrics(view, settle_threshold_deg=attitude_tol_deg).as_dict(0)
     pos = np.asarray(res.position_error)[:, 0]
     t = np.asarray(res.t)
-    above = np.nonzero(pos > 0.1)[0]
-    if above.size == 0:
-        ts = float(t[0])
-    elif above[-1] == len(t) - 1:
-        ts = float("nan")
-    else:
-        ts = float(t[above[-1] + 1])
+    ts = float(settling_time(t, pos[:, None], position_tol_m)[0])
+    win = t >= t[-1] - 0.1 * (t[-1] - t[0]) - 1e-12 * max(abs(t[-1]), 1.0)
+    force = np.linalg.norm(np.asarray(res.wrench)[:, 0, 3:], axis=-1)
     m["final_position_error_m"] = float(pos[-1])
+    m["steady_position_error_max_m"] = float(pos[win].max())
     m["position_settling_time_s"] = ts
-    m["peak_force_N"] = float(np.linalg.norm(np.asarray(res.wrench)[:, 0, 3:], axis=-1).max())
+    m["peak_force_N"] = float(force.max())
+    m["force_effort_Ns"] = float(trapezoid(force, t))
     idx = _decimate(t.shape[0])
     series = {
         "t": t[idx],
@@ -644,7 +903,9 @@ def _pose_metrics(res: Any) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
                 axis=-1,
             )
         ),
+        "torque_Nm": np.linalg.norm(view.u[idx, 0], axis=-1),
         "position_error_m": pos[idx],
+        "force_N": force[idx],
     }
     return m, series
 
@@ -659,7 +920,9 @@ def _timed_pose(inner: Any) -> Any:
     return TimedPoseController(inner)
 
 
-def _simulate_pose_pair(scenario: Scenario, name: str, info: ControllerInfo) -> RunOutcome:
+def _simulate_pose_pair(
+    scenario: Scenario, name: str, info: ControllerInfo, rule: GainRule | None = None
+) -> RunOutcome:
     from liecontrol.lie import se3, so3
     from spacecraft.orbit import CircularOrbit
     from spacecraft.se3_plant import (
@@ -688,6 +951,7 @@ def _simulate_pose_pair(scenario: Scenario, name: str, info: ControllerInfo) -> 
         reference=dock,
         proximity=px,
         gravity=plant.gravity_wrench,
+        rule=rule or DEFAULT_GAIN_RULE,
     )
     timed = _timed_pose(info.factory(ctx))
     t_start = time.perf_counter()
@@ -702,7 +966,7 @@ def _simulate_pose_pair(scenario: Scenario, name: str, info: ControllerInfo) -> 
         control_period=scenario.control_period,
     )
     wall = time.perf_counter() - t_start
-    m, series = _pose_metrics(res)
+    m, series = _pose_metrics(res, scenario.attitude_tolerance_deg, scenario.position_tolerance_m)
     m["controller_time_us"] = 1e6 * timed.mean_time_per_call
     m["sim_wall_time_s"] = wall
     return RunOutcome(scenario.name, name, "ok", None, m, series)
@@ -727,17 +991,17 @@ def run_group(task: GroupTask) -> list[RunOutcome]:
         out = []
         for s, c in pairs:
             try:
-                out.append(_simulate_pose_pair(s, c, infos[c]))
+                out.append(_simulate_pose_pair(s, c, infos[c], task.rule))
             except Exception as exc:  # noqa: BLE001 - failures are data in a benchmark report
                 out.append(_failed(s, c, exc))
         return out
     try:
-        return _simulate_attitude(pairs, infos)
+        return _simulate_attitude(pairs, infos, task.rule)
     except Exception as exc:  # noqa: BLE001 - failures are data in a benchmark report
         if len(pairs) > 1:
             res: list[RunOutcome] = []
             for p in pairs:
-                res.extend(run_group(GroupTask((p,), infos)))
+                res.extend(run_group(GroupTask((p,), infos, task.rule)))
             return res
         s, c = pairs[0]
         return [_failed(s, c, exc)]
@@ -752,6 +1016,7 @@ def run_suite(
     executor: Executor | str | None = None,
     scheduler: str | None = None,
     progress: bool = True,
+    gain_rule: GainRule | None = None,
 ) -> SuiteResult:
     """Run every scenario with every controller (pairs that do not apply are ``"n/a"``).
 
@@ -764,6 +1029,8 @@ def run_suite(
             ``"dask"``; default from ``jobs``/``scheduler`` (:func:`make_executor`).
         scheduler: dask scheduler address (dispatches the tasks to that cluster).
         progress: show a tqdm bar over the runs.
+        gain_rule: the closed-loop spec (ω_n, ζ) every controller factory tunes to (through
+            :attr:`ControllerContext.rule`); ``None``: :data:`DEFAULT_GAIN_RULE`.
 
     Returns:
         :class:`SuiteResult` with one :class:`RunOutcome` per pair (scenario-major order).
@@ -772,8 +1039,26 @@ def run_suite(
 
     from .controllers import available_controllers
 
+    if isinstance(scenarios, (str, Scenario)) or not isinstance(scenarios, Iterable):
+        raise ValueError(
+            f"scenarios: expected a sequence of Scenario objects, got {type(scenarios).__name__}"
+        )
     scenarios = tuple(scenarios)
+    for i, sc in enumerate(scenarios):
+        if not isinstance(sc, Scenario):
+            hint = (
+                f" (a scenario name: use benchmarks.scenarios.get_scenario({sc!r}))"
+                if isinstance(sc, str)
+                else ""
+            )
+            raise ValueError(
+                f"scenarios: entry {i} is {type(sc).__name__} {sc!r}, not a Scenario{hint}"
+            )
+    if isinstance(controllers, str):
+        raise ValueError(f"controllers: expected a sequence of names, got {controllers!r}")
     controllers = tuple(available_controllers() if controllers is None else controllers)
+    if not isinstance(suite, str) or not suite:
+        raise ValueError(f"suite: expected a non-empty label (str), got {suite!r}")
     if not scenarios:
         raise ValueError("scenarios: empty")
     if not controllers:
@@ -783,22 +1068,34 @@ def run_suite(
         raise ValueError(f"scenarios: duplicate names in {names}")
     if len(set(controllers)) != len(controllers):
         raise ValueError(f"controllers: duplicate names in {list(controllers)}")
-    if jobs is not None and (isinstance(jobs, bool) or int(jobs) != jobs or jobs < 1):
-        raise ValueError(f"jobs: must be a positive integer, got {jobs!r}")
+    if jobs is not None:
+        jobs = as_int(jobs, "jobs", 1)
+    if not (executor is None or isinstance(executor, Executor)) and executor not in (
+        "serial",
+        "process",
+        "dask",
+    ):
+        raise ValueError(
+            f"executor: expected an Executor or one of 'serial', 'process', 'dask', got "
+            f"{executor!r}"
+        )
     infos = {c: get_controller(c) for c in controllers}  # unknown names fail here, listed
+    if gain_rule is not None and not isinstance(gain_rule, GainRule):
+        raise TypeError(f"gain_rule: expected GainRule or None, got {type(gain_rule).__name__}")
 
     outcomes: dict[tuple[str, str], RunOutcome] = {}
     groups: dict[tuple, list[tuple[Scenario, str]]] = {}
     for s in scenarios:
         for c in controllers:
-            ok, why = infos[c].applies(s)
+            ok, why = infos[c].applies(s, gain_rule)
             if not ok:
                 outcomes[(s.name, c)] = RunOutcome(s.name, c, "n/a", why)
                 continue
             s_run = sampled_for(s, infos[c])
             key = s_run.batch_key()
-            if s.plant == "se3":
-                key = key + (c,)
+            if s.plant == "se3" or s.sensors is not None:
+                # SE(3): one pair per run; sensors: every controller sees the same noise draws
+                key = key + (c, s.name)
             groups.setdefault(key, []).append((s_run, c))
     own = not isinstance(executor, Executor)
     if isinstance(executor, Executor):
@@ -810,7 +1107,7 @@ def run_suite(
     chunks = _split_groups(list(groups.values()), ex.parallelism)
     # largest tasks first: better packing over the workers
     tasks = sorted(
-        (GroupTask(tuple(g), {c: infos[c] for _, c in g}) for g in chunks),
+        (GroupTask(tuple(g), {c: infos[c] for _, c in g}, gain_rule) for g in chunks),
         key=lambda tk: -len(tk.pairs) * tk.pairs[0][0].duration / tk.pairs[0][0].dt,
     )
     t_start = time.perf_counter()
@@ -828,7 +1125,7 @@ def run_suite(
         else:
             for o in res:
                 outcomes[(o.scenario, o.controller)] = o
-    ordered = tuple(outcomes[(s.name, c)] for s in scenarios for c in controllers)
+    ordered = tuple(with_verdict(outcomes[(s.name, c)], s) for s in scenarios for c in controllers)
     return SuiteResult(
         suite=suite,
         scenarios=scenarios,
@@ -836,6 +1133,7 @@ def run_suite(
         outcomes=ordered,
         wall_time_s=time.perf_counter() - t_start,
         executor=ex.name,
+        gain_rule=gain_rule,
         descriptions={
             c: infos[c].description
             + (

@@ -35,6 +35,13 @@ apply to every scenario (a scenario's own keys win)::
 
     [scenario.proximity]      # makes it an SE(3) scenario (ProximitySpec fields; *_deg allowed)
 
+    attitude_tolerance_deg = 0.1   # success needs θ ≤ this over the final 10 % (and settling)
+    position_tolerance_m = 0.1     # the same for the SE(3) position error
+
+    [scenario.sensors]        # optional: the controller sees sensors (SensorSpec fields)
+    attitude_noise_arcsec = 10.0
+    estimator = "mekf"        # none | mekf | ukf
+
 Angles may be given in radians (``rotvec``, ``rate``) or degrees (``rotvec_deg``, ``angle_deg``,
 ``rate_deg_s``). Every error names the file and the offending key, e.g.
 ``path: my.toml: scenario[1].reference.kind: unknown reference kind 'lvlh' ...``; unknown keys
@@ -60,6 +67,7 @@ from .scenarios import (
     ProximitySpec,
     ReferenceSpec,
     Scenario,
+    SensorSpec,
     SpacecraftSpec,
     UncertaintySpec,
 )
@@ -95,6 +103,9 @@ _TOP_KEYS = (
     "spacecraft",
     "uncertainty",
     "proximity",
+    "attitude_tolerance_deg",
+    "position_tolerance_m",
+    "sensors",
 )
 
 
@@ -312,6 +323,13 @@ def _scenario(table: Any, defaults: Mapping[str, Any], where: str) -> Scenario:
         kw["uncertainty"] = _construct(UncertaintySpec, dict(u), f"{where}.uncertainty")
     if "proximity" in t:
         kw["proximity"] = _proximity(t["proximity"], f"{where}.proximity")
+    for k in ("attitude_tolerance_deg", "position_tolerance_m"):
+        if k in t:
+            kw[k] = _number(t[k], f"{where}.{k}")
+    if "sensors" in t:
+        fields = tuple(f.name for f in dataclasses.fields(SensorSpec))
+        st = _check_keys(t["sensors"], fields, f"{where}.sensors")
+        kw["sensors"] = _construct(SensorSpec, dict(st), f"{where}.sensors")
     return _construct(Scenario, kw, where)
 
 
@@ -397,6 +415,12 @@ def scenario_to_dict(scenario: Scenario) -> dict[str, Any]:
         },
         "uncertainty": {"inertia_scale": list(s.uncertainty.inertia_scale)},
     }
+    out["attitude_tolerance_deg"] = s.attitude_tolerance_deg
+    out["position_tolerance_m"] = s.position_tolerance_m
+    if s.sensors is not None:
+        out["sensors"] = {
+            f.name: _plain(getattr(s.sensors, f.name)) for f in dataclasses.fields(SensorSpec)
+        }
     if s.control_period is not None:
         out["control_period"] = s.control_period
     if s.proximity is not None:

@@ -23,6 +23,9 @@ Verdict per (case, controller), in this order:
   ``command_reversals``: consecutive commands pointing in opposite directions while both are
   ≥ 5 % of the peak) — checked first, because a chattering body's rate jitter also inflates
   the path length;
+- ``"diverges"``: the run ends at least 30° farther from the target than it started
+  (:data:`benchmarks.metrics.DIVERGENCE_MARGIN_DEG`) — a long path then means moving away, not
+  going the long way round;
 - ``"unwinds"``: unwinding ratio ``∫‖e_Ω‖dt / θ₀ ≥ 1.5`` (SPEC §8.1: travelled ≥ 1.5× the
   geodesic angle);
 - ``"converges"``: final error ≤ ``converged_deg``;
@@ -45,7 +48,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from liecontrol._validation import check_positive
+from liecontrol._validation import as_array, as_int, check_positive_scalar
 
 from .controllers import available_controllers, get_controller
 from .executors import Executor
@@ -63,7 +66,7 @@ __all__ = [
     "write_unwinding_report",
 ]
 
-VERDICTS = ("converges", "chatters", "unwinds", "not converged", "failed")
+VERDICTS = ("converges", "chatters", "unwinds", "diverges", "not converged", "failed")
 
 
 @dataclass(frozen=True)
@@ -96,28 +99,46 @@ class UnwindingConfig:
     converged_deg: float = 0.1
 
     def __post_init__(self) -> None:
-        for name in ("pair_angle_deg", "duration", "dt", "control_period", "converged_deg"):
-            object.__setattr__(self, name, float(check_positive(getattr(self, name), name)))
+        for name in (
+            "pair_angle_deg",
+            "duration",
+            "dt",
+            "control_period",
+            "converged_deg",
+            "unwinding_threshold",
+        ):
+            object.__setattr__(self, name, check_positive_scalar(getattr(self, name), name))
         if not 0.0 < self.pair_angle_deg < 180.0:
             raise ValueError(f"pair_angle_deg: must be in (0, 180), got {self.pair_angle_deg}")
-        angles = tuple(float(a) for a in self.sweep_angles_deg)
-        if any(not 0.0 < a < 180.0 for a in angles):
-            raise ValueError(f"sweep_angles_deg: every angle must be in (0, 180), got {angles}")
-        object.__setattr__(self, "sweep_angles_deg", angles)
-        for name in ("n_random", "chatter_reversals"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or int(v) != v or v < 0:
-                raise ValueError(f"{name}: must be a non-negative integer, got {v!r}")
-            object.__setattr__(self, name, int(v))
-        object.__setattr__(
-            self,
-            "unwinding_threshold",
-            float(check_positive(self.unwinding_threshold, "unwinding_threshold")),
-        )
+        axis = as_array(self.axis, "axis")
+        if axis.shape != (3,):
+            raise ValueError(f"axis: expected a 3-vector, got shape {axis.shape}")
+        if not float(np.abs(axis).max()) > 0.0:
+            raise ValueError("axis: must be a non-zero vector (it is normalised)")
+        with np.errstate(over="ignore"):
+            if not np.isfinite(np.linalg.norm(axis)):
+                axis = axis / float(np.abs(axis).max())  # a huge axis: scale before normalising
+        object.__setattr__(self, "axis", tuple(float(v) for v in axis))
+        angles = as_array(self.sweep_angles_deg, "sweep_angles_deg")
+        if angles.ndim != 1:
+            raise ValueError(f"sweep_angles_deg: expected a sequence of angles, got {angles.shape}")
+        if np.any((angles <= 0.0) | (angles >= 180.0)):
+            raise ValueError(
+                f"sweep_angles_deg: every angle must be in (0, 180), got {angles.tolist()}"
+            )
+        object.__setattr__(self, "sweep_angles_deg", tuple(angles.tolist()))
+        for name in ("n_random", "chatter_reversals", "seed"):
+            object.__setattr__(self, name, as_int(getattr(self, name), name, 0))
+        if not isinstance(self.spacecraft, SpacecraftSpec):
+            raise ValueError(
+                f"spacecraft: expected a SpacecraftSpec, got {type(self.spacecraft).__name__}"
+            )
 
 
 def unwinding_scenarios(cfg: UnwindingConfig = UnwindingConfig()) -> tuple[Scenario, ...]:
     """The cases of ``cfg`` as scenarios, tagged ``pair``, ``sweep`` or ``random``."""
+    if not isinstance(cfg, UnwindingConfig):
+        raise ValueError(f"cfg: expected an UnwindingConfig, got {type(cfg).__name__}")
     a = np.asarray(cfg.axis, dtype=np.float64)
     norm = np.linalg.norm(a)
     if a.shape != (3,) or not norm > 0:
@@ -181,6 +202,11 @@ def verdict(outcome: RunOutcome, cfg: UnwindingConfig = UnwindingConfig()) -> st
     rev = m.get("command_reversals", float("nan"))
     if not math.isnan(rev) and rev >= cfg.chatter_reversals:
         return "chatters"
+    from .metrics import DIVERGENCE_MARGIN_DEG
+
+    th0, thf = m.get("initial_error_deg", float("nan")), m.get("final_error_deg", float("nan"))
+    if thf >= th0 + DIVERGENCE_MARGIN_DEG:
+        return "diverges"
     ratio = m.get("unwinding_ratio", float("nan"))
     if not math.isnan(ratio) and ratio >= cfg.unwinding_threshold:
         return "unwinds"

@@ -15,8 +15,8 @@ under two minutes on one core) and is saved at 90 dpi. Names (and the page that 
 - ``error_functions.png`` (errors.md): Ψ and ‖e_R‖ against the rotation angle.
 - ``cmg_singularity_sweep.png`` (cmg.md): singularity measure over gimbal sweeps.
 - ``se3_docking.png`` (se3.md): SE(3) proximity approach, errors and trajectory.
-- ``seed002_regions.png``, ``seed002_lyapunov.png`` (seed002.md): the seed-002 reproduction
-  (reduced sample count).
+- ``lemmas_regions.png``, ``lemmas_lyapunov.png`` (seed002.md): the survey-lemmas reproduction
+  (``geometric-survey-lemmas``, reduced sample count).
 """
 
 from __future__ import annotations
@@ -336,12 +336,12 @@ def se3_docking(out: pathlib.Path) -> pathlib.Path:
     return _save(fig, out, "se3_docking.png")
 
 
-def seed002_figures(out: pathlib.Path) -> list[pathlib.Path]:
-    """The seed-002 reproduction's figures from the reduced (quick) sample count."""
-    from benchmarks.reproductions import seed002
+def survey_lemmas_figures(out: pathlib.Path) -> list[pathlib.Path]:
+    """The survey-lemmas reproduction's figures from the reduced (quick) sample count."""
+    from benchmarks.reproductions import geometric_survey_lemmas as lemmas
 
-    result = seed002.run(quick=True)
-    return seed002._figures(result, out)
+    result = lemmas.run(quick=True)
+    return lemmas._figures(result, out)
 
 
 FIGURES: dict[str, Callable[[pathlib.Path], object]] = {
@@ -354,7 +354,7 @@ FIGURES: dict[str, Callable[[pathlib.Path], object]] = {
     "error_functions": error_functions,
     "cmg_singularity_sweep": cmg_singularity_sweep,
     "se3_docking": se3_docking,
-    "seed002": seed002_figures,
+    "survey_lemmas": survey_lemmas_figures,
 }
 
 

@@ -6,6 +6,8 @@ Every message starts with the argument's name and then says what is wrong, e.g.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 __all__ = [
@@ -19,6 +21,14 @@ __all__ = [
     "rotations_pass_fast",
     "check_positive",
     "check_nonnegative",
+    "as_scalar",
+    "check_positive_scalar",
+    "check_tolerance",
+    "check_bool",
+    "broadcast_batch",
+    "check_output_finite",
+    "norm_last",
+    "as_int",
     "ROTATION_ATOL",
 ]
 
@@ -28,19 +38,78 @@ ROTATION_ATOL = 1e-9
 _F64 = np.dtype(np.float64)
 
 
-def as_array(x: object, name: str, tail: tuple[int, ...] | None = None) -> np.ndarray:
-    """Return ``x`` as a finite float64 array, checking the trailing shape if given.
-
-    Never copies when ``x`` already is a float64 array (callers must not mutate the result).
-    """
+def _to_float_array(x: object, name: str) -> np.ndarray:
+    """``x`` as a float64 array; complex input with a non-zero imaginary part, strings and
+    non-numeric objects raise (numpy alone would warn and drop the imaginary part)."""
+    if type(x) is np.ndarray and x.dtype == _F64:
+        return x  # the fast path: nothing to convert
     try:
-        a = np.asarray(x, dtype=np.float64)
+        raw = np.asarray(x)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{name}: cannot be converted to a float array ({exc})") from None
+    if raw.dtype.kind == "c":
+        if np.any(raw.imag != 0):
+            raise ValueError(
+                f"{name}: complex values are not accepted (expected real numbers, got dtype "
+                f"{raw.dtype})"
+            )
+        raw = raw.real
+    elif raw.dtype.kind in "USVMm":
+        # numpy would parse "1.5" as a number: text, bytes and dates are not numbers here
+        raise ValueError(
+            f"{name}: cannot be converted to a float array (expected real numbers, got dtype "
+            f"{raw.dtype})"
+        )
+    try:
+        return np.asarray(raw, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise ValueError(f"{name}: cannot be converted to a float array ({exc})") from None
+
+
+def as_array(x: object, name: str, tail: tuple[int, ...] | None = None) -> np.ndarray:
+    """Return ``x`` as a finite real float64 array, checking the trailing shape if given.
+
+    Never copies when ``x`` already is a float64 array (callers must not mutate the result).
+    Complex input is rejected unless every imaginary part is exactly zero.
+    """
+    a = _to_float_array(x, name)
     if tail is not None:
         check_shape_tail(a, name, tail)
     check_finite(a, name)
     return a
+
+
+def as_scalar(x: object, name: str) -> float:
+    """Return ``x`` as a finite real Python float; arrays (other than 0-d) are rejected with
+    ``"{name}: expected a scalar, got an array of shape …"``."""
+    if type(x) is float and math.isfinite(x):
+        return x  # the fast path of controllers' time arguments
+    if isinstance(x, (bool, np.bool_)):
+        raise TypeError(f"{name}: expected a real number, got a bool")
+    a = _to_float_array(x, name)
+    if a.ndim != 0:
+        raise ValueError(f"{name}: expected a scalar, got an array of shape {a.shape}")
+    check_finite(a, name)
+    return float(a)
+
+
+def check_positive_scalar(x: object, name: str) -> float:
+    """A finite real scalar ``> 0`` as a Python float (arrays rejected)."""
+    v = as_scalar(x, name)
+    if not v > 0.0:
+        raise ValueError(f"{name}: must be > 0, got {v}")
+    return v
+
+
+def check_tolerance(x: object, name: str, upper: float | None = None) -> float:
+    """A tolerance argument (``atol``, ``lock_tol``, ``norm_tol``, …): a finite real scalar
+    ``> 0`` (and ``< upper`` when given, e.g. 1 for a threshold on |cos a| that would otherwise
+    flag everything). NaN or a negative value would otherwise silently switch the check it
+    controls off (every comparison with NaN is False)."""
+    v = check_positive_scalar(x, name)
+    if upper is not None and not v < upper:
+        raise ValueError(f"{name}: must be < {upper:g} (a larger tolerance flags every input)")
+    return v
 
 
 def check_finite(a: np.ndarray, name: str) -> None:
@@ -191,3 +260,78 @@ def check_nonnegative(x: object, name: str) -> np.ndarray | float:
     if np.any(a < 0):
         raise ValueError(f"{name}: must be >= 0, got {a if a.ndim == 0 else a.min()}")
     return float(a) if a.ndim == 0 else a
+
+
+def check_bool(x: object, name: str) -> bool:
+    """A flag argument: ``True``/``False`` (or numpy bools) only — a string such as ``"no"``
+    would otherwise count as true."""
+    if isinstance(x, (bool, np.bool_)):
+        return bool(x)
+    raise TypeError(f"{name}: expected True or False, got {type(x).__name__} {x!r}")
+
+
+def broadcast_batch(*named: tuple[str, tuple[int, ...]]) -> tuple[int, ...]:
+    """The broadcast of the batch shapes given as ``(name, shape)`` pairs; raises
+    ``"{name}: batch shape … does not broadcast …"`` naming the first argument that does not fit
+    the ones before it (instead of numpy's anonymous broadcasting error)."""
+    out: tuple[int, ...] = ()
+    first = named[0][0]
+    for name, shape in named:
+        try:
+            out = np.broadcast_shapes(out, tuple(shape))
+        except ValueError:
+            raise ValueError(
+                f"{name}: batch shape {tuple(shape)} does not broadcast against {first}'s and "
+                f"the other arguments' batch shape {out}"
+            ) from None
+    return out
+
+
+def check_output_finite(out: np.ndarray, name: str, what: str) -> np.ndarray:
+    """Raise ``"{name}: {what} overflows float64 …"`` if a computed result holds inf/NaN (the
+    input was finite, so only overflow can cause it); return ``out`` otherwise."""
+    if not np.all(np.isfinite(out)):
+        raise ValueError(f"{name}: {what} overflows float64 for this input (too large)")
+    return out
+
+
+def norm_last(a: np.ndarray) -> np.ndarray:
+    """Euclidean norm over the last axis without overflow or underflow: ``a·a`` is used directly
+    when it is safely inside the float range, otherwise each row is scaled by its max |aᵢ|
+    first (so ‖1e300·q‖ = 1e300‖q‖ and ‖1e-300·q‖ = 1e-300‖q‖)."""
+    if a.size <= 64:
+        # small arrays (one quaternion, a few sigma points): Python floats decide the fast path
+        # without numpy's per-call overhead (errstate, two reductions)
+        flat = a.ravel().tolist()
+        if flat and max(flat) < 1e100 and min(flat) > -1e100 and all(
+            x == 0.0 or abs(x) > 1e-100 for x in flat
+        ):
+            return np.sqrt(np.sum(a * a, axis=-1))
+    with np.errstate(over="ignore", under="ignore"):
+        n2 = np.sum(a * a, axis=-1)
+    # a non-zero row can underflow to n2 = 0, so rows with n2 = 0 take the scaled route too
+    if not n2.size or (np.max(n2) < 1e200 and np.min(n2) >= 1e-200):
+        return np.sqrt(n2)
+    n = np.array(np.sqrt(n2))  # an array also for a single row (item assignment below)
+    bad = ~(n2 < 1e200) | (n2 < 1e-200)  # rows outside the safe range (zero rows stay 0)
+    rows = a[bad]
+    m = np.max(np.abs(rows), axis=-1, keepdims=True)
+    m = np.where(m > 0.0, m, 1.0)
+    u = rows / m
+    n[bad] = m[..., 0] * np.sqrt(np.sum(u * u, axis=-1))
+    return n if n.ndim else n[()]
+
+
+def as_int(x: object, name: str, minimum: int | None = None) -> int:
+    """An integer argument (a count, an index, a size) as a Python int: Python/numpy integers
+    and integral floats (``3.0``) pass; bools, fractions, NaN/inf, strings and arrays are
+    rejected with a message naming ``name``; ``minimum`` (if given) is the smallest allowed."""
+    if isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, np.integer, float, np.floating)):
+        raise TypeError(f"{name}: expected an integer, got {type(x).__name__} {x!r}")
+    if isinstance(x, (float, np.floating)):
+        if not (math.isfinite(x) and float(x).is_integer()):
+            raise ValueError(f"{name}: expected an integer, got {x!r}")
+    v = int(x)
+    if minimum is not None and v < minimum:
+        raise ValueError(f"{name}: must be >= {minimum}, got {v}")
+    return v

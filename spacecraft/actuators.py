@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from liecontrol._validation import as_array, check_positive
+from liecontrol._validation import as_array, as_scalar, check_positive
 
 from .rigid_body import _cross
 
@@ -60,7 +60,41 @@ class Actuator(abc.ABC):
     @abc.abstractmethod
     def command(self, u_cmd: np.ndarray, omega: np.ndarray, x_act: np.ndarray, t: float) -> Any:
         """Hardware command held over the next integration step, from the torque command
-        ``u_cmd`` ``(B, 3)`` [N·m], body rate ``omega`` ``(B, 3)``, actuator states ``x_act``."""
+        ``u_cmd`` ``(B, 3)`` [N·m], body rate ``omega`` ``(B, 3)``, actuator states ``x_act``.
+
+        The built-in actuators validate here (finite real arrays of matching shapes, a scalar
+        ``t``, a finite result) and run the same computation unchecked in
+        ``command_unchecked``, which :func:`spacecraft.simulator.simulate` calls at every step
+        on its already-validated state (an actuator without it is called through ``command``).
+        """
+
+    def _check_command(
+        self, u_cmd: object, omega: object, x_act: object, t: object
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+        """The arguments of :meth:`command`, validated (messages name the argument)."""
+        u = as_array(u_cmd, "u_cmd")
+        if u.ndim != 2 or u.shape[1] != 3:
+            raise ValueError(f"u_cmd: expected shape (B, 3), got {u.shape}")
+        w = as_array(omega, "omega")
+        if w.shape != u.shape:
+            raise ValueError(f"omega: expected shape {u.shape} (as u_cmd), got {w.shape}")
+        x = as_array(x_act, "x_act")
+        if x.shape != (u.shape[0], self.n_states):
+            raise ValueError(f"x_act: expected shape {(u.shape[0], self.n_states)}, got {x.shape}")
+        return u, w, x, as_scalar(t, "t")
+
+    @staticmethod
+    def _check_held(held: Any, u: np.ndarray) -> Any:
+        """Raise (naming ``u_cmd``) if the hardware command computed from finite inputs is
+        not finite: the torque command overflowed float64 on the way."""
+        arrays = [held] if isinstance(held, np.ndarray) else list(vars(held).values())
+        for a in arrays:
+            if isinstance(a, np.ndarray) and a.dtype.kind == "f" and not np.all(np.isfinite(a)):
+                raise ValueError(
+                    f"u_cmd: the actuator command overflows float64 (max |u_cmd| = "
+                    f"{float(np.abs(u).max()):.3g})"
+                )
+        return held
 
     @abc.abstractmethod
     def state_derivative(self, x_act: np.ndarray, held: Any) -> np.ndarray:
@@ -112,6 +146,14 @@ class IdealTorqueActuator(Actuator):
             object.__setattr__(self, "max_torque", m)
 
     def command(self, u_cmd: np.ndarray, omega: np.ndarray, x_act: np.ndarray, t: float) -> Any:
+        """Validated :meth:`command_unchecked` (see :meth:`Actuator.command`)."""
+        u, w, x, tt = self._check_command(u_cmd, omega, x_act, t)
+        return self._check_held(self.command_unchecked(u, w, x, tt), u)
+
+    def command_unchecked(
+        self, u_cmd: np.ndarray, omega: np.ndarray, x_act: np.ndarray, t: float
+    ) -> Any:
+        """:meth:`command` without validation (the simulator's per-step call)."""
         if self.max_torque is None:
             return np.array(u_cmd, dtype=np.float64)  # own copy: the held value must not alias
         return np.clip(u_cmd, -self.max_torque, self.max_torque)
@@ -228,10 +270,15 @@ class SgcmgActuator(Actuator):
         delta0: object = (np.pi / 4, -np.pi / 4, np.pi / 4, -np.pi / 4),
         servo: str | FirstOrderServo = "ideal",
     ) -> None:
-        if cluster is None:
-            from .sgcmg import SgcmgPyramid
+        from .sgcmg import SgcmgPyramid
 
+        if cluster is None:
             cluster = SgcmgPyramid()
+        if not isinstance(cluster, SgcmgPyramid):
+            raise ValueError(
+                f"cluster: expected an SgcmgPyramid (or None for the default), got "
+                f"{type(cluster).__name__} {cluster!r}"
+            )
         if steering is None:
             steering = _default_steering()
         if not callable(steering):
@@ -414,6 +461,16 @@ class SgcmgActuator(Actuator):
     def command(
         self, u_cmd: np.ndarray, omega: np.ndarray, x_act: np.ndarray, t: float
     ) -> CmgCommand:
+        """Validated :meth:`command_unchecked` (see :meth:`Actuator.command`)."""
+        u, w, x, tt = self._check_command(u_cmd, omega, x_act, t)
+        with np.errstate(over="ignore", invalid="ignore"):
+            held = self.command_unchecked(u, w, x, tt)
+        return self._check_held(held, u)
+
+    def command_unchecked(
+        self, u_cmd: np.ndarray, omega: np.ndarray, x_act: np.ndarray, t: float
+    ) -> CmgCommand:
+        """:meth:`command` without validation (the simulator's per-step call)."""
         delta = x_act if self._tau is None else x_act[:, :4]
         if self._fast is not None and delta.shape[0] == 1 and self._steer_floats is not None:
             held = self._command_one(u_cmd, omega, delta, t)
@@ -614,7 +671,7 @@ def pyramid_wheel_axes(beta: float = PYRAMID_ISOTROPIC_BETA) -> np.ndarray:
     the default β = arctan √2 makes it isotropic, (4/3) I. Any three of the four axes span
     ℝ³, so the assembly survives one wheel failure (Markley & Crassidis 2014, §7.8).
     """
-    b = float(as_array(beta, "beta"))
+    b = as_scalar(beta, "beta")
     if not 0.0 < b < math.pi / 2:
         raise ValueError(f"beta: must lie in (0, π/2), got {beta!r}")
     phi = np.arange(4) * (math.pi / 2)
@@ -778,6 +835,16 @@ class ReactionWheelAssembly(Actuator):
     def command(
         self, u_cmd: np.ndarray, omega: np.ndarray, x_act: np.ndarray, t: float
     ) -> WheelCommand:
+        """Validated :meth:`command_unchecked` (see :meth:`Actuator.command`)."""
+        u, w, x, tt = self._check_command(u_cmd, omega, x_act, t)
+        with np.errstate(over="ignore", invalid="ignore"):
+            held = self.command_unchecked(u, w, x, tt)
+        return self._check_held(held, u)
+
+    def command_unchecked(
+        self, u_cmd: np.ndarray, omega: np.ndarray, x_act: np.ndarray, t: float
+    ) -> WheelCommand:
+        """:meth:`command` without validation (the simulator's per-step call)."""
         h = x_act @ self._AI.T
         h_dot_cmd = _cross(omega, h)
         h_dot_cmd += u_cmd

@@ -26,13 +26,13 @@ attribute are assumed to read ``R``.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
 
-from liecontrol._validation import as_array, check_positive
+from liecontrol._validation import as_array, as_scalar, check_positive_scalar
 
 __all__ = [
     "DisturbanceSource",
@@ -95,12 +95,13 @@ class Seed000Disturbance:
     scale: float = 1.0
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "n", check_positive(self.n, "n"))
-        s = float(as_array(self.scale, "scale"))
+        object.__setattr__(self, "n", check_positive_scalar(self.n, "n"))
+        s = as_scalar(self.scale, "scale")
         object.__setattr__(self, "scale", s)
 
     def torque_at(self, t: float) -> np.ndarray:
         """The ``(3,)`` torque at time ``t`` (identical for every spacecraft)."""
+        t = as_scalar(t, "t")  # a Python float passes at the cost of one type test
         s1 = math.sin(self.n * t)
         s2 = math.sin(2.0 * self.n * t)
         c = self.scale
@@ -137,6 +138,11 @@ class SumOfDisturbances:
     def __post_init__(self) -> None:
         src = self.sources
         if not isinstance(src, Mapping):
+            if isinstance(src, (str, bytes)) or not isinstance(src, Iterable):
+                raise ValueError(
+                    f"sources: expected a mapping name -> source or a sequence of sources, got "
+                    f"{type(src).__name__}"
+                )
             src = {f"d{i}": s for i, s in enumerate(src)}
         if len(src) == 0:
             raise ValueError("sources: at least one disturbance source is required")

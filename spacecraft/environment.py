@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from liecontrol._validation import as_array, check_inertia_3x3
+from liecontrol._validation import as_array, check_inertia_3x3, check_positive_scalar
 
 from .orbit import CircularOrbit
 
@@ -32,8 +32,17 @@ def gravity_gradient_torque(J: object, c: object, n: float) -> np.ndarray:
     ``(3, 3)`` or ``(..., 3, 3)`` [N·m]."""
     J = as_array(J, "J", (3, 3))
     c = as_array(c, "c", (3,))
-    Jc = np.einsum("...ij,...j->...i", J, c)
-    return 3.0 * float(n) ** 2 * np.cross(c, Jc)
+    n = check_positive_scalar(n, "n")
+    with np.errstate(over="ignore", invalid="ignore"):
+        Jc = np.einsum("...ij,...j->...i", J, c)
+        out = 3.0 * n * n * np.cross(c, Jc)
+    if not np.all(np.isfinite(out)):
+        raise ValueError(
+            f"n: the torque 3n²(c × Jc) overflows float64 (n = {n:.3g})"
+            if n > 1e100
+            else "c: the torque overflows float64 (c should be unit nadir vectors)"
+        )
+    return out
 
 
 @dataclass(frozen=True)

@@ -84,6 +84,9 @@ class FlexibleModes:
             )
         if np.any(lam <= 0):
             raise ValueError(f"frequencies: must be > 0 [rad/s], got min {lam.min()!r}")
+        if np.any(lam > 1e150):
+            # the stiffness λ² would overflow float64 (and no structure rings at 1e150 rad/s)
+            raise ValueError(f"frequencies: too large, λ² overflows float64 (max {lam.max():.3g})")
         z = as_array(self.damping, "damping")
         if z.shape not in ((), (N,)):
             raise ValueError(f"damping: expected a scalar or shape ({N},), got {z.shape}")

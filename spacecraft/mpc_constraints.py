@@ -55,7 +55,7 @@ from collections.abc import Callable
 import numpy as np
 import scipy.optimize
 
-from liecontrol._validation import as_array, check_positive
+from liecontrol._validation import as_array, as_scalar, check_positive, check_positive_scalar
 from liecontrol.control.base import AttitudeState
 
 from .sgcmg import SgcmgPyramid
@@ -86,14 +86,21 @@ def steering_map(
 
     Probes the law with ``ḣ = 0`` and ``ḣ = h₀ e_j`` (one batched call; exact for an affine law).
     """
-    d = as_array(delta, "delta", (4,)).reshape(4)
+    if not isinstance(law, SteeringLaw):
+        raise ValueError(f"law: expected a SteeringLaw, got {type(law).__name__}")
+    if not isinstance(cluster, SgcmgPyramid):
+        raise ValueError(f"cluster: expected an SgcmgPyramid, got {type(cluster).__name__}")
+    d = as_array(delta, "delta", (4,))
+    if d.shape != (4,):
+        raise ValueError(f"delta: expected shape (4,), got {d.shape}")
+    t = as_scalar(t, "t")
     A = cluster.jacobian(d)
     H = np.vstack([np.zeros(3), cluster.h0 * np.eye(3)])
     out = law.steer(
         np.ascontiguousarray(np.broadcast_to(A, (4, 3, 4))),
         H,
         np.ascontiguousarray(np.broadcast_to(d, (4, 4))),
-        float(t),
+        t,
         cluster,
     )
     s0 = out[0]
@@ -143,7 +150,7 @@ def cmg_gimbal_rate_constraint(
     law = PseudoInverse() if steering is None else steering
     if not isinstance(law, SteeringLaw):
         raise ValueError(f"steering: expected a SteeringLaw, got {type(steering).__name__}")
-    t = float(t)
+    t = as_scalar(t, "t")
     # affinity check at a generic, non-singular gimbal set
     d_chk = np.array([0.3, -1.1, 2.0, 0.7])
     S, s0 = steering_map(law, cluster, d_chk, t)
@@ -237,8 +244,8 @@ def momentum_envelope_constraint(
     ``h`` is ``h(δ)`` from ``state.actuator_state`` when present, else ``state.h``.
     """
     cluster = _check_cluster(cluster)
-    dt = float(check_positive(dt, "dt"))
-    margin = float(check_positive(margin, "margin"))
+    dt = check_positive_scalar(dt, "dt")
+    margin = check_positive_scalar(margin, "margin")
     if margin > 1.0:
         raise ValueError(f"margin: must lie in (0, 1], got {margin}")
     if shape not in ("radial", "box"):

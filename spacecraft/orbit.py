@@ -32,7 +32,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from liecontrol._validation import as_array, check_positive, check_rotation_matrix
+from liecontrol._validation import (
+    as_array,
+    as_scalar,
+    check_positive_scalar,
+    check_rotation_matrix,
+    norm_last,
+)
 from liecontrol.control.base import AttitudeReference
 
 __all__ = [
@@ -87,10 +93,10 @@ class CircularOrbit:
     _R_orb: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "n", check_positive(self.n, "n"))
-        object.__setattr__(self, "mu", check_positive(self.mu, "mu"))
+        object.__setattr__(self, "n", check_positive_scalar(self.n, "n"))
+        object.__setattr__(self, "mu", check_positive_scalar(self.mu, "mu"))
         for name in ("inclination", "raan", "arg_lat0"):
-            object.__setattr__(self, name, float(as_array(getattr(self, name), name, ())))
+            object.__setattr__(self, name, as_scalar(getattr(self, name), name))
         R_orb = _rz(self.raan) @ _rx(self.inclination)
         R_orb.setflags(write=False)
         object.__setattr__(self, "_R_orb", R_orb)
@@ -98,8 +104,8 @@ class CircularOrbit:
     @classmethod
     def from_radius(cls, radius: float, mu: float = MU_EARTH, **kwargs: float) -> CircularOrbit:
         """The circular orbit of radius ``radius`` [m]: n = √(μ/r³)."""
-        r = check_positive(radius, "radius")
-        m = check_positive(mu, "mu")
+        r = check_positive_scalar(radius, "radius")
+        m = check_positive_scalar(mu, "mu")
         return cls(n=float(np.sqrt(m / r**3)), mu=m, **kwargs)
 
     @property
@@ -202,7 +208,7 @@ class EarthPointingReference:
 
 def _r_norm(r: object) -> tuple[np.ndarray, np.ndarray]:
     r = as_array(r, "r", (3,))
-    rn = np.linalg.norm(r, axis=-1)
+    rn = norm_last(r)  # overflow-safe: |r| of a 1e300 position is 1e300·|r̂|, not inf
     if np.any(rn <= 0.0):
         raise ValueError("r: zero position vector (gravity is singular at the centre)")
     return r, rn
@@ -210,28 +216,34 @@ def _r_norm(r: object) -> tuple[np.ndarray, np.ndarray]:
 
 def two_body_potential(r: object, mu: float = MU_EARTH) -> np.ndarray:
     """Point-mass gravitational potential energy per unit mass U₀ = −μ/|r| [J/kg]; ``(...,)``."""
-    mu = check_positive(mu, "mu")
+    mu = check_positive_scalar(mu, "mu")
     _, rn = _r_norm(r)
     return -mu / rn
 
 
 def two_body_acceleration(r: object, mu: float = MU_EARTH) -> np.ndarray:
     """Point-mass gravity a₀ = −μ r/|r|³ [m/s²] for inertial positions ``(..., 3)``."""
-    mu = check_positive(mu, "mu")
+    mu = check_positive_scalar(mu, "mu")
     r, rn = _r_norm(r)
-    return -mu * r / rn[..., None] ** 3
+    rn = rn[..., None]
+    with np.errstate(under="ignore", over="ignore"):
+        # unit vector first, then 1/r² in two divisions: no overflow of r³ for a huge |r|
+        return -mu * (r / rn) / rn / rn
 
 
 def j2_potential(
     r: object, mu: float = MU_EARTH, J2: float = J2_EARTH, R_e: float = R_EARTH
 ) -> np.ndarray:
     """J2 part of the potential energy per unit mass, U₂ = μJ₂R_e²/(2|r|³)·(3z²/|r|² − 1)."""
-    mu = check_positive(mu, "mu")
-    R_e = check_positive(R_e, "R_e")
-    J2 = float(as_array(J2, "J2", ()))
+    mu = check_positive_scalar(mu, "mu")
+    R_e = check_positive_scalar(R_e, "R_e")
+    J2 = as_scalar(J2, "J2")
     r, rn = _r_norm(r)
     z2 = (r[..., 2] / rn) ** 2
-    return 0.5 * mu * J2 * R_e**2 / rn**3 * (3.0 * z2 - 1.0)
+    with np.errstate(under="ignore", over="ignore", invalid="ignore"):
+        q = R_e / rn
+        out = 0.5 * (mu / rn) * J2 * q * q * (3.0 * z2 - 1.0)
+    return _j2_finite(out, J2, R_e)
 
 
 def j2_acceleration(
@@ -242,14 +254,26 @@ def j2_acceleration(
     a₂ = −(3/2) μ J₂ R_e²/|r|⁵ (x(1 − 5ẑ²), y(1 − 5ẑ²), z(3 − 5ẑ²)), ẑ = z/|r|.
     Add :func:`two_body_acceleration` for the full field (or use :func:`gravity_acceleration`).
     """
-    mu = check_positive(mu, "mu")
-    R_e = check_positive(R_e, "R_e")
-    J2 = float(as_array(J2, "J2", ()))
+    mu = check_positive_scalar(mu, "mu")
+    R_e = check_positive_scalar(R_e, "R_e")
+    J2 = as_scalar(J2, "J2")
     r, rn = _r_norm(r)
     z2 = (r[..., 2] / rn) ** 2
-    k = -1.5 * mu * J2 * R_e**2 / rn**5
-    f = np.stack((1.0 - 5.0 * z2, 1.0 - 5.0 * z2, 3.0 - 5.0 * z2), axis=-1)
-    return k[..., None] * r * f
+    with np.errstate(under="ignore", over="ignore", invalid="ignore"):
+        q = R_e / rn
+        k = -1.5 * (mu / rn) / rn * J2 * q * q  # μJ₂R_e²/r⁴ without forming r⁵
+        f = np.stack((1.0 - 5.0 * z2, 1.0 - 5.0 * z2, 3.0 - 5.0 * z2), axis=-1)
+        out = k[..., None] * (r / rn[..., None]) * f
+    return _j2_finite(out, J2, R_e)
+
+
+def _j2_finite(out: np.ndarray, J2: float, R_e: float) -> np.ndarray:
+    """``out`` if finite, else a ``ValueError`` naming the argument that made it overflow
+    (the position and μ alone cannot: both enter as bounded ratios)."""
+    if not np.all(np.isfinite(out)):
+        name, v = ("R_e", R_e) if R_e > 1e100 else ("J2", J2)
+        raise ValueError(f"{name}: the J2 term overflows float64 ({name} = {v:.3g})")
+    return out
 
 
 def gravity_potential(

@@ -34,7 +34,7 @@ open-loop amplitudes match the published ones; see ``docs/environment.md`` for t
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import ClassVar, Protocol, runtime_checkable
 
@@ -43,9 +43,12 @@ from scipy.optimize import least_squares
 
 from liecontrol._validation import (
     as_array,
+    as_int,
+    as_scalar,
     check_inertia_3x3,
     check_nonnegative,
     check_positive,
+    check_positive_scalar,
     check_rotation_matrix,
 )
 
@@ -84,7 +87,7 @@ class ConstantSpin:
     rate: float
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "rate", float(as_array(self.rate, "rate", ())))
+        object.__setattr__(self, "rate", as_scalar(self.rate, "rate"))
 
     def state(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         t = np.asarray(t, dtype=np.float64)
@@ -103,8 +106,8 @@ class SpinRamp:
 
     def __post_init__(self) -> None:
         for name in ("rate0", "rate1", "t_start"):
-            object.__setattr__(self, name, float(as_array(getattr(self, name), name, ())))
-        object.__setattr__(self, "duration", check_positive(self.duration, "duration"))
+            object.__setattr__(self, name, as_scalar(getattr(self, name), name))
+        object.__setattr__(self, "duration", check_positive_scalar(self.duration, "duration"))
 
     def state(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         t = np.asarray(t, dtype=np.float64)
@@ -171,7 +174,13 @@ class RotatingPayload:
                 raise ValueError(f"{name}: expected shape (3,), got {v.shape}")
             object.__setattr__(self, name, _readonly(v))
         rho = self.com_offset
-        I_cm = I_A - m * (rho @ rho * np.eye(3) - np.outer(rho, rho))
+        with np.errstate(over="ignore", invalid="ignore"):
+            I_cm = I_A - m * (rho @ rho * np.eye(3) - np.outer(rho, rho))
+        if not np.all(np.isfinite(I_cm)):
+            raise ValueError(
+                "com_offset: too large for this mass (m·|ρ|² overflows float64 in the "
+                "parallel-axis inertia)"
+            )
         lam = float(np.linalg.eigvalsh(0.5 * (I_cm + I_cm.T)).min())
         if lam < -1e-9 * max(float(np.abs(I_A).max()), 1e-300):
             raise ValueError(
@@ -183,12 +192,12 @@ class RotatingPayload:
         if M.shape != (3, 3):
             raise ValueError(f"mount: expected shape (3, 3), got {M.shape}")
         object.__setattr__(self, "mount", _readonly(M))
-        object.__setattr__(self, "phase", float(as_array(self.phase, "phase", ())))
+        object.__setattr__(self, "phase", as_scalar(self.phase, "phase"))
         sp = self.spin_rate
         if isinstance(sp, SpinProfile):
             prof = sp
         else:
-            prof = ConstantSpin(float(as_array(sp, "spin_rate", ())))
+            prof = ConstantSpin(as_scalar(sp, "spin_rate"))
             object.__setattr__(self, "spin_rate", prof.rate)
         object.__setattr__(self, "_profile", prof)
 
@@ -327,6 +336,11 @@ class RotatingPayloadTorque:
 
     def __post_init__(self) -> None:
         ps = (self.payloads,) if isinstance(self.payloads, RotatingPayload) else self.payloads
+        if isinstance(ps, (str, bytes)) or not isinstance(ps, Iterable):
+            raise ValueError(
+                f"payloads: expected a RotatingPayload or a sequence of them, got "
+                f"{type(ps).__name__}"
+            )
         ps = tuple(ps)
         if len(ps) == 0:
             raise ValueError("payloads: at least one RotatingPayload is required")
@@ -362,6 +376,11 @@ def harmonic_phasor(payload: RotatingPayload, n_samples: int = 16) -> tuple[np.n
     At ω = 0 and ω̇_p = 0 the torque is exactly a first harmonic of α (SPEC §5.5), so the
     ``n_samples``-point DFT over one revolution is exact to round-off.
     """
+    if not isinstance(payload, RotatingPayload):
+        raise ValueError(f"payload: expected a RotatingPayload, got {type(payload).__name__}")
+    n_samples = as_int(n_samples, "n_samples", 3)  # three points resolve a first harmonic
+    if n_samples > 1_000_000:
+        raise ValueError(f"n_samples: at most 1e6 (the DFT is exact from 3), got {n_samples}")
     rate = payload.constant_rate
     if rate is None or rate == 0.0:
         raise ValueError("payload: the jitter estimate needs a constant, non-zero spin rate")
@@ -375,10 +394,45 @@ def harmonic_phasor(payload: RotatingPayload, n_samples: int = 16) -> tuple[np.n
 
 def closed_loop_gain(J_jj: object, omega: object, omega_n: float, zeta: float) -> np.ndarray:
     """|G_j(iω)| = 1/(J_jj |ω_n² − ω² + 2iξω_nω|) (seed 003 eq. (10)); ω_n = 0 gives the
-    open-loop 1/(J_jj ω²)."""
-    J_jj = np.asarray(J_jj, dtype=np.float64)
-    w = np.asarray(omega, dtype=np.float64)
-    return 1.0 / (J_jj * np.abs(omega_n**2 - w**2 + 2j * zeta * omega_n * w))
+    open-loop 1/(J_jj ω²).
+
+    ``J_jj`` > 0 and ``omega`` broadcast together; ``omega_n``, ``zeta`` ≥ 0 are scalars. The
+    gain is infinite at an undamped resonance (ω = ω_n with ξ = 0, or ω = 0 open loop): that
+    raises ``ValueError`` instead of returning inf.
+    """
+    J = as_array(J_jj, "J_jj")
+    if J.size == 0 or np.any(J <= 0):
+        raise ValueError("J_jj: expected positive moments of inertia")
+    w = as_array(omega, "omega")
+    wn = as_scalar(omega_n, "omega_n")
+    if wn < 0:
+        raise ValueError(f"omega_n: must be >= 0, got {wn}")
+    z = as_scalar(zeta, "zeta")
+    if z < 0:
+        raise ValueError(f"zeta: must be >= 0, got {z}")
+    try:
+        np.broadcast_shapes(J.shape, w.shape)
+    except ValueError:
+        raise ValueError(
+            f"omega: shape {w.shape} does not broadcast with J_jj's shape {J.shape}"
+        ) from None
+    return _closed_loop_gain(J, w, wn, z)
+
+
+def _closed_loop_gain(J: np.ndarray, w: np.ndarray, wn: float, z: float) -> np.ndarray:
+    """:func:`closed_loop_gain` on validated arrays. |ω_n² − ω² + 2iξω_nω| is formed with
+    ``hypot`` of the real and imaginary parts (no complex arithmetic, no spurious overflow of
+    the square); a huge ω_n or ω gives the correct limit 0."""
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        den = J * np.hypot(wn * wn - w * w, 2.0 * z * wn * w)
+        gain = 1.0 / den
+    if not np.all(np.isfinite(gain)):
+        raise ValueError(
+            "zeta: the gain is infinite at an undamped resonance (ω = ω_n with ζ = 0); give ζ > 0"
+            if z == 0.0 and wn > 0.0
+            else "omega: the open-loop gain 1/(J ω²) is infinite at ω = 0"
+        )
+    return gain
 
 
 @dataclass(frozen=True)
@@ -424,8 +478,14 @@ def jitter_estimate(
     """
     Jm = check_inertia_3x3(J, "J")
     Jd = np.diag(Jm).copy()
-    omega_n = check_nonnegative(omega_n, "omega_n")
-    zeta = check_nonnegative(zeta, "zeta")
+    omega_n = as_scalar(omega_n, "omega_n")
+    if omega_n < 0:
+        raise ValueError(f"omega_n: must be >= 0, got {omega_n}")
+    zeta = as_scalar(zeta, "zeta")
+    if zeta < 0:
+        raise ValueError(f"zeta: must be >= 0, got {zeta}")
+    if omega_p is not None:
+        omega_p = check_positive_scalar(omega_p, "omega_p")
     if isinstance(source, RotatingPayload):
         source = [source]
     if isinstance(source, (list, tuple)) and source and isinstance(source[0], RotatingPayload):
@@ -448,10 +508,10 @@ def jitter_estimate(
             raise ValueError(f"source: expected torque amplitudes of shape (3,), got {Tw.shape}")
         if omega_p is None:
             raise ValueError("omega_p: required when source is a torque amplitude")
-        freqs = np.array([check_positive(omega_p, "omega_p")])
+        freqs = np.array([omega_p])
         Tw = np.abs(Tw)[None, :]
-    gain = closed_loop_gain(Jd[None, :], freqs[:, None], omega_n, zeta)
-    gain_ol = closed_loop_gain(Jd[None, :], freqs[:, None], 0.0, 0.0)
+    gain = _closed_loop_gain(Jd[None, :], freqs[:, None], omega_n, zeta)
+    gain_ol = _closed_loop_gain(Jd[None, :], freqs[:, None], 0.0, 0.0)
     att = Tw * gain
     att_ol = Tw * gain_ol
     return JitterEstimate(

@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from liecontrol._validation import as_array, check_rotation_matrix
+from liecontrol._validation import as_array, as_int, check_rotation_matrix
 from liecontrol.integrators.rk import rkmk4_step, rkmk4_step_floats, rkmk4_step_unchecked
 
 from .actuators import Actuator
@@ -63,6 +63,31 @@ class PlantState:
     x_act: np.ndarray
     q: np.ndarray | None = None
     q_dot: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        # structure only (finite real arrays, consistent batch): whether R is a rotation and
+        # x_act/q fit a plant is checked by Spacecraft.check_state, which knows the plant
+        R = as_array(self.R, "R")
+        if R.ndim != 3 or R.shape[1:] != (3, 3):
+            raise ValueError(f"R: expected shape (B, 3, 3), got {R.shape}")
+        B = R.shape[0]
+        w = as_array(self.omega, "omega")
+        if w.shape != (B, 3):
+            raise ValueError(f"omega: expected shape {(B, 3)}, got {w.shape}")
+        xa = as_array(self.x_act, "x_act")
+        if xa.ndim != 2 or xa.shape[0] != B:
+            raise ValueError(f"x_act: expected shape ({B}, n_states), got {xa.shape}")
+        object.__setattr__(self, "R", R)
+        object.__setattr__(self, "omega", w)
+        object.__setattr__(self, "x_act", xa)
+        for name in ("q", "q_dot"):
+            v = getattr(self, name)
+            if v is None:
+                continue
+            a = as_array(v, name)
+            if a.ndim != 2 or a.shape[0] != B:
+                raise ValueError(f"{name}: expected shape ({B}, n_modes), got {a.shape}")
+            object.__setattr__(self, name, a)
 
     @property
     def batch_size(self) -> int:
@@ -227,7 +252,7 @@ class Spacecraft:
         arrays = (w0, xa, modal["q0"], modal["q_dot0"])
         sizes |= {a.shape[0] for a in arrays if a is not None and a.ndim == 2}
         if batch is not None:
-            sizes.add(int(batch))
+            sizes.add(as_int(batch, "batch", 1))
         if len(sizes) > 1:
             raise ValueError(
                 f"R0: batch sizes of R0/omega0/x_act0/q0/q_dot0/batch disagree: {sorted(sizes)}"
@@ -351,7 +376,7 @@ class Spacecraft:
             tau = tau + self.disturbance(t, R, omega)
         x_dot = np.empty(x.shape)
         if modes is None:
-            x_dot[:, :3] = self.body.angular_acceleration(omega, tau)
+            x_dot[:, :3] = self.body.angular_acceleration_unchecked(omega, tau)
         else:
             _, q_sl, qd_sl = self._slices
             q_dot = x[:, qd_sl]

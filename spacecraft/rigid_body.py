@@ -16,7 +16,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from liecontrol._validation import as_array, check_inertia, check_nonnegative, check_positive
+from liecontrol._validation import (
+    as_array,
+    as_int,
+    check_inertia,
+    check_nonnegative,
+    check_positive,
+)
 from liecontrol.lie import so3
 
 __all__ = ["RigidBody", "perturbed_inertia"]
@@ -165,9 +171,36 @@ class RigidBody:
         Returns:
             ``(..., 3)`` body angular acceleration [rad/s²].
 
-        No input validation: this is the integrator's hot path; :class:`spacecraft.plant.
-        Spacecraft` validates once at the boundary (including that its batch is ``B``).
+        Validates (finite real arrays ``(..., 3)`` broadcasting together, a finite result) and
+        calls :meth:`angular_acceleration_unchecked`, the integrator's hot path.
         """
+        w = as_array(omega, "omega", (3,))
+        tau = as_array(torque, "torque", (3,))
+        try:
+            np.broadcast_shapes(w.shape, tau.shape)
+        except ValueError:
+            raise ValueError(
+                f"torque: shape {tau.shape} does not broadcast with omega's {w.shape}"
+            ) from None
+        if self._J_cols is not None and (w.ndim < 2 or w.shape[-2] != self.J.shape[0]):
+            raise ValueError(
+                f"omega: expected shape (..., {self.J.shape[0]}, 3) for per-spacecraft "
+                f"inertias J {self.J.shape}, got {w.shape}"
+            )
+        with np.errstate(over="ignore", invalid="ignore"):
+            out = self.angular_acceleration_unchecked(w, tau)
+        if not np.all(np.isfinite(out)):
+            raise ValueError(
+                "omega: the gyroscopic term ω × Jω overflows float64 (|ω| too large)"
+                if float(np.abs(w).max()) >= float(np.abs(tau).max(initial=0.0))
+                else "torque: J⁻¹τ overflows float64 (|torque| too large)"
+            )
+        return out
+
+    def angular_acceleration_unchecked(self, omega: np.ndarray, torque: np.ndarray) -> np.ndarray:
+        """:meth:`angular_acceleration` without validation (the integrator's hot path):
+        float64 ``omega``, ``torque`` of matching shapes; :class:`spacecraft.plant.Spacecraft`
+        validates once at the boundary (including that its batch is ``B``)."""
         if omega.shape == (1, 3) and torque.shape == (1, 3) and self._J_rows is not None:
             return self._angular_acceleration_one(omega, torque)
         cols = self._J_cols
@@ -240,7 +273,11 @@ class RigidBody:
     def kinetic_energy(self, omega: np.ndarray) -> np.ndarray:
         """Rotational kinetic energy of the bus ``½ ωᵀ J ω`` [J], shape ``(...)``."""
         omega = as_array(omega, "omega", (3,))
-        return 0.5 * np.einsum("...i,...i->...", self.inertia_times(omega), omega)
+        with np.errstate(over="ignore", invalid="ignore"):
+            E = 0.5 * np.einsum("...i,...i->...", self.inertia_times(omega), omega)
+        if not np.all(np.isfinite(E)):
+            raise ValueError("omega: the kinetic energy ½ωᵀJω overflows float64 (|ω| too large)")
+        return E
 
 
 # -- parameter uncertainty (SPEC §5.4) -------------------------------------------------------------
@@ -308,11 +345,10 @@ def perturbed_inertia(
             raise ValueError(f"{name}: expected a scalar, got shape {np.shape(v)}")
     if scale_std >= 1.0:
         raise ValueError(f"scale_std: must be < 1 (a relative error), got {scale_std}")
-    if size is not None and (isinstance(size, bool) or int(size) != size or size < 1):
-        raise ValueError(f"size: must be None or a positive integer, got {size!r}")
-    if isinstance(max_tries, bool) or int(max_tries) != max_tries or max_tries < 1:
-        raise ValueError(f"max_tries: must be a positive integer, got {max_tries!r}")
-    n = 1 if size is None else int(size)
+    if size is not None:
+        size = as_int(size, "size", 1)
+    max_tries = as_int(max_tries, "max_tries", 1)
+    n = 1 if size is None else size
     lam, Q = np.linalg.eigh(0.5 * (J + J.T))
     factors = 1.0 + scale_std * rng.standard_normal((n, 3))
     bad = ~_physical(lam * factors)

@@ -40,7 +40,6 @@ controller absorbs the difference.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -48,31 +47,29 @@ import numpy as np
 
 from liecontrol._linalg import cross as _cross
 from liecontrol._linalg import matvec as _mv
-from liecontrol._validation import as_array, check_inertia_3x3, check_nonnegative, check_positive
+from liecontrol._validation import (
+    as_array,
+    as_int,
+    as_scalar,
+    check_inertia_3x3,
+    check_positive,
+    check_positive_scalar,
+)
 from liecontrol.control.se3_control import (
     PoseController,
     PoseReference,
     PoseState,
-    coriolis_wrench,
+    coriolis_wrench_unchecked,
 )
+from liecontrol.integrators.lgvi import LGVIConvergenceError
 from liecontrol.integrators.lgvi_se3 import SE3RigidBodyLGVI
 from liecontrol.integrators.rkmk_se3 import rkmk4_se3_step_unchecked
 from liecontrol.lie import se3, so3
 
 from .orbit import MU_EARTH, R_EARTH, CircularOrbit, gravity_potential, j2_acceleration
 
-try:  # the attitude simulator's exception, so callers catch one type for both loops
-    from .simulator import SimulationDiverged
-except ImportError:  # pragma: no cover - the simulator module is owned elsewhere
-
-    class SimulationDiverged(RuntimeError):  # type: ignore[no-redef]
-        """The state became non-finite; ``.time`` and ``.result`` (partial log)."""
-
-        def __init__(self, message: str, time: float, result: object) -> None:
-            super().__init__(message)
-            self.time = time
-            self.result = result
-
+# the attitude simulator's exception (callers catch one type for both loops) and horizon rule
+from .simulator import SimulationDiverged, _horizon_steps
 
 __all__ = [
     "SE3Plant",
@@ -93,10 +90,49 @@ _PERIOD_RTOL = 1e-9
 Disturbance = Callable[[float, np.ndarray, np.ndarray], np.ndarray]
 
 
-
 def _mtv(A: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.einsum("...ji,...j->...i", A, b)
 
+
+def _check_gravity_args(
+    R: object,
+    p: object,
+    m: object,
+    J: object,
+    mu: object,
+    J2: object,
+    R_e: object,
+    gravity_gradient: object,
+) -> tuple:
+    """The arguments of :func:`full_body_gravity`/:func:`full_body_potential`, validated."""
+    R = so3.validate(R, "R")
+    p = as_array(p, "p", (3,))
+    if np.any(np.all(p == 0.0, axis=-1)):
+        raise ValueError("p: zero position vector (gravity is singular at the centre)")
+    try:
+        np.broadcast_shapes(R.shape[:-2], p.shape[:-1])
+    except ValueError:
+        raise ValueError(
+            f"p: batch shape {p.shape[:-1]} does not broadcast with R's {R.shape[:-2]}"
+        ) from None
+    m = check_positive_scalar(m, "m")
+    J = check_inertia_3x3(J, "J")
+    mu = check_positive_scalar(mu, "mu")
+    J2 = as_scalar(J2, "J2")
+    R_e = check_positive_scalar(R_e, "R_e")
+    if not isinstance(gravity_gradient, (bool, np.bool_)):
+        raise TypeError(f"gravity_gradient: expected True or False, got {gravity_gradient!r}")
+    return R, p, m, J, mu, J2, R_e, bool(gravity_gradient)
+
+
+def _finite_gravity(out: np.ndarray, what: str, m: float, J: np.ndarray, mu: float) -> None:
+    """Raise naming the argument that made a gravity result overflow (finite inputs)."""
+    if np.all(np.isfinite(out)):
+        return
+    for name, v in (("m", m), ("J", float(np.abs(J).max())), ("mu", mu)):
+        if v > 1e100:
+            raise ValueError(f"{name}: too large, the {what} overflows float64 ({name} = {v:.3g})")
+    raise ValueError(f"p: the {what} overflows float64 (|p| too large or too small)")
 
 
 def full_body_gravity(
@@ -110,7 +146,28 @@ def full_body_gravity(
     gravity_gradient: bool = True,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Gravity on a rigid body: inertial force f_g ``(..., 3)`` [N] and body torque τ_g
-    ``(..., 3)`` [N·m] (module docstring). ``R`` ``(..., 3, 3)``, ``p`` ``(..., 3)`` inertial."""
+    ``(..., 3)`` [N·m] (module docstring). ``R`` ``(..., 3, 3)`` rotations, ``p`` ``(..., 3)``
+    inertial positions (not 0), ``m`` > 0, ``J`` an inertia, ``mu`` > 0, ``R_e`` > 0 — all
+    validated; a result that overflows float64 raises ``ValueError``."""
+    args = _check_gravity_args(R, p, m, J, mu, J2, R_e, gravity_gradient)
+    with np.errstate(over="ignore", invalid="ignore"):
+        f, tau = _full_body_gravity(*args)
+    _finite_gravity(f, "gravity force", args[2], args[3], args[4])
+    _finite_gravity(tau, "gravity torque", args[2], args[3], args[4])
+    return f, tau
+
+
+def _full_body_gravity(
+    R: np.ndarray,
+    p: np.ndarray,
+    m: float,
+    J: np.ndarray,
+    mu: float = MU_EARTH,
+    J2: float = 0.0,
+    R_e: float = R_EARTH,
+    gravity_gradient: bool = True,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`full_body_gravity` without validation (the plant's hot path)."""
     p = np.asarray(p, dtype=np.float64)
     r = np.sqrt(np.sum(p * p, axis=-1))[..., None]
     if np.any(r <= 0.0):
@@ -142,8 +199,26 @@ def full_body_potential(
     R_e: float = R_EARTH,
     gravity_gradient: bool = True,
 ) -> np.ndarray:
-    """Potential energy U(p, R) [J] of :func:`full_body_gravity`'s field, ``(...)``."""
-    p = as_array(p, "p", (3,))
+    """Potential energy U(p, R) [J] of :func:`full_body_gravity`'s field, ``(...)``
+    (arguments validated as there)."""
+    args = _check_gravity_args(R, p, m, J, mu, J2, R_e, gravity_gradient)
+    with np.errstate(over="ignore", invalid="ignore"):
+        U = _full_body_potential(*args)
+    _finite_gravity(U, "potential", args[2], args[3], args[4])
+    return U
+
+
+def _full_body_potential(
+    R: np.ndarray,
+    p: np.ndarray,
+    m: float,
+    J: np.ndarray,
+    mu: float = MU_EARTH,
+    J2: float = 0.0,
+    R_e: float = R_EARTH,
+    gravity_gradient: bool = True,
+) -> np.ndarray:
+    """:func:`full_body_potential` on validated arguments."""
     U = m * gravity_potential(p, mu, J2, R_e)
     if not gravity_gradient:
         return U
@@ -220,14 +295,17 @@ class SE3Plant:
         m = as_array(self.m, "m")
         if m.ndim != 0:
             raise ValueError(f"m: must be a scalar, got shape {m.shape}")
-        object.__setattr__(self, "m", float(check_positive(m, "m")))
+        object.__setattr__(self, "m", check_positive_scalar(m, "m"))
         J = check_inertia_3x3(self.J, "J")
         J = J.copy()
         J.setflags(write=False)
         object.__setattr__(self, "J", J)
-        object.__setattr__(self, "mu", float(check_positive(self.mu, "mu")))
-        object.__setattr__(self, "J2", float(check_nonnegative(self.J2, "J2")))
-        object.__setattr__(self, "R_e", float(check_positive(self.R_e, "R_e")))
+        object.__setattr__(self, "mu", check_positive_scalar(self.mu, "mu"))
+        J2 = as_scalar(self.J2, "J2")
+        if J2 < 0:
+            raise ValueError(f"J2: must be >= 0, got {J2}")
+        object.__setattr__(self, "J2", J2)
+        object.__setattr__(self, "R_e", check_positive_scalar(self.R_e, "R_e"))
         if not isinstance(self.gravity_gradient, bool):
             raise ValueError(f"gravity_gradient: must be a bool, got {self.gravity_gradient!r}")
         if self.method not in _METHODS:
@@ -243,15 +321,23 @@ class SE3Plant:
     # -- gravity -------------------------------------------------------------------------------
 
     def gravity_inertial(self, R: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(f_g inertial [N], τ_g body [N·m]), each ``(..., 3)``."""
-        return full_body_gravity(
+        """(f_g inertial [N], τ_g body [N·m]), each ``(..., 3)`` (unchecked: the plant's
+        hot path; :func:`full_body_gravity` is the validated form)."""
+        return _full_body_gravity(
             R, p, self.m, self.J, self.mu, self.J2, self.R_e, self.gravity_gradient
         )
 
     def gravity_wrench(self, g: np.ndarray) -> np.ndarray:
         """Gravity in body axes (τ_g, F_g = Rᵀ f_g), ``(..., 4, 4) -> (..., 6)``; usable as a
-        controller's ``gravity`` feed-forward."""
-        g = np.asarray(g, dtype=np.float64)
+        controller's ``gravity`` feed-forward. ``g`` is validated (rigid motions, p ≠ 0)."""
+        g = se3.validate(g, "g")
+        with np.errstate(over="ignore", invalid="ignore"):
+            out = self._gravity_wrench(g)
+        _finite_gravity(out, "gravity wrench", self.m, self.J, self.mu)
+        return out
+
+    def _gravity_wrench(self, g: np.ndarray) -> np.ndarray:
+        """:meth:`gravity_wrench` unchecked (the integrator's stages)."""
         R = g[..., :3, :3]
         f, tau = self.gravity_inertial(R, g[..., :3, 3])
         return np.concatenate((tau, _mtv(R, f)), axis=-1)
@@ -259,7 +345,7 @@ class SE3Plant:
     def potential_energy(self, g: np.ndarray) -> np.ndarray:
         """U(p, R) [J], ``(...)``."""
         g = se3.validate(g, "g")
-        return full_body_potential(
+        return _full_body_potential(
             g[..., :3, :3],
             g[..., :3, 3],
             self.m,
@@ -274,7 +360,10 @@ class SE3Plant:
         """Total energy ½ ωᵀJω + ½ m|v|² + U [J], ``(...)``."""
         xi = as_array(xi, "xi", (6,))
         w, v = xi[..., :3], xi[..., 3:]
-        kin = 0.5 * np.sum(w * (w @ self.J.T), -1) + 0.5 * self.m * np.sum(v * v, -1)
+        with np.errstate(over="ignore", invalid="ignore"):
+            kin = 0.5 * np.sum(w * (w @ self.J.T), -1) + 0.5 * self.m * np.sum(v * v, -1)
+        if not np.all(np.isfinite(kin)):
+            raise ValueError("xi: the kinetic energy overflows float64 (|ξ| too large)")
         return kin + self.potential_energy(g)
 
     def angular_momentum(self, g: np.ndarray, xi: np.ndarray) -> np.ndarray:
@@ -296,7 +385,7 @@ class SE3Plant:
 
     def xi_dot(self, t: float, g: np.ndarray, xi: np.ndarray, wrench: np.ndarray) -> np.ndarray:
         """ξ̇ = I⁻¹(ad_ξᵀIξ + u + w_g(g) + d) for an applied body wrench u ``(..., 6)``."""
-        total = coriolis_wrench(xi, self.m, self.J) + wrench + self.gravity_wrench(g)
+        total = coriolis_wrench_unchecked(xi, self.m, self.J) + wrench + self._gravity_wrench(g)
         d = self._disturbance(t, g, xi)
         if d is not None:
             total = total + d
@@ -334,14 +423,19 @@ class SE3Plant:
         )
         return g1, xi1
 
-    def check_state(self, g: object, xi: object) -> tuple[np.ndarray, np.ndarray]:
-        """Validate a batched state ``g (B, 4, 4)``, ``xi (B, 6)``."""
-        g = se3.validate(g, "g")
-        xi = as_array(xi, "xi", (6,))
-        if g.ndim != 3 or xi.shape != (g.shape[0], 6):
+    def check_state(
+        self, g: object, xi: object, names: tuple[str, str] = ("g", "xi")
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Validate a batched state ``g (B, 4, 4)``, ``xi (B, 6)``; ``names`` are the names
+        the messages use (the caller's argument names)."""
+        ng, nx = names
+        g = se3.validate(g, ng)
+        xi = as_array(xi, nx, (6,))
+        if g.ndim != 3:
+            raise ValueError(f"{ng}: expected shape (B, 4, 4), got {g.shape}")
+        if xi.shape != (g.shape[0], 6):
             raise ValueError(
-                f"xi: expected shape ({g.shape[0] if g.ndim == 3 else 'B'}, 6) "
-                f"with g (B, 4, 4), got g {g.shape}, xi {xi.shape}"
+                f"{nx}: expected shape ({g.shape[0]}, 6) with {ng} {g.shape}, got {xi.shape}"
             )
         return g, xi
 
@@ -354,7 +448,7 @@ class SE3Plant:
         u = as_array(wrench, "wrench", (6,))
         if u.shape != xi.shape:
             raise ValueError(f"wrench: expected shape {xi.shape}, got {u.shape}")
-        dt = float(check_positive(dt, "dt"))
+        dt = check_positive_scalar(dt, "dt")
         applied, _ = self.actuator.apply(u)
         return self._step(float(t), g, xi, applied, dt)
 
@@ -374,7 +468,7 @@ class OrbitingTarget:
 
     def pose(self, t: float) -> np.ndarray:
         """g_T(t) = (C(t), r_T(t)), ``(4, 4)``."""
-        t = float(as_array(t, "t", ()))
+        t = as_scalar(t, "t")
         return se3.from_rt(self.orbit.lvlh_attitude(t), self.orbit.position(t))
 
     @property
@@ -533,13 +627,17 @@ def simulate_pose(
     ``u = controller.command(t_k, PoseState(g, ξ), reference(t_k))``, and held (zero-order hold);
     the actuator limits it; the plant advances one step (``plant.method``). Every ``log_every``
     steps (and at the end) a row is logged: the state at ``t_k`` and the wrench applied from
-    ``t_k`` on. A non-finite state raises :class:`SimulationDiverged` with the partial log.
+    ``t_k`` on. A non-finite state, an arithmetic error or a non-converging implicit (LGVI) step
+    raises :class:`SimulationDiverged` with ``.time`` and the partial log ``.result`` (the last
+    finite state included), the original error chained as the cause.
 
     Args:
         plant: :class:`SE3Plant`; controller: a :class:`PoseController` (``reset(t0, B)`` first);
         reference: ``t -> PoseReference``; g0 ``(B, 4, 4)``, xi0 ``(B, 6)``: initial state;
-        t_final [s] > t0; dt [s] > 0; control_period: a positive integer multiple of ``dt``
-        (default ``dt``); log_every: positive integer; t0 [s].
+        t_final [s]: at least one step after ``t0``; not a multiple of ``dt`` → rounded up to
+        whole steps with a ``UserWarning`` (as :func:`spacecraft.simulator.simulate`);
+        dt [s] > 0; control_period: a positive integer multiple of ``dt`` (default ``dt``);
+        log_every: positive integer; t0 [s].
     """
     if not isinstance(plant, SE3Plant):
         raise ValueError(f"plant: expected SE3Plant, got {type(plant).__name__}")
@@ -547,27 +645,20 @@ def simulate_pose(
         raise ValueError(f"controller: expected a PoseController, got {type(controller).__name__}")
     if not callable(reference):
         raise ValueError("reference: must be callable as reference(t) -> PoseReference")
-    g, xi = plant.check_state(g0, xi0)
-    dt = check_positive(dt, "dt")
-    if not isinstance(dt, float):
-        raise ValueError("dt: must be a scalar")
-    t0 = float(as_array(t0, "t0", ()))
-    t_final = float(as_array(t_final, "t_final", ()))
-    if t_final <= t0:
-        raise ValueError(f"t_final: must be > t0 = {t0}, got {t_final}")
-    period = dt if control_period is None else check_positive(control_period, "control_period")
-    if not isinstance(period, float):
-        raise ValueError("control_period: must be a scalar")
+    g, xi = plant.check_state(g0, xi0, ("g0", "xi0"))
+    dt = check_positive_scalar(dt, "dt")
+    t0, t_final, n_steps = _horizon_steps(t0, t_final, dt)
+    period = (
+        dt if control_period is None else check_positive_scalar(control_period, "control_period")
+    )
     ratio = period / dt
     every = round(ratio)
     if every < 1 or abs(ratio - every) > _PERIOD_RTOL * ratio:
         raise ValueError(
             f"control_period: must be a positive integer multiple of dt = {dt!r}, got {period!r}"
         )
-    if isinstance(log_every, bool) or not isinstance(log_every, (int, np.integer)) or log_every < 1:
-        raise ValueError(f"log_every: must be a positive integer, got {log_every!r}")
+    log_every = as_int(log_every, "log_every", 1)
 
-    n_steps = max(1, math.ceil((t_final - t0) / dt - 1e-9))
     B = g.shape[0]
     K = n_steps // log_every + 1 + (1 if n_steps % log_every else 0)
     log = _PoseLog(K, B)
@@ -578,32 +669,44 @@ def simulate_pose(
         if k % every == 0 or k == n_steps:
             ref = reference(t)
             if k < n_steps or cmd is None:
-                cmd = np.asarray(controller.command(t, PoseState(g, xi), ref), dtype=np.float64)
+                # the integrator's own arrays: no re-validation at every control step
+                state = PoseState.unchecked(g, xi)
+                cmd = np.asarray(controller.command(t, state, ref), dtype=np.float64)
                 if cmd.shape != (B, 6):
                     raise ValueError(
                         f"controller: command returned shape {cmd.shape}, expected {(B, 6)}"
                     )
                 u, sat = plant.actuator.apply(cmd)
                 diag = controller.diagnostics()
-        if k % log_every == 0 or k == n_steps:
+        logged = k % log_every == 0 or k == n_steps
+        if logged:
             log.record(t, g, xi, ref, cmd, u, sat, diag)
         if k == n_steps:
             break
         if not np.isfinite(u).all():
+            if not logged:
+                log.record(t, g, xi, ref, cmd, u, sat, diag)  # keep the last finite state
             raise SimulationDiverged(
                 f"simulate_pose: non-finite wrench command at t = {t!r}", t, log.result(dt, period)
             )
+        failure: BaseException | None = None
         try:
-            g_new, xi_new = plant._step(t, g, xi, u, dt)
-        except (FloatingPointError, OverflowError, ArithmeticError) as exc:
+            with np.errstate(over="ignore", invalid="ignore"):
+                # a diverging state overflows inside the step: reported below, not warned
+                g_new, xi_new = plant._step(t, g, xi, u, dt)
+        except (ArithmeticError, ValueError, LGVIConvergenceError) as exc:
+            # overflow/domain errors in scalar math, or the implicit LGVI step failing to
+            # converge (h‖ω‖ too large): the run diverged at this step
+            failure = exc
+        if failure is not None or not (np.isfinite(g_new).all() and np.isfinite(xi_new).all()):
+            if not logged:
+                log.record(t, g, xi, ref, cmd, u, sat, diag)  # keep the last finite state
+            t_bad = t0 + (k + 1) * dt
+            why = "became non-finite" if failure is None else f"failed ({failure!r})"
             raise SimulationDiverged(
-                f"simulate_pose: arithmetic error at t = {t!r}", t, log.result(dt, period)
-            ) from exc
-        if not (np.isfinite(g_new).all() and np.isfinite(xi_new).all()):
-            raise SimulationDiverged(
-                f"simulate_pose: non-finite state at t = {t + dt!r}",
-                t + dt,
+                f"simulate_pose: state {why} at t = {t_bad:.6g} s (step {k + 1} of {n_steps})",
+                t_bad,
                 log.result(dt, period),
-            )
+            ) from failure
         g, xi = g_new, xi_new
     return log.result(dt, period)

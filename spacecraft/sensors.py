@@ -36,7 +36,12 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from liecontrol._validation import as_array, check_nonnegative, check_positive
+from liecontrol._validation import (
+    as_array,
+    as_scalar,
+    check_nonnegative,
+    check_positive_scalar,
+)
 from liecontrol.charts import euler, quaternion
 from liecontrol.lie import so3
 
@@ -87,8 +92,8 @@ def _format(R: np.ndarray, output: str, seq: str) -> np.ndarray:
 def _check_output(output: str, seq: str, allowed: tuple[str, ...]) -> None:
     if output not in allowed:
         raise ValueError(f"output: expected one of {allowed}, got {output!r}")
-    if output == "euler":
-        euler.to_matrix(np.zeros(3), seq)  # validates seq (raises ValueError naming it)
+    # seq is validated whatever the output form: a bad value is an error even when unused
+    euler.to_matrix(np.zeros(3), seq)  # raises ValueError naming seq
 
 
 def triad(b1: object, b2: object, r1: object, r2: object) -> np.ndarray:
@@ -150,7 +155,7 @@ class StarTracker:
     def __post_init__(self) -> None:
         object.__setattr__(self, "noise_std", _sigma3(self.noise_std, "noise_std"))
         _check_output(self.output, self.seq, _OUTPUTS)
-        object.__setattr__(self, "period", check_positive(self.period, "period"))
+        object.__setattr__(self, "period", check_positive_scalar(self.period, "period"))
         m = (
             np.zeros(3)
             if self.misalignment is None
@@ -178,8 +183,17 @@ class StarTracker:
         return R @ so3.exp(delta)
 
     def measure(self, t: float, R: object, omega: object, rng: np.random.Generator) -> np.ndarray:
-        """Measurement at sample time ``t`` in the configured ``output`` form."""
-        return _format(self.measure_matrix(R, rng), self.output, self.seq)
+        """Measurement at sample time ``t`` in the configured ``output`` form (``t`` and
+        ``omega`` ``(B, 3)`` are part of the sensor interface; a star tracker ignores them —
+        ``omega`` may be ``None`` — but a given value is checked so that a wrong call is not
+        silently accepted)."""
+        as_scalar(t, "t")
+        out = _format(self.measure_matrix(R, rng), self.output, self.seq)
+        if omega is not None:
+            w = as_array(omega, "omega", (3,))
+            if w.shape != out.shape[:1] + (3,):
+                raise ValueError(f"omega: expected shape {out.shape[:1] + (3,)}, got {w.shape}")
+        return out
 
 
 @dataclass(frozen=True)
@@ -217,7 +231,7 @@ class RateGyro:
         initial_bias_std: float | np.ndarray = 0.0,
         period: float = 0.25,
     ) -> None:
-        self.period = check_positive(period, "period")
+        self.period = check_positive_scalar(period, "period")
         if white_std is not None and noise_density is not None:
             raise ValueError("white_std: give either white_std or noise_density, not both")
         if noise_density is not None:
@@ -263,7 +277,7 @@ class RateGyro:
                 f"omega: expected shape ({state.bias.shape[0]}, 3) to match the gyro state, "
                 f"got {omega.shape} (call reset(batch_size))"
             )
-        t = float(as_array(t, "t", ()))
+        t = as_scalar(t, "t")
         bias = state.bias
         if state.t_last is not None:
             dt = t - state.t_last
@@ -335,7 +349,7 @@ class TwoVectorAttitude:
         check_nonnegative(sig, "noise_std")
         object.__setattr__(self, "_sig", np.broadcast_to(sig, (2,)).copy())
         _check_output(self.output, self.seq, _OUTPUTS)
-        object.__setattr__(self, "period", check_positive(self.period, "period"))
+        object.__setattr__(self, "period", check_positive_scalar(self.period, "period"))
 
     def references(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """Unit reference directions (inertial) at ``t``."""

@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from liecontrol._validation import as_array
+from liecontrol._validation import as_array, as_scalar
 
 __all__ = ["SgcmgPyramid", "adjugate_sym3", "det_sym3", "MEASURE_FLOOR"]
 
@@ -40,12 +40,8 @@ __all__ = ["SgcmgPyramid", "adjugate_sym3", "det_sym3", "MEASURE_FLOOR"]
 MEASURE_FLOOR = 1e-8
 
 
-def adjugate_sym3(M: np.ndarray) -> np.ndarray:
-    """Adjugate (transposed cofactor matrix) of symmetric 3×3 matrices ``(..., 3, 3)``.
-
-    Only the upper triangle of ``M`` is read. Finite for any finite input, including singular
-    ``M`` (where ``M adj(M) = det(M) I = 0``).
-    """
+def _adjugate_sym3(M: np.ndarray) -> np.ndarray:
+    """:func:`adjugate_sym3` without validation (hot path: ``M`` float64 ``(..., 3, 3)``)."""
     a, b, c = M[..., 0, 0], M[..., 0, 1], M[..., 0, 2]
     d, e, f = M[..., 1, 1], M[..., 1, 2], M[..., 2, 2]
     c00 = d * f - e * e
@@ -57,11 +53,44 @@ def adjugate_sym3(M: np.ndarray) -> np.ndarray:
     return np.stack([c00, c01, c02, c01, c11, c12, c02, c12, c22], axis=-1).reshape(M.shape)
 
 
-def det_sym3(M: np.ndarray, adj: np.ndarray | None = None) -> np.ndarray:
-    """Determinant of symmetric 3×3 matrices by cofactor expansion along the first row."""
+def _det_sym3(M: np.ndarray, adj: np.ndarray | None = None) -> np.ndarray:
+    """:func:`det_sym3` without validation (hot path)."""
     if adj is None:
-        adj = adjugate_sym3(M)
+        adj = _adjugate_sym3(M)
     return np.einsum("...j,...j->...", M[..., 0, :], adj[..., :, 0])
+
+
+def _check_sym3(M: object, name: str) -> np.ndarray:
+    return as_array(M, name, (3, 3))
+
+
+def _finite_or_raise(out: np.ndarray, name: str, what: str) -> np.ndarray:
+    if not np.all(np.isfinite(out)):
+        raise ValueError(f"{name}: entries too large, the {what} overflows float64")
+    return out
+
+
+def adjugate_sym3(M: object) -> np.ndarray:
+    """Adjugate (transposed cofactor matrix) of symmetric 3×3 matrices ``(..., 3, 3)``.
+
+    Only the upper triangle of ``M`` is read. Finite for any finite input whose 2×2 minors do
+    not overflow (|entries| ≲ 1e154), including singular ``M`` (where ``M adj(M) = det(M) I
+    = 0``); larger entries raise ``ValueError``.
+    """
+    m = _check_sym3(M, "M")
+    with np.errstate(over="ignore", invalid="ignore"):
+        return _finite_or_raise(_adjugate_sym3(m), "M", "adjugate")
+
+
+def det_sym3(M: object, adj: object | None = None) -> np.ndarray:
+    """Determinant of symmetric 3×3 matrices ``(..., 3, 3)`` by cofactor expansion along the
+    first row (``adj``: the adjugate of ``M``, if already known)."""
+    m = _check_sym3(M, "M")
+    a = None if adj is None else _check_sym3(adj, "adj")
+    if a is not None and a.shape != m.shape:
+        raise ValueError(f"adj: expected the shape of M {m.shape}, got {a.shape}")
+    with np.errstate(over="ignore", invalid="ignore"):
+        return _finite_or_raise(_det_sym3(m, a), "M", "determinant")
 
 
 @dataclass(frozen=True)
@@ -87,14 +116,7 @@ class SgcmgPyramid:
 
     def __post_init__(self) -> None:
         for name in ("h0", "beta", "gimbal_rate_limit"):
-            v = getattr(self, name)
-            try:
-                v = float(v)
-            except (TypeError, ValueError):
-                raise ValueError(f"{name}: must be a real number, got {v!r}") from None
-            if not np.isfinite(v):
-                raise ValueError(f"{name}: must be finite, got {v}")
-            object.__setattr__(self, name, v)
+            object.__setattr__(self, name, as_scalar(getattr(self, name), name))
         if self.h0 <= 0:
             raise ValueError(f"h0: must be > 0, got {self.h0}")
         if not 0.0 < self.beta < np.pi / 2:
@@ -148,7 +170,7 @@ class SgcmgPyramid:
         sn, cs = self._sincos(delta)
         Ahat = self._S * cs - self._C * sn
         M = Ahat @ np.swapaxes(Ahat, -1, -2)
-        return np.sqrt(np.maximum(det_sym3(M), 0.0))
+        return np.sqrt(np.maximum(_det_sym3(M), 0.0))
 
     def singularity_measure_and_gradient(self, delta: object) -> tuple[np.ndarray, np.ndarray]:
         """``(m, ∂m/∂δ)`` with shapes ``(...)`` and ``(..., 4)``; see the module docstring for

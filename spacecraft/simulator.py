@@ -30,6 +30,7 @@ from __future__ import annotations
 import copy
 import math
 import re
+import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -37,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from liecontrol._validation import check_positive
+from liecontrol._validation import as_int, as_scalar, check_positive_scalar
 from liecontrol.charts import euler
 from liecontrol.control.base import AttitudeController, AttitudeReference, AttitudeState
 from liecontrol.lie import so3
@@ -49,6 +50,9 @@ __all__ = ["SimulationDiverged", "SimulationResult", "StarTrackerGyro", "simulat
 
 #: relative tolerance on control_period / dt being an integer
 _PERIOD_RTOL = 1e-9
+
+#: longest run accepted: a longer horizon is a mistake (e.g. ``t_final`` in ms), not a plan
+_MAX_STEPS = 10**10
 
 _COLUMN_RE = re.compile(r"^(.*?)((?:\[\d+\])*)$")
 _NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
@@ -341,13 +345,13 @@ class _PerSpacecraft:
         for b, c in enumerate(self.controllers):
             s = slice(b, b + 1)
             act = state.actuator_state
-            st = AttitudeState(
+            st = AttitudeState.unchecked(  # slices of a state the caller built
                 R=state.R[s],
                 omega=state.omega[s],
                 h=None if state.h is None else state.h[s],
                 actuator_state=None if act is None else act[s],
             )
-            rf = AttitudeReference(
+            rf = AttitudeReference.unchecked(
                 R_d=ref.R_d[s] if np.ndim(ref.R_d) == 3 else ref.R_d,
                 omega_d=ref.omega_d[s] if np.ndim(ref.omega_d) == 2 else ref.omega_d,
                 omega_dot_d=ref.omega_dot_d[s]
@@ -398,8 +402,12 @@ class StarTrackerGyro:
 
     def __post_init__(self) -> None:
         for name in ("attitude", "rate"):
-            if not isinstance(getattr(self, name), str):
-                raise ValueError(f"{name}: expected a sensor name (str)")
+            v = getattr(self, name)
+            if not isinstance(v, str) or not _NAME_RE.match(v):
+                # the names key simulate()'s sensors mapping, whose keys are identifiers
+                raise ValueError(
+                    f"{name}: expected a sensor name (an identifier: letters, digits, _), got {v!r}"
+                )
         euler.to_matrix(np.zeros(3), self.seq)  # validates seq
 
     def required(self) -> tuple[str, ...]:
@@ -421,11 +429,20 @@ class StarTrackerGyro:
                 f"outputs: {self.attitude!r} has shape {y.shape}, not an attitude "
                 "(B, 3, 3) matrix, (B, 4) quaternion or (B, 3) Euler angles"
             )
-        return AttitudeState(
-            R=R,
-            omega=np.asarray(outputs[self.rate]),
-            h=truth.h,
-            actuator_state=truth.actuator_state,
+        omega = np.asarray(outputs[self.rate], dtype=np.float64)
+        if omega.shape != truth.omega.shape or R.shape != truth.R.shape:
+            raise ValueError(
+                f"outputs: {self.rate!r} {omega.shape} / {self.attitude!r} {R.shape} do not "
+                f"match the state's (B, 3) / (B, 3, 3) shapes {truth.omega.shape}, "
+                f"{truth.R.shape}"
+            )
+        # every control sample: the cheap checks (shapes above, finiteness here) instead of
+        # AttitudeState's full validation; R is a rotation by construction of the sensors'
+        # output forms (normalised quaternion, Euler angles, or R exp(δ^))
+        if not (_finite(omega) and _finite(R)):
+            raise ValueError(f"outputs: {self.attitude!r} or {self.rate!r} is not finite")
+        return AttitudeState.unchecked(
+            R=R, omega=omega, h=truth.h, actuator_state=truth.actuator_state
         )
 
 
@@ -467,6 +484,50 @@ def _unit_quaternion_to_matrix(q: np.ndarray) -> np.ndarray:
     R[..., 2, 1] = 2.0 * (y * z + w * x)
     R[..., 2, 2] = 1.0 - 2.0 * (x * x + y * y)
     return R
+
+
+def _horizon_steps(t0: object, t_final: object, dt: float) -> tuple[float, float, int]:
+    """Validate the horizon ``[t0, t_final]`` for a fixed step ``dt`` (already checked > 0) and
+    return ``(t0, t_final, n_steps)``.
+
+    Rules (shared by :func:`simulate` and :func:`spacecraft.se3_plant.simulate_pose`):
+
+    - a horizon shorter than one step is rejected: it would silently run (and log) to ``dt``,
+      an arbitrary multiple of what was asked;
+    - a horizon that is an integer multiple of ``dt`` (relative tolerance 1e-9, the rule of
+      ``control_period`` and the sensor periods) runs ``(t_final − t0)/dt`` steps and ends at
+      ``t_final`` exactly;
+    - otherwise the run is rounded up to ``ceil((t_final − t0)/dt)`` whole steps (a fixed-step
+      loop cannot stop between steps) and a ``UserWarning`` names the time it really ends at.
+      Rounding up rather than rejecting because physical horizons (one orbital period ``2π/n``)
+      are rarely multiples of the step; the overshoot is less than one step and is announced.
+    """
+    t0 = as_scalar(t0, "t0")
+    t_final = as_scalar(t_final, "t_final")
+    span = t_final - t0
+    if not span > 0.0:
+        raise ValueError(f"t_final: must be > t0 = {t0!r}, got {t_final!r}")
+    ratio = span / dt
+    if not math.isfinite(ratio) or ratio > _MAX_STEPS:
+        raise ValueError(
+            f"t_final: horizon t_final − t0 = {span!r} s is {ratio:.3g} steps of dt = {dt!r} s, "
+            f"more than the limit of {_MAX_STEPS:.0e}"
+        )
+    if ratio < 1.0 - _PERIOD_RTOL:
+        raise ValueError(
+            f"t_final: horizon t_final − t0 = {span!r} s is shorter than one step dt = {dt!r} s"
+        )
+    n = round(ratio)
+    if abs(ratio - n) > _PERIOD_RTOL * ratio:
+        n = math.ceil(ratio)
+        warnings.warn(
+            f"t_final: horizon t_final − t0 = {span!r} s is not an integer multiple of "
+            f"dt = {dt!r} s ({ratio!r} steps); the run takes {n} steps and ends at "
+            f"t = {t0 + n * dt!r} s (pass that t_final to silence this warning)",
+            UserWarning,
+            stacklevel=3,
+        )
+    return t0, t_final, n
 
 
 def _check_sensors(
@@ -534,7 +595,10 @@ def simulate(
             called first (controllers with ``batched = False`` are deep-copied per spacecraft).
         reference: callable ``t -> AttitudeReference`` (e.g. ``ConstantAttitude(R_d)``).
         initial_state: :class:`PlantState` of ``B`` spacecraft (``plant.initial_state(...)``).
-        t_final: final time [s]; the run takes ``ceil((t_final − t0)/dt)`` steps.
+        t_final: final time [s], at least one step after ``t0`` (a shorter horizon is
+            rejected). An integer multiple of ``dt`` (relative tolerance 1e-9) ends exactly at
+            ``t_final``; otherwise the run takes ``ceil((t_final − t0)/dt)`` steps and a
+            ``UserWarning`` gives the later end time.
         dt: integration step [s] > 0.
         control_period: controller sampling period [s], a positive integer multiple of ``dt``
             (relative tolerance 1e-9); default ``dt``. Zero-order hold in between.
@@ -566,18 +630,11 @@ def simulate(
     if not callable(reference):
         raise ValueError("reference: must be callable as reference(t) -> AttitudeReference")
     state = plant.check_state(initial_state, "initial_state")
-    dt = check_positive(dt, "dt")
-    if not isinstance(dt, float):
-        raise ValueError("dt: must be a scalar")
-    t0 = float(t0)
-    t_final = float(t_final)
-    if not math.isfinite(t_final) or t_final <= t0:
-        raise ValueError(f"t_final: must be finite and > t0 = {t0}, got {t_final}")
+    dt = check_positive_scalar(dt, "dt")
+    t0, t_final, n_steps = _horizon_steps(t0, t_final, dt)
     if control_period is None:
         control_period = dt
-    control_period = check_positive(control_period, "control_period")
-    if not isinstance(control_period, float):
-        raise ValueError("control_period: must be a scalar")
+    control_period = check_positive_scalar(control_period, "control_period")
     ratio = control_period / dt
     every_ctrl = round(ratio)
     if every_ctrl < 1 or abs(ratio - every_ctrl) > _PERIOD_RTOL * ratio:
@@ -585,9 +642,7 @@ def simulate(
             f"control_period: must be a positive integer multiple of dt = {dt!r}, "
             f"got {control_period!r} (ratio {ratio!r})"
         )
-    if isinstance(log_every, bool) or int(log_every) != log_every or log_every < 1:
-        raise ValueError(f"log_every: must be a positive integer, got {log_every!r}")
-    log_every = int(log_every)
+    log_every = as_int(log_every, "log_every", 1)
     sensor_list = _check_sensors(sensors, dt)
     if sensor_list and not isinstance(rng, np.random.Generator):
         raise ValueError(
@@ -604,10 +659,15 @@ def simulate(
             if need not in names:
                 raise ValueError(f"measurement: needs sensor {need!r}, sensors has {sorted(names)}")
 
-    n_steps = max(1, math.ceil((t_final - t0) / dt - 1e-9))
     B = state.batch_size
     K = n_steps // log_every + 1 + (1 if n_steps % log_every else 0)
-    log = _Log(K, B)
+    try:
+        log = _Log(K, B)
+    except (MemoryError, ValueError):
+        raise ValueError(
+            f"log_every: a log of {K} rows × {B} spacecraft does not fit in memory "
+            f"({n_steps} steps logged every {log_every}); log less often"
+        ) from None
 
     ctrl: Any = controller
     if not getattr(controller, "batched", True) and B > 1:
@@ -667,6 +727,9 @@ def simulate(
     x = state.packed()
     u_cmd = np.zeros((B, 3))
     step = plant.step_packed
+    # the state is validated once above and checked finite after every step, so the built-in
+    # actuators' unchecked command runs here (user actuators without one: their command)
+    act_command = getattr(actuator, "command_unchecked", actuator.command)
     try:
         for k in range(n_steps + 1):
             t = t0 + k * dt
@@ -676,7 +739,8 @@ def simulate(
             if k % every_ctrl == 0:
                 omega = x[:, :3]
                 h = actuator.momentum(x[:, a_sl])
-                st = AttitudeState(R=R, omega=omega, h=h, actuator_state=x[:, a_sl])
+                # the integrator's own arrays: no re-validation at every control step
+                st = AttitudeState.unchecked(R=R, omega=omega, h=h, actuator_state=x[:, a_sl])
                 if measurement is not None:
                     st = measurement(t, outputs, st)
                     seen = st
@@ -692,7 +756,7 @@ def simulate(
                         time=t,
                         result=log.result(dt, control_period, plant),
                     )
-            held = actuator.command(u_cmd, x[:, :3], x[:, a_sl], t)
+            held = act_command(u_cmd, x[:, :3], x[:, a_sl], t)
             logged = k % log_every == 0 or k == n_steps
             if logged:
                 record(t, R, x, held, u_cmd)

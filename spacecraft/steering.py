@@ -50,7 +50,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from liecontrol._validation import as_array
+from liecontrol._validation import as_array, as_scalar
 from spacecraft.sgcmg import SgcmgPyramid
 
 __all__ = [
@@ -331,8 +331,8 @@ def _check_jacobian(A: object) -> np.ndarray:
 
 
 def _check_eps(eps: float) -> float:
-    e = float(eps)
-    if not (np.isfinite(e) and 0.0 < e < 1.0):
+    e = as_scalar(eps, "eps")
+    if not 0.0 < e < 1.0:
         raise ValueError(f"eps: must lie in (0, 1), got {eps}")
     return e
 
@@ -345,7 +345,9 @@ def pseudo_inverse(A: object, eps: float = PINV_EPS) -> np.ndarray:
     """
     a = _check_jacobian(A)
     eps = _check_eps(eps)
-    return _apply_right_inverse(a, np.broadcast_to(np.eye(3), a.shape[:-2] + (3, 3)), 0.0, eps)
+    a, c = _rescaled(a)
+    out = _apply_right_inverse(a, np.broadcast_to(np.eye(3), a.shape[:-2] + (3, 3)), 0.0, eps)
+    return out if c is None else out / c
 
 
 def singularity_robust_inverse(A: object, lam: object, eps: float = PINV_EPS) -> np.ndarray:
@@ -358,11 +360,22 @@ def singularity_robust_inverse(A: object, lam: object, eps: float = PINV_EPS) ->
     a = _check_jacobian(A)
     eps = _check_eps(eps)
     lam = as_array(lam, "lam")
+    if lam.size == 0:
+        raise ValueError(f"lam: expected a scalar or a batch-shaped array, got shape {lam.shape}")
     if np.any(lam < 0):
         raise ValueError(f"lam: must be >= 0, got {lam.min()}")
-    batch = np.broadcast_shapes(a.shape[:-2], lam.shape)
+    try:
+        batch = np.broadcast_shapes(a.shape[:-2], lam.shape)
+    except ValueError:
+        raise ValueError(
+            f"lam: shape {lam.shape} does not broadcast with A's batch shape {a.shape[:-2]}"
+        ) from None
     a = np.broadcast_to(a, batch + a.shape[-2:])
-    return _apply_right_inverse(a, np.broadcast_to(np.eye(3), batch + (3, 3)), lam, eps)
+    a, c = _rescaled(a)
+    if c is not None:
+        lam = lam / (c[..., 0, 0] * c[..., 0, 0])  # Aᵀ(AAᵀ + λI)⁻¹ = Âᵀ(ÂÂᵀ + λ/c²)⁻¹ / c
+    out = _apply_right_inverse(a, np.broadcast_to(np.eye(3), batch + (3, 3)), lam, eps)
+    return out if c is None else out / c
 
 
 def jacobian_singularity_measure(A: object) -> np.ndarray:
@@ -371,7 +384,18 @@ def jacobian_singularity_measure(A: object) -> np.ndarray:
     For the SGCMG pyramid s = h₀, so this equals ``SgcmgPyramid.singularity_measure``.
     """
     a = _check_jacobian(A)
-    return _measure_and_scale(a)[0]
+    return _measure_and_scale(_rescaled(a)[0])[0]  # m is scale-invariant
+
+
+def _rescaled(a: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+    """``(a / c, c)`` with ``c = max |a|`` per matrix ``(..., 1, 1)`` when the Gram matrix
+    ``a aᵀ`` would overflow (entries beyond ~1e150), else ``(a, None)``: the inverses and the
+    singularity measure are then computed on the unit-scale matrix (exactly, up to rounding)."""
+    if a.size == 0 or float(np.abs(a).max()) < 1e150:
+        return a, None
+    c = np.abs(a).max(axis=(-2, -1), keepdims=True)
+    c = np.where(c > 0.0, c, 1.0)
+    return a / c, c
 
 
 def _measure_and_scale(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -409,11 +433,20 @@ def saturate_gimbal_rates(delta_dot: object, limit: object) -> tuple[np.ndarray,
     calls :func:`_saturate_unchecked` (the simulator's hot path).
     """
     dd = as_array(delta_dot, "delta_dot")
-    if dd.ndim < 1:
-        raise ValueError(f"delta_dot: expected shape (..., n), got {dd.shape}")
+    if dd.ndim < 1 or dd.shape[-1] == 0:
+        raise ValueError(f"delta_dot: expected shape (..., n) with n >= 1, got {dd.shape}")
     lim = as_array(limit, "limit")
-    if np.any(lim <= 0):
-        raise ValueError(f"limit: must be > 0, got {lim.min()}")
+    if lim.size == 0 or np.any(lim <= 0):
+        raise ValueError(f"limit: must be > 0, got {lim.min() if lim.size else 'an empty array'}")
+    try:
+        ok = np.broadcast_shapes(dd.shape[:-1], lim.shape) == dd.shape[:-1]
+    except ValueError:
+        ok = False
+    if not ok:
+        raise ValueError(
+            f"limit: shape {lim.shape} does not broadcast with delta_dot's batch shape "
+            f"{dd.shape[:-1]}"
+        ) from None
     return _saturate_unchecked(dd, float(lim) if lim.ndim == 0 else lim)
 
 
@@ -457,12 +490,38 @@ def _check_inputs(A: object, hdot_cmd: object) -> tuple[np.ndarray, np.ndarray]:
     return a, h
 
 
+def _check_optional(a: np.ndarray, delta: object, cluster: object) -> np.ndarray | None:
+    """Validate the optional ``delta`` (gimbal angles ``(..., n)`` matching ``A``) and
+    ``cluster`` arguments of a law's public call; laws that ignore them still reject junk."""
+    if cluster is not None and not isinstance(cluster, SgcmgPyramid):
+        raise ValueError(f"cluster: expected an SgcmgPyramid, got {type(cluster).__name__}")
+    if delta is None:
+        return None
+    d = as_array(delta, "delta")
+    if d.shape != a.shape[:-2] + a.shape[-1:]:
+        raise ValueError(
+            f"delta: shape {d.shape} does not match A's {a.shape} (expected "
+            f"{a.shape[:-2] + a.shape[-1:]})"
+        )
+    return d
+
+
+def _finite_rates(out: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """``out`` if finite; else raise naming ``hdot_cmd`` (finite inputs, non-finite rates:
+    |ḣ_cmd|/h₀ overflowed float64 inside the solve)."""
+    if not np.all(np.isfinite(out)):
+        raise ValueError(
+            f"hdot_cmd: the gimbal rates overflow float64 (max |hdot_cmd| = "
+            f"{float(np.abs(h).max()):.3g}; the rates scale like |hdot_cmd|/h0)"
+            if h.size and float(np.abs(h).max()) > 1e150
+            else "A: entries too large or too small, the gimbal rates overflow float64"
+        )
+    return out
+
+
 def _check_float(v: object, name: str, lo: float = 0.0, hi: float = np.inf) -> float:
-    try:
-        x = float(v)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: must be a real number, got {v!r}") from None
-    if not (np.isfinite(x) and lo <= x < hi):
+    x = as_scalar(v, name)  # a finite real scalar, else a message naming the argument
+    if not lo <= x < hi:
         raise ValueError(f"{name}: must be finite and in [{lo}, {hi}), got {v!r}")
     return x
 
@@ -484,7 +543,12 @@ class SteeringLaw(abc.ABC):
     ) -> np.ndarray:
         """Gimbal rates δ̇ ``(..., n)`` [rad/s] realising ḣ_cmd as closely as the law allows."""
         a, h = _check_inputs(A, hdot_cmd)
-        return self.steer(a, h, delta, float(t), cluster)
+        _check_optional(a, delta, cluster)
+        # PI, SR and GSR are homogeneous of degree −1 in A (their damping scales with s² ∝ c²),
+        # so a huge A is solved at unit scale and the rates divided by its scale c
+        a, c = _rescaled(a)
+        out = self.steer(a, h, delta, as_scalar(t, "t"), cluster)
+        return _finite_rates(out if c is None else out / c[..., 0], h)
 
     @abc.abstractmethod
     def steer(
@@ -554,15 +618,14 @@ class PseudoInverseNullMotion(SteeringLaw):
     eps: float = PINV_EPS
 
     def __post_init__(self) -> None:
-        k = float(self.k)
-        if not np.isfinite(k) or k < 0:
-            raise ValueError(f"k: must be finite and >= 0, got {self.k}")
-        object.__setattr__(self, "k", k)
+        object.__setattr__(self, "k", _check_float(self.k, "k"))
         object.__setattr__(self, "eps", _check_eps(self.eps))
         if self.cluster is not None and not isinstance(self.cluster, SgcmgPyramid):
             raise ValueError(f"cluster: expected an SgcmgPyramid, got {type(self.cluster)}")
 
     def __call__(self, A, hdot_cmd, delta=None, t=0.0, cluster=None) -> np.ndarray:
+        if cluster is not None and not isinstance(cluster, SgcmgPyramid):
+            raise ValueError(f"cluster: expected an SgcmgPyramid, got {type(cluster).__name__}")
         cl = cluster if cluster is not None else self.cluster
         if cl is None:
             raise ValueError("cluster: PseudoInverseNullMotion needs the SgcmgPyramid")
@@ -577,7 +640,7 @@ class PseudoInverseNullMotion(SteeringLaw):
                 f"delta: shape {np.shape(delta)} does not match A's {a.shape} (expected "
                 f"{a.shape[:-2] + a.shape[-1:]})"
             )
-        return self.steer(a, h, d, float(t), cl)
+        return _finite_rates(self.steer(a, h, d, as_scalar(t, "t"), cl), h)
 
     def steer(self, A, hdot_cmd, delta=None, t=0.0, cluster=None) -> np.ndarray:
         cl = cluster if cluster is not None else self.cluster
@@ -620,10 +683,7 @@ class SingularityRobust(SteeringLaw):
 
     def __post_init__(self) -> None:
         for name in ("lambda0", "mu"):
-            v = float(getattr(self, name))
-            if not np.isfinite(v) or v < 0:
-                raise ValueError(f"{name}: must be finite and >= 0, got {getattr(self, name)}")
-            object.__setattr__(self, name, v)
+            object.__setattr__(self, name, _check_float(getattr(self, name), name))
 
     def _lam(self, m2: float, s2: float) -> float:
         return self.lambda0 * math.exp(-self.mu * m2) * s2
@@ -686,8 +746,8 @@ class GeneralizedSingularityRobust(SteeringLaw):
         object.__setattr__(
             self, "omega_eps", _check_float(self.omega_eps, "omega_eps", -np.inf, np.inf)
         )
-        ph = np.asarray(self.phases, dtype=np.float64) if _is_real_seq(self.phases) else None
-        if ph is None or ph.shape != (3,) or not np.all(np.isfinite(ph)):
+        ph = as_array(self.phases, "phases")  # real and finite (complex/text rejected)
+        if ph.shape != (3,):
             raise ValueError(f"phases: expected 3 finite angles [rad], got {self.phases!r}")
         object.__setattr__(self, "phases", tuple(ph.tolist()))
 
@@ -717,11 +777,3 @@ class GeneralizedSingularityRobust(SteeringLaw):
     def steer_floats(self, rows, hdot_cmd, delta=None, t=0.0, cluster=None):
         e1, e2, e3 = self.dither(t)
         return _steer_rows(rows, hdot_cmd, self._lam, PINV_EPS, (e3, e2, e1))
-
-
-def _is_real_seq(x: object) -> bool:
-    try:
-        np.asarray(x, dtype=np.float64)
-    except (TypeError, ValueError):
-        return False
-    return True

@@ -31,7 +31,7 @@ from benchmarks.runner import (
     run_suite,
     sampled_for,
 )
-from benchmarks.scenarios import QUICK_SUITE, SEED000_SPACECRAFT, rest_to_rest
+from benchmarks.scenarios import QUICK_SUITE, SEED000_SPACECRAFT, get_scenario, rest_to_rest
 from liecontrol.control import AttitudeController, AttitudeState, ConstantAttitude
 
 
@@ -51,14 +51,17 @@ def test_run_quick_suite_end_to_end(tmp_path, capsys):
     assert code == 0
     assert "report:" in capsys.readouterr().out
     md = (out / "report.md").read_text(encoding="utf-8")
-    assert "| controller | stabilisation | slew-90 | slew-179 | proximity-approach |" in md
+    assert (
+        "| controller | stabilisation | slew-90 | slew-179 | step-5 | fast-slew-rate-limited "
+        "| proximity-approach |" in md
+    )
     quick = quick_controllers()
     assert len(quick) >= 3 and "geometric-pd-log" in quick
     for c in quick:
         assert f"| `{c}` |" in md
     # a 4 s run cannot settle a 90° slew; the stabilisation has no unwinding ratio
     assert "not settled" in md and "n/a" in md and "FAILED" not in md
-    n = 4 * len(quick)  # every pair has a row; SE(3) vs attitude mismatches say "n/a"
+    n = len(QUICK_SUITE) * len(quick)  # every pair has a row; SE(3) vs attitude: "n/a"
     with open(out / "metrics.csv", newline="", encoding="utf-8") as f:
         rows = list(csv.DictReader(f))
     assert len(rows) == n
@@ -78,6 +81,12 @@ def test_run_quick_suite_end_to_end(tmp_path, capsys):
     assert slew["initial_error_deg"] == pytest.approx(179.0, abs=1e-9)
     assert slew["settling_time_s"] is None  # NaN → null in strict JSON
     assert doc["units"]["settling_time_s"] == "s"
+    # every metric has a unit (SE(3) ones included) and every run a verdict
+    assert all(doc["units"].values()), doc["units"]
+    assert doc["units"]["final_position_error_m"] == "m"
+    assert {r["verdict"] for r in doc["results"]} <= {
+        "success", "degraded", "failed", "error", "not-applicable"
+    }  # fmt: skip
     for s in ("stabilisation", "slew-90", "slew-179", "overview"):
         png = out / "figures" / f"{s}.png"
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
@@ -88,7 +97,7 @@ def test_horizon_scale_controller_subset_and_scenario_file(tmp_path):
     out = tmp_path / "r"
     f = tmp_path / "mine.toml"
     f.write_text(
-        '[[scenario]]\nname = "mine"\nduration = 2.0\n[scenario.initial]\nangle_deg = 40\n',
+        '[[scenario]]\nname = "mine"\nduration = 20.0\n[scenario.initial]\nangle_deg = 40\n',
         encoding="utf-8",
     )
     args = ["run", "--out", str(out), "--no-progress", "--no-figures", "--jobs", "1"]
@@ -105,7 +114,8 @@ def test_horizon_scale_controller_subset_and_scenario_file(tmp_path):
         "proximity-approach",
         "mine",
     ]
-    assert [s["duration"] for s in doc["scenarios"]] == [3.0, 3.0, 3.0, 2.0, 0.01]
+    # 20 s × 0.005 = one step of dt = 0.1 s (a horizon shorter than a step is an error)
+    assert [s["duration"] for s in doc["scenarios"]] == [3.0, 3.0, 3.0, 2.0, 0.1]
     assert {r["controller"] for r in doc["results"]} == {"geometric-pd-log", "mrp-pd"}
     assert not (out / "figures").exists()
     # a file alone runs only its scenarios
@@ -162,13 +172,17 @@ def test_reproduce_dispatches_to_module_main(tmp_path, monkeypatch):
         calls.append((out_dir, quick))
         return 0 if quick else 1
 
-    mod = types.ModuleType("benchmarks.reproductions.fake_seed")
+    from benchmarks import reproductions
+
+    mod = types.ModuleType("benchmarks.reproductions.fake_paper")
     mod.main = fake_main
-    monkeypatch.setitem(__import__("sys").modules, "benchmarks.reproductions.fake_seed", mod)
-    monkeypatch.setattr(cli, "available_reproductions", lambda: ["fake_seed"])
+    mod.CITATION = "Doe & Roe, “A fake paper”, Nowhere 1(1), 2000."
+    mod.SUMMARY = "a fake reproduction"
+    monkeypatch.setitem(__import__("sys").modules, "benchmarks.reproductions.fake_paper", mod)
+    monkeypatch.setitem(reproductions.REPRODUCTIONS, "fake-paper", "fake_paper")
     out = tmp_path / "rep"
-    assert cli.main(["reproduce", "fake_seed", "--out", str(out), "--quick"]) == 0
-    assert cli.main(["reproduce", "fake_seed", "--out", str(out)]) == 1
+    assert cli.main(["reproduce", "fake-paper", "--out", str(out), "--quick"]) == 0
+    assert cli.main(["reproduce", "fake-paper", "--out", str(out)]) == 1
     assert calls == [(out, True), (out, False)] and out.is_dir()
 
 
@@ -186,7 +200,8 @@ class _Exploding(AttitudeController):
 def test_failures_are_recorded_not_fatal(tmp_path):
     register("exploding", lambda ctx: _Exploding(), description="explodes", batched=False)
     try:
-        scenarios = [s.with_duration(2.0) for s in QUICK_SUITE[1:]]
+        picked = ("slew-90", "slew-179", "proximity-approach")
+        scenarios = [s.with_duration(2.0) for s in QUICK_SUITE if s.name in picked]
         res = run_suite(scenarios, ["exploding", "geometric-pd-log"], jobs=2, progress=False)
     finally:
         unregister("exploding")
@@ -200,16 +215,61 @@ def test_failures_are_recorded_not_fatal(tmp_path):
 
 
 def test_batched_group_matches_single_runs():
-    sc = [s.with_duration(3.0) for s in QUICK_SUITE[1:]]
+    """A pair's result does not depend on which batch it runs in.
+
+    Cause of the earlier flakiness: numpy evaluates a one-row product ``(1, k) @ (k, n)`` with
+    a different BLAS kernel (a matrix-vector one) than a product with two or more rows, whose
+    rows are bitwise the same whatever the batch size or position (measured with numpy 2.4 and
+    OpenBLAS on x86-64 for 2–16 rows). The SGCMG actuator's momentum and gimbal-rate products
+    are such products, so a batch of one differs from a batch of several by round-off at every
+    step, and a closed loop started 179° from the target can amplify that; the old test
+    compared the two at a fixed 1e-12.
+
+    1. **Bitwise, by construction:** the group of six (three controllers × two scenarios) and
+       the large-angle controller alone on the same two scenarios (a batch of two) run the
+       same per-spacecraft arithmetic, so they must agree exactly.
+    2. **Batch of one, at a tolerance derived from the condition of the case:** the condition
+       number κ of each compared quantity (relative change over relative change of the initial
+       attitude) is measured by perturbing the start by ε = 1e-9 in three directions; round-off
+       of the one-row kernel is at most a few ulps per step, so the tolerance is
+       100 · N_steps · ε_mach · max(1, κ).
+    """
+    sc = [get_scenario(n).with_duration(3.0) for n in ("slew-90", "slew-179")]
     names = ("geometric-pd-trace", "geometric-pd-log", "geometric-pd-large-angle")
-    both = run_suite(sc, names, executor=SerialExecutor(), progress=False)
-    alone = run_suite(sc[1:], ["geometric-pd-large-angle"], jobs=1, progress=False)
-    a = both.outcome("slew-179", "geometric-pd-large-angle")
-    b = alone.outcome("slew-179", "geometric-pd-large-angle")
-    # batch of two (vectorized route) vs batch of one (scalar route): round-off only
-    for k in ("final_error_deg", "peak_rate_deg_s", "effort_Nms", "peak_gimbal_rate_rad_s"):
-        assert a.metrics[k] == pytest.approx(b.metrics[k], rel=1e-12, abs=1e-12)
-    np.testing.assert_allclose(a.series["error_deg"], b.series["error_deg"], rtol=1e-11)
+    keys = ("final_error_deg", "peak_rate_deg_s", "effort_Nms", "peak_gimbal_rate_rad_s")
+    ctrl = names[2]
+
+    def values(res, scenario):
+        o = res.outcome(scenario, ctrl)
+        assert o.status == "ok", o.error
+        return np.r_[[o.metrics[k] for k in keys], np.asarray(o.series["error_deg"])]
+
+    group = run_suite(sc, names, executor=SerialExecutor(), progress=False)
+    pair = run_suite(sc, [ctrl], executor=SerialExecutor(), progress=False)
+    a = values(group, "slew-179")
+    np.testing.assert_array_equal(a, values(pair, "slew-179"))
+    np.testing.assert_array_equal(values(group, "slew-90"), values(pair, "slew-90"))
+
+    base = sc[1]
+    rv = np.asarray(base.initial_rotvec)
+    axis = rv / np.linalg.norm(rv)
+    eps = 1e-9
+    ortho = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
+    dirs = np.array([axis, -axis, ortho / np.linalg.norm(ortho)])
+    perturbed = [
+        dataclasses.replace(base, name=f"slew-179-perturbed-{i}", initial_rotvec=tuple(rv + d))
+        for i, d in enumerate(eps * np.linalg.norm(rv) * dirs)
+    ]
+    pert = run_suite([base, *perturbed], [ctrl], executor=SerialExecutor(), progress=False)
+    np.testing.assert_array_equal(values(pert, "slew-179"), a)  # still the batched route
+    scale = np.maximum(np.abs(a), 1e-300)
+    kappa = np.max([np.abs(values(pert, p.name) - a) / scale / eps for p in perturbed], axis=0)
+    n_steps = round(base.duration / base.dt)
+    tol = 100 * n_steps * np.finfo(float).eps * np.maximum(1.0, kappa)
+    single = run_suite([base], [ctrl], executor=SerialExecutor(), progress=False)
+    b = values(single, "slew-179")
+    rel = np.abs(b - a) / scale
+    assert np.all(rel <= tol), (rel / tol).max()
 
 
 def test_stacked_controller_equals_separate_controllers():
@@ -255,7 +315,10 @@ def test_held_controller_samples_at_its_own_period():
 def test_registry_metadata_and_context():
     info = get_controller("quaternion-pd-continuous")
     assert info.batched and info.plants == frozenset({"sgcmg", "wheels", "ideal"})
-    assert get_controller("mpc-osqp").control_period == 1.0
+    # tuned to the scenario's control period (no own period); the payload controller's
+    # feed-forward keeps its own 0.1 s hold
+    assert get_controller("mpc-osqp").control_period is None
+    assert get_controller("mrp-adrc").control_period is None
     assert not get_controller("mpc-osqp").batched
     assert get_controller("se3-tracking").plants == frozenset({"se3"})
     sc = rest_to_rest(120.0)
@@ -266,8 +329,10 @@ def test_registry_metadata_and_context():
     for name, i in CONTROLLERS.items():
         assert i.description and i.name == name
     # a controller that needs faster sampling flies the scenario at its own period
-    assert sampled_for(sc, get_controller("mrp-adrc")).control_period == 0.1
-    assert sampled_for(sc, get_controller("mpc-osqp")) is sc  # slower: held instead
+    assert sampled_for(sc, get_controller("payload-pid-ff")).control_period == 0.1
+    assert sampled_for(sc, get_controller("mpc-osqp")) is sc
+    slow = dataclasses.replace(get_controller("mpc-osqp"), control_period=1.0)
+    assert sampled_for(sc, slow) is sc  # slower: held instead
     odd = dataclasses.replace(get_controller("mrp-adrc"), control_period=0.15)
     with pytest.raises(ValueError, match="^control_period: 'mrp-adrc' samples every 0.15 s"):
         sampled_for(sc, odd)

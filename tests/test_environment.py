@@ -76,6 +76,25 @@ def test_vanishes_for_principal_axis_nadir_aligned_body():
     np.testing.assert_allclose(T[[0, 2]], 0.0, atol=1e-15)
 
 
+def test_function_form_equals_the_source_and_the_pitch_closed_form():
+    """``gravity_gradient_torque(J, ĉ, n)`` (the function form) gives the disturbance source's
+    torque for the same nadir vectors, and the linearised pitch torque −3n²(J_xx − J_zz)θ."""
+    from spacecraft.environment import gravity_gradient_torque
+
+    rng = np.random.default_rng(5)
+    R = so3.random(rng, 4)
+    t = 321.0
+    r = ORBIT.position(t)
+    c = np.einsum("bji,j->bi", R, -r / np.linalg.norm(r))
+    T_src = GravityGradientTorque(J_FULL, ORBIT)(t, R, np.zeros((4, 3)))
+    np.testing.assert_allclose(gravity_gradient_torque(J_FULL, c, ORBIT.n), T_src, rtol=1e-12,
+                               atol=1e-18)
+    th = 1e-4
+    c_pitch = np.array([-np.sin(th), 0.0, np.cos(th)])  # nadir (z) seen after a pitch θ
+    T = gravity_gradient_torque(np.diag(J_DIAG), c_pitch, ORBIT.n)
+    assert T[1] == pytest.approx(-3 * ORBIT.n**2 * (J_DIAG[0] - J_DIAG[2]) * th, rel=1e-3)
+
+
 def test_plugs_into_sum_of_disturbances():
     gg = GravityGradientTorque(J_FULL, ORBIT)
     d = SumOfDisturbances({"gg": gg, "bias": ConstantTorque([0.0, 0.1, 0.0])})

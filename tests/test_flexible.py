@@ -84,8 +84,11 @@ def test_coupling_too_strong_for_the_body_is_rejected():
     rigid = Spacecraft(RigidBody(J), IdealTorqueActuator())
     with pytest.raises(ValueError, match="^q0:"):
         rigid.initial_state(np.eye(3), q0=[0.1])
-    with pytest.raises(ValueError, match=r"^initial_state\.q:"):
-        plant.check_state(PlantState(np.eye(3)[None], np.zeros((1, 3)), np.zeros((1, 0)), q=[1.0]))
+    with pytest.raises(ValueError, match=r"^q:"):  # a PlantState checks its own structure
+        PlantState(np.eye(3)[None], np.zeros((1, 3)), np.zeros((1, 0)), q=[1.0])
+    with pytest.raises(ValueError, match=r"^initial_state\.q:"):  # the plant's mode count
+        one_mode = PlantState(np.eye(3)[None], np.zeros((1, 3)), np.zeros((1, 0)), q=[[1.0]])
+        plant.check_state(one_mode)
 
 
 def test_state_layout_and_defaults():

@@ -337,16 +337,25 @@ def test_bad_command_inputs():
     with pytest.raises(ValueError, match="^state:"):
         c.command(0.0, state, ref(np.eye(3)))
     c.reset(0.0, 1)
-    bad = AttitudeState(R=(1.1 * np.eye(3))[None], omega=np.zeros((1, 3)))
+    # the containers validate on construction; unchecked ones reach the controller's checks
+    with pytest.raises(ValueError, match="^R:"):
+        AttitudeState(R=(1.1 * np.eye(3))[None], omega=np.zeros((1, 3)))
+    bad = AttitudeState.unchecked(R=(1.1 * np.eye(3))[None], omega=np.zeros((1, 3)))
     with pytest.raises(ValueError, match="^R:"):
         c.command(0.0, bad, ref(np.eye(3)))
     with pytest.raises(ValueError, match="^R_d:"):
         c.command(0.0, state, ref(so3.identity((3,))))
     with pytest.raises(ValueError, match="^omega_d:"):
-        c.command(0.0, state, AttitudeReference(np.eye(3), np.zeros(2), np.zeros(3)))
+        AttitudeReference(np.eye(3), np.zeros(2), np.zeros(3))
+    with pytest.raises(ValueError, match="^omega_d:"):
+        c.command(0.0, state, AttitudeReference.unchecked(np.eye(3), np.zeros(2), np.zeros(3)))
+    with pytest.raises(ValueError, match="^omega:"):
+        AttitudeState(R=np.eye(3)[None], omega=np.full((1, 3), np.nan))
     with pytest.raises(ValueError, match="^omega:"):
         c.command(
-            0.0, AttitudeState(R=np.eye(3)[None], omega=np.full((1, 3), np.nan)), ref(np.eye(3))
+            0.0,
+            AttitudeState.unchecked(R=np.eye(3)[None], omega=np.full((1, 3), np.nan)),
+            ref(np.eye(3)),
         )
     assert c.diagnostics() == {}
 

@@ -1,4 +1,5 @@
-"""Monte Carlo sweep (SPEC §8.1, §8.4): sampling, executor independence, batched = per sample."""
+"""Monte Carlo sweep: sampling, executor independence, batched = per sample, the journal of
+finished chunks (interrupt and resume). The real-cluster tests are in test_dask_cluster.py."""
 
 from __future__ import annotations
 
@@ -9,10 +10,19 @@ import pytest
 
 from benchmarks import cli
 from benchmarks.controllers import register, unregister
-from benchmarks.executors import DaskExecutor, ExecutorUnavailable, ProcessExecutor
+from benchmarks.executors import (
+    DaskExecutor,
+    ExecutorUnavailable,
+    ProcessExecutor,
+    SerialExecutor,
+    TaskFailure,
+    make_executor,
+)
 from benchmarks.montecarlo import (
     MonteCarloConfig,
+    MonteCarloInterrupted,
     chunk_samples,
+    read_journal,
     run_montecarlo,
     write_montecarlo_report,
 )
@@ -132,15 +142,121 @@ def test_process_and_dask_executors_give_identical_results(serial):
     proc = run_montecarlo(NAMES, CFG, executor=ProcessExecutor(2), progress=False)
     _same(serial, proc)
     assert proc.executor == "process"
-    with (
-        distributed.LocalCluster(
-            n_workers=1, threads_per_worker=2, processes=True, dashboard_address=None
-        ) as cluster,
-        distributed.Client(cluster) as client,
-    ):
-        res = run_montecarlo(NAMES, CFG, executor=DaskExecutor(client=client), progress=False)
+    with distributed.LocalCluster(
+        n_workers=1, threads_per_worker=2, processes=True, dashboard_address=":0"
+    ) as cluster:
+        # by address, as the CLI does: the executor's client is not the default client, and
+        # nothing may fall back on one (the "No clients found" failure of as_completed)
+        with DaskExecutor(cluster.scheduler_address) as ex:
+            with pytest.raises(ValueError, match="No clients found"):
+                distributed.default_client()
+            res = run_montecarlo(NAMES, CFG, executor=ex, progress=False)
+        assert ex.client.status == "closed"
+        with distributed.Client(cluster) as client:  # an existing client is used, not closed
+            with DaskExecutor(client=client) as ex2:
+                again = run_montecarlo(NAMES, CFG, executor=ex2, progress=False)
+            assert client.status == "running"
     _same(serial, res)
+    _same(serial, again)
     assert res.executor == "dask"
+
+
+class _StopAfter(SerialExecutor):
+    """Serial, but Ctrl-C (KeyboardInterrupt) after ``n`` finished tasks; counts the tasks."""
+
+    def __init__(self, n=None):
+        self.n, self.ran = n, 0
+
+    def map(self, fn, payloads, on_done=None, on_result=None):
+        def counted(p):
+            if self.n is not None and self.ran == self.n:
+                raise KeyboardInterrupt
+            self.ran += 1
+            return fn(p)
+
+        return super().map(counted, payloads, on_done, on_result)
+
+
+def _no_timing(records):
+    skip = {"sim_wall_time_s", "steps_per_s", "controller_time_us"}
+    return sorted(
+        json.dumps({k: v for k, v in r.items() if k not in skip}, sort_keys=True) for r in records
+    )
+
+
+def test_journal_keeps_an_interrupted_sweep_and_resume_finishes_it(serial, tmp_path):
+    journal = tmp_path / "out" / "montecarlo.chunks.jsonl"
+    with pytest.raises(MonteCarloInterrupted) as info:
+        run_montecarlo(NAMES, CFG, executor=_StopAfter(3), progress=False, journal=journal)
+    assert isinstance(info.value, KeyboardInterrupt)
+    assert (info.value.kept, info.value.total) == (3, 4)
+    header, entries = read_journal(journal)
+    assert header["config"] == repr(CFG) and len(entries) == 3
+    # a crash in the middle of a write leaves a cut-short last line: skipped, then dropped
+    with open(journal, "a", encoding="utf-8") as fh:
+        fh.write('{"controller": "mrp-pd", "chu')
+    assert len(read_journal(journal)[1]) == 3
+    rest = _StopAfter()
+    res = run_montecarlo(NAMES, CFG, executor=rest, progress=False, journal=journal, resume=True)
+    assert rest.ran == 1  # only the chunk not in the journal
+    # the same records as the uninterrupted sweep (JSON keeps floats exactly, NaN included)
+    assert _no_timing(res.records) == _no_timing(serial.records)
+    assert len(read_journal(journal)[1]) == 4
+    # a resume with another configuration is refused; without resume the journal restarts
+    other = MonteCarloConfig(n_samples=6, chunk_size=3, duration=20.0, seed=8)
+    with pytest.raises(ValueError, match="^resume: .* was written for another config"):
+        run_montecarlo(NAMES, other, executor="serial", progress=False, journal=journal,
+                       resume=True)  # fmt: skip
+    assert len(read_journal(journal)[1]) == 4  # untouched by the refusal
+    again = _StopAfter()
+    run_montecarlo(NAMES, CFG, executor=again, progress=False, journal=journal)
+    assert again.ran == 4 and len(read_journal(journal)[1]) == 4
+
+
+def test_journal_errors_name_the_problem(tmp_path):
+    with pytest.raises(ValueError, match="^resume: needs a journal"):
+        run_montecarlo(NAMES, CFG, executor="serial", progress=False, resume=True)
+    with pytest.raises(ValueError, match="^journal: no such file"):
+        read_journal(tmp_path / "nope.jsonl")
+    bad = tmp_path / "bad.jsonl"
+    bad.write_text('{"format": "something else"}\n', encoding="utf-8")
+    with pytest.raises(ValueError, match="^journal: .* is not a Monte Carlo journal"):
+        read_journal(bad)
+    bad.write_text("", encoding="utf-8")
+    with pytest.raises(ValueError, match="^journal: .* is empty"):
+        read_journal(bad)
+    run_montecarlo(("mrp-pd",), MonteCarloConfig(n_samples=1, chunk_size=1, duration=1.0),
+                   executor="serial", progress=False, journal=bad)  # fmt: skip
+    lines = bad.read_text(encoding="utf-8").splitlines()
+    bad.write_text("\n".join([lines[0], "{not json", lines[1]]) + "\n", encoding="utf-8")
+    with pytest.raises(ValueError, match="^journal: .*: line 2 is not valid JSON"):
+        read_journal(bad)
+
+
+def test_executors_report_each_result_as_it_finishes():
+    seen = []
+    for ex in (SerialExecutor(), ProcessExecutor(2)):
+        seen.clear()
+        out = ex.map(abs, [-1, -2, "x"], on_done=lambda i: seen.append(("done", i)),
+                     on_result=lambda i, v: seen.append(("result", i, v)))  # fmt: skip
+        assert out[:2] == [1, 2] and isinstance(out[2], TaskFailure)
+        assert "TypeError" in out[2].error
+        for i in range(3):  # the value first, then the progress tick
+            assert seen.index(("result", i, out[i])) + 1 == seen.index(("done", i))
+
+
+def test_executor_arguments_are_validated():
+    with pytest.raises(ValueError, match="^jobs: must be a positive integer"):
+        make_executor(jobs=0)
+    with pytest.raises(ValueError, match="^jobs: must be a positive integer"):
+        make_executor(jobs=1.5)
+    assert make_executor(jobs=np.int64(2)).parallelism == 2
+    with pytest.raises(ValueError, match="^timeout: must be a finite number > 0"):
+        DaskExecutor("tcp://127.0.0.1:9", timeout=float("nan"))
+    with pytest.raises(ValueError, match="^retries: must be an integer >= 0"):
+        DaskExecutor("tcp://127.0.0.1:9", retries=-1)
+    with pytest.raises(TypeError, match="^address: must be a string"):
+        DaskExecutor(8786)
 
 
 class _Boom(AttitudeController):

@@ -409,11 +409,14 @@ def test_reference_not_on_so3_raises():
     ctrl = _mpc(horizon=2)
     ctrl.reset(0.0, 1)
     st = AttitudeState(np.eye(3)[None], np.zeros((1, 3)))
-    bad = AttitudeReference(np.eye(3) * 1.1, np.zeros(3), np.zeros(3))
+    with pytest.raises(ValueError, match="^R_d"):  # the container checks first
+        AttitudeReference(np.eye(3) * 1.1, np.zeros(3), np.zeros(3))
+    bad = AttitudeReference.unchecked(np.eye(3) * 1.1, np.zeros(3), np.zeros(3))
     with pytest.raises(ValueError, match="^R_d"):
         ctrl.command(0.0, st, bad)
+    bad_state = AttitudeState.unchecked(np.eye(3)[None] * 2, np.zeros((1, 3)))
     with pytest.raises(ValueError, match="^R"):
-        ctrl.command(0.0, AttitudeState(np.eye(3)[None] * 2, np.zeros((1, 3))), _slew(0.0))
+        ctrl.command(0.0, bad_state, _slew(0.0))
     with pytest.raises(ValueError, match="^batch_size"):
         ctrl.reset(0.0, 0)
 

@@ -181,7 +181,7 @@ def test_ideal_actuator_and_saturation():
         act.body_torque(np.zeros((1, 3)), np.zeros((1, 0)), held), [[1, -2, 3]]
     )
     sat = IdealTorqueActuator(max_torque=1.5)
-    held = sat.command(np.array([[1.0, -2.0, 3.0]]), None, np.zeros((1, 0)), 0.0)
+    held = sat.command(np.array([[1.0, -2.0, 3.0]]), np.zeros((1, 3)), np.zeros((1, 0)), 0.0)
     np.testing.assert_array_equal(held, [[1.0, -1.5, 1.5]])
     assert sat.log(np.zeros((1, 0)), held)["saturated"].tolist() == [[False, True, True]]
     with pytest.raises(ValueError, match="^max_torque:"):

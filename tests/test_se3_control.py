@@ -256,10 +256,15 @@ def test_bad_input_names_the_argument():
         ConstantPose(np.zeros((4, 4)))
     c = SE3TrackingController(M, J, **GAINS)
     ok = PoseReference.regulation(np.eye(4))
+    # the container validates on construction; an unchecked one reaches the controller's checks
+    with pytest.raises(ValueError, match="^g:"):
+        PoseState(2 * np.eye(4)[None], np.zeros((1, 6)))
     with pytest.raises(ValueError, match="^state.g:"):
-        c.command(0.0, PoseState(2 * np.eye(4)[None], np.zeros((1, 6))), ok)
+        c.command(0.0, PoseState.unchecked(2 * np.eye(4)[None], np.zeros((1, 6))), ok)
+    with pytest.raises(ValueError, match="^xi:"):
+        PoseState(np.eye(4)[None], np.zeros((2, 6)))
     with pytest.raises(ValueError, match="^state.xi:"):
-        c.command(0.0, PoseState(np.eye(4)[None], np.zeros((2, 6))), ok)
+        c.command(0.0, PoseState.unchecked(np.eye(4)[None], np.zeros((2, 6))), ok)
     with pytest.raises(ValueError, match="^reference.g_d:"):
         c.command(0.0, PoseState(np.eye(4)[None], np.zeros((1, 6))),
                   PoseReference(np.ones((4, 4)), np.zeros(6), np.zeros(6)))  # fmt: skip

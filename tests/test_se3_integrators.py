@@ -109,7 +109,10 @@ def _embedded_reference(f_xi_dot, g0, xi0, t_final):
         R = y[:9].reshape(3, 3)
         p = y[9:12]
         xi = y[12:18]
-        g = se3.from_rt(R, p)[None]
+        # DOP853's stages leave SO(3) (this is an embedded reference), so g is assembled by
+        # hand: se3.from_rt rejects a rotation block that is not a rotation
+        g = np.zeros((1, 4, 4))
+        g[0, :3, :3], g[0, :3, 3], g[0, 3, 3] = R, p, 1.0
         dxi = f_xi_dot(g, xi[None])[0]
         return np.concatenate(((R @ so3.hat(xi[:3])).ravel(), R @ xi[3:], dxi))
 

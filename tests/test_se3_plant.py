@@ -275,7 +275,7 @@ def test_bad_input_names_the_argument():
         simulate_pose(plant, _Recorder(), r, g0, xi0, -1.0, 0.1)
     with pytest.raises(ValueError, match="^controller:"):
         simulate_pose(plant, object(), r, g0, xi0, 1.0, 0.1)
-    with pytest.raises(ValueError, match="^xi:"):
+    with pytest.raises(ValueError, match="^xi0:"):
         simulate_pose(plant, _Recorder(), r, g0, xi0[0], 1.0, 0.1)
     with pytest.raises(ValueError, match="^wrench:"):
         plant.step(0.0, g0, xi0, np.zeros((1, 3)), 0.1)

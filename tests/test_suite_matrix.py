@@ -1,12 +1,14 @@
-"""Every registered controller × every scenario of the full catalogue on a shortened horizon
-(SPEC §8): runs without error, finite metrics, no empty table cell except explicit
-"does not apply"."""
+"""Every registered controller × every scenario of the full catalogue on a shortened horizon:
+runs without error, finite metrics, robust closed-loop behaviour (actuator
+limits respected, manoeuvres make progress, stabilisation stays on target), no empty table cell
+except explicit "does not apply"."""
 
 from __future__ import annotations
 
 import csv
 import math
 
+import numpy as np
 import pytest
 
 from benchmarks.controllers import CONTROLLERS, available_controllers, get_controller
@@ -66,6 +68,50 @@ def test_every_applicable_pair_runs_with_finite_metrics(matrix):
         bad = [k for k in need if not math.isfinite(m[k])]
         assert bad == [], (o.scenario, o.controller, bad)
         assert o.series["t"][-1] == pytest.approx(s.duration)
+
+
+def test_behaviour_on_the_short_horizon(matrix):
+    """Robust closed-loop properties (not tuned numbers) of every applicable pair in 2 s:
+
+    - the actuator's limits hold: peak gimbal rate ≤ the gimbal-rate limit (SGCMG), peak wheel
+      speed ≤ the speed limit (wheels), peak torque ≤ the torque box (ideal actuator);
+    - a rest-to-rest manoeuvre on exact measurements makes progress: the final error is below
+      the initial one (a stabilising law starts by turning towards the target);
+    - a stabilisation run (start on target, small environmental torques) stays on target;
+    - the SE(3) approach closes the distance to the docking point.
+    """
+    by_name = {s.name: s for s in matrix.scenarios}
+    no_progress, off_target, over_limit = [], [], []
+    for o in matrix.outcomes:
+        if o.status != "ok":
+            continue
+        s, m = by_name[o.scenario], o.metrics
+        pair = (o.scenario, o.controller)
+        if s.plant == "se3":
+            px = s.proximity
+            d0 = np.linalg.norm(np.subtract(px.initial_position, px.dock_position))
+            if not m["final_position_error_m"] < d0:
+                no_progress.append(pair)
+            continue
+        if s.plant == "sgcmg" and not m["peak_gimbal_rate_frac"] <= 1.0 + 1e-9:
+            over_limit.append((*pair, "gimbal rate", m["peak_gimbal_rate_frac"]))
+        if s.plant == "wheels" and not m["peak_wheel_speed_frac"] <= 1.0 + 1e-9:
+            over_limit.append((*pair, "wheel speed", m["peak_wheel_speed_frac"]))
+        box = s.spacecraft.max_torque
+        if box is not None and not m["peak_torque_Nm"] <= np.linalg.norm(np.broadcast_to(box, 3)):
+            over_limit.append((*pair, "torque", m["peak_torque_Nm"]))
+        at_rest = not np.any(s.initial_rate) and s.reference.kind == "constant"
+        if "manoeuvre" in s.tags and "sensors" not in s.tags and at_rest:
+            if not m["final_error_deg"] < m["initial_error_deg"]:
+                no_progress.append(pair)
+        if "stabilisation" in s.tags and not m["final_error_deg"] < 0.05:
+            off_target.append((*pair, m["final_error_deg"]))
+    assert over_limit == []
+    assert no_progress == []
+    assert off_target == []
+    # the checks above did check something
+    kinds = {by_name[o.scenario].plant for o in matrix.outcomes if o.status == "ok"}
+    assert {"sgcmg", "wheels", "se3"} <= kinds
 
 
 def test_report_has_no_empty_cells(matrix, tmp_path):

@@ -86,6 +86,9 @@ def test_verdict_rules():
     # chattering inflates the path length: it takes precedence over unwinding
     assert verdict(_outcome(command_reversals=12.0, unwinding_ratio=2.0), cfg) == "chatters"
     assert verdict(_outcome(final_error_deg=3.0), cfg) == "not converged"
+    # moving away is not unwinding (an untuned law ending 132° off from a 60° start)
+    away = _outcome(initial_error_deg=60.0, final_error_deg=132.0, unwinding_ratio=4.0)
+    assert verdict(away, cfg) == "diverges"
     assert verdict(_outcome(unwinding_ratio=math.nan, final_error_deg=0.0), cfg) == "converges"
     assert verdict(RunOutcome("c", "x", "failed", "boom"), cfg) == "failed"
 

@@ -33,7 +33,14 @@ import warnings
 import numpy as np
 
 from .._linalg import cross
-from .._validation import as_array, check_rotation_matrix
+from .._validation import (
+    as_array,
+    broadcast_batch,
+    check_bool,
+    check_output_finite,
+    check_rotation_matrix,
+    check_tolerance,
+)
 from ..exceptions import ChartSingularityError
 
 __all__ = [
@@ -157,6 +164,8 @@ def from_matrix(
     """
     R = check_rotation_matrix(R, "R")
     (i, j, k), ext = _parse(seq)
+    lock_tol = check_tolerance(lock_tol, "lock_tol", upper=1.0)
+    warn = check_bool(warn, "warn")
     tb = i != k
     if tb:
         eps = 1.0 if (i, j, k) in ((0, 1, 2), (1, 2, 0), (2, 0, 1)) else -1.0
@@ -199,6 +208,7 @@ def near_gimbal_lock(angles: object, seq: str, tol: float = LOCK_TOL) -> np.ndar
     """Boolean (batch shape): |cos a2| < tol for Tait–Bryan, |sin a2| < tol for proper Euler."""
     (i, _, k), _ = _parse(seq)
     a = _angles(angles)
+    tol = check_tolerance(tol, "tol", upper=1.0)
     f = np.cos if i != k else np.sin
     return np.abs(f(a[..., 1])) < tol
 
@@ -232,6 +242,7 @@ def rates_matrix(angles: object, seq: str, lock_tol: float = LOCK_TOL) -> np.nda
     [cos a2, sin a3 sin a2, cos a3 sin a2]] (Schaub & Junkins eq. 3.57).
     """
     a = _angles(angles)
+    lock_tol = check_tolerance(lock_tol, "lock_tol", upper=1.0)
     lock = near_gimbal_lock(a, seq, lock_tol)
     if np.any(lock):
         (i, _, k), _ = _parse(seq)
@@ -255,4 +266,7 @@ def kinematics(angles: object, omega: object, seq: str, lock_tol: float = LOCK_T
     lock (see :func:`rates_matrix`). Batch shapes broadcast."""
     B = rates_matrix(angles, seq, lock_tol)
     w = as_array(omega, "omega", (3,))
-    return np.einsum("...ij,...j->...i", B, w)
+    broadcast_batch(("angles", B.shape[:-2]), ("omega", w.shape[:-1]))
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = np.einsum("...ij,...j->...i", B, w)
+    return check_output_finite(out, "omega", "the angle rates B(a) ω")

@@ -16,6 +16,11 @@ DCM [BN] (inertial → body components) whose Euler parameters β equal our Hami
 R = [BN]ᵀ, so σ and p coincide and the formula carries over unchanged.
 Because Bᵀ B = (1 + σ²)² I, G⁻¹ = 16 Gᵀ / (1 + pᵀp)² (defined for every finite p).
 
+Numerics: every formula is evaluated through bounded quantities, n = |p| (overflow-safe),
+a = 1/(1 + n²) and p·a, so long MRPs (|p| up to 1e300, i.e. rotations within round-off of
+2π) give finite results; :func:`kinematics_matrix` (entries ~|p|²) and :func:`kinematics`
+raise when the true result exceeds float64.
+
 Sources: Schaub & Junkins, *Analytical Mechanics of Space Systems*, 4th ed., §3.8 (MRP,
 eqs. for [C(σ)], B(σ), shadow set); Shuster, "A survey of attitude representations",
 J. Astronaut. Sci. 41(4), 1993, §8.
@@ -25,7 +30,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validation import as_array
+from .._validation import (
+    as_array,
+    as_scalar,
+    broadcast_batch,
+    check_output_finite,
+    norm_last,
+)
 from ..lie import so3
 from . import quaternion as _q
 
@@ -54,10 +65,26 @@ def _from_q(q: np.ndarray) -> np.ndarray:
     return q[..., 1:] / (1.0 + q[..., :1])
 
 
+def _scales(p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(c, pa, a) with a = 1/(1 + n²), c = (1 − n²)/(1 + n²) and pa = p a, n = |p|: all bounded
+    (|c| ≤ 1, |pa| ≤ ½) and computed without forming n² for n > 1 (through t = 1/n:
+    a = t²/(1 + t²), c = (t² − 1)/(t² + 1)), so no p overflows."""
+    n = norm_last(p)
+    big = n > 1.0
+    t = np.where(big, 1.0 / np.where(big, n, 1.0), n)  # t = 1/n (n > 1) or n
+    with np.errstate(under="ignore"):
+        t2 = t * t
+    c = np.where(big, (t2 - 1.0) / (t2 + 1.0), (1.0 - t2) / (1.0 + t2))
+    a = np.where(big, t2 / (1.0 + t2), 1.0 / (1.0 + t2))
+    with np.errstate(under="ignore"):
+        pa = p * a[..., None]
+    return c, pa, a
+
+
 def _to_q(p: np.ndarray) -> np.ndarray:
-    """Scalar-first unit quaternion ((1 − p²), 2p) / (1 + p²) of an MRP."""
-    n2 = np.sum(p * p, axis=-1, keepdims=True)
-    return np.concatenate((1.0 - n2, 2.0 * p), axis=-1) / (1.0 + n2)
+    """Scalar-first unit quaternion ((1 − p²), 2p) / (1 + p²) of an MRP (overflow-safe)."""
+    c, pa, _ = _scales(p)
+    return np.concatenate((c[..., None], 2.0 * pa), axis=-1)
 
 
 def from_quaternion(
@@ -90,9 +117,10 @@ def to_matrix(p: object) -> np.ndarray:
     The transpose of Schaub & Junkins' [C(σ)] = [BN] (sign of the p^ term flipped).
     """
     p = _p(p)
-    n2 = np.sum(p * p, axis=-1)[..., None, None]
-    P = so3.hat(p)
-    return np.eye(3) + (8.0 * (P @ P) + 4.0 * (1.0 - n2) * P) / (1.0 + n2) ** 2
+    # = I + 8 (pa^)² + 4 c pa^ with pa = p/(1 + |p|²), c = (1 − |p|²)/(1 + |p|²) (bounded)
+    c, pa, _ = _scales(p)
+    P = so3.hat(pa)
+    return np.eye(3) + 8.0 * (P @ P) + 4.0 * c[..., None, None] * P
 
 
 def shadow(p: object) -> np.ndarray:
@@ -101,10 +129,12 @@ def shadow(p: object) -> np.ndarray:
     The shadow of p = 0 lies at infinity: raises ``ValueError`` naming ``p``.
     """
     p = _p(p)
-    n2 = np.sum(p * p, axis=-1, keepdims=True)
-    if np.any(n2 == 0.0):
+    n = norm_last(p)[..., None]
+    if np.any(n == 0.0):
         raise ValueError("p: the shadow of the zero MRP (identity rotation) is at infinity")
-    return -p / n2
+    with np.errstate(over="ignore"):
+        out = -(p / n) / n  # |p|² itself may overflow or underflow
+    return check_output_finite(out, "p", "the shadow −p/|p|²")
 
 
 def switch(p: object, threshold: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
@@ -115,46 +145,65 @@ def switch(p: object, threshold: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     ``threshold > 1`` adds hysteresis (after a switch |p| = 1/threshold < 1).
     """
     p = _p(p)
-    thr = float(as_array(threshold, "threshold"))
+    thr = as_scalar(threshold, "threshold")
     if thr < 1.0:
         raise ValueError(
             f"threshold: must be >= 1 (got {thr}); smaller values make the switch chatter"
         )
-    n2 = np.sum(p * p, axis=-1)
-    mask = n2 > thr * thr
-    # where not switched, divide by 1 so p = 0 never produces inf/NaN
-    denom = np.where(mask, n2, 1.0)[..., None]
-    return np.where(mask[..., None], -p / denom, p), mask
+    n = norm_last(p)
+    mask = n > thr
+    # where not switched, divide by 1 so p = 0 never produces inf/NaN; −(p/n)/n avoids |p|²
+    denom = np.where(mask, n, 1.0)[..., None]
+    return np.where(mask[..., None], -(p / denom) / denom, p), mask
 
 
 def kinematics_matrix(p: object) -> np.ndarray:
     """G(p) = ½[(1 − pᵀp)/2 · I + p^ + p pᵀ] (SPEC §2; = ¼ B(σ) of Schaub & Junkins)."""
     p = _p(p)
-    n2 = np.sum(p * p, axis=-1)[..., None, None]
-    return 0.5 * (0.5 * (1.0 - n2) * np.eye(3) + so3.hat(p) + p[..., :, None] * p[..., None, :])
+    with np.errstate(over="ignore", invalid="ignore"):
+        n2 = np.sum(p * p, axis=-1)[..., None, None]
+        G = 0.5 * (0.5 * (1.0 - n2) * np.eye(3) + so3.hat(p) + p[..., :, None] * p[..., None, :])
+    return check_output_finite(G, "p", "G(p) (entries ~|p|²)")
 
 
 def kinematics_matrix_inv(p: object) -> np.ndarray:
-    """G(p)⁻¹ = 16 G(p)ᵀ / (1 + pᵀp)² (from Bᵀ B = (1 + σ²)² I); finite for every finite p."""
+    """G(p)⁻¹ = 16 G(p)ᵀ / (1 + pᵀp)² (from Bᵀ B = (1 + σ²)² I); finite for every finite p.
+
+    Evaluated without forming |p|²: with a = 1/(1 + |p|²), c = (1 − |p|²) a and pa = p a,
+    G⁻¹ = 8 [½ c a I − a pa^ + pa paᵀ] (all terms bounded).
+    """
     p = _p(p)
-    n2 = np.sum(p * p, axis=-1)[..., None, None]
-    return 16.0 * np.swapaxes(kinematics_matrix(p), -1, -2) / (1.0 + n2) ** 2
+    c, pa, a = _scales(p)
+    I = np.eye(3)  # noqa: E741
+    return 8.0 * (
+        0.5 * (c * a)[..., None, None] * I
+        - a[..., None, None] * so3.hat(pa)
+        + pa[..., :, None] * pa[..., None, :]
+    )
 
 
 def kinematics(p: object, omega: object) -> np.ndarray:
     """ṗ = G(p) ω with ω the body angular velocity (shapes broadcast)."""
     G = kinematics_matrix(p)
     w = as_array(omega, "omega", (3,))
-    return np.einsum("...ij,...j->...i", G, w)
+    broadcast_batch(("p", G.shape[:-2]), ("omega", w.shape[:-1]))
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = np.einsum("...ij,...j->...i", G, w)
+    return check_output_finite(out, "omega", "ṗ = G(p) ω")
 
 
 def compose(p1: object, p2: object) -> np.ndarray:
     """MRP (|p| ≤ 1) of R(p₁) R(p₂), computed through quaternions (no division singularity)."""
-    q = _q._mul(_to_q(_p(p1, "p1")), _to_q(_p(p2, "p2")))
-    return _from_q(q)
+    a = _p(p1, "p1")
+    b = _p(p2, "p2")
+    broadcast_batch(("p1", a.shape[:-1]), ("p2", b.shape[:-1]))
+    return _from_q(_q._mul(_to_q(a), _to_q(b)))
 
 
 def relative(p: object, p_d: object) -> np.ndarray:
     """Attitude-error MRP (|p| ≤ 1) of R(p_d)ᵀ R(p), consistent with ``quaternion.error``."""
-    qd = _to_q(_p(p_d, "p_d")) * np.array([1.0, -1.0, -1.0, -1.0])
-    return _from_q(_q._mul(qd, _to_q(_p(p))))
+    pp = _p(p)
+    pd = _p(p_d, "p_d")
+    broadcast_batch(("p", pp.shape[:-1]), ("p_d", pd.shape[:-1]))
+    qd = _to_q(pd) * np.array([1.0, -1.0, -1.0, -1.0])
+    return _from_q(_q._mul(qd, _to_q(pp)))

@@ -25,6 +25,10 @@ renormalise so the result is exact to round-off. :func:`normalize` is the explic
 Algebraic functions (:func:`multiply`, :func:`conjugate`, :func:`inverse`, :func:`kinematics`,
 :func:`kinematics_matrix`, :func:`canonicalize`) accept any finite non-zero quaternion.
 Zero or non-finite quaternions always raise ``ValueError`` naming the argument (SPEC §9).
+Norms are computed without overflow or underflow (``normalize(1e300·q)`` is ``q/|q|``), batch
+shapes that do not broadcast raise naming the argument, ``scalar_first`` must be a bool and
+``norm_tol`` a finite number > 0; a result that would overflow float64 (e.g. the product of two
+quaternions of norm 1e200) raises instead of returning inf/NaN.
 
 Sources: Shepperd, "Quaternion from rotation matrix", J. Guidance Control 1(3), 1978;
 Solà, "Quaternion kinematics for the error-state Kalman filter", arXiv:1711.02508 (2017);
@@ -35,7 +39,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validation import as_array, check_rotation_matrix
+from .._validation import (
+    as_array,
+    broadcast_batch,
+    check_bool,
+    check_output_finite,
+    check_rotation_matrix,
+    check_tolerance,
+    norm_last,
+)
+from ..lie.so3 import _shape_arg
 
 __all__ = [
     "UNIT_TOL",
@@ -71,9 +84,9 @@ _SLERP_LINEAR_ANGLE = 1e-12
 
 def _take(q: object, name: str, scalar_first: bool) -> np.ndarray:
     """Validate a quaternion argument and return it scalar-first (a new array when reordered)."""
+    check_bool(scalar_first, "scalar_first")
     a = as_array(q, name, (4,))
-    n2 = np.sum(a * a, axis=-1)
-    if np.any(n2 == 0.0):
+    if np.any(np.all(a == 0.0, axis=-1)):
         raise ValueError(f"{name}: zero quaternion (norm 0) does not represent a rotation")
     if not scalar_first:
         a = np.roll(a, 1, axis=-1)
@@ -82,8 +95,9 @@ def _take(q: object, name: str, scalar_first: bool) -> np.ndarray:
 
 def _take_unit(q: object, name: str, scalar_first: bool, norm_tol: float) -> np.ndarray:
     """As :func:`_take`, also checking | |q| − 1 | ≤ norm_tol; returns the renormalised copy."""
+    norm_tol = check_tolerance(norm_tol, "norm_tol")
     a = _take(q, name, scalar_first)
-    n = np.sqrt(np.sum(a * a, axis=-1))
+    n = norm_last(a)
     dev = np.abs(n - 1.0)
     worst = float(dev.max()) if dev.size else 0.0
     if worst > norm_tol:
@@ -128,7 +142,8 @@ def _canon(q: np.ndarray) -> np.ndarray:
 
 def identity(batch_shape: tuple[int, ...] = (), scalar_first: bool = True) -> np.ndarray:
     """Identity quaternion(s) of shape ``batch_shape + (4,)``."""
-    q = np.zeros(tuple(batch_shape) + (4,))
+    check_bool(scalar_first, "scalar_first")
+    q = np.zeros(_shape_arg(batch_shape, "batch_shape") + (4,))
     q[..., 0 if scalar_first else 3] = 1.0
     return q
 
@@ -143,6 +158,7 @@ def from_matrix(R: object, scalar_first: bool = True) -> np.ndarray:
     the result is accurate to round-off for every R, including half-turns (w = 0).
     ``R``: ``(..., 3, 3)``, validated as a rotation; returns ``(..., 4)``.
     """
+    check_bool(scalar_first, "scalar_first")
     R = check_rotation_matrix(R, "R")
     r00, r01, r02 = R[..., 0, 0], R[..., 0, 1], R[..., 0, 2]
     r10, r11, r12 = R[..., 1, 0], R[..., 1, 1], R[..., 1, 2]
@@ -190,8 +206,14 @@ def to_matrix(q: object, scalar_first: bool = True, norm_tol: float = UNIT_TOL) 
 
 
 def multiply(p: object, q: object, scalar_first: bool = True) -> np.ndarray:
-    """Hamilton product p ⊗ q (batch shapes broadcast); ``to_matrix(p ⊗ q) = R(p) R(q)``."""
-    return _give(_mul(_take(p, "p", scalar_first), _take(q, "q", scalar_first)), scalar_first)
+    """Hamilton product p ⊗ q (batch shapes broadcast); ``to_matrix(p ⊗ q) = R(p) R(q)``.
+    Raises if |p|·|q| overflows float64."""
+    a = _take(p, "p", scalar_first)
+    b = _take(q, "q", scalar_first)
+    broadcast_batch(("p", a.shape[:-1]), ("q", b.shape[:-1]))
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = _mul(a, b)
+    return _give(check_output_finite(out, "q", "the product p ⊗ q"), scalar_first)
 
 
 def conjugate(q: object, scalar_first: bool = True) -> np.ndarray:
@@ -203,20 +225,24 @@ def conjugate(q: object, scalar_first: bool = True) -> np.ndarray:
 
 def norm(q: object, scalar_first: bool = True) -> np.ndarray:
     """|q| (batch shape); rejects zero quaternions like every other function."""
-    return np.sqrt(np.sum(_take(q, "q", scalar_first) ** 2, axis=-1))
+    return norm_last(_take(q, "q", scalar_first))
 
 
 def inverse(q: object, scalar_first: bool = True) -> np.ndarray:
-    """q⁻¹ = q* / |q|² (equal to q* for unit q)."""
+    """q⁻¹ = q* / |q|² (equal to q* for unit q), as (q*/|q|)/|q| so that neither |q|² nor the
+    division overflows; raises if |q| is so small that 1/|q| itself overflows."""
     a = _take(q, "q", scalar_first)
-    inv = a * (np.array([1.0, -1.0, -1.0, -1.0]) / np.sum(a * a, axis=-1, keepdims=True))
-    return _give(inv, scalar_first)
+    n = norm_last(a)[..., None]
+    with np.errstate(over="ignore"):
+        inv = (a * np.array([1.0, -1.0, -1.0, -1.0]) / n) / n
+    return _give(check_output_finite(inv, "q", "the inverse 1/|q|"), scalar_first)
 
 
 def normalize(q: object, scalar_first: bool = True) -> np.ndarray:
-    """q / |q|; raises ``ValueError`` (``"q: zero quaternion ..."``) on zero norm."""
+    """q / |q| (|q| computed without overflow or underflow); raises ``ValueError``
+    (``"q: zero quaternion ..."``) on zero norm."""
     a = _take(q, "q", scalar_first)
-    return _give(a / np.sqrt(np.sum(a * a, axis=-1, keepdims=True)), scalar_first)
+    return _give(a / norm_last(a)[..., None], scalar_first)
 
 
 def canonicalize(q: object, scalar_first: bool = True) -> np.ndarray:
@@ -230,14 +256,29 @@ def canonicalize(q: object, scalar_first: bool = True) -> np.ndarray:
 def from_rotvec(theta: object, scalar_first: bool = True) -> np.ndarray:
     """q = (cos(|θ|/2), sin(|θ|/2) θ/|θ|) for a rotation vector θ ``(..., 3)``.
 
-    Exact at θ = 0 (sin(|θ|/2)/|θ| via ``np.sinc``). The result has w ≥ 0 for |θ| ≤ π.
+    Exact at θ = 0 (sin(|θ|/2)/|θ| via ``np.sinc``). The result has w ≥ 0 for |θ| ≤ π. For
+    |θ| > 1e100 the axis–angle form (cos(|θ|/2), sin(|θ|/2) θ/|θ|) is used (no overflow).
     """
+    check_bool(scalar_first, "scalar_first")
     th = as_array(theta, "theta", (3,))
-    angle = np.sqrt(np.sum(th * th, axis=-1))
+    angle = norm_last(th)
+    if angle.size and np.max(angle) > 1e100:
+        n = th / np.where(angle > 0.0, angle, 1.0)[..., None]
+        q = np.concatenate(
+            (np.cos(0.5 * angle)[..., None], n * np.sin(0.5 * angle)[..., None]), axis=-1
+        )
+        return _give(q, scalar_first)
+    return _give(_from_rotvec_unchecked(th, angle), scalar_first)
+
+
+def _from_rotvec_unchecked(th: np.ndarray, angle: np.ndarray | None = None) -> np.ndarray:
+    """Scalar-first :func:`from_rotvec` of a validated ``(..., 3)`` array with |θ| ≤ 1e100
+    (the filters' tangent-space perturbations; ``angle`` = |θ| if the caller has it)."""
+    if angle is None:
+        angle = np.sqrt(np.sum(th * th, axis=-1))
     # sin(φ/2)/φ = ½ sinc(φ/2π) with numpy's normalised sinc, exact at φ = 0
     k = 0.5 * np.sinc(angle / (2.0 * np.pi))
-    q = np.concatenate((np.cos(0.5 * angle)[..., None], th * k[..., None]), axis=-1)
-    return _give(q, scalar_first)
+    return np.concatenate((np.cos(0.5 * angle)[..., None], th * k[..., None]), axis=-1)
 
 
 def to_rotvec(q: object, scalar_first: bool = True, norm_tol: float = UNIT_TOL) -> np.ndarray:
@@ -245,7 +286,11 @@ def to_rotvec(q: object, scalar_first: bool = True, norm_tol: float = UNIT_TOL) 
     choosing the sign of q with w ≥ 0. Taylor branch θ ≈ (2/w)(1 − |v|²/(3w²)) v near 0.
     At a half-turn (w = 0) either ±π·axis is valid; the one of the given sign of v is returned.
     """
-    a = _take_unit(q, "q", scalar_first, norm_tol)
+    return _to_rotvec_unchecked(_take_unit(q, "q", scalar_first, norm_tol))
+
+
+def _to_rotvec_unchecked(a: np.ndarray) -> np.ndarray:
+    """:func:`to_rotvec` of validated scalar-first unit quaternions ``(..., 4)``."""
     a = np.where(a[..., :1] < 0.0, -a, a)
     w = a[..., 0]
     v = a[..., 1:]
@@ -267,18 +312,24 @@ def rotate(
     """R(q) v = v + 2w (u × v) + 2 u × (u × v) (u the vector part); batch shapes broadcast."""
     a = _take_unit(q, "q", scalar_first, norm_tol)
     vv = as_array(v, "v", (3,))
+    broadcast_batch(("q", a.shape[:-1]), ("v", vv.shape[:-1]))
     w = a[..., :1]
     u = a[..., 1:]
-    t = 2.0 * np.cross(u, vv)
-    return vv + w * t + np.cross(u, t)
+    with np.errstate(over="ignore", invalid="ignore"):
+        t = 2.0 * np.cross(u, vv)
+        out = vv + w * t + np.cross(u, t)
+    return check_output_finite(out, "v", "the rotated vector")
 
 
 def kinematics(q: object, omega: object, scalar_first: bool = True) -> np.ndarray:
     """q̇ = ½ q ⊗ (0, ω) with ω the body angular velocity (SPEC §2). Shapes broadcast."""
     a = _take(q, "q", scalar_first)
     w = as_array(omega, "omega", (3,))
+    broadcast_batch(("q", a.shape[:-1]), ("omega", w.shape[:-1]))
     pure = np.concatenate((np.zeros(w.shape[:-1] + (1,)), w), axis=-1)
-    return _give(0.5 * _mul(a, pure), scalar_first)
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = 0.5 * _mul(a, pure)
+    return _give(check_output_finite(out, "omega", "q̇ = ½ q ⊗ (0, ω)"), scalar_first)
 
 
 def kinematics_matrix(q: object, scalar_first: bool = True) -> np.ndarray:
@@ -307,6 +358,7 @@ def error(
     (the sign carries the unwinding information controllers may want). Shapes broadcast."""
     a = _take_unit(q, "q", scalar_first, norm_tol)
     d = _take_unit(q_d, "q_d", scalar_first, norm_tol)
+    broadcast_batch(("q", a.shape[:-1]), ("q_d", d.shape[:-1]))
     d = d * np.array([1.0, -1.0, -1.0, -1.0])
     return _give(_mul(d, a), scalar_first)
 
@@ -326,7 +378,9 @@ def slerp(
     """
     a = _take_unit(q0, "q0", scalar_first, norm_tol)
     b = _take_unit(q1, "q1", scalar_first, norm_tol)
-    tt = as_array(t, "t")[..., None]
+    tt = as_array(t, "t")
+    broadcast_batch(("q0", a.shape[:-1]), ("q1", b.shape[:-1]), ("t", tt.shape))
+    tt = tt[..., None]
     dot = np.sum(a * b, axis=-1, keepdims=True)
     b = np.where(dot < 0.0, -b, b)
     # Ω = 2 atan2(|a − b|, |a + b|) is accurate for small Ω, unlike arccos(a·b)

@@ -24,7 +24,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validation import as_array, check_rotation_matrix
+from .._validation import (
+    as_array,
+    broadcast_batch,
+    check_output_finite,
+    check_rotation_matrix,
+    check_tolerance,
+    norm_last,
+)
 from ..exceptions import ChartSingularityError
 from ..lie import so3
 
@@ -60,7 +67,7 @@ def wrap(theta: object) -> np.ndarray:
     """The equivalent rotation vector with |θ| ≤ π: the angle |θ| is reduced to φ ∈ (−π, π]
     modulo 2π and the result is φ·θ/|θ| (φ < 0 flips the axis). Unchanged where |θ| ≤ π."""
     th = _theta(theta)
-    n = np.sqrt(np.sum(th * th, axis=-1))
+    n = norm_last(th)
     phi = np.pi - np.mod(np.pi - n, 2.0 * np.pi)
     inside = n <= np.pi
     scale = np.where(inside, 1.0, phi / np.where(inside, 1.0, n))
@@ -68,7 +75,7 @@ def wrap(theta: object) -> np.ndarray:
 
 
 def _check_singular(th: np.ndarray, tol: float) -> None:
-    n = np.sqrt(np.sum(th * th, axis=-1))
+    n = norm_last(th)
     bad = (n > np.pi) & (np.abs(np.sin(0.5 * n)) < tol)
     if np.any(bad):
         worst = float(n[bad][0])
@@ -82,8 +89,8 @@ def kinematics_matrix(theta: object, singular_tol: float = SINGULAR_TOL) -> np.n
     """J_r(θ)⁻¹ with θ̇ = J_r(θ)⁻¹ ω, ``(..., 3) -> (..., 3, 3)``; raises
     :class:`ChartSingularityError` near |θ| = 2πk, k ≥ 1."""
     th = _theta(theta)
-    _check_singular(th, singular_tol)
-    return so3.right_jacobian_inv(th)
+    _check_singular(th, check_tolerance(singular_tol, "singular_tol", upper=1.0))
+    return so3._right_jacobian_inv(th, "theta")
 
 
 def kinematics_matrix_inv(theta: object) -> np.ndarray:
@@ -96,4 +103,7 @@ def kinematics(theta: object, omega: object, singular_tol: float = SINGULAR_TOL)
     the behaviour at |θ| = π (smooth) and |θ| = 2πk (``ChartSingularityError``)."""
     Jinv = kinematics_matrix(theta, singular_tol)
     w = as_array(omega, "omega", (3,))
-    return np.einsum("...ij,...j->...i", Jinv, w)
+    broadcast_batch(("theta", Jinv.shape[:-2]), ("omega", w.shape[:-1]))
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = np.einsum("...ij,...j->...i", Jinv, w)
+    return check_output_finite(out, "omega", "θ̇ = J_r(θ)⁻¹ ω")

@@ -31,6 +31,12 @@ from .se3_control import (
     pose_gains_from_bandwidth,
 )
 from .terminal_sliding_mode import TerminalSlidingMode, TerminalSlidingModeSO3
+from .tuning import (
+    ActuatorLimits,
+    ClosedLoopSpec,
+    TuningInfeasible,
+    measure_small_angle_response,
+)
 
 __all__ = [
     "AttitudeController",
@@ -68,4 +74,8 @@ __all__ = [
     "pid_gains",
     "TerminalSlidingMode",
     "TerminalSlidingModeSO3",
+    "ClosedLoopSpec",
+    "ActuatorLimits",
+    "TuningInfeasible",
+    "measure_small_angle_response",
 ]

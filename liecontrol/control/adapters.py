@@ -81,7 +81,15 @@ import numpy as np
 
 from .._linalg import cross as _cross
 from .._linalg import matvec
-from .._validation import as_array, check_inertia_3x3, check_positive, check_rotation_matrix
+from .._validation import (
+    as_array,
+    as_scalar,
+    check_inertia_3x3,
+    check_output_finite,
+    check_positive,
+    check_rotation_matrix,
+    norm_last,
+)
 from ..charts import euler as _euler
 from ..charts import mrp as _mrp
 from ..charts import quaternion as _quat
@@ -178,13 +186,17 @@ def _quat_trusted(R: np.ndarray) -> np.ndarray:
 def mrp_shadow_jacobian(p: object) -> np.ndarray:
     """D(p) = ∂p_s/∂p = (−I + 2 p̂ p̂ᵀ)/|p|² for the shadow p_s = −p/|p|², ``(..., 3, 3)``.
 
-    Raises ``ValueError`` (naming ``p``) at p = 0, whose shadow is at infinity.
+    Raises ``ValueError`` (naming ``p``) at p = 0, whose shadow is at infinity, and where
+    1/|p|² overflows.
     """
     p = as_array(p, "p", (3,))
-    n2 = np.sum(p * p, axis=-1)[..., None, None]
-    if np.any(n2 == 0.0):
+    n = norm_last(p)[..., None, None]  # no overflow/underflow of |p|²
+    if np.any(n == 0.0):
         raise ValueError("p: the shadow of the zero MRP (identity rotation) is at infinity")
-    return (-np.eye(3) + 2.0 * p[..., :, None] * p[..., None, :] / n2) / n2
+    u = p / n[..., 0]  # p̂
+    with np.errstate(over="ignore", under="ignore"):
+        D = (-np.eye(3) + 2.0 * u[..., :, None] * u[..., None, :]) / n / n
+    return check_output_finite(D, "p", "D(p) ∝ 1/|p|²")
 
 
 def mrp_shadow_map(
@@ -408,12 +420,12 @@ class RotatingFrame:
             raise ValueError(f"omega: expected shape (3,), got {w.shape}")
         object.__setattr__(self, "R0", R0.copy())
         object.__setattr__(self, "omega", w.copy())
-        object.__setattr__(self, "t0", float(as_array(self.t0, "t0", ())))
+        object.__setattr__(self, "t0", as_scalar(self.t0, "t0"))
 
     def __call__(self, t: float) -> AttitudeReference:
         from ..lie import so3
 
-        R = self.R0 @ so3.exp((float(t) - self.t0) * self.omega)
+        R = self.R0 @ so3.exp((as_scalar(t, "t") - self.t0) * self.omega)
         return AttitudeReference(R_d=R, omega_d=self.omega.copy(), omega_dot_d=np.zeros(3))
 
 
@@ -586,7 +598,7 @@ class ChartAdapter(AttitudeController):
             raise ValueError(f"batch_size: expected a positive int, got {batch_size!r}")
         if batch_size < 1:
             raise ValueError(f"batch_size: must be >= 1, got {batch_size}")
-        t0 = float(as_array(t0, "t0", ()))
+        t0 = as_scalar(t0, "t0")
         self._batch = int(batch_size)
         self._diag = {}
         self._reset_memory()
@@ -626,6 +638,7 @@ class ChartAdapter(AttitudeController):
         """Convert ``(state, reference)`` into the chart (advances the chart memory)."""
         if self._batch is None:
             raise RuntimeError(f"{type(self).__name__}.command: call reset(t0, batch_size) first")
+        t = as_scalar(t, "t")  # first: nothing (chart memory) changes for a bad call
         R = check_rotation_matrix(state.R, "R")
         w = as_array(state.omega, "omega", (3,))
         B = check_state_batch(R, w, self._batch)
@@ -661,7 +674,7 @@ class ChartAdapter(AttitudeController):
         self._before_law(sw, sw_d)
         h = None if state.h is None else as_array(state.h, "h", (3,))
         return ChartState(
-            t=float(t),
+            t=t,
             chart=self.chart,
             y=y,
             y_dot=y_dot,
@@ -683,7 +696,7 @@ class ChartAdapter(AttitudeController):
     def command(self, t: float, state: AttitudeState, reference: AttitudeReference) -> np.ndarray:
         """Body torque ``(B, 3)`` [N·m] from the chart law."""
         s = self.chart_state(t, state, reference)
-        u = np.asarray(self.law(float(t), s), dtype=np.float64)
+        u = np.asarray(self.law(s.t, s), dtype=np.float64)
         B = s.batch_size
         if u.shape != (B, 3):
             raise ValueError(f"law: returned torque of shape {u.shape}, expected {(B, 3)}")
@@ -763,7 +776,7 @@ class MrpChartAdapter(ChartAdapter):
 
     def __init__(self, law: Any, base: object = "reference", threshold: float = 1.0) -> None:
         super().__init__(law, MrpChart(), base)
-        thr = float(as_array(threshold, "threshold", ()))
+        thr = as_scalar(threshold, "threshold")
         if thr < 1.0:
             raise ValueError(f"threshold: must be >= 1 (got {thr}); below 1 the switch chatters")
         self.threshold = thr

@@ -65,7 +65,14 @@ import numpy as np
 from scipy.linalg import expm
 
 from .._linalg import matvec
-from .._validation import as_array, check_inertia_3x3, check_nonnegative, check_positive
+from .._validation import (
+    as_array,
+    as_scalar,
+    check_inertia_3x3,
+    check_nonnegative,
+    check_positive,
+    check_positive_scalar,
+)
 from ..charts import mrp as _mrp
 from .adapters import ChartState, MrpChartAdapter, mrp_shadow_jacobian, mrp_shadow_map
 
@@ -91,8 +98,8 @@ def _gain3(k: object, name: str) -> np.ndarray:
 
 
 def _alpha_beta(alpha: object, beta: object) -> tuple[float, float]:
-    a = check_nonnegative(as_array(alpha, "alpha", ()), "alpha")
-    b = check_nonnegative(as_array(beta, "beta", ()), "beta")
+    a = check_nonnegative(as_scalar(alpha, "alpha"), "alpha")
+    b = check_nonnegative(as_scalar(beta, "beta"), "beta")
     if a == 0.0 and b == 0.0:
         raise ValueError("alpha: alpha = beta = 0 leaves the ESO without any measurement")
     if a == 0.0:
@@ -207,7 +214,7 @@ class ADRCParams:
             v = _gain3(getattr(self, name), name)
             v.setflags(write=False)
             object.__setattr__(self, name, v)
-        object.__setattr__(self, "r", float(check_positive(as_array(self.r, "r", ()), "r")))
+        object.__setattr__(self, "r", check_positive_scalar(self.r, "r"))
         a, b = _alpha_beta(self.alpha, self.beta)
         object.__setattr__(self, "alpha", a)
         object.__setattr__(self, "beta", b)

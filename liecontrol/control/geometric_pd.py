@@ -26,15 +26,18 @@ import numpy as np
 
 from .._validation import (
     as_array,
+    as_scalar,
+    check_bool,
     check_inertia_3x3,
     check_positive,
+    check_positive_scalar,
     check_rotation_matrix,
     check_spd,
     rotations_pass_fast,
 )
 from ..errors import _KERNELS, DEFAULT_G, _check_kind, check_error_weight
 from ..lie import so3
-from .base import AttitudeController, AttitudeReference, AttitudeState
+from .base import AttitudeController, AttitudeReference, AttitudeState, finite_command
 
 __all__ = ["GeometricPD", "check_gain", "gains_from_bandwidth", "linear_error_slope"]
 
@@ -62,13 +65,15 @@ def linear_error_slope(error: str = "large_angle", G: object = None, which: str 
     ``S = ½ (tr G · I − G)`` (eigenvalues ``½(tr G − g_i)``: 0.95 … 1.05 for the default ``G``).
     """
     error = _check_kind(error, "error")
-    if which not in ("min", "max"):
+    if not isinstance(which, str) or which not in ("min", "max"):
         raise ValueError(f"which: expected 'min' or 'max', got {which!r}")
+    if G is not None:
+        G = check_error_weight(G)  # checked even where unused: a bad G is a caller's bug
     if error == "log":
         return 1.0
     if error == "large_angle":
         return 0.5
-    G = DEFAULT_G if G is None else check_error_weight(G)
+    G = DEFAULT_G if G is None else G
     g = np.linalg.eigvalsh(G)
     return float(0.5 * (g.sum() - (g[-1] if which == "min" else g[0])))
 
@@ -102,13 +107,22 @@ def gains_from_bandwidth(
     :mod:`liecontrol.control.region_of_attraction`.
     """
     J = check_inertia_3x3(J, "J")
-    omega_n = check_positive(omega_n, "omega_n")
-    zeta = check_positive(zeta, "zeta")
+    omega_n = check_positive_scalar(omega_n, "omega_n")
+    zeta = check_positive_scalar(zeta, "zeta")
+    matrix = check_bool(matrix, "matrix")
     s_min = linear_error_slope(error, G, "min")
     r = float(np.sqrt(linear_error_slope(error, G, "max") / s_min))
+    lam = float(np.linalg.eigvalsh(J)[-1])
+    # the gains scale like ω_n² λ_max(J): check before they overflow (not an OverflowError)
+    if not math.isfinite(omega_n * omega_n * lam / s_min) or not math.isfinite(
+        2.0 * zeta * omega_n * r * lam
+    ):
+        raise ValueError(
+            f"omega_n: the gains ω_n² λ_max(J)/s and 2 ζ ω_n λ_max(J) overflow float64 "
+            f"(ω_n = {omega_n:.3g}, ζ = {zeta:.3g})"
+        )
     if matrix:
         return omega_n**2 * J / s_min, 2.0 * zeta * omega_n * r * J
-    lam = float(np.linalg.eigvalsh(J)[-1])
     return omega_n**2 * lam / s_min, 2.0 * zeta * omega_n * r * lam
 
 
@@ -231,7 +245,7 @@ class GeometricPD(AttitudeController):
             raise ValueError(f"batch_size: expected a positive int, got {batch_size!r}")
         if batch_size < 1:
             raise ValueError(f"batch_size: must be >= 1, got {batch_size}")
-        t0 = float(as_array(t0, "t0"))
+        t0 = as_scalar(t0, "t0")
         self._t0 = t0
         self._batch = int(batch_size)
         self._diag = {}
@@ -267,6 +281,7 @@ class GeometricPD(AttitudeController):
         """Body torque ``(B, 3)`` [N·m] for ``state`` (``R (B,3,3)``, ``omega (B,3)``)."""
         if self._batch is None:
             raise RuntimeError("GeometricPD.command: call reset(t0, batch_size) first")
+        as_scalar(t, "t")  # unused by the law, but a NaN time is a caller's bug
         R, w = state.R, state.omega
         if not (
             isinstance(R, np.ndarray)
@@ -287,7 +302,7 @@ class GeometricPD(AttitudeController):
         if B == 1:
             M = self._command_one(R, w, R_d, w_d, dw_d)
             if M is not None:
-                return M
+                return finite_command(M, w)
 
         # R̃ = R_dᵀR formed directly; R̃ᵀ = RᵀR_d, which maps desired-body vectors into the body
         # frame, is its view
@@ -322,7 +337,7 @@ class GeometricPD(AttitudeController):
             ff = _cross(w, Jw)
         M = ff - _apply_gain(self.k_R, e_R) - _apply_gain(self.k_Omega, e_W)
         self._diag = {"Psi": Psi, "e_R": e_R, "e_Omega": e_W}
-        return M
+        return finite_command(M, w)
 
     def _command_one(
         self, R: np.ndarray, w: np.ndarray, R_d: np.ndarray, w_d: np.ndarray, dw_d: np.ndarray

@@ -64,8 +64,13 @@ import math
 
 import numpy as np
 
-from .._validation import as_array, check_positive
-from .base import AttitudeController, AttitudeReference, AttitudeState
+from .._validation import (
+    as_array,
+    as_scalar,
+    check_positive,
+    check_positive_scalar,
+)
+from .base import AttitudeController, AttitudeReference, AttitudeState, finite_command
 from .geometric_pd import GeometricPD, _apply_gain, _cross, check_gain
 
 __all__ = ["IntrinsicPID", "IntegralPD", "integral_gain", "connection_term"]
@@ -105,9 +110,13 @@ def integral_gain(k_R: object, omega_i: float, c: float | None = None) -> float 
     choose ``ω_i`` well below ``2ζω_n``, e.g. ``ω_n / 5``).
     """
     K = check_gain(k_R, "k_R")
-    omega_i = check_positive(omega_i, "omega_i")
-    scale = omega_i if c is None else omega_i / check_positive(c, "c")
-    return scale * K
+    omega_i = check_positive_scalar(omega_i, "omega_i")
+    scale = omega_i if c is None else omega_i / check_positive_scalar(c, "c")
+    with np.errstate(over="ignore"):
+        out = scale * K
+    if not np.all(np.isfinite(out)):
+        raise ValueError("omega_i: k_I = ω_i k_R overflows float64 for this input (too large)")
+    return out
 
 
 def _check_torque_limit(x: object) -> np.ndarray | None:
@@ -182,7 +191,7 @@ class _IntegralController(AttitudeController):
         """Body torque ``(B, 3)`` [N·m]; advances the integral state to ``t`` first (ZOH)."""
         if self._batch is None:
             raise RuntimeError(f"{type(self).__name__}.command: call reset(t0, batch_size) first")
-        t = float(as_array(t, "t"))
+        t = as_scalar(t, "t")
         u_pd = self._pd.command(t, state, reference)
         d = self._pd.diagnostics()
         e_R, e_W = d["e_R"], d["e_Omega"]
@@ -229,7 +238,7 @@ class _IntegralController(AttitudeController):
             integral_clamped=clamped,
         )
         self._diag = d
-        return u
+        return finite_command(u, state.omega)
 
     def diagnostics(self) -> dict[str, np.ndarray]:
         """Last ``Psi`` ``(B,)``, ``e_R``, ``e_Omega``, ``integral`` (the state z),

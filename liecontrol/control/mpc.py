@@ -81,8 +81,11 @@ import scipy.sparse as sp
 
 from .._validation import (
     as_array,
+    as_scalar,
     check_inertia_3x3,
+    check_output_finite,
     check_positive,
+    check_positive_scalar,
     check_rotation_matrix,
     check_spd,
     rotations_pass_fast,
@@ -118,6 +121,7 @@ STATUS_NAMES: dict[int, str] = {
     -9: "non convex",
     -10: "interrupted",
     -11: "unsolved",
+    -12: "update rejected (invalid problem data)",
     -99: "solver exception",
 }
 
@@ -220,7 +224,7 @@ def error_state(R: object, omega: object, R_d: object, omega_d: object) -> np.nd
 
 def _error_unchecked(R: np.ndarray, w: np.ndarray, R_d: np.ndarray, w_d: np.ndarray) -> np.ndarray:
     Rt = np.swapaxes(R_d, -1, -2) @ R
-    xi = so3.log(Rt)
+    xi = so3.log_unchecked(Rt)  # R and R_d were checked by the caller
     e_w = w - _mv(np.swapaxes(Rt, -1, -2), w_d)
     return np.concatenate(np.broadcast_arrays(xi, e_w), axis=-1)
 
@@ -238,7 +242,29 @@ def reference_model(
     Returns:
         ``A (n, 6, 6)``, ``B (n, 6, 3)``, ``u_ref (n, 3)``, ``c (n, 6)`` with
         ``x_{k+1} = A_k x_k + B_k (u_k − u_ref,k) + c_k``.
+
+    Raises ``ValueError`` naming the argument for an invalid inertia, ``dt ≤ 0``, shapes that do
+    not match, non-rotations in ``F_ref``, or a model that overflows float64.
     """
+    J = check_inertia_3x3(J, "J")
+    dt = check_positive_scalar(dt, "dt")
+    F = check_rotation_matrix(F_ref, "F_ref")
+    if F.ndim != 3 or F.shape[0] < 1:
+        raise ValueError(f"F_ref: expected shape (n, 3, 3) with n >= 1, got {F.shape}")
+    w = as_array(omega_d, "omega_d")
+    if w.shape != (F.shape[0] + 1, 3):
+        raise ValueError(f"omega_d: expected shape ({F.shape[0] + 1}, 3), got {w.shape}")
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        out = _reference_model(J, dt, w, F)
+    for a in out:
+        check_output_finite(a, "dt", "the linearised model")
+    return out
+
+
+def _reference_model(
+    J: np.ndarray, dt: float, omega_d: np.ndarray, F_ref: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`reference_model` without validation (the controller's own, valid data)."""
     n = F_ref.shape[0]
     Jd = _jd(J)
     Jinv = np.linalg.inv(J)
@@ -273,8 +299,9 @@ def reference_model(
     return A, B, u_ref, c
 
 
-def rest_model(J: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """``(A, B)`` of :func:`reference_model` at rest (``Ω_d ≡ 0``): the ZOH double integrator."""
+def rest_model(J: object, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(A, B)`` of :func:`reference_model` at rest (``Ω_d ≡ 0``): the ZOH double integrator.
+    Validates ``J`` and ``dt`` as :func:`reference_model` does."""
     A, B, _, _ = reference_model(J, dt, np.zeros((2, 3)), np.eye(3)[None])
     return A[0], B[0]
 
@@ -486,7 +513,13 @@ class _OsqpQP:
         self.q = np.zeros(nx + nu)
         Aid.data = self.vals[self.order]
         self.solver = osqp.OSQP()
-        self.solver.setup(H, self.q, Aid, self.l, self.u, **settings)
+        # osqp ≥ 1.0 raises on invalid data; older versions return a non-zero exit code
+        try:
+            rc = self.solver.setup(H, self.q, Aid, self.l, self.u, **settings)
+        except Exception as exc:
+            raise RuntimeError(f"SO3MPC: OSQP setup rejected the QP ({exc!r})") from exc
+        if rc not in (None, 0):  # pragma: no cover - another osqp version
+            raise RuntimeError(f"SO3MPC: OSQP setup rejected the QP (exit code {rc})")
         self._polish = bool(self.solver.settings.polishing)
         self._eps = (float(self.solver.settings.eps_abs), float(self.solver.settings.eps_rel))
         self.polish_retries = 0
@@ -552,9 +585,11 @@ class _OsqpQP:
         self.polish_retries += 1
         self.solver.update_settings(eps_abs=ea * f, eps_rel=er * f)
         try:
-            s.solve()
+            rc = s.solve()
         finally:
             self.solver.update_settings(eps_abs=ea, eps_rel=er)
+        if rc:
+            return _SolveInfo(_STATUS_EXCEPTION, info.iter, info.run_time)  # status -99
         second = s.info
         return _SolveInfo(
             second.status_val, info.iter + second.iter, info.run_time + second.run_time
@@ -566,7 +601,8 @@ class _OsqpQP:
             return
         x, y = self._last
         if self._s is not None:
-            self._s.warm_start(x[self._x_shift], y[self._y_shift])
+            if self._s.warm_start(x[self._x_shift], y[self._y_shift]):
+                self._last = None  # rejected: this step starts cold (OSQP kept no warm start)
         else:  # pragma: no cover - another osqp version
             self.solver.warm_start(x=x[self._x_shift], y=y[self._y_shift])
 
@@ -580,10 +616,20 @@ class _OsqpQP:
             res = self.solver.solve(raise_error=False)
             info, x, y = res.info, res.x, res.y
         else:
-            s.update_data_vec(q, self.l, self.u)
+            # a non-zero exit code means OSQP rejected the data and kept the previous problem:
+            # solving would answer a different QP, so the step fails (the caller falls back)
+            rc = s.update_data_vec(q, self.l, self.u)
+            if rc:
+                return self._rejected("update_data_vec", rc)
             if Ax is not None:
-                s.update_data_mat(None, None, Ax, None)
-            s.solve()
+                rc = s.update_data_mat(None, None, Ax, None)
+                if rc:
+                    return self._rejected("update_data_mat", rc)
+            rc = s.solve()
+            if rc:
+                self._last = None
+                _log.warning("SO3MPC: OSQP solve returned exit code %d", rc)
+                return -_STATUS_EXCEPTION, None, 0, 0.0
             info = s.info
             if self._polish and info.status_val == 1 and info.status_polish != 1:
                 info = self._retry(info)
@@ -598,6 +644,18 @@ class _OsqpQP:
         self._last = (x, y) if status in (1, 2) else None
         u = x[self.nx :].reshape(self.N, 3)
         return status, u, int(info.iter), float(info.run_time)
+
+    def _rejected(self, call: str, rc: int) -> tuple[int, None, int, float]:
+        """An update OSQP refused (exit code ``rc``): nothing is solved, the warm start is
+        dropped and the data are re-sent in full next step."""
+        _log.warning("SO3MPC: OSQP %s rejected the problem data (exit code %d)", call, rc)
+        self._last = None
+        self._mat_dirty = self._q_dirty = True
+        return -_STATUS_REJECTED, None, 0, 0.0
+
+
+_STATUS_EXCEPTION = 99
+_STATUS_REJECTED = 12
 
 
 class _SolveInfo:
@@ -691,6 +749,14 @@ class _CvxpyQP:
 
 
 # ------------------------------------------------------------------------------------------------
+
+
+def _real(x: object, name: str) -> np.ndarray:
+    """A real float array (NaN/inf allowed: checked by the caller), complex rejected."""
+    a = np.asarray(x)
+    if a.dtype.kind == "c" or a.dtype.kind in "USVO":
+        raise ValueError(f"{name}: lo/hi must be real numbers, got dtype {a.dtype}")
+    return a.astype(np.float64)
 
 
 def _check_int(v: object, name: str, minimum: int) -> int:
@@ -843,7 +909,7 @@ class SO3MPC(AttitudeController):
     def reset(self, t0: float, batch_size: int) -> None:
         """Clear warm starts, counters and diagnostics; QPs are (re)built on the first command."""
         batch_size = _check_int(batch_size, "batch_size", 1)
-        self._t0 = float(as_array(t0, "t0"))
+        self._t0 = as_scalar(t0, "t0")
         self._batch = batch_size
         self._qps = [None] * batch_size
         self._fallbacks = []
@@ -860,7 +926,7 @@ class SO3MPC(AttitudeController):
         return cls(self.N, self.Q, self.R, self.P, m, self.solver_settings, self.u_max)
 
     def _build_model(self, ws: np.ndarray, F: np.ndarray) -> _Model:
-        A, Bm, u_ref, c = reference_model(self.J, self.dt, ws, F)
+        A, Bm, u_ref, c = _reference_model(self.J, self.dt, ws, F)  # valid by construction
         return _Model(A, Bm, u_ref, c, ws, F, self.R, self.u_max)
 
     def _model(
@@ -910,10 +976,26 @@ class SO3MPC(AttitudeController):
         if C.ndim != 2:
             raise ValueError(f"extra_constraints: C must have shape (m, 3), got {C.shape}")
         m = C.shape[0]
-        lo = np.broadcast_to(np.asarray(lo, dtype=np.float64), (m,))
-        hi = np.broadcast_to(np.asarray(hi, dtype=np.float64), (m,))
+        try:
+            lo = np.broadcast_to(_real(lo, "extra_constraints"), (m,))
+            hi = np.broadcast_to(_real(hi, "extra_constraints"), (m,))
+        except ValueError as exc:
+            if str(exc).startswith("extra_constraints"):
+                raise
+            raise ValueError(
+                f"extra_constraints: lo and hi must be scalars or shape ({m},)"
+            ) from None
         if np.isnan(lo).any() or np.isnan(hi).any():
             raise ValueError("extra_constraints: lo/hi contain NaN")
+        # an empty interval makes the QP infeasible by construction; OSQP would reject the data
+        # (and, unchecked, keep solving the previous problem): a user error, reported as such
+        bad = (lo > hi) | (lo == np.inf) | (hi == -np.inf)
+        if np.any(bad):
+            i = int(np.flatnonzero(bad)[0])
+            raise ValueError(
+                f"extra_constraints: lower bound exceeds upper bound in row {i} "
+                f"({lo[i]!r} > {hi[i]!r}); every row needs lo <= hi"
+            )
         if m_expected is not None and m != m_expected:
             raise ValueError(f"extra_constraints: number of rows changed from {m_expected} to {m}")
         return C, lo, hi
@@ -939,7 +1021,7 @@ class SO3MPC(AttitudeController):
         for name, a, nd in (("R_d", R_d, 2), ("omega_d", w_d, 1), ("omega_dot_d", dw_d, 1)):
             if a.ndim > nd + 1 or (a.ndim == nd + 1 and a.shape[0] != B):
                 raise ValueError(f"{name}: expected one sample or a batch of {B}, got {a.shape}")
-        t = float(t)
+        t = as_scalar(t, "t")
         out = np.empty((B, 3))
         status = np.zeros(B, dtype=np.int64)
         iters = np.zeros(B, dtype=np.int64)
@@ -956,7 +1038,7 @@ class SO3MPC(AttitudeController):
             if u_b is None:
                 fb_on[b] = True
                 self._fallback_count[b] += 1
-                ref_b = AttitudeReference(Rd_b, wd_b, dwd_b)
+                ref_b = AttitudeReference.unchecked(Rd_b, wd_b, dwd_b)  # checked above
                 st_b = _one_state(state, b)
                 u_fb = np.asarray(self._fallbacks[b].command(t, st_b, ref_b), dtype=np.float64)
                 u_b = np.clip(u_fb.reshape(3), -self.u_max, self.u_max)
@@ -1039,7 +1121,7 @@ def _one_state(state: AttitudeState, b: int) -> AttitudeState:
     """Spacecraft ``b`` of a batched state, as a batch of one (all fields, incl. the actuator's)."""
     sl = slice(b, b + 1)
     h, act = state.h, state.actuator_state
-    return AttitudeState(
+    return AttitudeState.unchecked(  # slices of a validated state
         np.asarray(state.R)[sl],
         np.asarray(state.omega)[sl],
         None if h is None else np.asarray(h)[sl],

@@ -73,10 +73,16 @@ import math
 
 import numpy as np
 
-from .._validation import as_array, check_inertia_3x3, check_nonnegative, check_positive
+from .._validation import (
+    as_array,
+    as_scalar,
+    check_inertia_3x3,
+    check_nonnegative,
+    check_positive,
+)
 from ..charts import euler as _euler
 from .adapters import ChartState, EulerChartAdapter
-from .base import AttitudeController, AttitudeReference, AttitudeState
+from .base import AttitudeController, AttitudeReference, AttitudeState, finite_command
 
 __all__ = [
     "MODES",
@@ -124,6 +130,13 @@ def pid_gains(
     z = _scalar(check_positive(zeta, "zeta"), "zeta")
     r = _scalar(check_nonnegative(integral_ratio, "integral_ratio"), "integral_ratio")
     Jd = np.diag(Jm).copy()
+    # k_i ∝ ω_n³: check before it overflows (Python's float ** raises OverflowError)
+    scale = float(Jd.max()) * max(1.0, 2.0 * z + r, 1.0 + 2.0 * z * r)
+    if not math.isfinite(scale * wn * wn * max(1.0, wn)):  # float * gives inf, never raises
+        raise ValueError(
+            f"bandwidth_hz: the gains (∝ ω_n³) overflow float64 (bandwidth_hz = "
+            f"{wn / (2.0 * math.pi):.3g})"
+        )
     return Jd * (1.0 + 2.0 * z * r) * wn**2, Jd * r * wn**3, Jd * (2.0 * z + r) * wn
 
 
@@ -196,6 +209,8 @@ class HarmonicIdentifier:
                 raise ValueError(f"batch_size: expected a positive int, got {batch_size!r}")
             if batch_size < 1:
                 raise ValueError(f"batch_size: must be >= 1, got {batch_size}")
+            if batch_size > 2**31:
+                raise ValueError(f"batch_size: {batch_size} is larger than any feasible batch")
             self.batch_size = int(batch_size)
         p = self.n_params
         self._theta = np.zeros((self.batch_size, 3, p))
@@ -526,7 +541,7 @@ class SmallAnglePIDWithFeedforward(AttitudeController):
                 if a.ndim == 2 and a.shape[0] != B:
                     raise ValueError(f"injected: has {a.shape[0]} rows, the batch has {B}")
         self._B = B
-        self._t0 = float(as_array(t0, "t0", ()))
+        self._t0 = as_scalar(t0, "t0")
         self.identifier.reset(B)
         self._k_c = None  # index of the last PID sample
         self._k_p = None  # index of the last feed-forward refresh
@@ -588,7 +603,7 @@ class SmallAnglePIDWithFeedforward(AttitudeController):
         u = self._u_pid + self._u_comp
         self._u_last = u
         self._t_call = t
-        return u.copy()
+        return finite_command(u.copy(), state.omega)
 
     def _pid_sample(self, t: float, state: AttitudeState, reference: AttitudeReference) -> None:
         self._u_pid = self.adapter.command(t, state, reference)

@@ -55,12 +55,19 @@ Units: ``J`` [kg·m²], ``k₁``, ``k₂`` [1/s], ``k_c`` [1/s²], ``l`` [1/s], 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import as_array, check_inertia_3x3, check_positive
-from .base import AttitudeController, AttitudeReference, AttitudeState
+from .._validation import (
+    as_array,
+    as_scalar,
+    check_inertia_3x3,
+    check_positive,
+    check_positive_scalar,
+)
+from .base import AttitudeController, AttitudeReference, AttitudeState, finite_command
 from .geometric_pd import GeometricPD, _cross
 
 __all__ = [
@@ -183,11 +190,15 @@ def ppc_gains(omega_n: float, zeta: float = 0.9, outer: float = 0.25) -> tuple[f
     """``(k₁, k₂, k_c)`` giving every axis the linearised natural frequency ``omega_n`` [rad/s]
     and damping ``zeta`` (module docstring): outer-loop rate ``λ₁ = outer · ω_n``, ``k₁ = 4λ₁``,
     ``k₂ = 2ζω_n − λ₁``, ``k_c = 4(ω_n² − k₂λ₁)``. Needs ``k₂ > 0`` and ``k_c > 0``."""
-    omega_n = check_positive(omega_n, "omega_n")
-    zeta = check_positive(zeta, "zeta")
-    outer = check_positive(outer, "outer")
+    omega_n = check_positive_scalar(omega_n, "omega_n")
+    zeta = check_positive_scalar(zeta, "zeta")
+    outer = check_positive_scalar(outer, "outer")
     lam = outer * omega_n
     k2 = 2.0 * zeta * omega_n - lam
+    if not math.isfinite(omega_n * omega_n * max(1.0, zeta)):
+        raise ValueError(f"omega_n: the gains (∝ ω_n²) overflow float64 (ω_n = {omega_n:.3g})")
+    if not math.isfinite(k2 * lam):
+        raise ValueError(f"outer: the gains (∝ outer·ω_n²) overflow float64 (outer = {outer:.3g})")
     kc = 4.0 * (omega_n**2 - k2 * lam)
     if k2 <= 0.0 or kc <= 0.0:
         raise ValueError(
@@ -335,7 +346,7 @@ class PrescribedPerformance(AttitudeController):
         """Start the funnel at ``t0``; ρ₀ is fixed at the first ``command``."""
         self._pd.reset(t0, batch_size)
         self._batch = int(batch_size)
-        self._t0 = float(as_array(t0, "t0"))
+        self._t0 = as_scalar(t0, "t0")
         self.rho0: np.ndarray | None = None
         self._violations = np.zeros(self._batch, dtype=np.int64)
         self._diag: dict[str, np.ndarray] = {}
@@ -344,7 +355,7 @@ class PrescribedPerformance(AttitudeController):
         """Body torque ``(B, 3)`` [N·m]."""
         if self._batch is None:
             raise RuntimeError("PrescribedPerformance.command: call reset(t0, batch_size) first")
-        t = float(as_array(t, "t"))
+        t = as_scalar(t, "t")
         tau = t - self._t0
         if tau < 0.0:
             raise ValueError(f"t: {t!r} is before the funnel's start t0 = {self._t0!r}")
@@ -375,7 +386,7 @@ class PrescribedPerformance(AttitudeController):
             edge_saturated=np.any(vr.z_clipped, axis=-1),
         )
         self._diag = d
-        return M
+        return finite_command(M, state.omega)
 
     def diagnostics(self) -> dict[str, np.ndarray]:
         """Last-sample internals (see the class docstring); empty before the first command."""

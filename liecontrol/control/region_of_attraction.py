@@ -47,7 +47,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validation import as_array, check_inertia_3x3, check_positive
+from .._validation import (
+    as_array,
+    check_inertia_3x3,
+    check_positive,
+    check_positive_scalar,
+)
 from ..errors import DEFAULT_G, DERIVATIVE_FACTOR, _check_kind, check_error_weight
 
 __all__ = [
@@ -189,7 +194,7 @@ def lemma2_condition(Psi0: object, e_Omega0: object, k_R: object, J: object = No
     lam_J = 1.0 if J is None else float(np.linalg.eigvalsh(_inertia(J))[-1])
     K = as_array(k_R, "k_R")
     if K.ndim == 0:
-        k_min = float(check_positive(K, "k_R"))
+        k_min = check_positive_scalar(K, "k_R")
     elif K.shape == (3, 3):
         if float(np.abs(K - K.T).max()) > 1e-9 * max(float(np.abs(K).max()), 1e-300):
             raise ValueError("k_R: gain matrix not symmetric")

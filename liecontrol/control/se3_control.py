@@ -59,6 +59,7 @@ T. Lee, M. Leok, N. H. McClamroch (2010) for the decoupled SO(3) × ℝ³ design
 from __future__ import annotations
 
 import abc
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -66,9 +67,17 @@ import numpy as np
 
 from .._linalg import cross as _cross
 from .._linalg import matvec as _mv
-from .._validation import as_array, check_inertia, check_inertia_3x3, check_positive
+from .._validation import (
+    as_array,
+    as_scalar,
+    check_inertia,
+    check_inertia_3x3,
+    check_output_finite,
+    check_positive_scalar,
+)
 from ..errors import se3_log_error
 from ..lie import se3, so3
+from .base import finite_command
 from .geometric_pd import check_gain
 
 __all__ = [
@@ -100,6 +109,25 @@ class PoseState:
 
     g: np.ndarray
     xi: np.ndarray
+
+    def __post_init__(self) -> None:
+        # the cheap structural check of the array layer (rotation block, last row, finite)
+        g = se3._pose(self.g, "g")
+        xi = as_array(self.xi, "xi", (6,))
+        if tuple(xi.shape[:-1]) != tuple(g.shape[:-2]):
+            raise ValueError(
+                f"xi: batch shape {xi.shape[:-1]} does not match g's {g.shape[:-2]}"
+            )
+        object.__setattr__(self, "g", g)
+        object.__setattr__(self, "xi", xi)
+
+    @classmethod
+    def unchecked(cls, g: np.ndarray, xi: np.ndarray) -> PoseState:
+        """Build without validation (a simulator's own, already valid arrays, every step)."""
+        obj = object.__new__(cls)
+        object.__setattr__(obj, "g", g)
+        object.__setattr__(obj, "xi", xi)
+        return obj
 
     @property
     def batch_size(self) -> int:
@@ -170,8 +198,22 @@ def _gain(K: float | np.ndarray, x: np.ndarray) -> np.ndarray:
 
 
 
-def coriolis_wrench(xi: np.ndarray, m: float, J: np.ndarray) -> np.ndarray:
-    """ad_ξᵀ I ξ = (−ω × Jω, −ω × m v) for I = diag(J, m I₃), ``(..., 6)``."""
+def coriolis_wrench(xi: object, m: float, J: object) -> np.ndarray:
+    """ad_ξᵀ I ξ = (−ω × Jω, −ω × m v) for I = diag(J, m I₃), ``(..., 6)``.
+
+    ``xi`` ``(..., 6)`` finite, ``m > 0`` a scalar, ``J`` a 3×3 inertia; ``ValueError`` naming
+    the argument otherwise, or when the wrench (∝ |ω|²) overflows float64."""
+    xi = as_array(xi, "xi", (6,))
+    m = check_positive_scalar(m, "m")
+    J = check_inertia_3x3(J, "J")
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = coriolis_wrench_unchecked(xi, m, J)
+    return check_output_finite(out, "xi", "the wrench (∝ |ω|²)")
+
+
+def coriolis_wrench_unchecked(xi: np.ndarray, m: float, J: np.ndarray) -> np.ndarray:
+    """:func:`coriolis_wrench` without validation (plant and controller hot paths; not in
+    ``__all__``)."""
     w, v = xi[..., :3], xi[..., 3:]
     return np.concatenate((-_cross(w, w @ J.T), -m * _cross(w, v)), axis=-1)
 
@@ -188,11 +230,15 @@ class _Errors:
 
 def _errors(g: np.ndarray, xi: np.ndarray, ref: PoseReference) -> _Errors:
     g_d = np.asarray(ref.g_d, dtype=np.float64)
-    gt = se3.inverse(g_d) @ g
+    # g and ref.g_d were validated by the caller: the unchecked kernels skip the re-checks
+    gt = se3.inverse_unchecked(g_d) @ g
     Rt = gt[..., :3, :3]
-    eta = _mv(se3.adjoint(se3.inverse(gt)), np.asarray(ref.xi_d, dtype=np.float64))
+    eta = _mv(
+        se3.adjoint_unchecked(se3.inverse_unchecked(gt)), np.asarray(ref.xi_d, dtype=np.float64)
+    )
     return _Errors(
-        R_t=Rt, t=gt[..., :3, 3], phi=so3.log(Rt), eta=eta, xi_tilde=xi - eta, g_tilde=gt
+        R_t=Rt, t=gt[..., :3, 3], phi=so3.log_unchecked(Rt), eta=eta, xi_tilde=xi - eta,
+        g_tilde=gt,
     )
 
 
@@ -215,11 +261,15 @@ def pose_gains_from_bandwidth(
     """Gains for the decoupled closed loop of :class:`SE3TrackingController` (``"split"``):
     ``K_R = ω_a² J``, ``K_ω = 2ζω_a J``, ``k_p = m ω_p²``, ``k_v = 2ζω_p m`` — each linearised
     axis then has natural frequency ω_a (attitude) or ω_p (position) and damping ζ."""
-    m = float(check_positive(m, "m"))
+    m = check_positive_scalar(m, "m")
     J = check_inertia(J, "J")
-    wa = float(check_positive(omega_att, "omega_att"))
-    wp = float(check_positive(omega_pos, "omega_pos"))
-    z = float(check_positive(zeta, "zeta"))
+    wa = check_positive_scalar(omega_att, "omega_att")
+    wp = check_positive_scalar(omega_pos, "omega_pos")
+    z = check_positive_scalar(zeta, "zeta")
+    lam = float(np.abs(J).max())
+    for name, w, mass in (("omega_att", wa, lam), ("omega_pos", wp, m)):
+        if not (math.isfinite(w * w * mass) and math.isfinite(2.0 * z * w * mass)):
+            raise ValueError(f"{name}: the gains (∝ ω²) overflow float64 ({name} = {w:.3g})")
     return {
         "k_R": wa**2 * J,
         "k_omega": 2.0 * z * wa * J,
@@ -243,7 +293,7 @@ class _PoseControllerBase(PoseController):
         m_a = as_array(m, "m")
         if m_a.ndim != 0:
             raise ValueError(f"m: must be a scalar, got shape {m_a.shape}")
-        self.m = float(check_positive(m_a, "m"))
+        self.m = check_positive_scalar(m_a, "m")
         J = check_inertia_3x3(J, "J")
         self.J = J.copy()
         self.J.setflags(write=False)
@@ -348,14 +398,15 @@ class BulloMurrayPD(_PoseControllerBase):
         self.cancel_coriolis = cancel_coriolis
 
     def command(self, t: float, state: PoseState, reference: PoseReference) -> np.ndarray:
+        as_scalar(t, "t")  # unused by the law, but a NaN time is a caller's bug
         g, xi = self._check(state, reference)
         e = _errors(g, xi, reference)
         P = self._proportional(g, reference, e)
         u = -P - self._damping(e.xi_tilde) - self._gravity(g)
         if self.cancel_coriolis:
-            u -= coriolis_wrench(xi, self.m, self.J)
+            u -= coriolis_wrench_unchecked(xi, self.m, self.J)
         self._log(e, P, u)
-        return u
+        return finite_command(u, xi, "xi")
 
 
 class SE3TrackingController(_PoseControllerBase):
@@ -382,18 +433,19 @@ class SE3TrackingController(_PoseControllerBase):
         super().__init__(m, J, k_R, k_p, k_omega, k_v, gravity, error)
 
     def command(self, t: float, state: PoseState, reference: PoseReference) -> np.ndarray:
+        as_scalar(t, "t")  # unused by the law, but a NaN time is a caller's bug
         g, xi = self._check(state, reference)
         e = _errors(g, xi, reference)
         P = self._proportional(g, reference, e)
-        gt_inv = se3.inverse(e.g_tilde)
-        xdd = _mv(se3.adjoint(gt_inv), np.asarray(reference.xi_dot_d, dtype=np.float64))
+        gt_inv = se3.inverse_unchecked(e.g_tilde)
+        xdd = _mv(se3.adjoint_unchecked(gt_inv), np.asarray(reference.xi_dot_d, dtype=np.float64))
         ff = _mv(se3.ad(e.xi_tilde), e.eta) - xdd
         u = (
-            -coriolis_wrench(xi, self.m, self.J)
+            -coriolis_wrench_unchecked(xi, self.m, self.J)
             - self._inertia_times(ff)
             - self._gravity(g)
             - P
             - self._damping(e.xi_tilde)
         )
         self._log(e, P, u)
-        return u
+        return finite_command(u, xi, "xi")

@@ -68,9 +68,19 @@ import numpy as np
 
 from .._linalg import cross as _cross
 from .._linalg import matvec as _mv
-from .._validation import as_array, check_inertia_3x3, check_nonnegative, check_positive
+from .._validation import (
+    as_array,
+    as_scalar,
+    check_inertia_3x3,
+    check_nonnegative,
+    check_output_finite,
+    check_positive,
+    check_rotation_matrix,
+    check_tolerance,
+)
 from ..charts.euler import LOCK_TOL, _elem, _parse, from_matrix, rates_matrix
 from .adapters import EulerChartAdapter
+from .base import finite_command
 
 __all__ = [
     "TSMParams",
@@ -165,7 +175,11 @@ def euler_angle_acceleration(
     w = as_array(omega, "omega", (3,))
     wd = as_array(omega_dot, "omega_dot", (3,))
     _parse(seq)
-    _, adot, addot = _accel_core(a, w, wd, seq, lock_tol)
+    lock_tol = check_tolerance(lock_tol, "lock_tol", upper=1.0)
+    with np.errstate(over="ignore", invalid="ignore"):
+        _, adot, addot = _accel_core(a, w, wd, seq, lock_tol)
+    check_output_finite(adot, "omega", "the Euler-angle rate B(a) ω")
+    check_output_finite(addot, "omega_dot", "the Euler-angle acceleration")
     return np.broadcast_arrays(adot, addot)
 
 
@@ -227,8 +241,12 @@ def euler_feedback_linearisation(
     wb = None if omega_base is None else as_array(omega_base, "omega_base", (3,))
     dwb = None if omega_dot_base is None else as_array(omega_dot_base, "omega_dot_base", (3,))
     _parse(seq)
-    w_rel, drift = _drift(w, J, np.linalg.inv(J), wb, dwb)
-    B, _, b = _accel_core(a, w_rel, drift, seq, lock_tol)
+    lock_tol = check_tolerance(lock_tol, "lock_tol", upper=1.0)
+    with np.errstate(over="ignore", invalid="ignore"):
+        w_rel, drift = _drift(w, J, np.linalg.inv(J), wb, dwb)
+        B, _, b = _accel_core(a, w_rel, drift, seq, lock_tol)
+    # ω × Jω grows like |ω|²: beyond ~1e150 rad/s the drift is not representable
+    check_output_finite(b, "omega", "the drift term b (∝ |ω|²)")
     A = np.broadcast_to(B, b.shape + (3,)).copy()
     return A, b
 
@@ -243,8 +261,20 @@ def euler_reference(
     """Euler-angle reference (y_d, ẏ_d, ÿ_d) of an SO(3) reference (R_d, ω_d, ω̇_d) — ω_d in the
     desired body frame — by :func:`liecontrol.charts.euler.from_matrix` and
     :func:`euler_angle_acceleration`. Raises ChartSingularityError if R_d is at gimbal lock."""
+    R_d = check_rotation_matrix(R_d, "R_d")
+    omega_d = as_array(omega_d, "omega_d", (3,))
+    omega_dot_d = as_array(omega_dot_d, "omega_dot_d", (3,))
+    lock_tol = check_tolerance(lock_tol, "lock_tol", upper=1.0)
     a_d = from_matrix(R_d, seq, warn=False)
-    ad, add = euler_angle_acceleration(a_d, omega_d, omega_dot_d, seq, lock_tol)
+    try:
+        ad, add = euler_angle_acceleration(a_d, omega_d, omega_dot_d, seq, lock_tol)
+    except ValueError as exc:
+        # re-name the arguments of the inner call after this function's own
+        msg = str(exc)
+        for inner, outer in (("omega_dot:", "omega_dot_d:"), ("omega:", "omega_d:")):
+            if msg.startswith(inner):
+                raise ValueError(outer + msg[len(inner):]) from None
+        raise
     return np.broadcast_to(a_d, ad.shape).copy(), ad, add
 
 
@@ -484,7 +514,7 @@ class TerminalSlidingMode:
         self.params = TSMParams(T=T, C1=C1, C2=C2, delta0=delta0, delta1=delta1, F=F, D=D, K=K)
         _parse(seq)
         self.seq = seq
-        self.lock_tol = float(check_positive(lock_tol, "lock_tol"))
+        self.lock_tol = check_tolerance(lock_tol, "lock_tol", upper=1.0)
         self._t0: float | None = None
         self._init: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._diag: dict[str, np.ndarray] = {}
@@ -538,7 +568,7 @@ class TerminalSlidingMode:
             ChartSingularityError: state at gimbal lock.
             ValueError: bad shapes / non-finite input, or ``t`` before the capture time.
         """
-        t = float(as_array(t, "t"))
+        t = as_scalar(t, "t")
         a = as_array(angles, "angles", (3,))
         w = as_array(omega, "omega", (3,))
         y_d = as_array(angles_d, "angles_d", (3,))
@@ -560,7 +590,7 @@ class TerminalSlidingMode:
         p, pdot, pddot = _shape_core(np.asarray(t - self._t0), self.params.T, *self._init)
         u, sigma = tsm_control(e, edot, p, pdot, pddot, A, b, ydd_d, self.params)
         self._diag = {"sigma": sigma, "e": e, "edot": edot, "p": p, "u": u}
-        return u @ self.J.T
+        return finite_command(u @ self.J.T, omega)
 
     def __call__(self, t: float, s: Any) -> np.ndarray:
         """Chart-law protocol of :mod:`liecontrol.control.adapters`: ``s`` is a ``ChartState``

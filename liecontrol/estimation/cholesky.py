@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg.lapack import dtrtrs
 
-from .._validation import as_array
+from .._validation import as_array, broadcast_batch, check_bool, check_positive_scalar
 
 __all__ = [
     "NotPositiveDefiniteError",
@@ -67,7 +67,7 @@ def cholupdate(S: object, v: object, sign: float = 1.0) -> np.ndarray:
         V = V[..., None]
     if V.ndim < 2 or V.shape[-2] != n:
         raise ValueError(f"v: expected shape (..., {n}) or (..., {n}, k), got {V.shape}")
-    batch = np.broadcast_shapes(L.shape[:-2], V.shape[:-2])
+    batch = broadcast_batch(("S", L.shape[:-2]), ("v", V.shape[:-2]))
     L = np.array(np.broadcast_to(L, batch + (n, n)), copy=True)
     V = np.array(np.broadcast_to(V, batch + V.shape[-2:]), copy=True)
     if np.any(np.diagonal(L, axis1=-2, axis2=-1) <= 0.0):
@@ -140,8 +140,8 @@ def tria(A: object) -> np.ndarray:
     ``A`` : (..., n, m) with m ≥ n. Batched over leading dimensions (numpy's stacked QR).
     """
     a = as_array(A, "A")
-    if a.ndim < 2:
-        raise ValueError(f"A: expected shape (..., n, m), got {a.shape}")
+    if a.ndim < 2 or a.shape[-2] == 0:
+        raise ValueError(f"A: expected shape (..., n, m) with n >= 1, got {a.shape}")
     n, m = a.shape[-2], a.shape[-1]
     if m < n:
         # pad with zero columns so the QR of Aᵀ gives an n×n triangle
@@ -154,18 +154,36 @@ def tria(A: object) -> np.ndarray:
     return S * d[..., None, :]
 
 
-def nearest_pd_sqrt(P: object, floor: float = 1e-12) -> np.ndarray:
+def nearest_pd_sqrt(P: object, floor: float = 1e-12, mirror: bool = False) -> np.ndarray:
     """Repair: lower Cholesky factor of the symmetric part of ``P`` with its eigenvalues clipped
-    at ``floor · max(1, max eigenvalue)`` (Higham's nearest symmetric PSD matrix, then made
-    strictly PD). Used by the filters' ``pd_policy="repair"``.
+    at ``floor · max(1, max |eigenvalue|)`` (Higham's nearest symmetric PSD matrix, then made
+    strictly PD). With ``mirror=True`` a negative eigenvalue λ is replaced by ``max(|λ|, floor
+    · …)`` instead (U |Λ| Uᵀ): a covariance whose variance changed sign is restored exactly,
+    where clipping would leave an (over-confident) near-zero variance. Used by the filters'
+    ``pd_policy="repair"``.
+
+    ``P``: finite real ``(..., n, n)`` (lists accepted); ``floor`` a finite number in (0, 1).
+    Raises :class:`NotPositiveDefiniteError` if the result is still not positive definite.
     """
     a = as_array(P, "P")
+    if a.ndim < 2 or a.shape[-1] != a.shape[-2] or a.shape[-1] == 0:
+        raise ValueError(f"P: expected a non-empty square (..., n, n) array, got shape {a.shape}")
+    fl = check_positive_scalar(floor, "floor")
+    if not fl < 1.0:
+        raise ValueError(f"floor: must be < 1 (a relative eigenvalue floor), got {fl}")
+    mirror = check_bool(mirror, "mirror")
     sym = 0.5 * (a + np.swapaxes(a, -1, -2))
     w, U = np.linalg.eigh(sym)
-    lo = floor * np.maximum(1.0, np.max(np.abs(w), axis=-1, keepdims=True))
-    w = np.maximum(w, lo)
+    lo = fl * np.maximum(1.0, np.max(np.abs(w), axis=-1, keepdims=True))
+    w = np.maximum(np.abs(w) if mirror else w, lo)
     fixed = (U * w[..., None, :]) @ np.swapaxes(U, -1, -2)
-    return np.linalg.cholesky(0.5 * (fixed + np.swapaxes(fixed, -1, -2)))
+    try:
+        S = np.linalg.cholesky(0.5 * (fixed + np.swapaxes(fixed, -1, -2)))
+    except np.linalg.LinAlgError:
+        raise NotPositiveDefiniteError(
+            "P: not positive definite even after the eigenvalue repair (ill-conditioned)"
+        ) from None
+    return S
 
 
 def solve_lower(L: np.ndarray, B: np.ndarray, transpose: bool = False) -> np.ndarray:

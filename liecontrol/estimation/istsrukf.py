@@ -51,6 +51,9 @@ class ISTSRUKF(_AdditiveUT):
 
     def __init__(self, model: Any, x0: object, P0: object, *,
                  tracking: StrongTrackingParams | None = None, **kw: Any) -> None:
+        # one outlier is gated, a second large innovation in a row is taken as a real change
+        # of the dynamics and passed on to the fading factors (that is what they are for)
+        kw.setdefault("gate_max_consecutive", 1)
         super().__init__(model, x0, P0, **kw)
         self.tracking = tracking if tracking is not None else StrongTrackingParams()
         self.tracking.alpha_vector(self.cov_dim)
@@ -89,6 +92,11 @@ class ISTSRUKF(_AdditiveUT):
         _, Z, zm, dX, _ = self._measure(self._x, self._S)
         Pxz = self._central_cross(dX, Z)
         gamma = model.z_residual(z, zm)
+        # χ² gate on the unfaded innovation (central form, like S_z below), before the fading
+        # state sees it: an outlier is rejected instead of inflating the covariance
+        Sz0 = self._central_sqrt(model.z_residual(Z, Z[0]), psd_sqrt(model.R))
+        if np.all(np.diagonal(Sz0) > 0.0):
+            self._gate(gamma, Sz0)
         Pf = self._Sf @ self._Sf.T
         mu, info = fading_factors(gamma, self._S, Pf, Pxz, self._Q_last, model.R,
                                   self.tracking, self._fading_state)

@@ -27,8 +27,8 @@ from typing import Any
 
 import numpy as np
 
-from .base import ManifoldFilter, tri_solve_gain
-from .unscented import UTWeights, sigma_points, ut_weights
+from .base import DEFAULT_GATE_PROBABILITY, ManifoldFilter, tri_solve_gain
+from .unscented import UTWeights, _sigma_points, ut_weights
 
 __all__ = ["ManifoldUKF"]
 
@@ -44,15 +44,18 @@ class ManifoldUKF(ManifoldFilter):
 
     def __init__(self, model: Any, x0: object, P0: object, *, alpha: float = 1.0,
                  beta: float = 2.0, kappa: float | None = None,
-                 pd_policy: str = "repair") -> None:
-        super().__init__(model, x0, P0, pd_policy=pd_policy)
+                 pd_policy: str = "repair",
+                 gate_probability: float | None = DEFAULT_GATE_PROBABILITY,
+                 gate_max_consecutive: int = 10) -> None:
+        super().__init__(model, x0, P0, pd_policy=pd_policy, gate_probability=gate_probability,
+                         gate_max_consecutive=gate_max_consecutive)
         self.weights: UTWeights = ut_weights(int(model.d), alpha, beta, kappa)
 
     def _predict(self, u: np.ndarray, dt: float) -> None:
         w = self.weights
         m = self.model
         S = self._sqrt_or_repair(self._P, "P")
-        D = sigma_points(np.zeros(m.d), S, w.gamma)
+        D = _sigma_points(np.zeros(m.d), S, w.gamma)
         Y = m.f(m.boxplus(self._x[None, :], D), u, dt)
         E = m.boxminus(Y, Y[:1])
         xm = m.boxplus(Y[:1], (w.Wm @ E)[None, :])
@@ -65,7 +68,7 @@ class ManifoldUKF(ManifoldFilter):
         w = self.weights
         m = self.model
         S = self._sqrt_or_repair(self._P, "P")
-        D = sigma_points(np.zeros(m.d), S, w.gamma)
+        D = _sigma_points(np.zeros(m.d), S, w.gamma)
         Z = m.h(m.boxplus(self._x[None, :], D))
         zm = m.z_mean(Z, w.Wm)
         dZ = m.z_residual(Z, zm)

@@ -21,20 +21,34 @@ from typing import Any
 
 import numpy as np
 
+from .._validation import as_array, check_output_finite, check_positive_scalar
 from .base import ManifoldFilter, tri_solve_gain
 
 __all__ = ["MEKF", "numerical_error_transition"]
 
 
-def numerical_error_transition(model: Any, x: np.ndarray, u: np.ndarray, dt: float,
+def numerical_error_transition(model: Any, x: object, u: object, dt: float,
                                eps: float = 1e-6) -> np.ndarray:
-    """Φ ≈ ∂(f(x ⊞ δ) ⊟ f(x))/∂δ by central differences (d × d)."""
+    """Φ ≈ ∂(f(x ⊞ δ) ⊟ f(x))/∂δ by central differences (d × d).
+
+    ``model`` needs ``n, d, f, boxplus, boxminus``; ``x`` (n,), ``u`` (3,) (lists accepted),
+    ``dt > 0`` and the step ``eps > 0`` are validated (``ValueError`` naming them); a
+    non-finite result raises instead of being returned."""
+    for attr in ("n", "d", "f", "boxplus", "boxminus"):
+        if not hasattr(model, attr):
+            raise TypeError(f"model: has no attribute {attr!r} (a manifold filter model)")
     d = int(model.d)
+    x = as_array(x, "x")
+    if x.shape != (int(model.n),):
+        raise ValueError(f"x: expected shape ({int(model.n)},), got {x.shape}")
+    u = as_array(u, "u")
+    dt = check_positive_scalar(dt, "dt")
+    eps = check_positive_scalar(eps, "eps")
     E = np.concatenate((np.eye(d), -np.eye(d)), axis=0) * eps
     X = model.boxplus(np.broadcast_to(x, (2 * d, x.shape[0])), E)
     Y = model.f(np.concatenate((x[None, :], X), axis=0), u, dt)
     D = model.boxminus(Y[1:], Y[:1])
-    return ((D[:d] - D[d:]) / (2.0 * eps)).T
+    return check_output_finite(((D[:d] - D[d:]) / (2.0 * eps)).T, "eps", "the difference quotient")
 
 
 class MEKF(ManifoldFilter):
@@ -45,6 +59,7 @@ class MEKF(ManifoldFilter):
 
     def _predict(self, u: np.ndarray, dt: float) -> None:
         m = self.model
+        self._valid_P()  # a broken P is repaired (or raised) here, where it is the cause
         if hasattr(m, "error_transition"):
             F = m.error_transition(self._x, u, dt)
         else:
@@ -55,6 +70,7 @@ class MEKF(ManifoldFilter):
 
     def _update(self, z: np.ndarray) -> None:
         m = self.model
+        self._valid_P()
         H = m.measurement_jacobian(self._x)
         zhat = m.h(self._x[None, :])[0]
         Pzz = H @ self._P @ H.T + m.R

@@ -35,7 +35,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._validation import as_array, check_inertia_3x3, check_nonnegative, check_positive
+from .._validation import (
+    as_array,
+    as_scalar,
+    check_inertia_3x3,
+    check_nonnegative,
+    norm_last,
+)
 from ..charts import quaternion as quat
 from ..integrators.rk import rk4_step_unchecked
 from ..lie import so3
@@ -51,17 +57,32 @@ __all__ = [
 ]
 
 
-def wrap_angle(a: np.ndarray) -> np.ndarray:
-    """Wrap angles to (−π, π]."""
+def wrap_angle(a: object) -> np.ndarray:
+    """Wrap angles to (−π, π]; ``a`` any finite real array (lists and scalars accepted)."""
+    return _wrap_angle(as_array(a, "a"))
+
+
+def _wrap_angle(a: np.ndarray) -> np.ndarray:
+    """:func:`wrap_angle` without validation (the models' residuals: validated upstream)."""
     return np.pi - np.mod(np.pi - a, 2.0 * np.pi)
 
 
-def euler_rpy_from_quaternion(q: np.ndarray) -> np.ndarray:
+def euler_rpy_from_quaternion(q: object) -> np.ndarray:
     """(roll, pitch, yaw) of the ZYX sequence from (..., 4) scalar-first quaternions.
 
-    The quaternion is normalised first (additive-UKF sigma points are not unit). Checked in the
-    tests against ``scipy.spatial.transform.Rotation.as_euler("ZYX")``.
+    The quaternion is normalised first (additive-UKF sigma points are not unit; the norm is
+    computed without overflow). Checked in the tests against
+    ``scipy.spatial.transform.Rotation.as_euler("ZYX")``. ``q`` must be finite, real, of shape
+    ``(..., 4)`` and non-zero (``ValueError`` naming ``q``).
     """
+    q = as_array(q, "q", (4,))
+    if np.any(np.all(q == 0.0, axis=-1)):
+        raise ValueError("q: zero quaternion (norm 0) does not represent a rotation")
+    return _rpy_from_q(q / norm_last(q)[..., None])
+
+
+def _rpy_from_q(q: np.ndarray) -> np.ndarray:
+    """:func:`euler_rpy_from_quaternion` without validation (hot path: every sigma point)."""
     qn = q / np.linalg.norm(q, axis=-1, keepdims=True)
     w, x, y, z = qn[..., 0], qn[..., 1], qn[..., 2], qn[..., 3]
     roll = np.arctan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
@@ -70,13 +91,14 @@ def euler_rpy_from_quaternion(q: np.ndarray) -> np.ndarray:
     return np.stack((roll, pitch, yaw), axis=-1)
 
 
-def euler_rpy_jacobian(rpy: np.ndarray) -> np.ndarray:
+def euler_rpy_jacobian(rpy: object) -> np.ndarray:
     """∂(φ, θ, ψ)/∂δθ for a body-frame perturbation R exp(δθ^): the 3-2-1 Euler-rate matrix
 
     B = [[1, sφ tθ, cφ tθ], [0, cφ, −sφ], [0, sφ/cθ, cφ/cθ]]  (Euler rates = B ω_body).
 
-    Shape (..., 3) -> (..., 3, 3). Singular at cos θ = 0 (gimbal lock): ``ValueError``.
+    Shape (..., 3) -> (..., 3, 3). Singular at |cos θ| < 1e-9 (gimbal lock): ``ValueError``.
     """
+    rpy = as_array(rpy, "rpy", (3,))
     phi, th = rpy[..., 0], rpy[..., 1]
     c = np.cos(th)
     if np.any(np.abs(c) < 1e-9):
@@ -104,6 +126,17 @@ def quat_boxminus(q_y: np.ndarray, q_x: np.ndarray) -> np.ndarray:
     return quat.to_rotvec(quat.normalize(dq))
 
 
+def _boxplus_q(q: np.ndarray, dtheta: np.ndarray) -> np.ndarray:
+    """:func:`quat_boxplus` without validation (the models' ⊞, called on every sigma batch)."""
+    return quat._mul(q, quat._from_rotvec_unchecked(dtheta))
+
+
+def _boxminus_q(q_y: np.ndarray, q_x: np.ndarray) -> np.ndarray:
+    """:func:`quat_boxminus` without validation (the models' ⊟)."""
+    dq = quat._mul(q_x * np.array([1.0, -1.0, -1.0, -1.0]), q_y)
+    return quat._to_rotvec_unchecked(dq / np.linalg.norm(dq, axis=-1, keepdims=True))
+
+
 def _rk4(f, y: np.ndarray, h: float) -> np.ndarray:
     """One classical RK4 step of an autonomous ``f`` (batched; SPEC §3). The unchecked variant
     is used because this is the filters' hot path and the inputs are validated upstream."""
@@ -123,15 +156,15 @@ class _EulerMeasurement:
 
     def h(self, x: np.ndarray) -> np.ndarray:
         """Euler angles (roll, pitch, yaw) of the attitude in x, (N, 7) -> (N, 3)."""
-        return euler_rpy_from_quaternion(x[..., :4])
+        return _rpy_from_q(x[..., :4])
 
     def z_residual(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """a − b wrapped to (−π, π] per angle."""
-        return wrap_angle(a - b)
+        return _wrap_angle(a - b)
 
     def z_mean(self, Z: np.ndarray, Wm: np.ndarray) -> np.ndarray:
         """Weighted mean of angle sets taken relative to Z[0] so that ±π wrap does not bias it."""
-        return wrap_angle(Z[0] + Wm @ wrap_angle(Z - Z[0]))
+        return _wrap_angle(Z[0] + Wm @ _wrap_angle(Z - Z[0]))
 
     def normalize(self, x: np.ndarray) -> np.ndarray:
         """Unit-normalise the quaternion part (seed eq. (9)); other components untouched."""
@@ -143,12 +176,12 @@ class _EulerMeasurement:
 
     def boxplus(self, x: np.ndarray, d: np.ndarray) -> np.ndarray:
         """x ⊞ δ = (q ⊗ Exp(δθ), v + δv)."""
-        return np.concatenate((quat_boxplus(x[..., :4], d[..., :3]), x[..., 4:] + d[..., 3:]),
+        return np.concatenate((_boxplus_q(x[..., :4], d[..., :3]), x[..., 4:] + d[..., 3:]),
                               axis=-1)
 
     def boxminus(self, y: np.ndarray, x: np.ndarray) -> np.ndarray:
         """y ⊟ x = (Log(q_x⁻¹ ⊗ q_y), v_y − v_x)."""
-        return np.concatenate((quat_boxminus(y[..., :4], x[..., :4]), y[..., 4:] - x[..., 4:]),
+        return np.concatenate((_boxminus_q(y[..., :4], x[..., :4]), y[..., 4:] - x[..., 4:]),
                               axis=-1)
 
     def measurement_jacobian(self, x: np.ndarray) -> np.ndarray:
@@ -158,9 +191,20 @@ class _EulerMeasurement:
 
 
 def _sigma3(v: object, name: str) -> np.ndarray:
-    a = np.broadcast_to(as_array(v, name), (3,)).astype(np.float64)
+    a = as_array(v, name)
+    if a.shape not in ((), (1,), (3,)):
+        raise ValueError(f"{name}: expected a scalar or shape (3,), got {a.shape}")
+    a = np.broadcast_to(a, (3,)).astype(np.float64)
     check_nonnegative(a, name)
     return a
+
+
+def _sigma(v: object, name: str, positive: bool = False) -> float:
+    """A noise density: a finite real scalar ≥ 0 (> 0 if ``positive``)."""
+    x = as_scalar(v, name)
+    if x < 0.0 or (positive and x == 0.0):
+        raise ValueError(f"{name}: must be {'> 0' if positive else '>= 0'}, got {x}")
+    return x
 
 
 @dataclass(frozen=True, eq=False)
@@ -190,14 +234,13 @@ class GyrolessAttitudeModel(_EulerMeasurement):
         J = check_inertia_3x3(self.J, "J")
         object.__setattr__(self, "J", J.copy())
         object.__setattr__(self, "_Jinv", np.linalg.inv(J))
-        check_nonnegative(self.sigma_q, "sigma_q")
-        check_nonnegative(self.sigma_w, "sigma_w")
+        object.__setattr__(self, "sigma_q", _sigma(self.sigma_q, "sigma_q"))
+        object.__setattr__(self, "sigma_w", _sigma(self.sigma_w, "sigma_w"))
         object.__setattr__(self, "sigma_z", _sigma3(self.sigma_z, "sigma_z"))
         if np.any(self.sigma_z <= 0):
             raise ValueError("sigma_z: must be > 0 (measurement noise covariance must be PD)")
         st = 2.0 * self.sigma_q if self.sigma_theta is None else self.sigma_theta
-        check_nonnegative(st, "sigma_theta")
-        object.__setattr__(self, "sigma_theta", float(st))
+        object.__setattr__(self, "sigma_theta", _sigma(st, "sigma_theta"))
 
     def rhs(self, x: np.ndarray, torque: np.ndarray) -> np.ndarray:
         """Continuous dynamics ẋ = (½ q ⊗ (0, ω), J⁻¹(N − ω × Jω)), batched (N, 7)."""
@@ -247,8 +290,8 @@ class GyroAttitudeModel(_EulerMeasurement):
     d: int = field(default=6, init=False)
 
     def __post_init__(self) -> None:
-        check_positive(self.sigma_v, "sigma_v")
-        check_nonnegative(self.sigma_u, "sigma_u")
+        object.__setattr__(self, "sigma_v", _sigma(self.sigma_v, "sigma_v", positive=True))
+        object.__setattr__(self, "sigma_u", _sigma(self.sigma_u, "sigma_u"))
         object.__setattr__(self, "sigma_z", _sigma3(self.sigma_z, "sigma_z"))
         if np.any(self.sigma_z <= 0):
             raise ValueError("sigma_z: must be > 0 (measurement noise covariance must be PD)")

@@ -21,8 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from .base import Filter, tri_solve_gain
-from .unscented import UTWeights, sigma_points, ut_weights
+from .base import DEFAULT_GATE_PROBABILITY, Filter, tri_solve_gain
+from .unscented import UTWeights, _sigma_points, ut_weights
 
 __all__ = ["UKF"]
 
@@ -40,15 +40,24 @@ class _AdditiveUT(Filter):
         beta: float = 2.0,
         kappa: float | None = None,
         pd_policy: str = "repair",
+        gate_probability: float | None = DEFAULT_GATE_PROBABILITY,
+        gate_max_consecutive: int = 10,
     ) -> None:
-        super().__init__(model, x0, P0, pd_policy=pd_policy)
+        super().__init__(
+            model,
+            x0,
+            P0,
+            pd_policy=pd_policy,
+            gate_probability=gate_probability,
+            gate_max_consecutive=gate_max_consecutive,
+        )
         self.weights: UTWeights = ut_weights(int(model.n), alpha, beta, kappa)
         self._Pf = np.zeros((model.n, model.n))
 
     def _propagate(self, S: np.ndarray, u: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """Sigma points of (x, S S ᵀ) through f; returns (Y, normalised weighted mean)."""
         w = self.weights
-        X = sigma_points(self._x, S, w.gamma)
+        X = _sigma_points(self._x, S, w.gamma)
         Y = self.model.f(X, u, dt)
         xm = self.model.normalize((w.Wm @ Y)[None, :])[0]
         return Y, xm
@@ -56,7 +65,7 @@ class _AdditiveUT(Filter):
     def _measure(self, x: np.ndarray, S: np.ndarray) -> tuple[np.ndarray, ...]:
         """Sigma points of (x, S Sᵀ) through h: (X, Z, ẑ, ΔX, ΔZ) with ΔZ wrapped about ẑ."""
         w = self.weights
-        X = sigma_points(x, S, w.gamma)
+        X = _sigma_points(x, S, w.gamma)
         Z = self.model.h(X)
         zm = self.model.z_mean(Z, w.Wm)
         dZ = self.model.z_residual(Z, zm)
@@ -68,7 +77,9 @@ class UKF(_AdditiveUT):
 
     Parameters: ``model`` (e.g. :class:`~liecontrol.estimation.models.GyrolessAttitudeModel`),
     ``x0`` (7,), ``P0`` (7, 7) SPD, scaled-UT ``alpha`` (> 0), ``beta``, ``kappa`` (default
-    3 − n), ``pd_policy`` ("repair" | "raise").
+    3 − n), ``pd_policy`` ("repair" | "raise"), ``gate_probability`` (false-alarm probability of
+    the χ² innovation gate, ``None`` = off) and ``gate_max_consecutive`` (see
+    :mod:`liecontrol.estimation.base`).
     """
 
     name = "UKF"

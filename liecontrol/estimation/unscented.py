@@ -26,7 +26,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import as_array
+from .._validation import (
+    _to_float_array,
+    as_array,
+    as_scalar,
+    check_bool,
+    check_output_finite,
+    check_positive_scalar,
+)
 
 __all__ = ["UTWeights", "ut_weights", "sigma_points", "unscented_transform", "weighted_stats"]
 
@@ -53,14 +60,14 @@ def ut_weights(
     Raises ``ValueError`` for n < 1, α ≤ 0 or non-finite parameters, and when n + λ ≤ 0
     (sigma points would be imaginary).
     """
-    if int(n) != n or n < 1:
-        raise ValueError(f"n: must be a positive integer, got {n}")
+    if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer)) or n < 1:
+        raise ValueError(f"n: must be a positive integer, got {n!r}")
     n = int(n)
     if kappa is None:
         kappa = 3.0 - n
-    for name, val in (("alpha", alpha), ("beta", beta), ("kappa", kappa)):
-        if not np.isfinite(val):
-            raise ValueError(f"{name}: must be finite, got {val}")
+    alpha = as_scalar(alpha, "alpha")
+    beta = as_scalar(beta, "beta")
+    kappa = as_scalar(kappa, "kappa")
     if alpha <= 0:
         raise ValueError(f"alpha: must be > 0, got {alpha}")
     lam = alpha * alpha * (n + kappa) - n
@@ -79,8 +86,26 @@ def ut_weights(
                      float(np.sqrt(n + lam)), Wm, Wc)
 
 
-def sigma_points(x: np.ndarray, S: np.ndarray, gamma: float) -> np.ndarray:
-    """(2n+1, n) sigma points χ₀ = x, χ = x ± γ sⱼ (columns of the square root S)."""
+def sigma_points(x: object, S: object, gamma: float) -> np.ndarray:
+    """(2n+1, n) sigma points χ₀ = x, χ = x ± γ sⱼ (columns of the square root S).
+
+    ``x`` (n,), ``S`` (n, n) finite real (lists accepted), ``gamma`` a finite number > 0;
+    ``ValueError`` naming the argument otherwise, and if a sigma point overflows float64."""
+    xv = as_array(x, "x")
+    if xv.ndim != 1 or xv.shape[0] == 0:
+        raise ValueError(f"x: expected shape (n,) with n >= 1, got {xv.shape}")
+    n = xv.shape[0]
+    Sv = as_array(S, "S")
+    if Sv.shape != (n, n):
+        raise ValueError(f"S: expected shape ({n}, {n}) like x, got {Sv.shape}")
+    g = check_positive_scalar(gamma, "gamma")
+    with np.errstate(over="ignore", invalid="ignore"):
+        X = _sigma_points(xv, Sv, g)
+    return check_output_finite(X, "S", "a sigma point x ± γ sⱼ")
+
+
+def _sigma_points(x: np.ndarray, S: np.ndarray, gamma: float) -> np.ndarray:
+    """:func:`sigma_points` without validation (the filters' hot path)."""
     cols = gamma * np.swapaxes(S, -1, -2)
     return np.concatenate((x[None, :], x[None, :] + cols, x[None, :] - cols), axis=0)
 
@@ -123,21 +148,35 @@ def unscented_transform(
     """Scaled unscented transform of y = g(x), x ~ (x, P); returns (ȳ, P_y, P_xy).
 
     ``g`` maps a batch (N, n) to (N, m) — all 2n+1 sigma points go through one call.
-    ``P`` must be symmetric positive definite (``ValueError`` naming ``P`` otherwise).
+    ``P`` must be symmetric positive definite (``ValueError`` naming ``P`` otherwise). A
+    non-finite ``g`` output, or statistics that overflow float64 (e.g. ``P`` ~ 1e300), raise
+    ``ValueError`` instead of returning inf/NaN.
     """
+    if not callable(g):
+        raise TypeError(f"g: expected a callable mapping (N, n) to (N, m), got {type(g).__name__}")
+    central = check_bool(central, "central")
     xv = as_array(x, "x")
-    if xv.ndim != 1:
-        raise ValueError(f"x: expected shape (n,), got {xv.shape}")
+    if xv.ndim != 1 or xv.shape[0] == 0:
+        raise ValueError(f"x: expected shape (n,) with n >= 1, got {xv.shape}")
     n = xv.shape[0]
-    Pm = as_array(P, "P", (n, n))
+    Pm = as_array(P, "P")
+    if Pm.shape != (n, n):
+        raise ValueError(f"P: expected shape ({n}, {n}) like x, got {Pm.shape}")
     S = cholesky_or_raise(Pm, "P")
     w = ut_weights(n, alpha, beta, kappa)
-    X = sigma_points(xv, S, w.gamma)
-    Y = np.asarray(g(X), dtype=np.float64)
+    with np.errstate(over="ignore", invalid="ignore"):
+        X = _sigma_points(xv, S, w.gamma)
+    check_output_finite(X, "P", "a sigma point x ± γ sⱼ")
+    Y = _to_float_array(g(X), "g")
     if Y.ndim != 2 or Y.shape[0] != X.shape[0]:
         raise ValueError(f"g: must map ({X.shape[0]}, n) to ({X.shape[0]}, m), got {Y.shape}")
-    ybar = w.Wm @ Y
-    Py, Pxy = weighted_stats(X, Y, w, xv, ybar, central=central)
+    if not np.all(np.isfinite(Y)):
+        raise ValueError("g: returned non-finite values at the sigma points")
+    with np.errstate(over="ignore", invalid="ignore"):
+        ybar = w.Wm @ Y
+        Py, Pxy = weighted_stats(X, Y, w, xv, ybar, central=central)
+    for out in (ybar, Py, Pxy):
+        check_output_finite(out, "P", "the transformed mean or covariance")
     return ybar, Py, Pxy
 
 

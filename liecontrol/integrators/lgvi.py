@@ -53,7 +53,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import as_array, check_inertia, check_positive, check_rotation_matrix
+from .._validation import (
+    as_array,
+    as_scalar,
+    check_inertia,
+    check_positive,
+    check_positive_scalar,
+    check_rotation_matrix,
+)
 
 __all__ = [
     "lgvi_step",
@@ -192,7 +199,7 @@ def _check_h(h: object) -> float:
     a = as_array(h, "h")
     if a.ndim != 0:
         raise ValueError(f"h: must be a scalar, got shape {a.shape}")
-    return float(check_positive(a, "h"))
+    return check_positive_scalar(a, "h")
 
 
 def _check_vec(v: object, name: str, batch: tuple[int, ...]) -> np.ndarray:
@@ -436,7 +443,7 @@ class RigidBodyLGVI:
             )
         w0 = _check_vec(omega0, "omega0", batch)
         h = _check_h(h)
-        t0 = float(as_array(t0, "t0"))
+        t0 = as_scalar(t0, "t0")
         for name, k, lo in (("n_steps", n_steps, 0), ("save_every", save_every, 1)):
             if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < lo:
                 raise ValueError(f"{name}: must be an integer >= {lo}, got {k!r}")

@@ -46,9 +46,10 @@ import numpy as np
 
 from .._validation import (
     as_array,
+    as_scalar,
     check_inertia,
     check_inertia_3x3,
-    check_positive,
+    check_positive_scalar,
     check_rotation_matrix,
 )
 from .lgvi import RigidBodyLGVI
@@ -64,14 +65,14 @@ def _check_h(h: object) -> float:
     a = as_array(h, "h")
     if a.ndim != 0:
         raise ValueError(f"h: must be a scalar, got shape {a.shape}")
-    return float(check_positive(a, "h"))
+    return check_positive_scalar(a, "h")
 
 
 def _check_mass(m: object) -> float:
     a = as_array(m, "m")
     if a.ndim != 0:
         raise ValueError(f"m: must be a scalar, got shape {a.shape}")
-    return float(check_positive(a, "m"))
+    return check_positive_scalar(a, "m")
 
 
 def _eval_fm(
@@ -169,7 +170,7 @@ def lgvi_se3_step(
     fm = _zero_fm if force_and_moment is None else force_and_moment
     if not callable(fm):
         raise ValueError("force_and_moment: must be callable or None")
-    t = float(as_array(t, "t", ()))
+    t = as_scalar(t, "t")
     f0, M0 = _eval_fm(fm, t, R, x)
     rot = RigidBodyLGVI(J, tol=tol, max_iter=max_iter)
     out = _advance(t, R, x, Pi, gamma, f0, M0, h, m, rot, fm)
@@ -274,7 +275,7 @@ class SE3RigidBodyLGVI:
         """
         R, x, Pi, gamma = _check_state(R, x, Pi, gamma, ("R", "x", "Pi", "gamma"))
         h = _check_h(h)
-        t = float(as_array(t, "t", ()))
+        t = as_scalar(t, "t")
         fm = self._fm if force_and_moment is None else force_and_moment
         if not callable(fm):
             raise ValueError("force_and_moment: must be callable or None")
@@ -299,7 +300,7 @@ class SE3RigidBodyLGVI:
         evaluation per step; samples every ``save_every`` steps (initial state included)."""
         R, x, w0, v = _check_state(R0, x0, omega0, v0, ("R0", "x0", "omega0", "v0"))
         h = _check_h(h)
-        t0 = float(as_array(t0, "t0", ()))
+        t0 = as_scalar(t0, "t0")
         for name, k, lo in (("n_steps", n_steps, 0), ("save_every", save_every, 1)):
             if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < lo:
                 raise ValueError(f"{name}: must be an integer >= {lo}, got {k!r}")

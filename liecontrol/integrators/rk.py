@@ -39,7 +39,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import as_array, check_positive, check_rotation_matrix
+from .._validation import (
+    as_array,
+    check_positive_scalar,
+    check_rotation_matrix,
+)
 
 __all__ = [
     "rk4_step",
@@ -320,7 +324,7 @@ def _check_h(h: object) -> float:
     a = as_array(h, "h")
     if a.ndim != 0:
         raise ValueError(f"h: must be a scalar, got shape {a.shape}")
-    return float(check_positive(a, "h"))
+    return check_positive_scalar(a, "h")
 
 
 def _check_state(R: object, x: object, rname: str = "R", xname: str = "x"):
@@ -416,6 +420,31 @@ class Trajectory:
     t: np.ndarray
     R: np.ndarray
     x: np.ndarray
+
+    def __post_init__(self) -> None:
+        t, R, x = _check_record(self.t, self.R, self.x, "R", (3, 3))
+        object.__setattr__(self, "t", t)
+        object.__setattr__(self, "R", R)
+        object.__setattr__(self, "x", x)
+
+
+def _check_record(
+    t: object, G: object, x: object, gname: str, tail: tuple[int, int]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A trajectory record's arrays: finite, ``t (K,)`` with ``K >= 1``, ``G (K, ..., *tail)``
+    and ``x (K, ...)`` (the group part is checked for shape only: the ``"rk4"`` method does not
+    stay exactly on the group)."""
+    t = as_array(t, "t")
+    if t.ndim != 1 or t.size == 0:
+        raise ValueError(f"t: expected shape (K,) with K >= 1, got {t.shape}")
+    G = as_array(G, gname, tail)
+    x = as_array(x, "x")
+    for name, a in ((gname, G), ("x", x)):
+        if a.ndim < 1 or a.shape[0] != t.shape[0]:
+            raise ValueError(f"{name}: expected {t.shape[0]} samples like t, got shape {a.shape}")
+    if G.ndim < len(tail) + 1:
+        raise ValueError(f"{gname}: expected shape (K, ..., {tail[0]}, {tail[1]}), got {G.shape}")
+    return t, G, x
 
 
 _METHODS = ("rkmk4", "rk4")

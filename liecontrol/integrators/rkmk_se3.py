@@ -33,9 +33,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._linalg import matvec as _mv
-from .._validation import as_array, check_positive
+from .._validation import (
+    as_array,
+    as_scalar,
+    check_positive_scalar,
+)
 from ..lie import se3
-from .rk import _checked_lie_field
+from .rk import _check_record, _checked_lie_field
 
 __all__ = [
     "rkmk4_se3_step",
@@ -74,7 +78,7 @@ def _check_h(h: object) -> float:
     a = as_array(h, "h")
     if a.ndim != 0:
         raise ValueError(f"h: must be a scalar, got shape {a.shape}")
-    return float(check_positive(a, "h"))
+    return check_positive_scalar(a, "h")
 
 
 def _check_state(g: object, x: object, gname: str = "g", xname: str = "x"):
@@ -102,7 +106,7 @@ def rkmk4_se3_step(
     ``g``: ``(..., 4, 4)`` poses, ``x``: ``(..., n)`` (n may be 0) with the same batch shape,
     ``f(t, g, x) -> (xi, x_dot)`` with ġ = g ξ^ (ξ = (ω, v) body twist).
     """
-    t = float(as_array(t, "t", ()))
+    t = as_scalar(t, "t")
     h = _check_h(h)
     g, x = _check_state(g, x)
     return rkmk4_se3_step_unchecked(_checked_field(f, g.shape[:-2], x.shape[-1]), t, g, x, h)
@@ -115,6 +119,12 @@ class SE3Trajectory:
     t: np.ndarray
     g: np.ndarray
     x: np.ndarray
+
+    def __post_init__(self) -> None:
+        t, g, x = _check_record(self.t, self.g, self.x, "g", (4, 4))
+        object.__setattr__(self, "t", t)
+        object.__setattr__(self, "g", g)
+        object.__setattr__(self, "x", x)
 
 
 def integrate_se3(
@@ -132,7 +142,7 @@ def integrate_se3(
     ``f``'s output is validated at t0, then the loop runs unchecked; a non-finite state raises
     ``FloatingPointError``. Samples every ``save_every`` steps (initial state included).
     """
-    t0 = float(as_array(t0, "t0", ()))
+    t0 = as_scalar(t0, "t0")
     h = _check_h(h)
     g, x = _check_state(g0, x0, "g0", "x0")
     for name, k, lo in (("n_steps", n_steps, 0), ("save_every", save_every, 1)):

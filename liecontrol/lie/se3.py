@@ -6,9 +6,13 @@ Conventions (``docs/design.md``): group elements are homogeneous matrices ``(...
 ordering holds for every 6×6 matrix here (adjoints and Jacobians, blocks ``[[ωω, ωv], [vω, vv]]``).
 Jacobians: ``exp(ξ + δ) ≈ exp(J_l(ξ) δ) exp(ξ)`` and ``exp(ξ + δ) ≈ exp(ξ) exp(J_r(ξ) δ)``.
 
-As in :mod:`liecontrol.lie.so3`, these functions check shapes and finiteness but do not
-re-validate that their inputs are rigid motions: :func:`validate` (and the
-:class:`liecontrol.lie.SE3` wrapper) does that.
+As in :mod:`liecontrol.lie.so3`, every public function validates: real, finite, the trailing
+shape, batch shapes that broadcast, and for poses a cheap structural check (rotation block within
+``so3.ARRAY_ROTATION_ATOL`` = 1e-6 of a rotation, last row (0, 0, 0, 1) within the same
+tolerance); :func:`validate` (and the :class:`liecontrol.lie.SE3` wrapper) applies the strict
+1e-9. Hot paths that validated already call :func:`inverse_unchecked` /
+:func:`adjoint_unchecked` (not in ``__all__``). Long twists (‖ω‖ up to 1e300) are evaluated in
+axis–angle form, so nothing overflows to inf/NaN.
 
 Sources: Barfoot, *State Estimation for Robotics* (2017), §7.1.9 (exp/log with V = J_l(ω)) and
 eq. (7.86) (the Q block of the Jacobian, rewritten here for the (ω, v) ordering); Solà, Deray &
@@ -20,9 +24,22 @@ from __future__ import annotations
 import numpy as np
 
 from .._linalg import cross as _cross
-from .._validation import ROTATION_ATOL, as_array, check_positive, check_shape_tail
+from .._validation import (
+    ROTATION_ATOL,
+    as_array,
+    check_positive_scalar,
+    check_tolerance,
+)
 from . import so3
-from .so3 import _jac_coeffs, _jac_inv_coeff
+from .so3 import (
+    _SMALL_JAC,
+    ARRAY_ROTATION_ATOL,
+    _axis_angle,
+    _batch,
+    _jac_coeffs,
+    _jac_inv_coeff,
+    _right_jacobian_inv,
+)
 
 __all__ = [
     "hat",
@@ -59,23 +76,32 @@ def _twist(xi: object, name: str = "xi") -> np.ndarray:
 
 
 def _pose(g: object, name: str = "g") -> np.ndarray:
-    a = np.asarray(g, dtype=np.float64)
-    check_shape_tail(a, name, (4, 4))
+    """A finite real ``(..., 4, 4)`` array whose rotation block is a rotation and whose last row
+    is (0, 0, 0, 1), both within ``so3.ARRAY_ROTATION_ATOL``."""
+    a = as_array(g, name, (4, 4))
+    so3._rot(a[..., :3, :3], name)
+    if a.size:
+        row = float(np.abs(a[..., 3, :] - _LAST_ROW).max())
+        if row > ARRAY_ROTATION_ATOL:
+            raise ValueError(f"{name}: last row is not (0, 0, 0, 1) (max deviation {row:.2e})")
     return a
 
+
+_LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
 
 
 def identity(batch_shape: tuple[int, ...] = ()) -> np.ndarray:
     """Identity pose(s) of shape ``batch_shape + (4, 4)``."""
-    return np.broadcast_to(np.eye(4), tuple(batch_shape) + (4, 4)).copy()
+    return np.broadcast_to(np.eye(4), so3._shape_arg(batch_shape, "batch_shape") + (4, 4)).copy()
 
 
 def from_rt(R: object, p: object) -> np.ndarray:
     """g = [[R, p], [0, 1]] from rotations ``(..., 3, 3)`` and translations ``(..., 3)``
-    (broadcast against each other). ``R`` is checked for shape and finiteness only."""
-    R = as_array(R, "R", (3, 3))
+    (broadcast against each other). ``R`` must be a rotation (the cheap check of the array
+    layer, tolerance ``so3.ARRAY_ROTATION_ATOL``)."""
+    R = so3._rot(R, "R")
     p = as_array(p, "p", (3,))
-    shape = np.broadcast_shapes(R.shape[:-2], p.shape[:-1])
+    shape = _batch(("R", R.shape[:-2]), ("p", p.shape[:-1]))
     g = np.zeros(shape + (4, 4))
     g[..., :3, :3] = R
     g[..., :3, 3] = p
@@ -104,9 +130,21 @@ def hat(xi: object) -> np.ndarray:
 
 def vee(X: object) -> np.ndarray:
     """Inverse of :func:`hat`: ``(..., 4, 4) -> (..., 6)`` reading ω from the skew block
-    (entries (2,1), (0,2), (1,0)) and v from the last column."""
-    X = _pose(X, "X")
-    return np.concatenate((so3.vee(X[..., :3, :3]), X[..., :3, 3]), axis=-1)
+    (entries (2,1), (0,2), (1,0)) and v from the last column. ``X`` must be an se(3) matrix to
+    round-off: skew upper-left block and zero last row (≤ 1e-9 · max(1, max |X|))."""
+    X = as_array(X, "X", (4, 4))
+    if X.size:
+        W = X[..., :3, :3]
+        tol = 1e-9 * max(1.0, float(np.abs(X).max()))
+        asym = float(np.abs(W + np.swapaxes(W, -1, -2)).max())
+        if asym > tol:
+            raise ValueError(f"X: rotation block not skew-symmetric (max |W + Wᵀ| = {asym:.2e})")
+        row = float(np.abs(X[..., 3, :]).max())
+        if row > tol:
+            raise ValueError(f"X: last row is not zero (max |entry| = {row:.2e})")
+    W = X[..., :3, :3]
+    w = np.stack((W[..., 2, 1], W[..., 0, 2], W[..., 1, 0]), axis=-1)
+    return np.concatenate((w, X[..., :3, 3]), axis=-1)
 
 
 def exp(xi: object) -> np.ndarray:
@@ -118,15 +156,29 @@ def exp(xi: object) -> np.ndarray:
     xi = _twist(xi)
     w = xi[..., :3]
     v = xi[..., 3:]
-    theta = np.sqrt(np.sum(w * w, axis=-1))
-    b, c = _jac_coeffs(theta)
-    wv = _cross(w, v)
-    t = v + b[..., None] * wv + c[..., None] * _cross(w, wv)
+    # V v in axis–angle form, v + ((1 − cos θ)/θ) n × v + (1 − sin θ/θ) n × (n × v): bounded
+    # coefficients, so long twists do not overflow
+    theta, n = _axis_angle(w)
+    b1, c1 = _unit_jac_coeffs(theta)
+    nv = _cross(n, v)
+    t = v + b1[..., None] * nv + c1[..., None] * _cross(n, nv)
     g = np.zeros(xi.shape[:-1] + (4, 4))
     g[..., :3, :3] = so3.exp(w)
     g[..., :3, 3] = t
     g[..., 3, 3] = 1.0
     return g
+
+
+def _unit_jac_coeffs(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(1 − cos θ)/θ and 1 − sin θ/θ (the SO(3) Jacobian's coefficients times θ and θ²), accurate
+    at 0 (series) and finite for every θ."""
+    h = np.sin(0.5 * theta)
+    safe = np.where(theta > 0.0, theta, 1.0)
+    b1 = 2.0 * h * h / safe
+    t = np.minimum(theta, _SMALL_JAC)
+    _, c = _jac_coeffs(t)
+    c1 = np.where(theta < _SMALL_JAC, t * t * c, 1.0 - np.sin(theta) / safe)
+    return b1, c1
 
 
 def log(g: object) -> np.ndarray:
@@ -135,8 +187,13 @@ def log(g: object) -> np.ndarray:
     J_l(ω)⁻¹ p = p − ½ ω × p + (1/θ² − cot(θ/2)/(2θ)) ω × (ω × p) (finite up to θ = π).
     ``(..., 4, 4) -> (..., 6)``.
     """
-    g = as_array(g, "g", (4, 4))
-    w = so3.log(g[..., :3, :3])
+    return log_unchecked(_pose(g, "g"))
+
+
+def log_unchecked(g: np.ndarray) -> np.ndarray:
+    """:func:`log` without any check, for hot paths that validated the finite float64
+    ``(..., 4, 4)`` pose array ``g`` themselves (not in ``__all__``)."""
+    w = so3.log_unchecked(g[..., :3, :3])
     p = g[..., :3, 3]
     theta = np.sqrt(np.sum(w * w, axis=-1))
     d = _jac_inv_coeff(theta)
@@ -148,7 +205,8 @@ def log(g: object) -> np.ndarray:
 def _q_coeffs(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Barfoot's Q coefficients (θ − sin θ)/θ³, (θ² + 2cos θ − 2)/(2θ⁴),
     (2θ − 3 sin θ + θ cos θ)/(2θ⁵); their series are Σₖ (−1)ᵏ θ²ᵏ/(2k+3)!, Σₖ (−1)ᵏ θ²ᵏ/(2k+4)!
-    and Σₙ₌₂ (−1)ⁿ (n−1) θ²ⁿ⁻⁴/(2n+1)! (used below θ = 1 with terms to θ¹⁶)."""
+    and Σₙ₌₂ (−1)ⁿ (n−1) θ²ⁿ⁻⁴/(2n+1)! (used below θ = 1 with terms to θ¹⁶). Only for θ ≤ 1e50
+    (see :func:`_q_left` for the scaled form used for longer twists)."""
     small = theta < _SMALL_Q
     t = np.where(small, 1.0, theta)
     s, co = np.sin(t), np.cos(t)
@@ -178,10 +236,26 @@ def _q_coeffs(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def _q_left(w: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """The 3×3 Q block of the SE(3) left Jacobian (Barfoot eq. 7.86 with φ = ω, ρ = v)."""
-    theta = np.sqrt(np.sum(w * w, axis=-1))
-    c1, c2, c3 = _q_coeffs(theta)
-    P = so3.hat(w)
+    """The 3×3 Q block of the SE(3) left Jacobian (Barfoot eq. 7.86 with φ = ω, ρ = v).
+
+    Written with P = θ N (N = n^, n = ω/θ): the coefficients are multiplied by the matching powers
+    of θ (c₁θ, c₁θ², c₂θ², c₃θ³ are all bounded), so no product overflows for long ω.
+    """
+    theta, n = _axis_angle(w)
+    t = np.minimum(theta, 1e50)  # the coefficients' argument; beyond it the limits apply
+    c1, c2, c3 = _q_coeffs(t)
+    big = theta > 1e50
+    P = so3.hat(n)
+    c1a = c1 * t  # multiplies N V + V N (one factor of P)
+    c1 = c1 * t * t  # multiplies N V N
+    c2 = c2 * t * t
+    c3 = c3 * t * t * t
+    if np.any(big):
+        # θ → ∞ limits: c₁θ → 0, c₁θ² → 1, c₂θ² → ½, c₃θ³ → 0
+        c1a = np.where(big, 0.0, c1a)
+        c1 = np.where(big, 1.0, c1)
+        c2 = np.where(big, 0.5, c2)
+        c3 = np.where(big, 0.0, c3)
     V = so3.hat(v)
     PV = P @ V
     VP = V @ P
@@ -190,12 +264,14 @@ def _q_left(w: np.ndarray, v: np.ndarray) -> np.ndarray:
     VPP = VP @ P
     PVPP = PVP @ P
     PPVP = P @ PVP
+    c1a = c1a[..., None, None]
     c1 = c1[..., None, None]
     c2 = c2[..., None, None]
     c3 = c3[..., None, None]
     return (
         0.5 * V
-        + c1 * (PV + VP + PVP)
+        + c1a * (PV + VP)
+        + c1 * PVP
         + c2 * (PPV + VPP - 3.0 * PVP)
         + c3 * (PVPP + PPVP)
     )
@@ -226,21 +302,38 @@ def right_jacobian(xi: object) -> np.ndarray:
 
 def left_jacobian_inv(xi: object) -> np.ndarray:
     """J_l(ξ)⁻¹ = [[J⁻¹, 0], [−J⁻¹ Q J⁻¹, J⁻¹]] with J = J_l(ω) (block-triangular inverse);
-    defined for ‖ω‖ < 2π."""
-    xi = _twist(xi)
+    raises ``ValueError`` at the singular set ‖ω‖ = 2πk (see
+    :func:`liecontrol.lie.so3.right_jacobian_inv`)."""
+    return _left_jacobian_inv(_twist(xi))
+
+
+def _left_jacobian_inv(xi: np.ndarray) -> np.ndarray:
     w, v = xi[..., :3], xi[..., 3:]
-    Ji = so3.left_jacobian_inv(w)
-    return _blocks(Ji, -(Ji @ _q_left(w, v) @ Ji))
+    Ji = _right_jacobian_inv(-w, "xi")  # raises naming xi at ‖ω‖ = 2πk
+    with np.errstate(over="ignore", invalid="ignore"):  # checked just below
+        B = -(Ji @ _q_left(w, v) @ Ji)
+    if not np.all(np.isfinite(B)):
+        # the entries grow like ‖ω‖²‖v‖: beyond float range the inverse is not representable
+        raise ValueError(
+            "xi: the SE(3) Jacobian inverse overflows float64 for this twist (its lower block "
+            "grows like ‖ω‖²·‖v‖)"
+        )
+    return _blocks(Ji, B)
 
 
 def right_jacobian_inv(xi: object) -> np.ndarray:
-    """J_r(ξ)⁻¹ = J_l(−ξ)⁻¹; defined for ‖ω‖ < 2π."""
-    return left_jacobian_inv(-_twist(xi))
+    """J_r(ξ)⁻¹ = J_l(−ξ)⁻¹; raises ``ValueError`` at the singular set ‖ω‖ = 2πk as
+    :func:`liecontrol.lie.so3.right_jacobian_inv` does (same threshold)."""
+    return _left_jacobian_inv(-_twist(xi))
 
 
 def adjoint(g: object) -> np.ndarray:
     """Ad_g = [[R, 0], [p^ R, R]] (6×6, (ω, v) ordering): g exp(ξ^) g⁻¹ = exp((Ad_g ξ)^)."""
-    g = _pose(g)
+    return adjoint_unchecked(_pose(g))
+
+
+def adjoint_unchecked(g: np.ndarray) -> np.ndarray:
+    """:func:`adjoint` without any check (validated float64 poses; not in ``__all__``)."""
     R = g[..., :3, :3]
     return _blocks(R, so3.hat(g[..., :3, 3]) @ R)
 
@@ -269,12 +362,19 @@ def coadjoint(g: object) -> np.ndarray:
 
 def compose(g1: object, g2: object) -> np.ndarray:
     """g₁ g₂ (batched, broadcasting)."""
-    return _pose(g1, "g1") @ _pose(g2, "g2")
+    g1 = _pose(g1, "g1")
+    g2 = _pose(g2, "g2")
+    _batch(("g1", g1.shape[:-2]), ("g2", g2.shape[:-2]))
+    return g1 @ g2
 
 
 def inverse(g: object) -> np.ndarray:
     """g⁻¹ = [[Rᵀ, −Rᵀ p], [0, 1]]."""
-    g = _pose(g)
+    return inverse_unchecked(_pose(g))
+
+
+def inverse_unchecked(g: np.ndarray) -> np.ndarray:
+    """:func:`inverse` without any check (validated float64 poses; not in ``__all__``)."""
     Rt = np.swapaxes(g[..., :3, :3], -1, -2)
     out = np.zeros(g.shape)
     out[..., :3, :3] = Rt
@@ -287,6 +387,7 @@ def act(g: object, x: object) -> np.ndarray:
     """g · x = R x + p for points ``(..., 3)``."""
     g = _pose(g)
     x = as_array(x, "x", (3,))
+    _batch(("g", g.shape[:-2]), ("x", x.shape[:-1]))
     return np.einsum("...ij,...j->...i", g[..., :3, :3], x) + g[..., :3, 3]
 
 
@@ -299,8 +400,9 @@ def distance(g1: object, g2: object, length_scale: float = 1.0) -> np.ndarray:
     """
     g1 = _pose(g1, "g1")
     g2 = _pose(g2, "g2")
-    L = check_positive(length_scale, "length_scale")
-    theta = so3.distance(g1[..., :3, :3], g2[..., :3, :3])
+    _batch(("g1", g1.shape[:-2]), ("g2", g2.shape[:-2]))
+    L = check_positive_scalar(length_scale, "length_scale")
+    theta = so3.angle_unchecked(np.swapaxes(g1[..., :3, :3], -1, -2) @ g2[..., :3, :3])
     dp = g2[..., :3, 3] - g1[..., :3, 3]
     return np.sqrt(theta * theta + np.sum(dp * dp, axis=-1) / (L * L))
 
@@ -311,7 +413,8 @@ def interpolate(g0: object, g1: object, s: object) -> np.ndarray:
     g0 = _pose(g0, "g0")
     g1 = _pose(g1, "g1")
     s = as_array(s, "s")
-    d = log(inverse(g0) @ g1)
+    _batch(("g0", g0.shape[:-2]), ("g1", g1.shape[:-2]), ("s", s.shape))
+    d = log_unchecked(inverse_unchecked(g0) @ g1)
     return g0 @ exp(d * s[..., None])
 
 
@@ -322,7 +425,7 @@ def random(
 ) -> np.ndarray:
     """Random poses ``size + (4, 4)``: R Haar-uniform on SO(3) (:func:`so3.random`), p with
     i.i.d. N(0, ``translation_scale``²) components (SE(3) has no Haar probability measure)."""
-    scale = check_positive(translation_scale, "translation_scale")
+    scale = check_positive_scalar(translation_scale, "translation_scale")
     R = so3.random(rng, size)
     p = scale * rng.standard_normal(R.shape[:-2] + (3,))
     return from_rt(R, p)
@@ -331,7 +434,10 @@ def random(
 def validate(g: object, name: str = "g", atol: float = ROTATION_ATOL) -> np.ndarray:
     """Return g as a float array, raising ``ValueError`` naming ``name`` unless it is a finite
     (batch of) rigid motions: rotation block orthonormal within ``atol`` with det +1, and last
-    row (0, 0, 0, 1) within ``atol``."""
+    row (0, 0, 0, 1) within ``atol`` (a finite number > 0)."""
+    if not isinstance(name, str) or not name:
+        raise TypeError(f"name: expected a non-empty str (the label for errors), got {name!r}")
+    atol = check_tolerance(atol, "atol")
     g = as_array(g, name, (4, 4))
     so3.validate(g[..., :3, :3], f"{name}", atol)
     row = np.abs(g[..., 3, :] - np.array([0.0, 0.0, 0.0, 1.0]))

@@ -4,9 +4,14 @@ Conventions (``docs/design.md``): vectors are ``(..., 3)``, matrices ``(..., 3, 
 batch shape is accepted and broadcast; ``hat(w) @ v == cross(w, v)``;
 ``exp(w + δ) ≈ exp(w) exp(J_r(w) δ)`` and ``exp(w + δ) ≈ exp(J_l(w) δ) exp(w)``.
 
-These functions check shapes but do not re-validate that their inputs are rotations: that is the
-job of :func:`validate` (and of the :class:`liecontrol.lie.SO3` wrapper), so that the hot paths of
-simulators and filters stay cheap.
+Every public function validates its arguments: real, finite, the right trailing shape, batch
+shapes that broadcast, and for rotation arguments a cheap structural check (``max |RᵀR − I|`` and
+``|det R − 1|``-sign within :data:`ARRAY_ROTATION_ATOL` = 1e-6, loose enough for rotations that
+carry integration round-off, tight enough that ``2·I``, a reflection or the zero matrix raise
+instead of returning a meaningless logarithm). :func:`validate` (and the
+:class:`liecontrol.lie.SO3` wrapper) applies the strict tolerance ``1e-9``. Hot paths that have
+validated their inputs already call the explicitly named unchecked variants
+(:func:`log_unchecked`, :func:`angle_unchecked`), which are not part of ``__all__``.
 
 Sources: Rodrigues' formula and the SO(3) Jacobians as in Barfoot, *State Estimation for
 Robotics* (2017), §7.1; Solà, Deray & Atchuthan, *A micro Lie theory for state estimation in
@@ -19,7 +24,17 @@ import math
 
 import numpy as np
 
-from .._validation import as_array, check_finite, check_rotation_matrix, check_shape_tail
+from .._validation import (
+    _to_float_array,
+    as_array,
+    broadcast_batch,
+    check_finite,
+    check_rotation_matrix,
+    check_shape_tail,
+    check_tolerance,
+    norm_last,
+    rotations_pass_fast,
+)
 
 __all__ = [
     "hat",
@@ -52,24 +67,62 @@ _SMALL_JAC = 0.1
 _LOG_SYMMETRIC_COS = -0.999
 
 
+#: Tolerance of the structural rotation check of the array functions (max |RᵀR − I|); the
+#: strict check of :func:`validate` and of the object layer uses 1e-9.
+ARRAY_ROTATION_ATOL = 1e-6
+
+#: The Jacobian inverses are singular at θ = 2πk (k ≥ 1), where sin(θ/2) = 0: they raise where
+#: |sin(θ/2)| ≤ JAC_INV_SINGULAR_SIN (i.e. |θ − 2πk| ≲ 2e-8). The entries grow like
+#: θ/(2|sin(θ/2)|), so at the threshold they are ~3e8·θ and J·J⁻¹ − I is ~1e-8.
+JAC_INV_SINGULAR_SIN = 1e-8
+
+
 def _vec(w: object, name: str) -> np.ndarray:
-    try:
-        a = np.asarray(w, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name}: cannot be converted to a float array ({exc})") from None
+    a = _to_float_array(w, name)
     check_shape_tail(a, name, (3,))
     check_finite(a, name)
     return a
 
 
 def _mat(R: object, name: str) -> np.ndarray:
-    try:
-        a = np.asarray(R, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name}: cannot be converted to a float array ({exc})") from None
+    """A finite real ``(..., 3, 3)`` array (no rotation check: for matrices that need not be
+    rotations, e.g. the skew matrix of :func:`vee`)."""
+    a = _to_float_array(R, name)
     check_shape_tail(a, name, (3, 3))
     check_finite(a, name)
     return a
+
+
+def _rot(R: object, name: str) -> np.ndarray:
+    """A (batch of) rotation matrices within :data:`ARRAY_ROTATION_ATOL` (cheap check first)."""
+    if rotations_pass_fast(R, ARRAY_ROTATION_ATOL):
+        return R  # type: ignore[return-value]
+    return check_rotation_matrix(_mat(R, name), name, ARRAY_ROTATION_ATOL)
+
+
+_batch = broadcast_batch  # short local name
+
+
+_norm = norm_last  # overflow-safe ‖w‖
+
+
+def _axis_angle(w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(θ, n) with θ = ‖w‖ (overflow-safe) and n = w/θ (n = 0 at θ = 0): the route for rotation
+    vectors so long that the polynomial forms in w would overflow."""
+    theta = _norm(w)
+    safe = np.where(theta > 0.0, theta, 1.0)
+    return theta, w / safe[..., None]
+
+
+def _exp_axis_angle(w: np.ndarray) -> np.ndarray:
+    """Rodrigues in axis–angle form, R = I + sin θ n^ + (1 − cos θ) n^², 1 − cos θ = 2 sin²(θ/2):
+    every term bounded, so it cannot overflow for any finite w (libm reduces huge θ exactly)."""
+    theta, n = _axis_angle(w)
+    N = hat(n)
+    s = np.sin(theta)[..., None, None]
+    h = np.sin(0.5 * theta)
+    c = (2.0 * h * h)[..., None, None]
+    return np.eye(3) + s * N + c * (N @ N)
 
 
 def _sinc(theta: np.ndarray) -> np.ndarray:
@@ -110,9 +163,27 @@ def _jac_inv_coeff(theta: np.ndarray) -> np.ndarray:
     return out
 
 
+def _shape_arg(shape: object, name: str) -> tuple[int, ...]:
+    """A batch-shape argument: a non-negative int or a tuple of them."""
+    if isinstance(shape, (int, np.integer)) and not isinstance(shape, (bool, np.bool_)):
+        shape = (shape,)
+    try:
+        out = tuple(shape)  # type: ignore[arg-type]
+    except TypeError:
+        raise TypeError(
+            f"{name}: expected an int or a tuple of ints, got {type(shape).__name__}"
+        ) from None
+    for d in out:
+        if isinstance(d, (bool, np.bool_)) or not isinstance(d, (int, np.integer)):
+            raise TypeError(f"{name}: expected a tuple of ints, got an entry {d!r}")
+        if d < 0:
+            raise ValueError(f"{name}: dimensions must be >= 0, got {out}")
+    return tuple(int(d) for d in out)
+
+
 def identity(batch_shape: tuple[int, ...] = ()) -> np.ndarray:
     """Identity rotation(s) of shape ``batch_shape + (3, 3)``."""
-    return np.broadcast_to(np.eye(3), tuple(batch_shape) + (3, 3)).copy()
+    return np.broadcast_to(np.eye(3), _shape_arg(batch_shape, "batch_shape") + (3, 3)).copy()
 
 
 def hat(w: object) -> np.ndarray:
@@ -132,10 +203,14 @@ def hat(w: object) -> np.ndarray:
 def vee(W: object) -> np.ndarray:
     """Inverse of :func:`hat`: ``(..., 3, 3) -> (..., 3)``.
 
-    Reads the entries (W₂₁, W₀₂, W₁₀); for a matrix that is not exactly skew this is the vee of
-    its skew part only if the caller skew-symmetrises first.
+    Reads the entries (W₂₁, W₀₂, W₁₀). ``W`` must be skew-symmetric to round-off
+    (max |W + Wᵀ| ≤ 1e-9 · max(1, max |W|)); skew-symmetrise (W − Wᵀ)/2 first otherwise.
     """
     W = _mat(W, "W")
+    if W.size:
+        asym = float(np.abs(W + np.swapaxes(W, -1, -2)).max())
+        if asym > 1e-9 * max(1.0, float(np.abs(W).max())):
+            raise ValueError(f"W: not skew-symmetric (max |W + Wᵀ| = {asym:.2e})")
     return np.stack((W[..., 2, 1], W[..., 0, 2], W[..., 1, 0]), axis=-1)
 
 
@@ -156,11 +231,15 @@ def exp(w: object) -> np.ndarray:
     f = w.reshape(-1, 3)
     x, y, z = f[:, 0], f[:, 1], f[:, 2]
     # every temporary is reused through out= (this is the hot path of simulators and filters)
-    t2 = x * x
-    tmp = y * y
-    t2 += tmp
-    np.multiply(z, z, out=tmp)
-    t2 += tmp
+    with np.errstate(over="ignore"):  # an overflow to inf is caught just below
+        t2 = x * x
+        tmp = y * y
+        t2 += tmp
+        np.multiply(z, z, out=tmp)
+        t2 += tmp
+    if t2.size and not t2.max() < 1e200:
+        # ‖w‖ near or beyond overflow (‖w‖ > 1e100): the axis–angle form stays finite
+        return _exp_axis_angle(f).reshape(shape + (3, 3))
     q = np.sqrt(t2)
     q *= 0.25
     t = np.tan(q)
@@ -220,7 +299,12 @@ def _angle_parts(R: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def angle(R: object) -> np.ndarray:
     """Rotation angle θ ∈ [0, π] of R, as atan2(sin θ, cos θ) (accurate at 0 and π)."""
-    R = _mat(R, "R")
+    return angle_unchecked(_rot(R, "R"))
+
+
+def angle_unchecked(R: np.ndarray) -> np.ndarray:
+    """:func:`angle` without any check, for hot paths that have validated the finite float64
+    ``(..., 3, 3)`` rotation array ``R`` themselves (not in ``__all__``)."""
     _, s, c = _angle_parts(R)
     return np.arctan2(s, c)
 
@@ -259,7 +343,13 @@ def log(R: object) -> np.ndarray:
     from (R − Rᵀ)^∨ (SPEC §2): accurate to round-off up to and including θ = π. At exactly θ = π
     both ±π n are logarithms; the one returned is deterministic but arbitrary.
     """
-    return _log_angle_unchecked(_mat(R, "R"))[0]
+    return _log_angle_unchecked(_rot(R, "R"))[0]
+
+
+def log_unchecked(R: np.ndarray) -> np.ndarray:
+    """:func:`log` without any check, for hot paths that have validated the finite float64
+    ``(..., 3, 3)`` rotation array ``R`` themselves (not in ``__all__``)."""
+    return _log_angle_unchecked(R)[0]
 
 
 def _log_angle_unchecked(R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -319,37 +409,80 @@ def _log_floats(
     return v0 * k, v1 * k, v2 * k
 
 
+def _right_jacobian(w: np.ndarray) -> np.ndarray:
+    """J_r of a validated ``(..., 3)`` array in axis–angle form (see :func:`right_jacobian`)."""
+    theta, n = _axis_angle(w)
+    N = hat(n)
+    half = np.sin(0.5 * theta)
+    safe = np.where(theta > 0.0, theta, 1.0)
+    b1 = 2.0 * half * half / safe  # (1 − cos θ)/θ, exact 0 at θ = 0
+    t = np.minimum(theta, _SMALL_JAC)  # the series argument (huge θ would overflow θ²)
+    _, c = _jac_coeffs(t)
+    c1 = np.where(theta < _SMALL_JAC, t * t * c, 1.0 - np.sin(theta) / safe)
+    return np.eye(3) - b1[..., None, None] * N + c1[..., None, None] * (N @ N)
+
+
 def right_jacobian(w: object) -> np.ndarray:
-    """J_r(ω) = I − ((1 − cos θ)/θ²) ω^ + ((θ − sin θ)/θ³) ω^²."""
-    w = _vec(w, "w")
-    theta = np.linalg.norm(w, axis=-1)
-    b, c = _jac_coeffs(theta)
-    W = hat(w)
-    return np.eye(3) - b[..., None, None] * W + c[..., None, None] * (W @ W)
+    """J_r(ω) = I − ((1 − cos θ)/θ²) ω^ + ((θ − sin θ)/θ³) ω^², θ = ‖ω‖.
+
+    Evaluated as I − ((1 − cos θ)/θ) n^ + (1 − sin θ/θ) n^² with n = ω/θ (series below θ = 0.1),
+    so every term is bounded and no ω (even ‖ω‖ = 1e300) overflows.
+    """
+    return _right_jacobian(_vec(w, "w"))
 
 
 def left_jacobian(w: object) -> np.ndarray:
     """J_l(ω) = J_r(−ω) = I + ((1 − cos θ)/θ²) ω^ + ((θ − sin θ)/θ³) ω^²."""
-    return right_jacobian(-_vec(w, "w"))
+    return _right_jacobian(-_vec(w, "w"))
+
+
+def _right_jacobian_inv(w: np.ndarray, name: str) -> np.ndarray:
+    """J_r⁻¹ of a validated ``(..., 3)`` array (see :func:`right_jacobian_inv`); ``name`` is the
+    argument named in the error at the singular set."""
+    theta, n = _axis_angle(w)
+    h = 0.5 * theta
+    sh = np.sin(h)
+    big = theta >= _SMALL_JAC
+    sing = big & (np.abs(sh) <= JAC_INV_SINGULAR_SIN)
+    if np.any(sing):
+        th = float(theta[sing].flat[0]) if theta.ndim else float(theta)
+        k = max(1, round(th / (2.0 * math.pi)))
+        raise ValueError(
+            f"{name}: the SO(3) Jacobian inverse is singular at rotation angle 2π·k; got "
+            f"‖ω‖ = {th!r}, |sin(‖ω‖/2)| ≤ {JAC_INV_SINGULAR_SIN:.0e} (k = {k}). Reduce the "
+            f"rotation vector to ‖ω‖ < 2π first (e.g. log(exp(ω)))"
+        )
+    N = hat(n)
+    safe_sh = np.where(big, sh, 1.0)
+    # W² coefficient times θ²: 1 − (θ/2) cot(θ/2) (series θ² d(θ) below θ = 0.1)
+    t = np.minimum(theta, _SMALL_JAC)  # the series argument (huge θ would overflow θ²)
+    d_small = t * t * _jac_inv_coeff(t)
+    d1 = np.where(big, 1.0 - h * np.cos(h) / safe_sh, d_small)
+    return np.eye(3) + h[..., None, None] * N + d1[..., None, None] * (N @ N)
 
 
 def right_jacobian_inv(w: object) -> np.ndarray:
-    """J_r(ω)⁻¹ = I + ½ ω^ + (1/θ² − cot(θ/2)/(2θ)) ω^²; defined for θ < 2π."""
-    w = _vec(w, "w")
-    theta = np.linalg.norm(w, axis=-1)
-    d = _jac_inv_coeff(theta)
-    W = hat(w)
-    return np.eye(3) + 0.5 * W + d[..., None, None] * (W @ W)
+    """J_r(ω)⁻¹ = I + ½ ω^ + (1/θ² − cot(θ/2)/(2θ)) ω^², θ = ‖ω‖.
+
+    Evaluated as I + (θ/2) n^ + (1 − (θ/2) cot(θ/2)) n^² with n = ω/θ (series below θ = 0.1).
+    J_r is singular at θ = 2πk, k ≥ 1 (its eigenvalues off the axis have modulus
+    2|sin(θ/2)|/θ), and J_r⁻¹'s entries grow like θ/(2|sin(θ/2)|) near there. Where
+    |sin(θ/2)| ≤ :data:`JAC_INV_SINGULAR_SIN` = 1e-8 (|θ − 2πk| ≲ 2e-8) this raises
+    ``ValueError``; outside, the result is the exact formula (``J_r(ω) J_r(ω)⁻¹ = I`` to round-off
+    times that growth, e.g. ~1e-8 at the threshold).
+    """
+    return _right_jacobian_inv(_vec(w, "w"), "w")
 
 
 def left_jacobian_inv(w: object) -> np.ndarray:
-    """J_l(ω)⁻¹ = J_r(−ω)⁻¹ = I − ½ ω^ + (1/θ² − cot(θ/2)/(2θ)) ω^²."""
-    return right_jacobian_inv(-_vec(w, "w"))
+    """J_l(ω)⁻¹ = J_r(−ω)⁻¹ = I − ½ ω^ + (1/θ² − cot(θ/2)/(2θ)) ω^²; raises at the singular set
+    θ = 2πk as :func:`right_jacobian_inv` does."""
+    return _right_jacobian_inv(-_vec(w, "w"), "w")
 
 
 def adjoint(R: object) -> np.ndarray:
     """Ad_R = R (acting on so(3) ≅ ℝ³): R exp(ω) Rᵀ = exp(R ω)."""
-    return np.array(_mat(R, "R"), copy=True)
+    return np.array(_rot(R, "R"), copy=True)
 
 
 def ad(w: object) -> np.ndarray:
@@ -359,34 +492,40 @@ def ad(w: object) -> np.ndarray:
 
 def compose(R1: object, R2: object) -> np.ndarray:
     """R₁ R₂ (batched, broadcasting)."""
-    return _mat(R1, "R1") @ _mat(R2, "R2")
+    R1 = _rot(R1, "R1")
+    R2 = _rot(R2, "R2")
+    _batch(("R1", R1.shape[:-2]), ("R2", R2.shape[:-2]))
+    return R1 @ R2
 
 
 def inverse(R: object) -> np.ndarray:
     """R⁻¹ = Rᵀ."""
-    return np.swapaxes(_mat(R, "R"), -1, -2).copy()
+    return np.swapaxes(_rot(R, "R"), -1, -2).copy()
 
 
 def act(R: object, p: object) -> np.ndarray:
     """R p for points ``(..., 3)``."""
-    R = _mat(R, "R")
+    R = _rot(R, "R")
     p = _vec(p, "p")
+    _batch(("R", R.shape[:-2]), ("p", p.shape[:-1]))
     return np.einsum("...ij,...j->...i", R, p)
 
 
 def distance(R1: object, R2: object) -> np.ndarray:
     """Geodesic (bi-invariant) distance θ(R₁ᵀR₂) ∈ [0, π] in radians."""
-    R1 = _mat(R1, "R1")
-    R2 = _mat(R2, "R2")
-    return angle(np.swapaxes(R1, -1, -2) @ R2)
+    R1 = _rot(R1, "R1")
+    R2 = _rot(R2, "R2")
+    _batch(("R1", R1.shape[:-2]), ("R2", R2.shape[:-2]))
+    return angle_unchecked(np.swapaxes(R1, -1, -2) @ R2)
 
 
 def interpolate(R0: object, R1: object, s: object) -> np.ndarray:
     """Geodesic interpolation R₀ exp(s log(R₀ᵀR₁)); s = 0 → R₀, s = 1 → R₁ (slerp)."""
-    R0 = _mat(R0, "R0")
-    R1 = _mat(R1, "R1")
-    s = np.asarray(s, dtype=np.float64)
-    d = log(np.swapaxes(R0, -1, -2) @ R1)
+    R0 = _rot(R0, "R0")
+    R1 = _rot(R1, "R1")
+    s = as_array(s, "s")
+    _batch(("R0", R0.shape[:-2]), ("R1", R1.shape[:-2]), ("s", s.shape))
+    d = log_unchecked(np.swapaxes(R0, -1, -2) @ R1)
     return R0 @ exp(d * s[..., None])
 
 
@@ -399,7 +538,7 @@ def random(rng: np.random.Generator, size: int | tuple[int, ...] = ()) -> np.nda
     """
     if not isinstance(rng, np.random.Generator):
         raise ValueError(f"rng: expected numpy.random.Generator, got {type(rng).__name__}")
-    size = (size,) if isinstance(size, (int, np.integer)) else tuple(size)
+    size = _shape_arg(size, "size")
     G = rng.standard_normal(size + (3, 3))
     Q, Rq = np.linalg.qr(G)
     d = np.sign(np.stack((Rq[..., 0, 0], Rq[..., 1, 1], Rq[..., 2, 2]), axis=-1))
@@ -422,5 +561,8 @@ def project(M: object) -> np.ndarray:
 
 def validate(R: object, name: str = "R", atol: float = 1e-9) -> np.ndarray:
     """Return R as a float array, raising ``ValueError`` naming ``name`` unless it is a finite
-    (batch of) rotation matrices: orthonormal within ``atol`` and with determinant +1."""
-    return check_rotation_matrix(R, name, atol)
+    (batch of) rotation matrices: orthonormal within ``atol`` and with determinant +1.
+    ``atol`` must be a finite number > 0."""
+    if not isinstance(name, str) or not name:
+        raise TypeError(f"name: expected a non-empty str (the label for errors), got {name!r}")
+    return check_rotation_matrix(R, name, check_tolerance(atol, "atol"))

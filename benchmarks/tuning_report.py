@@ -1,0 +1,197 @@
+"""The report's tuning section: how every controller of a run was tuned, and what it measures.
+
+:func:`tuning_section` returns Markdown lines for :func:`benchmarks.report.write_report`: the
+closed-loop spec (ω_n, ζ, sample period) the run was tuned to, the actuator limits the tuning
+checked against, and per attitude controller its tuning in words and numbers and its *measured*
+small-angle natural frequency and damping on each principal axis of the run's spacecraft
+(:func:`liecontrol.control.tuning.measure_small_angle_response`: the controller flown on the
+linearised ideal-torque plant, kicked by 1 mrad, poles identified from the response). The
+measurement is what a reader should trust over the description: a controller whose loop is not
+the spec shows it here.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from liecontrol.control.tuning import TuningInfeasible, measure_small_angle_response
+
+from .controllers import (
+    ATTITUDE_PLANTS,
+    CONTROLLERS,
+    DEFAULT_GAIN_RULE,
+    ControllerContext,
+    GainRule,
+    actuator_limits,
+    get_controller,
+)
+from .scenarios import Scenario
+
+__all__ = ["tuning_section", "measure_registered"]
+
+#: Cache of measurements: (controller, spacecraft, rule, period) → (ω_n, ζ, poles of axis 1).
+_CACHE: dict[tuple, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+
+
+def _md(text: str) -> str:
+    """Escape the characters that break a Markdown table cell."""
+    return str(text).replace("\\", "\\\\").replace("|", "\\|").replace("\n", " ")
+
+
+def _fmt(x: Any) -> str:
+    a = np.asarray(x, dtype=float) if not isinstance(x, str) else None
+    if a is None:
+        return x
+    if a.ndim == 0:
+        return f"{float(a):.4g}"
+    if a.shape == (3, 3):
+        d = np.diag(a)
+        off = np.abs(a - np.diag(d)).max()
+        txt = "diag(" + ", ".join(f"{v:.3g}" for v in d) + ")"
+        return txt + (" + off-diag." if off > 1e-12 * np.abs(a).max() else "")
+    return "(" + ", ".join(f"{v:.3g}" for v in a.ravel()) + ")"
+
+
+def describe_tuning(controller: Any) -> str:
+    """Short numbers of a built controller's tuning (the attributes the families expose)."""
+    parts = []
+    law = getattr(controller, "law", controller)
+    if hasattr(controller, "Q") and hasattr(controller, "N"):  # the MPC: weights, not gains
+        return (
+            f"Q = {_fmt(np.diag(controller.Q))}, R = {_fmt(controller.R)}, N = {controller.N}, "
+            f"dt = {controller.dt:g} s, u_max = {_fmt(controller.u_max)} N·m"
+        )
+    for name in ("k_R", "k_Omega", "k_I", "c", "k1", "k2", "kc", "K", "P", "k_p", "k_d"):
+        for obj in (controller, law):
+            if hasattr(obj, name) and not callable(getattr(obj, name)):
+                v = getattr(obj, name)
+                if isinstance(v, (int, float, np.ndarray)):
+                    parts.append(f"{name} = {_fmt(v)}")
+                break
+    funnel = getattr(controller, "funnel", None)
+    if funnel is not None:
+        parts.append(f"funnel ρ_∞ = {funnel.rho_inf:g}, l = {funnel.decay:.3g} 1/s")
+    params = getattr(law, "params", None)
+    if params is not None and hasattr(params, "K3"):
+        parts.append(
+            f"ESO K = ({_fmt(params.K1[0])}, {_fmt(params.K2[0])}, {_fmt(params.K3[0])}), "
+            f"k₁ = {_fmt(params.k1[0])}, k₂ = {_fmt(params.k2[0])}, TD r = {params.r:.3g}"
+        )
+    tsm = getattr(law, "params", None)
+    if tsm is not None and hasattr(tsm, "T") and hasattr(tsm, "C1"):
+        parts.append(f"T = {tsm.T:.4g} s, C₁ = {_fmt(np.diag(tsm.C1))}, K = {tsm.K:.3g}")
+    return "; ".join(parts)
+
+
+def _poles_text(poles: np.ndarray) -> str:
+    """Compact list of identified poles: conjugate pairs as ``a±bj``, sorted slowest first."""
+    out, done = [], np.zeros(poles.size, dtype=bool)
+    order = np.argsort(-poles.real)
+    for i in order:
+        if done[i]:
+            continue
+        p = poles[i]
+        done[i] = True
+        if abs(p.imag) > 1e-9 * max(abs(p), 1e-300):
+            j = np.argmin(np.where(done, np.inf, np.abs(poles - np.conj(p))))
+            done[j] = True
+            out.append(f"{p.real:.3g}±{abs(p.imag):.2g}j")
+        else:
+            out.append(f"{p.real:.3g}")
+    return ", ".join(out)
+
+
+def measure_registered(
+    name: str, scenario: Scenario, rule: GainRule | None = None
+) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray]:
+    """``(controller, ω_n (3,), ζ (3,), poles of the first principal axis)``: registry controller
+    ``name`` built for ``scenario``'s spacecraft under ``rule`` and measured on its small-angle
+    loop at the control period it runs at (all identified poles are returned too: e.g. the slow
+    integral pole of a PID, which the dominant pair leaves out). Raises
+    :class:`~liecontrol.control.tuning.TuningInfeasible` if it cannot be tuned.
+    """
+    info = get_controller(name)
+    rule = rule or DEFAULT_GAIN_RULE
+    period = info.control_period or scenario.control_period or scenario.dt
+    ctx = ControllerContext(spacecraft=scenario.spacecraft, control_period=period, rule=rule)
+    ctrl = info.factory(ctx)
+    key = (name, scenario.spacecraft, rule, period)
+    if key not in _CACHE:
+        # long enough for the dominant pair to decay (5 time constants 1/(ζω_n)); funnels
+        # (prescribed performance) need their decay to settle before the kick
+        tau = 1.0 / (min(rule.zeta, 1.0) * rule.omega_n)
+        funnel = getattr(ctrl, "funnel", None)
+        warm = 5.0 / funnel.decay if funnel is not None else 0.0
+        r = measure_small_angle_response(ctrl, ctx.J, period, duration=5.0 * tau, warmup=warm)
+        _CACHE[key] = (r.omega_n, r.zeta, r.poles[0])
+    w, z, p = _CACHE[key]
+    return ctrl, w.copy(), z.copy(), p.copy()
+
+
+def tuning_section(result: Any, *, measure: bool = True) -> list[str]:
+    """Markdown lines of the tuning section of ``result`` (a
+    :class:`~benchmarks.runner.SuiteResult`): spec, actuator limits and, per attitude controller,
+    its tuning and (``measure=True``) its measured small-angle ω_n and ζ per principal axis on
+    the first attitude scenario's spacecraft, as a ratio to the spec."""
+    rule = getattr(result, "gain_rule", None) or DEFAULT_GAIN_RULE
+    att = [s for s in result.scenarios if s.plant in ATTITUDE_PLANTS]
+    lines = ["## Tuning", ""]
+    if not att:
+        lines += ["No attitude scenario in this run: nothing to tune.", ""]
+        return lines
+    sc = att[0]
+    period = sc.control_period or sc.dt
+    lim = actuator_limits(sc.spacecraft)
+    lines += [
+        "Every controller is tuned by `liecontrol.control.tuning` from the scenario's spacecraft "
+        f"to one closed-loop spec: ω_n = {rule.omega_n:g} rad/s, ζ = {rule.zeta:g}, sampled at "
+        "the scenario's control period. Its small-angle loop is then measured on the "
+        f"spacecraft `{_md(sc.spacecraft.name)}` of scenario `{_md(sc.name)}` (ideal torque, "
+        f"{period:g} s sampling unless the controller has its own period): the table gives the "
+        "measured natural frequency and damping of the dominant pole pair on each principal "
+        "axis, as ratios to the spec (1.00 = on spec), and every pole identified on the first "
+        "axis (an integral's slow real pole, observer or funnel modes).",
+        "",
+        f"Actuator limits used by the tuning: torque {_fmt(lim.max_torque or math.inf)} N·m, "
+        f"momentum {_fmt(lim.max_momentum or math.inf)} N·m·s"
+        + (f", gimbal rate {lim.max_gimbal_rate:g} rad/s." if lim.max_gimbal_rate else "."),
+        "",
+        "| controller | tuning | parameters | ω/ω_n per axis | ζ/ζ_spec per axis "
+        "| identified poles, 1st axis [1/s] |",
+        "|---|---|---|---|---|---|",
+    ]
+    for c in result.controllers:
+        if c not in CONTROLLERS:
+            # unregistered since the run (e.g. a plug-in's temporary entry): no factory to measure
+            lines.append(f"| {_md(c)} | not in the registry any more: not measured | — | — | — | — |")
+            continue
+        info = get_controller(c)
+        if not (info.plants & ATTITUDE_PLANTS):
+            continue
+        desc = (
+            result.descriptions.get(c, info.description) if hasattr(result, "descriptions") else ""
+        )
+        try:
+            if measure:
+                ctrl, w, z, poles = measure_registered(c, sc, rule)
+                wtxt = ", ".join(f"{v / rule.omega_n:.2f}" for v in w)
+                ztxt = ", ".join(f"{v / rule.zeta:.2f}" for v in z)
+                ptxt = _poles_text(poles)
+            else:
+                ctx = ControllerContext(
+                    spacecraft=sc.spacecraft,
+                    control_period=info.control_period or period,
+                    rule=rule,
+                )
+                ctrl, wtxt, ztxt, ptxt = info.factory(ctx), "—", "—", "—"
+            params = describe_tuning(ctrl)
+        except TuningInfeasible as exc:
+            params, wtxt, ztxt, ptxt = f"not applicable: {exc}", "—", "—", "—"
+        except Exception as exc:  # noqa: BLE001 - a user's controller must not sink the report
+            params, wtxt, ztxt, ptxt = f"measurement failed: {type(exc).__name__}: {exc}", "—", "—", "—"
+        lines.append(f"| {_md(c)} | {_md(desc)} | {_md(params)} | {wtxt} | {ztxt} | {_md(ptxt)} |")
+    lines.append("")
+    return lines
