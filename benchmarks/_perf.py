@@ -15,8 +15,8 @@ __all__ = [
     "THREAD_VARS",
     "pin_blas_threads",
     "thread_settings",
-    "seed000_inertia",
-    "seed000_pd_loop",
+    "sgcmg_bus_inertia",
+    "sgcmg_bus_pd_loop",
 ]
 
 #: thread-count variables of the BLAS/OpenMP runtimes numpy may use
@@ -40,8 +40,8 @@ def thread_settings() -> str:
     return s
 
 
-def seed000_inertia() -> Any:
-    """The seed-000 inertia (SPEC §6.1) [kg·m²]."""
+def sgcmg_bus_inertia() -> Any:
+    """The SGCMG-bus inertia [kg·m²]."""
     import numpy as np
 
     return np.array(
@@ -49,9 +49,9 @@ def seed000_inertia() -> Any:
     )
 
 
-def seed000_pd_loop(batch: int, rng: Any) -> tuple[Any, Any]:
+def sgcmg_bus_pd_loop(batch: int, rng: Any) -> tuple[Any, Any]:
     """``(controller, reference)`` of the benchmark loop: the large-angle geometric PD on the
-    seed-000 inertia (ω_n = 0.03 rad/s, ζ = 0.9) and a 90° target for one spacecraft or random
+    SGCMG-bus inertia (ω_n = 0.03 rad/s, ζ = 0.9) and a 90° target for one spacecraft or random
     targets (rotation vectors ~ N(0, 0.8²)) for a batch."""
     import numpy as np
 
@@ -59,7 +59,7 @@ def seed000_pd_loop(batch: int, rng: Any) -> tuple[Any, Any]:
     from liecontrol.control.geometric_pd import GeometricPD, gains_from_bandwidth
     from liecontrol.lie import so3
 
-    J = seed000_inertia()
+    J = sgcmg_bus_inertia()
     k_R, k_W = gains_from_bandwidth(J, 0.03, 0.9, error="large_angle", matrix=True)
     ctrl = GeometricPD(J, k_R, k_W, error="large_angle")
     if batch == 1:

@@ -147,6 +147,12 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
     r.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     r.add_argument(
+        "--histories",
+        action="store_true",
+        help="also write every run's full time histories with their provenance to "
+        "OUT/histories.parquet (needs pyarrow: pip install 'liecontrol[results]')",
+    )
+    r.add_argument(
         "--sweep-bandwidth",
         default=None,
         metavar="W1,W2,...",
@@ -316,6 +322,21 @@ def _cmd_run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     figures = not args.no_figures
     progress = not args.no_progress
+    keep = bool(getattr(args, "histories", False))
+    if keep:  # checked before anything runs
+        from .results_file import require_pyarrow
+
+        if suite_name == "unwinding":
+            return _error("histories: not available for the unwinding suite")
+        if getattr(args, "resume", False):
+            return _error(
+                "histories: --resume reuses journaled chunks, which carry no histories; "
+                "rerun without --resume"
+            )
+        try:
+            require_pyarrow()
+        except ImportError as exc:
+            return _error(f"histories: {exc}")
     with executor:
         if suite_name == "unwinding":
             from . import unwinding
@@ -352,6 +373,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                     progress=progress,
                     journal=journal,
                     resume=args.resume,
+                    keep_histories=keep,
                 )
             except montecarlo.MonteCarloInterrupted as exc:
                 print(
@@ -363,6 +385,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
             except ValueError as exc:  # a journal written for another configuration
                 return _error(str(exc))
             path = montecarlo.write_montecarlo_report(res, args.out, figures=figures)
+            if keep:
+                from .results_file import write_histories_with_report
+
+                write_histories_with_report(res, args.out, path)
             n_runs, n_failed = len(res.records), res.n_failed
         else:
             from .report import write_report, write_sweep_report
@@ -383,17 +409,26 @@ def _cmd_run(args: argparse.Namespace) -> int:
                     sweep[w] = run_suite(
                         scenarios, controllers, suite=f"{suite_name} (ω_n = {w:g} rad/s)",
                         executor=executor, progress=progress, gain_rule=rule,
+                        keep_histories=keep,
                     )  # fmt: skip
-                    write_report(sweep[w], args.out / f"omega_n-{w:g}", figures=figures)
+                    sub = write_report(sweep[w], args.out / f"omega_n-{w:g}", figures=figures)
+                    if keep:
+                        from .results_file import write_histories_with_report
+
+                        write_histories_with_report(sweep[w], sub.parent, sub)
                 path = write_sweep_report(sweep, args.out, figures=figures)
                 n_runs = sum(len(r.outcomes) for r in sweep.values())
                 n_failed = sum(r.n_failed for r in sweep.values())
             else:
                 result = run_suite(
                     scenarios, controllers, suite=suite_name, executor=executor,
-                    progress=progress,
+                    progress=progress, keep_histories=keep,
                 )  # fmt: skip
                 path = write_report(result, args.out, figures=figures)
+                if keep:
+                    from .results_file import write_histories_with_report
+
+                    write_histories_with_report(result, args.out, path)
                 n_runs, n_failed = len(result.outcomes), result.n_failed
     print(
         f"report: {path} ({n_runs} runs, {n_failed} failed, "

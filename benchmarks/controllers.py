@@ -46,6 +46,7 @@ from typing import Any
 import numpy as np
 
 from liecontrol._validation import as_array, as_int, check_positive, check_positive_scalar
+from liecontrol.control.constrained import KeepInCone, KeepOutCone
 from liecontrol.control.tuning import (
     ActuatorLimits,
     ClosedLoopSpec,
@@ -115,6 +116,9 @@ class ControllerContext:
         gravity: the SE(3) plant's gravity wrench ``g -> (B, 6)`` (feed-forward), or ``None``.
         rule: the closed-loop spec every factory tunes to (:class:`GainRule`; the runner's
             ``gain_rule``, e.g. a bandwidth sweep).
+        keep_out: the scenario's keep-out pointing cones (constraint-aware controllers use
+            them; the others ignore them and are judged by the same margins).
+        keep_in: the scenario's keep-in pointing cones.
     """
 
     spacecraft: SpacecraftSpec
@@ -125,6 +129,8 @@ class ControllerContext:
     proximity: ProximitySpec | None = None
     gravity: Callable[[np.ndarray], np.ndarray] | None = None
     rule: GainRule = DEFAULT_GAIN_RULE
+    keep_out: tuple[KeepOutCone, ...] = ()
+    keep_in: tuple[KeepInCone, ...] = ()
 
     def __post_init__(self) -> None:
         if not isinstance(self.spacecraft, SpacecraftSpec):
@@ -149,6 +155,13 @@ class ControllerContext:
             )
         if not isinstance(self.rule, GainRule):
             raise ValueError(f"rule: expected a GainRule, got {type(self.rule).__name__}")
+        for name, cls in (("keep_out", KeepOutCone), ("keep_in", KeepInCone)):
+            v = getattr(self, name)
+            if isinstance(v, str) or not isinstance(v, (tuple, list)):
+                raise ValueError(f"{name}: expected a sequence of {cls.__name__}, got {v!r}")
+            if not all(isinstance(c, cls) for c in v):
+                raise ValueError(f"{name}: every item must be a {cls.__name__}, got {v!r}")
+            object.__setattr__(self, name, tuple(v))
 
     @property
     def J(self) -> np.ndarray:
@@ -165,6 +178,8 @@ class ControllerContext:
             batch_size=batch_size,
             q_hint=q,
             proximity=scenario.proximity,
+            keep_out=scenario.keep_out,
+            keep_in=scenario.keep_in,
             **kw,
         )
 
@@ -242,6 +257,8 @@ class ControllerInfo:
             q_hint=q,
             proximity=scenario.proximity,
             rule=rule or DEFAULT_GAIN_RULE,
+            keep_out=scenario.keep_out,
+            keep_in=scenario.keep_in,
         )
         try:
             self.factory(ctx)
@@ -476,6 +493,18 @@ def geometric_pd_factory(error: str) -> ControllerFactory:
     return make
 
 
+def _geometric_keep_out(ctx: ControllerContext) -> Any:
+    """Barrier-shaped large-angle geometric PD on the scenario's pointing cones (plain PD
+    without cones)"""
+    from liecontrol.control.constrained import ConstrainedGeometricPD
+    from liecontrol.control.tuning import tune_geometric_pd
+
+    spec, _ = tuned_spec(ctx)
+    gains = tune_geometric_pd(ctx.J, spec, error="large_angle")
+    del gains["error"]  # the attractive part is always the large-angle potential
+    return ConstrainedGeometricPD(ctx.J, keep_out=ctx.keep_out, keep_in=ctx.keep_in, **gains)
+
+
 def _intrinsic_pid(ctx: ControllerContext) -> Any:
     """IntrinsicPID (log error, Maithripala & Berg): spec pair + integral pole at −ω_n/5."""
     from liecontrol.control.geometric_pid import IntrinsicPID
@@ -563,12 +592,12 @@ def _payload_pid_ff(ctx: ControllerContext) -> Any:
     (90°/s), Δt_p = 0.1 s, Δt_c = 0.2 s, on from t = 0."""
     from liecontrol.control.payload_compensation import SmallAnglePIDWithFeedforward
     from liecontrol.control.tuning import tune_small_angle_pid
-    from spacecraft.payload import SEED003_SPIN_RATE
+    from spacecraft.payload import PAYLOAD_SPIN_RATE
 
     spec, _ = tuned_spec(ctx)
     return SmallAnglePIDWithFeedforward(
         ctx.J,
-        payload_frequency=SEED003_SPIN_RATE,
+        payload_frequency=PAYLOAD_SPIN_RATE,
         dt_c=0.2,
         dt_p=0.1,
         mode="identify",
@@ -618,6 +647,13 @@ def _register_builtins() -> None:
         )
     register("geometric-pid-intrinsic", _intrinsic_pid, family="geometric")
     register("geometric-integral-pd", _integral_pd, family="geometric")
+    register(
+        "geometric-keep-out",
+        _geometric_keep_out,
+        description="large-angle geometric PD with log barriers on the scenario's pointing cones",
+        family="geometric",
+        quick=False,
+    )
     register("prescribed-performance", _prescribed_performance, family="geometric")
     register("mpc-osqp", _mpc, batched=False, family="mpc")
     register("mrp-adrc", _adrc, family="chart")

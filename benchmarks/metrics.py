@@ -1,4 +1,4 @@
-"""Benchmark metrics (SPEC §8.2) computed from a simulation log, per spacecraft.
+"""Benchmark metrics computed from a simulation log, per spacecraft.
 
 Every metric is a ``(B,)`` array over the spacecraft of one batched
 :class:`spacecraft.simulator.SimulationResult` (duck-typed: only the array attributes listed in
@@ -24,7 +24,7 @@ time, ``T = t_f − t₀``; integrals are trapezoidal over the logged samples):
 - **peak gimbal rate**: ``max_{t,i} |δ̇_i|``; **minimum singularity measure** ``min_t m``;
   **time in gimbal-rate saturation**: ``Σ_k sat_k (t_{k+1} − t_k)`` (left rectangle: a flagged
   sample counts until the next sample);
-- **unwinding ratio** (SPEC §8.1/§8.2): path angle ``∫‖e_Ω‖dt`` over the initial geodesic angle
+- **unwinding ratio**: path angle ``∫‖e_Ω‖dt`` over the initial geodesic angle
   ``θ₀``. The path angle is the length of the error trajectory ``E(t)`` on SO(3), so a controller
   taking the short way has ratio ≈ 1 − θ_f/θ₀ ≤ 1 (plus any overshoot); ratio ≥ 1.5 means the
   controller has **unwound**. NaN when ``θ₀ < min_geodesic_deg``.
@@ -44,6 +44,11 @@ time, ``T = t_f − t₀``; integrals are trapezoidal over the logged samples):
   any limit active (gimbal rate; wheel torque or speed; the ideal actuator's torque box), and
   the peak delivered torque ``max_t ‖u‖``.
 
+- **pointing constraints**: ``min_keep_out_margin_deg`` / ``min_keep_in_margin_deg``, the
+  smallest margin of the scenario's cones over the logged samples (angle from the boresight to
+  the cone boundary, negative when violated; :mod:`liecontrol.control.constrained`); NaN ("not
+  defined") when the scenario has no cone of that kind.
+
 Verdicts: :func:`judge` turns a run's metrics into ``success`` / ``degraded`` / ``failed`` /
 ``error`` / ``not-applicable`` plus flags, with the scenario's tolerances (rules in its
 docstring).
@@ -60,6 +65,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from liecontrol._validation import as_array, as_scalar, check_positive, check_positive_scalar
+from liecontrol.control.constrained import cone_margins_deg
 
 __all__ = [
     "Metrics",
@@ -70,6 +76,7 @@ __all__ = [
     "FLAGS",
     "NEAR_SINGULAR_M",
     "CHATTER_REVERSALS",
+    "MOMENTUM_SATURATED_FRACTION",
     "DIVERGENCE_MARGIN_DEG",
     "judge",
     "compute_metrics",
@@ -107,7 +114,7 @@ def error_angle(R: np.ndarray, R_d: np.ndarray) -> np.ndarray:
 def rate_error(
     R: np.ndarray, omega: np.ndarray, R_d: np.ndarray, omega_d: np.ndarray
 ) -> np.ndarray:
-    """Body rate error ``e_Ω = ω − RᵀR_d ω_d`` (SPEC §6 item 1), shape ``omega.shape``."""
+    """Body rate error ``e_Ω = ω − RᵀR_d ω_d``, shape ``omega.shape``."""
     R = as_array(R, "R", (3, 3))
     omega = as_array(omega, "omega", (3,))
     R_d = as_array(R_d, "R_d", (3, 3))
@@ -179,7 +186,8 @@ def settling_time(t: np.ndarray, err: np.ndarray, threshold: float) -> np.ndarra
 
 @dataclass(frozen=True)
 class Metrics:
-    """SPEC §8.2 metrics, each a ``(B,)`` float array (booleans for ``settled``/``unwound``).
+    """The benchmark metrics (docs/benchmarks.md), each a ``(B,)`` float array (booleans for
+    ``settled``/``unwound``).
 
     See the module docstring for the exact definitions; :data:`UNITS` gives the units.
     """
@@ -209,6 +217,10 @@ class Metrics:
     unwinding_ratio: np.ndarray
     unwound: np.ndarray
     command_reversals: np.ndarray
+    min_keep_out_margin_deg: np.ndarray
+    min_keep_in_margin_deg: np.ndarray
+    peak_momentum_fraction: np.ndarray
+    final_momentum_fraction: np.ndarray
 
     @property
     def batch_size(self) -> int:
@@ -254,6 +266,10 @@ UNITS: dict[str, str] = {
     "unwinding_ratio": "-",
     "unwound": "bool",
     "command_reversals": "-",
+    "min_keep_out_margin_deg": "deg",
+    "min_keep_in_margin_deg": "deg",
+    "peak_momentum_fraction": "-",
+    "final_momentum_fraction": "-",
 }
 
 #: Units of the quantities the runner adds to a run's metrics (SE(3) runs, timing).
@@ -295,6 +311,13 @@ DESCRIPTIONS: dict[str, str] = {
     "unwinding_ratio": "path angle / initial geodesic angle (≥ 1.5: unwound)",
     "unwound": "unwinding ratio ≥ 1.5",
     "command_reversals": "consecutive commands with u_k·u_{k−1} < 0 (both ≥ 5 % of the peak)",
+    "min_keep_out_margin_deg": "smallest angle to a keep-out cone boundary over the run "
+    "(< 0: violated; NaN: the scenario has no keep-out cone)",
+    "min_keep_in_margin_deg": "smallest angle to a keep-in cone boundary over the run "
+    "(< 0: violated; NaN: the scenario has no keep-in cone)",
+    "peak_momentum_fraction": "max over time of the stored momentum over the actuator's "
+    "envelope in its direction (SGCMG: ‖h‖/σ(ĥ); wheels: max |Ω_i|/Ω_max)",
+    "final_momentum_fraction": "the same at the last sample",
     "controller_time_us": "mean wall time of one controller call per spacecraft",
     "sim_wall_time_s": "wall time of the simulation the run was batched in",
     "final_position_error_m": "SE(3): ‖p − p_d‖ at the last sample",
@@ -331,17 +354,20 @@ def compute_metrics(
     reversal_floor: float = 0.05,
     gimbal_rate_limit: float | None = None,
     wheel_max_speed: float | np.ndarray | None = None,
+    keep_out: Any = (),
+    keep_in: Any = (),
+    momentum_actuator: Any = None,
 ) -> Metrics:
-    """Compute the SPEC §8.2 metrics of every spacecraft of a simulation log.
+    """Compute the benchmark metrics of every spacecraft of a simulation log.
 
     Args:
         result: a ``SimulationResult`` (or any object with ``t (K,)``, ``R (K,B,3,3)``,
             ``omega (K,B,3)``, ``R_d (K,B,3,3)``, ``omega_d (K,B,3)``, ``u (K,B,3)`` and an
             ``actuator`` dict optionally holding ``delta_dot (K,B,n)``, ``singularity (K,B)``,
             ``saturated (K,B)`` or per gimbal ``(K,B,n)``).
-        settle_threshold_deg: settling threshold on θ [deg] (SPEC §8.2: 0.1°).
+        settle_threshold_deg: settling threshold on θ [deg] (default 0.1°).
         steady_fraction: final fraction of the run used for the steady-state error.
-        unwinding_threshold: unwinding ratio from which a run counts as unwound (SPEC §8.1).
+        unwinding_threshold: unwinding ratio from which a run counts as unwound.
         min_geodesic_deg: initial error below which overshoot/unwinding are not defined (NaN).
         reversal_floor: fraction of the peak command norm below which a command does not count
             for ``command_reversals``.
@@ -351,6 +377,16 @@ def compute_metrics(
             ``peak_wheel_speed_frac`` (``None``: NaN). The log's ``actuator`` dict may also
             hold ``wheel_speed (K,B,N)``, ``speed_saturated``/``torque_saturated (K,B,N)`` and
             ``h (K,B,3)``.
+        keep_out: :class:`liecontrol.control.constrained.KeepOutCone` sequence: the run's
+            ``min_keep_out_margin_deg`` is the smallest margin (angle from the boresight to the
+            cone boundary, negative inside) over the logged samples and the cones; NaN ("not
+            defined") when there is none.
+        keep_in: the same for :class:`~liecontrol.control.constrained.KeepInCone`
+            (``min_keep_in_margin_deg``; negative outside).
+        momentum_actuator: the plant's actuator, for ``peak_momentum_fraction`` and
+            ``final_momentum_fraction`` (:func:`spacecraft.momentum.momentum_fraction` of the
+            logged gimbal angles ``delta`` or wheel speeds ``wheel_speed``); NaN when ``None``
+            or the actuator stores no momentum.
 
     Returns:
         :class:`Metrics` with ``(B,)`` arrays.
@@ -473,6 +509,27 @@ def compute_metrics(
     ratio = np.where(defined, path / np.where(defined, theta0, 1.0), np.nan)
     unwound = np.where(defined, ratio >= unwinding_threshold, False)
 
+    peak_mfrac = final_mfrac = np.full(B, np.nan)
+    from spacecraft.actuators import ReactionWheelAssembly, SgcmgActuator
+    from spacecraft.momentum import momentum_fraction
+
+    key = None
+    if isinstance(momentum_actuator, SgcmgActuator):
+        key = "delta"
+    elif isinstance(momentum_actuator, ReactionWheelAssembly):
+        key = "wheel_speed"
+    x_log = None if key is None else _actuator_array(result, key)
+    if x_log is not None and x_log.ndim == 3 and x_log.shape[:2] == (K, B) and x_log.size:
+        frac = momentum_fraction(momentum_actuator, x_log)
+        peak_mfrac, final_mfrac = frac.max(axis=0), frac[-1]
+
+    margins = {}
+    for name, cones in (("keep_out", keep_out), ("keep_in", keep_in)):
+        cones = tuple(_check_cones(cones, name))
+        margins[name] = (
+            cone_margins_deg(cones, R).min(axis=(0, 2)) if cones else np.full(B, np.nan)
+        )
+
     return Metrics(
         initial_error_deg=theta0 * RAD2DEG,
         final_error_deg=theta[-1] * RAD2DEG,
@@ -499,15 +556,33 @@ def compute_metrics(
         unwinding_ratio=ratio,
         unwound=np.asarray(unwound, dtype=bool),
         command_reversals=reversals,
+        min_keep_out_margin_deg=margins["keep_out"],
+        min_keep_in_margin_deg=margins["keep_in"],
+        peak_momentum_fraction=np.asarray(peak_mfrac, dtype=np.float64),
+        final_momentum_fraction=np.asarray(final_mfrac, dtype=np.float64),
     )
+
+
+def _check_cones(cones: Any, name: str) -> tuple:
+    from liecontrol.control.constrained import KeepInCone, KeepOutCone
+
+    cls = KeepOutCone if name == "keep_out" else KeepInCone
+    if isinstance(cones, cls):
+        return (cones,)
+    if isinstance(cones, str) or not isinstance(cones, (tuple, list)):
+        raise ValueError(f"{name}: expected a sequence of {cls.__name__}, got {cones!r}")
+    for c in cones:
+        if not isinstance(c, cls):
+            raise ValueError(f"{name}: expected {cls.__name__} items, got {c!r}")
+    return tuple(cones)
 
 
 # --------------------------------------------------------------------------- verdicts
 
 #: Verdicts of :func:`judge`, best first.
 VERDICTS: tuple[str, ...] = ("success", "degraded", "failed", "error", "not-applicable")
-#: Flags :func:`judge` can raise (``constraint-violated`` is reserved for constrained
-#: scenarios; no catalogue scenario defines a state constraint yet).
+#: Flags :func:`judge` can raise (``constraint-violated``: a keep-out/keep-in pointing cone of
+#: the scenario was violated).
 FLAGS: tuple[str, ...] = (
     "attitude-not-converged",
     "position-not-converged",
@@ -530,6 +605,11 @@ NEAR_SINGULAR_M = 0.2
 #: torque a handful of times (accelerate, brake, one or two overshoots) over a whole run; a law
 #: that switches sign from sample to sample reverses hundreds of times.
 CHATTER_REVERSALS = 20
+#: ``peak_momentum_fraction`` from which a run is flagged ``momentum-saturated``: the SGCMG
+#: fraction divides by the cluster's capacity along ĥ, which exceeds the envelope's true radius
+#: by up to ~6 % near a gimbal axis (:mod:`spacecraft.momentum`), so a cluster pinned at its
+#: envelope can read as low as ~0.94; 0.95 catches the envelope everywhere else.
+MOMENTUM_SATURATED_FRACTION = 0.95
 #: A run has ``diverged`` when it ends at least this much farther from the target than it
 #: started [deg] (a bounded steady offset under a constant disturbance is not divergence: it is
 #: ``attitude-not-converged``).
@@ -572,9 +652,12 @@ def judge(
     ``unwound`` (unwinding ratio ≥ 1.5)                            unwound                 degraded
     ``saturation_time_s`` > 0 (gimbal rate / torque box;           actuator-saturated      degraded
     on wheels ``torque_saturation_time_s`` > 0)
-    ``wheel_speed_saturation_time_s`` > 0                          momentum-saturated      degraded
+    ``wheel_speed_saturation_time_s`` > 0, or                      momentum-saturated      degraded
+    ``peak_momentum_fraction`` ≥ :data:`MOMENTUM_SATURATED_FRACTION`
     ``min_singularity`` < :data:`NEAR_SINGULAR_M` (0.2)            near-singular           degraded
     ``command_reversals`` ≥ :data:`CHATTER_REVERSALS` (20)         chattering              degraded
+    ``min_keep_out_margin_deg`` or ``min_keep_in_margin_deg`` < 0  constraint-violated     failed
+    (NaN: the scenario has no such cone — not checked)
     none of the above                                              —                       success
     ============================================================  ======================  =========
 
@@ -625,12 +708,17 @@ def judge(
     wheel_speed = _num(metrics, "wheel_speed_saturation_time_s")
     if (wheel_torque > 0) if math.isfinite(wheel_torque) else (sat > 0):
         flags.append("actuator-saturated")
-    if wheel_speed > 0:
+    if wheel_speed > 0 or _num(metrics, "peak_momentum_fraction") >= MOMENTUM_SATURATED_FRACTION:
         flags.append("momentum-saturated")
     if _num(metrics, "min_singularity") < NEAR_SINGULAR_M:
         flags.append("near-singular")
     if _num(metrics, "command_reversals") >= CHATTER_REVERSALS:
         flags.append("chattering")
+    # a pointing constraint crossed is a failed run (the sensor was exposed) however well the
+    # attitude converged; NaN = no cone of that kind, so nothing to check
+    if any(_num(metrics, k) < 0.0 for k in ("min_keep_out_margin_deg", "min_keep_in_margin_deg")):
+        flags.append("constraint-violated")
+        failed = True
     if failed:
         return "failed", tuple(flags)
     return ("degraded" if flags else "success"), tuple(flags)

@@ -4,7 +4,7 @@ Samples: initial attitudes uniform on SO(3) (Haar: ``scipy`` ``Rotation.random``
 rates with a uniform random direction and magnitude ``U(0, max_rate_deg_s)``, and an inertia error
 per sample: the plant's principal moments scaled by ``U(1 − inertia_error, 1 + inertia_error)``
 each (principal axes kept; redrawn until the triangle inequality holds) while the controllers are
-given the nominal inertia. Regulation to the identity, no external disturbance, the seed-000 SGCMG
+given the nominal inertia. Regulation to the identity, no external disturbance, the SGCMG-bus
 spacecraft by default.
 
 Seeding. Sample ``k`` draws from its own generator ``numpy.random.default_rng(SeedSequence(seed,
@@ -50,7 +50,8 @@ from liecontrol._validation import as_scalar, check_inertia, check_positive_scal
 from .controllers import ControllerContext, ControllerInfo, available_controllers, get_controller
 from .executors import Executor, TaskFailure, describe_exception, make_executor
 from .metrics import compute_metrics
-from .scenarios import SEED000_SPACECRAFT, SpacecraftSpec
+from .results_file import history_arrays
+from .scenarios import SGCMG_SPACECRAFT, SpacecraftSpec
 
 __all__ = [
     "MonteCarloConfig",
@@ -109,7 +110,7 @@ class MonteCarloConfig:
     duration: float = 600.0
     dt: float = 0.1
     control_period: float = 0.2
-    spacecraft: SpacecraftSpec = field(default_factory=lambda: SEED000_SPACECRAFT)
+    spacecraft: SpacecraftSpec = field(default_factory=lambda: SGCMG_SPACECRAFT)
     success_deg: float = 1.0
     log_period: float = 1.0
 
@@ -208,6 +209,7 @@ class _ChunkTask:
     info: ControllerInfo
     chunk: int
     batched: bool
+    histories: bool = False  # attach each sample's full logged histories to its record
 
     def __reduce__(self) -> tuple:
         from .runner import pack_infos
@@ -220,14 +222,16 @@ class _ChunkTask:
                 pack_infos({self.controller: self.info}),
                 self.chunk,
                 self.batched,
+                self.histories,
             ),
         )
 
 
-def _rebuild_chunk(cfg, controller, packed, chunk, batched) -> _ChunkTask:  # noqa: ANN001
+def _rebuild_chunk(cfg, controller, packed, chunk, batched, histories=False) -> _ChunkTask:  # noqa: ANN001
     from .runner import unpack_infos
 
-    return _ChunkTask(cfg, controller, unpack_infos(packed)[controller], chunk, batched)
+    info = unpack_infos(packed)[controller]
+    return _ChunkTask(cfg, controller, info, chunk, batched, histories)
 
 
 def _simulate(cfg: MonteCarloConfig, info: ControllerInfo, s: ChunkSamples, idx: slice) -> Any:
@@ -303,6 +307,8 @@ def run_chunk(task: _ChunkTask) -> list[dict[str, Any]]:
             rec["batch"] = B
             rec["steps_per_s"] = B * steps / wall if wall > 0 else float("nan")
             rec["controller_time_us"] = 1e6 * t_call / B
+            if task.histories:  # moved to MonteCarloResult.histories by run_montecarlo
+                rec["histories"] = history_arrays(res, b)
             records.append(rec)
     return records
 
@@ -316,6 +322,9 @@ class MonteCarloResult:
     records: tuple[dict[str, Any], ...]
     wall_time_s: float
     executor: str
+    #: with ``keep_histories=True``: ``(controller, sample) → `` full logged histories
+    #: (:func:`benchmarks.results_file.history_arrays`) of each completed sample
+    histories: dict[tuple[str, int], dict[str, np.ndarray]] = field(default_factory=dict)
 
     @property
     def n_failed(self) -> int:
@@ -344,6 +353,7 @@ def run_montecarlo(
     progress: bool = True,
     journal: str | Path | None = None,
     resume: bool = False,
+    keep_histories: bool = False,
 ) -> MonteCarloResult:
     """Run the sweep for ``controllers`` (default: the attitude controllers of the quick suite).
 
@@ -357,9 +367,20 @@ def run_montecarlo(
     the same configuration, else ``ValueError``) and runs only the others; without it an
     existing journal is started afresh. An interruption (Ctrl-C) raises
     :class:`MonteCarloInterrupted` (a ``KeyboardInterrupt``) saying how many chunks were kept.
+
+    ``keep_histories=True`` keeps every completed sample's full logged histories in
+    :attr:`MonteCarloResult.histories` (for :func:`benchmarks.results_file.write_histories`);
+    the journal does not hold them, so it cannot be combined with ``resume``.
     """
     if not isinstance(resume, (bool, np.bool_)):
         raise TypeError(f"resume: must be a bool, got {resume!r}")
+    if not isinstance(keep_histories, (bool, np.bool_)):
+        raise TypeError(f"keep_histories: must be a bool, got {keep_histories!r}")
+    if keep_histories and resume:
+        raise ValueError(
+            "keep_histories: chunks resumed from a journal carry no histories; "
+            "rerun without resume"
+        )
     if resume and journal is None:
         raise ValueError("resume: needs a journal file to resume from")
     if journal is not None:
@@ -384,7 +405,14 @@ def run_montecarlo(
                 f"controllers: {c!r} does not apply to the {plant} plant; valid: {', '.join(valid)}"
             )
     tasks = [
-        _ChunkTask(cfg, c, infos[c], i, infos[c].batched if batched is None else bool(batched))
+        _ChunkTask(
+            cfg,
+            c,
+            infos[c],
+            i,
+            infos[c].batched if batched is None else bool(batched),
+            bool(keep_histories),
+        )
         for c in controllers
         for i in range(cfg.n_chunks)
     ]
@@ -456,7 +484,15 @@ def run_montecarlo(
             ]  # fmt: skip
         else:
             records += res
-    return MonteCarloResult(cfg, controllers, tuple(records), time.perf_counter() - t0, ex.name)
+    histories: dict[tuple[str, int], dict[str, np.ndarray]] = {}
+    for i, rec in enumerate(records):
+        if "histories" in rec:  # kept apart: the records stay plain JSON-able data
+            rest = {k: v for k, v in rec.items() if k != "histories"}
+            histories[(rec["controller"], rec["sample"])] = rec["histories"]
+            records[i] = rest
+    return MonteCarloResult(
+        cfg, controllers, tuple(records), time.perf_counter() - t0, ex.name, histories
+    )
 
 
 class MonteCarloInterrupted(KeyboardInterrupt):
@@ -515,6 +551,8 @@ class _JournalWriter:
         os.fsync(self._fh.fileno())
 
     def write(self, controller: str, chunk: int, batched: bool, records: list) -> None:
+        # full time histories stay out of the journal (they go to the results file)
+        records = [{k: v for k, v in r.items() if k != "histories"} for r in records]
         self._line({"controller": controller, "chunk": chunk, "batched": batched,
                     "records": records})  # fmt: skip
 

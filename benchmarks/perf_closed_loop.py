@@ -1,6 +1,6 @@
 """Closed-loop simulation throughput: ``python -m benchmarks.perf_closed_loop [--profile B]``.
 
-Seed-000 spacecraft (SGCMG pyramid, SR steering) under the large-angle geometric PD, 90° rest-to-
+SGCMG-bus spacecraft (SGCMG pyramid, SR steering) under the large-angle geometric PD, 90° rest-to-
 rest at dt = 0.1 s (controller at every step):
 
 - one spacecraft for ``--t-final`` s, logging every step and logging every 600th step:
@@ -32,7 +32,7 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from benchmarks._perf import seed000_inertia, seed000_pd_loop, thread_settings  # noqa: E402
+from benchmarks._perf import sgcmg_bus_inertia, sgcmg_bus_pd_loop, thread_settings  # noqa: E402
 from spacecraft import (  # noqa: E402
     RigidBody,
     SgcmgActuator,
@@ -42,15 +42,15 @@ from spacecraft import (  # noqa: E402
     simulate,
 )
 
-J_SEED000 = seed000_inertia()
+J_BUS = sgcmg_bus_inertia()
 
 
 
 def _setup(batch: int, rng: np.random.Generator):
     plant = Spacecraft(
-        RigidBody(J_SEED000), SgcmgActuator(SgcmgPyramid(h0=300.0), SingularityRobust())
+        RigidBody(J_BUS), SgcmgActuator(SgcmgPyramid(h0=300.0), SingularityRobust())
     )
-    ctrl, ref = seed000_pd_loop(batch, rng)
+    ctrl, ref = sgcmg_bus_pd_loop(batch, rng)
     return plant, ctrl, ref, plant.initial_state(np.eye(3), batch=batch)
 
 

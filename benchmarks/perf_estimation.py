@@ -4,7 +4,8 @@ Run::
 
     python -m benchmarks.perf_estimation [--steps 300] [--repeats 5]
 
-Same model for everybody: the seed-001 gyroless 7-state (q, ω) with RK4 at T_s = 1 s and the
+Same model for everybody: the gyroless 7-state (q, ω) model of Wang, Li, Zhang, Zhu & Li (2015)
+with RK4 at T_s = 1 s and the
 3 Euler-angle measurements, same scaled-UT parameters (α = 1, β = 2, κ = 3 − n), same
 measurement sequence. filterpy propagates its 2n+1 sigma points one by one through ``fx``
 (a Python loop); ``liecontrol.estimation`` pushes all of them through one batched RK4 call.

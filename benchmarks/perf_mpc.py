@@ -1,8 +1,8 @@
 """Wall time of one MPC control step: ``python -m benchmarks.perf_mpc``.
 
 One control step = ``SO3MPC.command`` for one spacecraft: input checks, error state, stage-0 LGVI
-prediction, linearisation along the reference, QP update and solve (SPEC §6 item 4, §8.2 "wall
-time per control step"). Horizon N = 20, 6 error states, 3 inputs, MPC period 1 s, seed-000
+prediction, linearisation along the reference, QP update and solve (§8.2 "wall
+time per control step"). Horizon N = 20, 6 error states, 3 inputs, MPC period 1 s, SGCMG-bus
 inertia, |u_i| ≤ 20 N·m. The states are recorded closed loops (ideal rigid body integrated with
 the LGVI at the MPC period, flown by the OSQP MPC), each backend steps through the same states in
 order, so warm starts are as in closed loop:

@@ -1,13 +1,13 @@
 """What each plant model costs: ``python -m benchmarks.perf_plant [--t-final 300] [--batch 1000]``.
 
-Cumulative cases on the seed-000 spacecraft (SGCMG pyramid, SR steering) under the large-angle
+Cumulative cases on the SGCMG-bus spacecraft (SGCMG pyramid, SR steering) under the large-angle
 geometric PD at every step, dt = 0.1 s, logging every 60 s:
 
 1. foundation: rigid body + SGCMG + geometric PD;
-2. + seed-000 constant + harmonic torque (SPEC §5.4);
-3. + gravity gradient on a circular orbit (SPEC §5.3);
-4. + the seed-003 rotating payload (SPEC §5.5);
-5. + three flexible appendage modes (SPEC §5.4, hybrid coordinates);
+2. + constant + harmonic torque;
+3. + gravity gradient on a circular orbit;
+4. + the example rotating payload;
+5. + three flexible appendage modes (hybrid coordinates);
 6. + sensors in the loop: star tracker (0.5 s) and rate gyro (0.1 s) through
    :class:`spacecraft.simulator.StarTrackerGyro`.
 
@@ -30,17 +30,17 @@ import timeit  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from benchmarks._perf import seed000_inertia, seed000_pd_loop, thread_settings  # noqa: E402
+from benchmarks._perf import sgcmg_bus_inertia, sgcmg_bus_pd_loop, thread_settings  # noqa: E402
 from liecontrol.lie import so3  # noqa: E402
 from spacecraft import (  # noqa: E402
-    SEED003_PAYLOAD,
+    ROTATING_PAYLOAD_EXAMPLE,
     CircularOrbit,
+    ConstantHarmonicTorque,
     FlexibleModes,
     GravityGradientTorque,
     RateGyro,
     RigidBody,
     RotatingPayloadTorque,
-    Seed000Disturbance,
     SgcmgActuator,
     SgcmgPyramid,
     SingularityRobust,
@@ -51,7 +51,7 @@ from spacecraft import (  # noqa: E402
     simulate,
 )
 
-J_SEED000 = seed000_inertia()
+J_BUS = sgcmg_bus_inertia()
 #: three appendage modes (two solar-array bending modes and one torsion mode)
 MODES = FlexibleModes(
     coupling=np.array([[20.0, 3.0, 1.0], [2.0, 15.0, -3.0], [4.0, -2.0, 12.0]]),
@@ -61,7 +61,7 @@ MODES = FlexibleModes(
 
 CASES = (
     "foundation (rigid + SGCMG + PD)",
-    "+ seed-000 torque",
+    "+ constant + harmonic torque",
     "+ gravity gradient",
     "+ rotating payload",
     "+ flexible modes (3)",
@@ -72,18 +72,18 @@ CASES = (
 def _setup(case: int, batch: int, rng: np.random.Generator) -> tuple:
     sources: dict = {}
     if case >= 1:
-        sources["seed000"] = Seed000Disturbance()
+        sources["constant_harmonic"] = ConstantHarmonicTorque()
     if case >= 2:
-        sources["gravity_gradient"] = GravityGradientTorque(J_SEED000, CircularOrbit())
+        sources["gravity_gradient"] = GravityGradientTorque(J_BUS, CircularOrbit())
     if case >= 3:
-        sources["payload"] = RotatingPayloadTorque([SEED003_PAYLOAD])
+        sources["payload"] = RotatingPayloadTorque([ROTATING_PAYLOAD_EXAMPLE])
     plant = Spacecraft(
-        RigidBody(J_SEED000),
+        RigidBody(J_BUS),
         SgcmgActuator(SgcmgPyramid(h0=300.0), SingularityRobust()),
         SumOfDisturbances(sources) if sources else None,
         MODES if case >= 4 else None,
     )
-    ctrl, ref = seed000_pd_loop(batch, rng)
+    ctrl, ref = sgcmg_bus_pd_loop(batch, rng)
     kw: dict = {}
     if case >= 5:
         kw = {
@@ -128,7 +128,7 @@ def micro_costs(batch: int, number: int = 200, repeat: int = 7) -> dict[str, flo
     R = so3.exp(0.3 * rng.normal(size=(batch, 3)))
     w = 0.01 * rng.normal(size=(batch, 3))
     tau = rng.normal(size=(batch, 3))
-    body = RigidBody(J_SEED000)
+    body = RigidBody(J_BUS)
     flex = Spacecraft(body, SgcmgActuator(), modes=MODES)
     q = 0.01 * rng.normal(size=(batch, 3))
     tracker = StarTracker(noise_std=2e-5, period=0.5)
@@ -141,9 +141,9 @@ def micro_costs(batch: int, number: int = 200, repeat: int = 7) -> dict[str, flo
     truth = AttitudeState(R=R, omega=w, h=np.zeros((batch, 3)))
     calls = {
         "rigid body ω̇": lambda: body.angular_acceleration_unchecked(w, tau),
-        "seed-000 torque": lambda: Seed000Disturbance()(1.0, R, w),
-        "gravity gradient": lambda: GravityGradientTorque(J_SEED000, CircularOrbit())(1.0, R, w),
-        "rotating payload": lambda: RotatingPayloadTorque([SEED003_PAYLOAD])(1.0, R, w),
+        "constant + harmonic torque": lambda: ConstantHarmonicTorque()(1.0, R, w),
+        "gravity gradient": lambda: GravityGradientTorque(J_BUS, CircularOrbit())(1.0, R, w),
+        "rotating payload": lambda: RotatingPayloadTorque([ROTATING_PAYLOAD_EXAMPLE])(1.0, R, w),
         "flexible (ω̇, q̈), 3 modes": lambda: MODES.accelerations(
             w, q, q, tau, flex.body.J, flex._Js_inv
         ),
@@ -153,12 +153,32 @@ def micro_costs(batch: int, number: int = 200, repeat: int = 7) -> dict[str, flo
     }
     # the constructors are inside the lambdas for the sources: time them out separately
     sources = {
-        "seed-000 torque": Seed000Disturbance(),
-        "gravity gradient": GravityGradientTorque(J_SEED000, CircularOrbit()),
-        "rotating payload": RotatingPayloadTorque([SEED003_PAYLOAD]),
+        "constant + harmonic torque": ConstantHarmonicTorque(),
+        "gravity gradient": GravityGradientTorque(J_BUS, CircularOrbit()),
+        "rotating payload": RotatingPayloadTorque([ROTATING_PAYLOAD_EXAMPLE]),
     }
+    # environment torques on a 2 × 2 × 3 m box, 0.15 m centre-of-pressure offset
+    from spacecraft import surface_forces as sf
+
+    bus = sf.box_plates([2.0, 2.0, 3.0], [0.0, 0.0, 0.15])
+    sources["aerodynamic (6 plates)"] = sf.AerodynamicTorque(bus, CircularOrbit())
+    sources["solar pressure (6 plates)"] = sf.SolarPressureTorque(bus, CircularOrbit())
+    sources["residual dipole"] = sf.ResidualDipoleTorque([0.5, 0.0, 0.0], CircularOrbit())
     for name, src in sources.items():
         calls[name] = lambda src=src: src(1.0, R, w)
+    # momentum management: the field (a new time: 2 of the 4 RK stages per step), the torque
+    # m × B at an already evaluated time (the other 2) and the dipole law (once per step)
+    from spacecraft.geomagnetic import TiltedDipoleField
+    from spacecraft.momentum import CrossProductDumping, Magnetorquers
+
+    orbit = CircularOrbit()
+    field = TiltedDipoleField()
+    dumping = CrossProductDumping(orbit, magnetorquers=Magnetorquers(3000.0))
+    h = 100.0 * rng.normal(size=(batch, 3))
+    m = dumping.dipole(1.0, R, h)
+    calls["geomagnetic field (tilted dipole)"] = lambda: field.inertial(1.0, orbit.position(1.0))
+    calls["magnetorquer torque m × B"] = lambda: dumping.torque(1.0, R, m)
+    calls["cross-product dipole law"] = lambda: dumping.dipole(1.0, R, h)
     timer = timeit.Timer
     return {
         name: 1e6 * min(timer(f, timer=time.process_time).repeat(repeat, number)) / number

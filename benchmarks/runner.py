@@ -1,4 +1,4 @@
-"""Run scenarios × controllers and collect metrics (SPEC §8).
+"""Run scenarios × controllers and collect metrics.
 
 Matrix: every registered controller (or the ones asked for) × every scenario. A pair whose
 controller does not apply to the scenario (an SE(3) controller on an attitude plant, an attitude
@@ -17,7 +17,7 @@ error text) and the others still produce metrics. SE(3) pairs run one by one wit
 Tasks run on an executor (:mod:`benchmarks.executors`): in-process, local processes (default)
 or a dask.distributed cluster; results are identical whichever runs them.
 
-Controller wall time (SPEC §8.2) is measured by :class:`TimedController`, a proxy that times
+Controller wall time is measured by :class:`TimedController`, a proxy that times
 ``command()`` alone; the reported ``controller_time_us`` is the mean time of one call divided by
 the number of spacecraft it served (per spacecraft per control step).
 """
@@ -25,6 +25,7 @@ the number of spacecraft it served (per spacecraft per control step).
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import math
 import time
 from collections.abc import Callable, Iterable, Sequence
@@ -52,6 +53,7 @@ from .controllers import (
 )
 from .executors import Executor, TaskFailure, describe_exception, make_executor
 from .metrics import compute_metrics, error_angle, judge, rate_error, settling_time, trapezoid
+from .results_file import history_arrays
 from .scenarios import DisturbanceSpec, ReferenceSpec, Scenario, SensorSpec, SpacecraftSpec
 
 __all__ = [
@@ -297,7 +299,7 @@ def _check_controller_like(obj: Any, name: str) -> None:
 
 
 def build_steering(spec: SpacecraftSpec, cluster: Any) -> Any:
-    """Steering law named by ``spec.steering``: ``"pinv-null-motion"`` (seed 000),
+    """Steering law named by ``spec.steering``: ``"pinv-null-motion"`` (Wu, Huang, Wei & Guo),
     ``"pinv"``, ``"sr"`` (singularity-robust)."""
     from spacecraft.steering import PseudoInverse, PseudoInverseNullMotion, SingularityRobust
 
@@ -346,10 +348,66 @@ def build_actuator(spec: SpacecraftSpec) -> Any:
     return IdealTorqueActuator(max_torque=spec.max_torque)
 
 
-def build_disturbance(specs: Sequence[DisturbanceSpec], true_J: np.ndarray) -> Any:
+def _environment_torque(name: str, kw: dict[str, float], orbit: Any) -> Any:
+    """An environment torque of :mod:`spacecraft.surface_forces` from a disturbance spec's
+    parameters (see :class:`~benchmarks.scenarios.DisturbanceSpec`); errors name the key."""
+    from spacecraft import surface_forces as sf
+    from spacecraft.orbit import CircularOrbit
+
+    if orbit is not None:
+        _need(orbit, CircularOrbit, "orbit")
+    base = CircularOrbit(n=0.0011) if orbit is None else orbit
+    if {"altitude_km", "inclination_deg", "raan_deg"} & kw.keys():
+        alt = kw.get("altitude_km", base.altitude / 1e3)
+        if not alt > 0.0:
+            raise ValueError(f"altitude_km: must be > 0, got {alt}")
+        base = CircularOrbit.from_altitude(
+            alt * 1e3,
+            inclination=math.radians(kw.get("inclination_deg", math.degrees(base.inclination))),
+            raan=math.radians(kw.get("raan_deg", math.degrees(base.raan))),
+        )
+    if name == "residual-dipole":
+        m = [kw.get("x", 1.0), kw.get("y", 0.0), kw.get("z", 0.0)]
+        return sf.ResidualDipoleTorque(m, base)
+    size = [kw.get(k, 2.0) for k in ("size_x", "size_y", "size_z")]
+    for k, v in zip(("size_x", "size_y", "size_z"), size, strict=True):
+        if not v > 0.0:
+            raise ValueError(f"{k}: must be > 0, got {v}")
+    offset = [kw.get("offset_x", 0.0), kw.get("offset_y", 0.0), kw.get("offset_z", 0.2)]
+    optical = {k: kw[k] for k in ("absorption", "specular", "diffuse") if k in kw}
+    for k, v in optical.items():
+        if not 0.0 <= v <= 1.0:
+            raise ValueError(f"{k}: must be in [0, 1], got {v}")
+    if optical and "absorption" not in optical:  # absorption defaults to the rest of the light
+        rest = optical.get("specular", 0.0) + optical.get("diffuse", 0.0)
+        if rest > 1.0:
+            raise ValueError(f"specular: specular + diffuse = {rest} exceeds 1 (diffuse included)")
+        optical["absorption"] = 1.0 - rest
+    plates = sf.box_plates(size, offset, **optical)
+    if name == "aerodynamic":
+        if base.altitude < sf.ExponentialAtmosphere.min_altitude:
+            raise ValueError(
+                f"altitude_km: {base.altitude / 1e3:.6g} km is below the atmosphere model's "
+                f"range (from {sf.ExponentialAtmosphere.min_altitude / 1e3:.0f} km)"
+            )
+        return sf.AerodynamicTorque(
+            plates,
+            base,
+            drag_coefficient=kw.get("drag_coefficient", 2.2),
+            atmosphere=sf.ExponentialAtmosphere(kw.get("density_scale", 1.0)),
+        )
+    return sf.SolarPressureTorque(plates, base, epoch_jd=kw.get("epoch_jd", sf.J2000_JD))
+
+
+def build_disturbance(
+    specs: Sequence[DisturbanceSpec], true_J: np.ndarray, orbit: Any = None
+) -> Any:
     """Disturbance source of ``specs`` (``None`` when empty; summed when several).
-    Gravity gradient uses the plant's **true** inertia ``true_J``."""
-    from spacecraft.disturbances import ConstantTorque, Seed000Disturbance, SumOfDisturbances
+    Gravity gradient uses the plant's **true** inertia ``true_J``. The environment torques
+    (``aerodynamic``, ``solar-pressure``, ``residual-dipole``) fly ``orbit`` (a
+    :class:`spacecraft.orbit.CircularOrbit`, e.g. the scenario's) unless their own orbit keys
+    say otherwise."""
+    from spacecraft.disturbances import ConstantHarmonicTorque, ConstantTorque, SumOfDisturbances
 
     if isinstance(specs, (str, DisturbanceSpec)) or not isinstance(specs, Iterable):
         raise ValueError(f"specs: expected a sequence of DisturbanceSpec, got {specs!r}")
@@ -357,11 +415,15 @@ def build_disturbance(specs: Sequence[DisturbanceSpec], true_J: np.ndarray) -> A
     for i, spec in enumerate(specs):
         _need(spec, DisturbanceSpec, f"specs[{i}]")
     true_J = check_inertia(true_J, "true_J")  # (3, 3) or per spacecraft (B, 3, 3)
+    if orbit is not None:
+        from spacecraft.orbit import CircularOrbit
+
+        _need(orbit, CircularOrbit, "orbit")
     sources: dict[str, Any] = {}
     for i, spec in enumerate(specs):
         kw = spec.kwargs
-        if spec.name == "seed000":
-            src: Any = Seed000Disturbance(**kw)
+        if spec.name == "constant-harmonic":
+            src: Any = ConstantHarmonicTorque(**kw)
         elif spec.name == "gravity-gradient":
             from spacecraft.environment import GravityGradientTorque
             from spacecraft.orbit import CircularOrbit
@@ -369,12 +431,14 @@ def build_disturbance(specs: Sequence[DisturbanceSpec], true_J: np.ndarray) -> A
             src = GravityGradientTorque(true_J, CircularOrbit(n=kw.get("n", 0.0011)))
         elif spec.name == "constant":
             src = ConstantTorque([kw.get("x", 0.0), kw.get("y", 0.0), kw.get("z", 0.0)])
-        else:  # "payload-seed003"
+        elif spec.name in ("aerodynamic", "solar-pressure", "residual-dipole"):
+            src = _environment_torque(spec.name, kw, orbit)
+        else:  # "rotating-payload"
             import dataclasses
 
-            from spacecraft.payload import SEED003_PAYLOAD, RotatingPayloadTorque
+            from spacecraft.payload import ROTATING_PAYLOAD_EXAMPLE, RotatingPayloadTorque
 
-            payload = SEED003_PAYLOAD
+            payload = ROTATING_PAYLOAD_EXAMPLE
             if kw.get("scale", 1.0) != 1.0:
                 payload = dataclasses.replace(
                     payload, mass=payload.mass * kw["scale"], inertia=payload.inertia * kw["scale"]
@@ -392,9 +456,16 @@ def build_plant(
     spec: SpacecraftSpec,
     disturbances: Sequence[DisturbanceSpec] | DisturbanceSpec = (),
     true_inertia: np.ndarray | None = None,
+    momentum_management: Any = None,
+    orbit: Any = None,
 ) -> Any:
     """The :class:`spacecraft.plant.Spacecraft` of ``spec`` with ``disturbances``; its inertia is
-    ``true_inertia`` when given (model uncertainty), else the nominal ``spec.J``."""
+    ``true_inertia`` when given (model uncertainty), else the nominal ``spec.J``.
+    ``momentum_management``: the plant's momentum-management object (e.g.
+    :class:`spacecraft.momentum.CrossProductDumping`, see
+    :meth:`benchmarks.scenarios.MomentumManagementSpec.build`) or ``None``. ``orbit``: the
+    scenario's :class:`spacecraft.orbit.CircularOrbit` (or ``None``), flown by the environment
+    torques (:func:`build_disturbance`)."""
     from spacecraft.plant import Spacecraft
     from spacecraft.rigid_body import RigidBody
 
@@ -412,13 +483,18 @@ def build_plant(
     return Spacecraft(
         body=RigidBody(J),
         actuator=build_actuator(spec),
-        disturbance=build_disturbance(tuple(disturbances), J),
+        disturbance=build_disturbance(tuple(disturbances), J, orbit=orbit),
+        momentum_management=momentum_management,
     )
 
 
 def build_reference(spec: ReferenceSpec | Scenario) -> Callable[[float], AttitudeReference]:
-    """Reference trajectory of a :class:`ReferenceSpec` (or of a scenario's)."""
+    """Reference trajectory of a :class:`ReferenceSpec` (or of a scenario's; an
+    ``earth-pointing`` reference of a scenario with an ``orbit`` follows that orbit's plane at
+    the reference's rate ``n``)."""
+    orbit_spec = None
     if isinstance(spec, Scenario):
+        orbit_spec = spec.orbit
         spec = spec.reference
     _need(spec, ReferenceSpec, "spec")
     if spec.kind == "constant":
@@ -428,7 +504,10 @@ def build_reference(spec: ReferenceSpec | Scenario) -> Callable[[float], Attitud
     if spec.kind == "earth-pointing":
         from spacecraft.orbit import CircularOrbit, EarthPointingReference
 
-        return EarthPointingReference(CircularOrbit(n=spec.n), offset=spec.R_d)
+        if orbit_spec is None:
+            return EarthPointingReference(CircularOrbit(n=spec.n), offset=spec.R_d)
+        orbit = dataclasses.replace(orbit_spec.circular_orbit(), n=spec.n)
+        return EarthPointingReference(orbit, offset=spec.R_d)
     return ConstantRateReference(spec.R_d, np.array(spec.rate))
 
 
@@ -597,6 +676,9 @@ class RunOutcome:
             ``failed``, ``error``, ``not-applicable``); ``""`` until judged (:func:`run_suite`
             judges every outcome).
         flags: the judge's flags (``actuator-saturated``, ``unwound`` ...).
+        histories: with ``run_suite(..., keep_histories=True)``, the full logged histories
+            (:func:`benchmarks.results_file.history_arrays`: ``t``, ``R`` (K, 3, 3), ...),
+            written to one file by :func:`benchmarks.results_file.write_histories`; else empty.
     """
 
     scenario: str
@@ -607,6 +689,7 @@ class RunOutcome:
     series: dict[str, np.ndarray] = field(default_factory=dict)
     verdict: str = ""
     flags: tuple[str, ...] = ()
+    histories: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 def with_verdict(outcome: RunOutcome, scenario: Scenario) -> RunOutcome:
@@ -692,9 +775,10 @@ class GroupTask:
     pairs: tuple[tuple[Scenario, str], ...]
     infos: dict[str, ControllerInfo]
     rule: GainRule | None = None  # closed-loop spec the factories tune to (None: default)
+    histories: bool = False  # keep the full logged histories in the outcomes
 
     def __reduce__(self) -> tuple:
-        return (_rebuild_task, (self.pairs, pack_infos(self.infos), self.rule))
+        return (_rebuild_task, (self.pairs, pack_infos(self.infos), self.rule, self.histories))
 
 
 def pack_infos(infos: dict[str, ControllerInfo]) -> dict[str, tuple[str, Any]]:
@@ -734,9 +818,12 @@ def unpack_infos(packed: dict[str, tuple[str, Any]]) -> dict[str, ControllerInfo
 
 
 def _rebuild_task(
-    pairs: tuple, packed: dict[str, tuple[str, Any]], rule: GainRule | None = None
+    pairs: tuple,
+    packed: dict[str, tuple[str, Any]],
+    rule: GainRule | None = None,
+    histories: bool = False,
 ) -> GroupTask:
-    return GroupTask(pairs, unpack_infos(packed), rule)
+    return GroupTask(pairs, unpack_infos(packed), rule, histories)
 
 
 def _members(
@@ -770,6 +857,8 @@ def _make_member(
         q_hint=np.stack([s.initial_quaternion for s in scenarios]),
         reference=ref,
         rule=rule or DEFAULT_GAIN_RULE,
+        keep_out=sc0.keep_out,
+        keep_in=sc0.keep_in,
     )
     ctrl = info.factory(ctx)
     timed = TimedController(ctrl)
@@ -789,12 +878,20 @@ def _simulate_attitude(
     pairs: Sequence[tuple[Scenario, str]],
     infos: dict[str, ControllerInfo],
     rule: GainRule | None = None,
+    histories: bool = False,
 ) -> list[RunOutcome]:
     """Simulate ``pairs`` (same :meth:`Scenario.batch_key`) as one batch; raises on failure."""
     from spacecraft.simulator import simulate
 
     sc0 = pairs[0][0]
-    plant = build_plant(sc0.spacecraft, sc0.disturbances, sc0.true_inertia)
+    mm = sc0.momentum_management
+    plant = build_plant(
+        sc0.spacecraft,
+        sc0.disturbances,
+        sc0.true_inertia,
+        None if mm is None else mm.build(sc0.orbit),
+        orbit=None if sc0.orbit is None else sc0.orbit.circular_orbit(),
+    )
     groups = _members(pairs, infos)
     order = [i for _, idx in groups for i in idx]
     members, refs, sizes = [], [], []
@@ -837,7 +934,14 @@ def _simulate_attitude(
     }
     # the settling threshold is each scenario's attitude tolerance (one pass per distinct one)
     by_tol = {
-        tol: compute_metrics(result, settle_threshold_deg=tol, **limits)
+        tol: compute_metrics(
+            result,
+            settle_threshold_deg=tol,
+            keep_out=sc0.keep_out,  # one batch shares its cones (Scenario.batch_key)
+            keep_in=sc0.keep_in,
+            momentum_actuator=plant.actuator,
+            **limits,
+        )
         for tol in {s.attitude_tolerance_deg for s, _ in pairs}
     }
     outcomes: dict[int, RunOutcome] = {}
@@ -850,7 +954,8 @@ def _simulate_attitude(
             mm["controller_time_us"] = 1e6 * per_sc
             mm["sim_wall_time_s"] = wall
             series = _series(result, b, limits["wheel_max_speed"])
-            outcomes[i] = RunOutcome(pairs[i][0].name, c, "ok", None, mm, series)
+            hist = history_arrays(result, b) if histories else {}
+            outcomes[i] = RunOutcome(pairs[i][0].name, c, "ok", None, mm, series, histories=hist)
             b += 1
     return [outcomes[i] for i in range(len(pairs))]
 
@@ -921,7 +1026,11 @@ def _timed_pose(inner: Any) -> Any:
 
 
 def _simulate_pose_pair(
-    scenario: Scenario, name: str, info: ControllerInfo, rule: GainRule | None = None
+    scenario: Scenario,
+    name: str,
+    info: ControllerInfo,
+    rule: GainRule | None = None,
+    histories: bool = False,
 ) -> RunOutcome:
     from liecontrol.lie import se3, so3
     from spacecraft.orbit import CircularOrbit
@@ -969,18 +1078,21 @@ def _simulate_pose_pair(
     m, series = _pose_metrics(res, scenario.attitude_tolerance_deg, scenario.position_tolerance_m)
     m["controller_time_us"] = 1e6 * timed.mean_time_per_call
     m["sim_wall_time_s"] = wall
-    return RunOutcome(scenario.name, name, "ok", None, m, series)
+    hist = history_arrays(res, 0) if histories else {}
+    return RunOutcome(scenario.name, name, "ok", None, m, series, histories=hist)
 
 
-def _failed(s: Scenario, c: str, exc: BaseException) -> RunOutcome:
+def _failed(s: Scenario, c: str, exc: BaseException, histories: bool = False) -> RunOutcome:
     partial = getattr(exc, "result", None)
     series: dict[str, np.ndarray] = {}
+    hist: dict[str, np.ndarray] = {}
     if partial is not None and hasattr(partial, "R"):
         try:
             series = _series(partial, 0)
+            hist = history_arrays(partial, 0) if histories else {}
         except Exception:  # noqa: BLE001 - a broken partial log must not hide the error
-            series = {}
-    return RunOutcome(s.name, c, "failed", describe_exception(exc), {}, series)
+            series, hist = {}, {}
+    return RunOutcome(s.name, c, "failed", describe_exception(exc), {}, series, histories=hist)
 
 
 def run_group(task: GroupTask) -> list[RunOutcome]:
@@ -991,20 +1103,20 @@ def run_group(task: GroupTask) -> list[RunOutcome]:
         out = []
         for s, c in pairs:
             try:
-                out.append(_simulate_pose_pair(s, c, infos[c], task.rule))
+                out.append(_simulate_pose_pair(s, c, infos[c], task.rule, task.histories))
             except Exception as exc:  # noqa: BLE001 - failures are data in a benchmark report
-                out.append(_failed(s, c, exc))
+                out.append(_failed(s, c, exc, task.histories))
         return out
     try:
-        return _simulate_attitude(pairs, infos, task.rule)
+        return _simulate_attitude(pairs, infos, task.rule, task.histories)
     except Exception as exc:  # noqa: BLE001 - failures are data in a benchmark report
         if len(pairs) > 1:
             res: list[RunOutcome] = []
             for p in pairs:
-                res.extend(run_group(GroupTask((p,), infos, task.rule)))
+                res.extend(run_group(GroupTask((p,), infos, task.rule, task.histories)))
             return res
         s, c = pairs[0]
-        return [_failed(s, c, exc)]
+        return [_failed(s, c, exc, task.histories)]
 
 
 def run_suite(
@@ -1017,6 +1129,7 @@ def run_suite(
     scheduler: str | None = None,
     progress: bool = True,
     gain_rule: GainRule | None = None,
+    keep_histories: bool = False,
 ) -> SuiteResult:
     """Run every scenario with every controller (pairs that do not apply are ``"n/a"``).
 
@@ -1031,6 +1144,8 @@ def run_suite(
         progress: show a tqdm bar over the runs.
         gain_rule: the closed-loop spec (ω_n, ζ) every controller factory tunes to (through
             :attr:`ControllerContext.rule`); ``None``: :data:`DEFAULT_GAIN_RULE`.
+        keep_histories: keep every run's full logged histories in
+            :attr:`RunOutcome.histories`, for :func:`benchmarks.results_file.write_histories`.
 
     Returns:
         :class:`SuiteResult` with one :class:`RunOutcome` per pair (scenario-major order).
@@ -1082,6 +1197,8 @@ def run_suite(
     infos = {c: get_controller(c) for c in controllers}  # unknown names fail here, listed
     if gain_rule is not None and not isinstance(gain_rule, GainRule):
         raise TypeError(f"gain_rule: expected GainRule or None, got {type(gain_rule).__name__}")
+    if not isinstance(keep_histories, (bool, np.bool_)):
+        raise TypeError(f"keep_histories: expected a bool, got {keep_histories!r}")
 
     outcomes: dict[tuple[str, str], RunOutcome] = {}
     groups: dict[tuple, list[tuple[Scenario, str]]] = {}
@@ -1107,7 +1224,10 @@ def run_suite(
     chunks = _split_groups(list(groups.values()), ex.parallelism)
     # largest tasks first: better packing over the workers
     tasks = sorted(
-        (GroupTask(tuple(g), {c: infos[c] for _, c in g}, gain_rule) for g in chunks),
+        (
+            GroupTask(tuple(g), {c: infos[c] for _, c in g}, gain_rule, bool(keep_histories))
+            for g in chunks
+        ),
         key=lambda tk: -len(tk.pairs) * tk.pairs[0][0].duration / tk.pairs[0][0].dt,
     )
     t_start = time.perf_counter()

@@ -1,4 +1,4 @@
-"""Scenarios from TOML (``tomllib``) or YAML (when PyYAML is importable) files (SPEC §8.1).
+"""Scenarios from TOML (``tomllib``) or YAML (when PyYAML is importable) files.
 
 A file holds one or more ``[[scenario]]`` tables and an optional ``[defaults]`` table whose keys
 apply to every scenario (a scenario's own keys win)::
@@ -23,12 +23,13 @@ apply to every scenario (a scenario's own keys win)::
     kind = "constant"
     rotvec_deg = [0.0, 0.0, 0.0]   # (constant-rate: rate_deg_s; earth-pointing: n [rad/s])
 
-    [[scenario.disturbance]]  # any number; name: seed000 | gravity-gradient | constant |
-    name = "seed000"          #   payload-seed003, other keys are the model's parameters
-    scale = 1.0
+    [[scenario.disturbance]]  # any number; name: constant-harmonic | gravity-gradient |
+    name = "constant-harmonic"  # constant | rotating-payload | aerodynamic | solar-pressure |
+    scale = 1.0                 # residual-dipole; other keys: the model's parameters
+                                # (benchmarks.scenarios.DisturbanceSpec)
 
-    [scenario.spacecraft]     # optional; preset = "seed000" (default) or "seed003", then
-    preset = "seed000"        #   any SpacecraftSpec field: inertia, actuator, h0, ...
+    [scenario.spacecraft]     # optional; preset = "sgcmg-bus" (default) or "payload-bus",
+    preset = "sgcmg-bus"      #   then any SpacecraftSpec field: inertia, actuator, h0, ...
 
     [scenario.uncertainty]
     inertia_scale = [1.2, 1.2, 0.8]   # true principal moments = nominal × scale
@@ -41,6 +42,21 @@ apply to every scenario (a scenario's own keys win)::
     [scenario.sensors]        # optional: the controller sees sensors (SensorSpec fields)
     attitude_noise_arcsec = 10.0
     estimator = "mekf"        # none | mekf | ukf
+
+    [[scenario.keep_out]]            # repeatable: a pointing cone to stay out of
+    body_axis = [0.0, 0.0, 1.0]      # boresight, body axes
+    inertial_direction = [1.0, 0.0, 0.0]
+    half_angle_deg = 30.0
+    [[scenario.keep_in]]             # repeatable, same keys: a cone to stay inside
+
+    [scenario.orbit]                 # circular orbit of the attitude plant
+    altitude_km = 530.0              # an earth-pointing reference's n follows from it unless set
+    inclination_deg = 97.5
+    raan_deg = 0.0
+    [scenario.momentum_management]   # needs [scenario.orbit] and CMGs or wheels
+    kind = "magnetorquer"            # or "none" (thruster unloading is not modelled)
+    max_dipole = 200.0               # A·m² per rod
+    gain = 0.001                     # k [1/s] of m = k (Δh × B)/‖B‖² (spacecraft.momentum)
 
 Angles may be given in radians (``rotvec``, ``rate``) or degrees (``rotvec_deg``, ``angle_deg``,
 ``rate_deg_s``). Every error names the file and the offending key, e.g.
@@ -60,10 +76,14 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from liecontrol.control.constrained import KeepInCone, KeepOutCone
+
 from .scenarios import (
-    SEED000_SPACECRAFT,
-    SEED003_SPACECRAFT,
+    PAYLOAD_SPACECRAFT,
+    SGCMG_SPACECRAFT,
     DisturbanceSpec,
+    MomentumManagementSpec,
+    OrbitSpec,
     ProximitySpec,
     ReferenceSpec,
     Scenario,
@@ -88,7 +108,7 @@ __all__ = [
     "scenario_to_dict",
 ]
 
-_PRESETS = {"seed000": SEED000_SPACECRAFT, "seed003": SEED003_SPACECRAFT}
+_PRESETS = {"sgcmg-bus": SGCMG_SPACECRAFT, "payload-bus": PAYLOAD_SPACECRAFT}
 _TOP_KEYS = (
     "name",
     "description",
@@ -106,7 +126,12 @@ _TOP_KEYS = (
     "attitude_tolerance_deg",
     "position_tolerance_m",
     "sensors",
+    "keep_out",
+    "keep_in",
+    "orbit",
+    "momentum_management",
 )
+_CONE_KEYS = ("body_axis", "inertial_direction", "half_angle_deg")
 
 
 class ScenarioFileError(ValueError):
@@ -236,7 +261,7 @@ def _disturbances(t: Any, where: str) -> tuple[DisturbanceSpec, ...]:
         if not isinstance(d, Mapping):
             raise _Bad(w, f"expected a table or a name, got {d!r}")
         if "name" not in d:
-            raise _Bad(f"{w}.name", "missing (seed000, gravity-gradient, constant, ...)")
+            raise _Bad(f"{w}.name", "missing (constant-harmonic, gravity-gradient, constant, ...)")
         params = {k: _number(v, f"{w}.{k}") for k, v in d.items() if k != "name"}
         try:
             out.append(DisturbanceSpec(d["name"], tuple(params.items())))
@@ -250,7 +275,7 @@ def _disturbances(t: Any, where: str) -> tuple[DisturbanceSpec, ...]:
 def _spacecraft(t: Any, where: str) -> SpacecraftSpec:
     fields = tuple(f.name for f in dataclasses.fields(SpacecraftSpec))
     t = _check_keys(t, ("preset",) + fields, where)
-    preset = t.get("preset", "seed000")
+    preset = t.get("preset", "sgcmg-bus")
     if preset not in _PRESETS:
         raise _Bad(f"{where}.preset", f"unknown preset {preset!r}; valid: {', '.join(_PRESETS)}")
     kw = {k: v for k, v in t.items() if k != "preset"}
@@ -330,7 +355,37 @@ def _scenario(table: Any, defaults: Mapping[str, Any], where: str) -> Scenario:
         fields = tuple(f.name for f in dataclasses.fields(SensorSpec))
         st = _check_keys(t["sensors"], fields, f"{where}.sensors")
         kw["sensors"] = _construct(SensorSpec, dict(st), f"{where}.sensors")
+    for k, cls in (("keep_out", KeepOutCone), ("keep_in", KeepInCone)):
+        if k in t:
+            kw[k] = _cones(t[k], cls, f"{where}.{k}")
+    for k, cls in (("orbit", OrbitSpec), ("momentum_management", MomentumManagementSpec)):
+        if k in t:
+            fields = tuple(f.name for f in dataclasses.fields(cls))
+            kw[k] = _construct(cls, dict(_check_keys(t[k], fields, f"{where}.{k}")), f"{where}.{k}")
+    ref_t = t.get("reference")
+    n_given = isinstance(ref_t, Mapping) and "n" in ref_t
+    if "orbit" in kw and "reference" in kw and kw["reference"].kind == "earth-pointing":
+        if not n_given:  # the Earth-pointing rate follows from the orbit unless set
+            kw["reference"] = dataclasses.replace(kw["reference"], n=kw["orbit"].n)
     return _construct(Scenario, kw, where)
+
+
+def _cones(t: Any, cls: type, where: str) -> tuple:
+    items = t if isinstance(t, list) else [t]
+    out = []
+    for i, c in enumerate(items):
+        w = f"{where}[{i}]"
+        c = _check_keys(c, _CONE_KEYS, w)
+        for k in _CONE_KEYS:
+            if k not in c:
+                raise _Bad(f"{w}.{k}", "missing")
+        kw = {
+            "body_axis": _vec3(c["body_axis"], f"{w}.body_axis"),
+            "inertial_direction": _vec3(c["inertial_direction"], f"{w}.inertial_direction"),
+            "half_angle_deg": _number(c["half_angle_deg"], f"{w}.half_angle_deg"),
+        }
+        out.append(_construct(cls, kw, w))
+    return tuple(out)
 
 
 def scenarios_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> list[Scenario]:
@@ -423,6 +478,23 @@ def scenario_to_dict(scenario: Scenario) -> dict[str, Any]:
         }
     if s.control_period is not None:
         out["control_period"] = s.control_period
+    for k in ("keep_out", "keep_in"):
+        if getattr(s, k):
+            out[k] = [
+                {
+                    "body_axis": list(c.body_axis),
+                    "inertial_direction": list(c.inertial_direction),
+                    "half_angle_deg": c.half_angle_deg,
+                }
+                for c in getattr(s, k)
+            ]
+    if s.orbit is not None:
+        out["orbit"] = {f.name: getattr(s.orbit, f.name) for f in dataclasses.fields(OrbitSpec)}
+    if s.momentum_management is not None:
+        mm = s.momentum_management
+        out["momentum_management"] = {
+            f.name: getattr(mm, f.name) for f in dataclasses.fields(MomentumManagementSpec)
+        }
     if s.proximity is not None:
         out["proximity"] = {
             f.name: _plain(getattr(s.proximity, f.name))

@@ -1,4 +1,4 @@
-"""Benchmark scenarios as data (SPEC §8.1): frozen dataclasses, no behaviour beyond conversions.
+"""Benchmark scenarios as data: frozen dataclasses, no behaviour beyond conversions.
 
 A :class:`Scenario` names its plant (:class:`SpacecraftSpec`: inertia and actuator — SGCMG
 pyramid, reaction wheels or an ideal torque source; or the SE(3) chaser of a
@@ -10,14 +10,14 @@ scenario into plant objects; scenarios sharing plant and time grid are simulated
 Users add scenarios from Python (:func:`register_scenario`, or pass :class:`Scenario` objects to
 :func:`benchmarks.runner.run_suite`) or from TOML/YAML files (:mod:`benchmarks.scenario_files`).
 
-The catalogue (:data:`SCENARIOS`) covers SPEC §8.1 on the seed-000 spacecraft (SPEC §6.1):
+The catalogue (:data:`SCENARIOS`) covers the benchmark cases on the SGCMG-bus spacecraft:
 inertia ``J = [[15053, 3000, −1000], [3000, 6510, 2000], [−1000, 2000, 11122]]`` kg·m², a pyramid
 of four SGCMGs with ``h₀ = 300`` N·m·s, β = 54.73°, gimbal-rate limit 1 rad/s, initial gimbal
-angles (45°, −45°, 45°, −45°) (zero stored momentum) and seed 000's steering law (pseudo-inverse
+angles (45°, −45°, 45°, −45°) (zero stored momentum) and Wu et al.'s steering law (pseudo-inverse
 with null motion climbing the singularity measure):
 
-- ``stabilisation``: hold the orbit-frame attitude against the seed-000 constant + harmonic
-  torque (SPEC §5.4 item 1; the orbit frame is treated as inertial over the run, the orbit rate
+- ``stabilisation``: hold the orbit-frame attitude against the constant + harmonic
+  torque (the orbit frame is treated as inertial over the run, the orbit rate
   enters through the torque's harmonics);
 - ``slew-30/90/150/179``: rest-to-rest manoeuvres about the body axis ``(1, 1, 1)/√3`` (not a
   principal axis of this J, so all three axes couple); ``slew-120-random-axis`` about a fixed
@@ -25,15 +25,16 @@ with null motion climbing the singularity measure):
 - ``unwinding-q`` / ``unwinding-minus-q``: the same physical 90° start given to chart
   controllers as the quaternion ``q`` or ``−q``; ``near-pi-179.9``: 0.1° from the antipode;
 - ``earth-pointing``: track the LVLH frame of a circular orbit (n = 0.0011 rad/s) from 10° and
-  0.05 °/s off, under gravity gradient + the seed-000 torque (SPEC §5.3);
+  0.05 °/s off, under gravity gradient + the constant + harmonic torque;
 - ``slew-tracking``: track a reference turning at a constant 0.2 °/s about body z (a slewing
   reference), starting 20° behind;
-- ``inertia-uncertainty``: the seed-000 disturbance and a 60° manoeuvre with the plant's principal
-  moments scaled by (1.2, 1.2, 0.8) (±20 %) while the controllers know the nominal J;
-- ``payload-jitter``: seed 003's spacecraft (J = diag(520, 450, 660), three orthogonal reaction
-  wheels) holding its attitude against the calibrated 90 °/s rotating payload (SPEC §5.5);
+- ``inertia-uncertainty``: the constant + harmonic disturbance and a 60° manoeuvre with the plant's
+  principal moments scaled by (1.2, 1.2, 0.8) (±20 %) while the controllers know the nominal J;
+- ``payload-jitter``: the spacecraft of Wang, Chu, Zhang & Yuan (2016) (J = diag(520, 450, 660),
+  three orthogonal reaction wheels) holding its attitude against the calibrated 90 °/s rotating
+  payload;
 - ``proximity-approach``: the SE(3) chaser (500 kg) reaching a docking pose 5 m behind a target
-  in circular orbit from 150° / 100 m (SPEC §5.6, §6 item 5);
+  in circular orbit from 150° / 100 m;
 
 and scenarios built to separate controllers (the quick suite runs the first two):
 
@@ -77,16 +78,22 @@ from liecontrol._validation import (
     check_positive_scalar,
     check_rotation_matrix,
 )
+from liecontrol.control.constrained import KeepInCone, KeepOutCone, check_admissible
+from spacecraft.momentum import CrossProductDumping, Magnetorquers
+from spacecraft.orbit import CircularOrbit
 
 __all__ = [
-    "SEED000_INERTIA",
-    "SEED003_INERTIA",
+    "SGCMG_BUS_INERTIA",
+    "PAYLOAD_BUS_INERTIA",
     "ACTUATORS",
     "DISTURBANCES",
     "REFERENCE_KINDS",
     "SpacecraftSpec",
     "DisturbanceSpec",
     "ReferenceSpec",
+    "OrbitSpec",
+    "MomentumManagementSpec",
+    "MOMENTUM_MANAGEMENT_KINDS",
     "UncertaintySpec",
     "ProximitySpec",
     "SensorSpec",
@@ -96,8 +103,8 @@ __all__ = [
     "SINGULAR_TRANSIT_AXIS",
     "Scenario",
     "Suite",
-    "SEED000_SPACECRAFT",
-    "SEED003_SPACECRAFT",
+    "SGCMG_SPACECRAFT",
+    "PAYLOAD_SPACECRAFT",
     "SCENARIOS",
     "QUICK_SUITE",
     "SUITES",
@@ -109,20 +116,21 @@ __all__ = [
     "scale_principal_moments",
 ]
 
-#: Seed-000 spacecraft inertia [kg·m²] (SPEC §6.1).
-SEED000_INERTIA: tuple[tuple[float, float, float], ...] = (
+#: SGCMG-bus inertia [kg·m²] (the spacecraft of Wu, Huang, Wei & Guo).
+SGCMG_BUS_INERTIA: tuple[tuple[float, float, float], ...] = (
     (15053.0, 3000.0, -1000.0),
     (3000.0, 6510.0, 2000.0),
     (-1000.0, 2000.0, 11122.0),
 )
-#: Seed-003 spacecraft inertia [kg·m²] (SPEC §5.5, seed 003).
-SEED003_INERTIA: tuple[tuple[float, float, float], ...] = (
+#: Payload-bus inertia [kg·m²] (Wang, Chu, Zhang & Yuan 2016).
+PAYLOAD_BUS_INERTIA: tuple[tuple[float, float, float], ...] = (
     (520.0, 0.0, 0.0),
     (0.0, 450.0, 0.0),
     (0.0, 0.0, 660.0),
 )
 
-#: Manoeuvre axis of the fixed-axis slews: body (1, 1, 1)/√3, not a principal axis of seed-000 J.
+#: Manoeuvre axis of the fixed-axis slews: body (1, 1, 1)/√3, not a principal axis of the
+#: SGCMG-bus J.
 SLEW_AXIS: tuple[float, float, float] = tuple(float(x) for x in np.ones(3) / np.sqrt(3.0))
 #: The "random axis" of ``slew-120-random-axis``: ``v / ‖v‖`` with ``v`` drawn once from
 #: ``np.random.default_rng(2026).normal(size=3)``, written out so the catalogue is plain data.
@@ -135,7 +143,7 @@ RANDOM_AXIS: tuple[float, float, float] = (-0.38323721, 0.11624417, -0.91630592)
 #: the momentum envelope, so only the steering (not the envelope) stops the gimbals there.
 SINGULAR_TRANSIT_AXIS: tuple[float, float, float] = (-0.33889, 0.74693, -0.57212)
 
-#: Initial gimbal angles of the catalogue's SGCMG pyramid [deg]: an equilibrium of seed 000's
+#: Initial gimbal angles of the catalogue's SGCMG pyramid [deg]: an equilibrium of Wu et al.'s
 #: null motion ``k (I − A⁺A) ∇m`` at zero stored momentum. The gimbal sets ``(δ, −δ, δ, −δ)``
 #: all store zero momentum; starting from the paper's (45°, −45°, 45°, −45°) (m = 0.770) the
 #: null motion alone climbs m along that family to δ = 60° (m = 1.0885, ``‖(I − A⁺A)∇m‖ <
@@ -151,10 +159,20 @@ WHEEL_LAYOUTS: tuple[str, ...] = ("orthogonal", "pyramid")
 ACTUATORS: tuple[str, ...] = ("sgcmg", "wheels", "ideal")
 #: Disturbance models a :class:`DisturbanceSpec` can name, with their parameters.
 DISTURBANCES: dict[str, tuple[str, ...]] = {
-    "seed000": ("n", "scale"),
+    "constant-harmonic": ("n", "scale"),
     "gravity-gradient": ("n",),
     "constant": ("x", "y", "z"),
-    "payload-seed003": ("scale",),
+    "rotating-payload": ("scale",),
+    # environment torques (spacecraft.surface_forces); orbit keys as in [scenario.orbit]
+    "aerodynamic": (
+        *("altitude_km", "inclination_deg", "raan_deg", "size_x", "size_y", "size_z"),
+        *("offset_x", "offset_y", "offset_z", "drag_coefficient", "density_scale"),
+    ),
+    "solar-pressure": (
+        *("altitude_km", "inclination_deg", "raan_deg", "size_x", "size_y", "size_z"),
+        *("offset_x", "offset_y", "offset_z", "absorption", "specular", "diffuse", "epoch_jd"),
+    ),
+    "residual-dipole": ("altitude_km", "inclination_deg", "raan_deg", "x", "y", "z"),
 }
 #: Reference kinds of a :class:`ReferenceSpec`.
 REFERENCE_KINDS: tuple[str, ...] = ("constant", "earth-pointing", "constant-rate")
@@ -197,23 +215,23 @@ class SpacecraftSpec:
     Attributes:
         name: label for reports.
         inertia: 3×3 nominal inertia [kg·m²] (nested tuples): the one the controllers are given.
-        actuator: ``"sgcmg"`` (SPEC §5.2 pyramid), ``"wheels"`` (three orthogonal reaction
-            wheels, SPEC §5.2) or ``"ideal"`` (delivers the command, optional ``max_torque``).
+        actuator: ``"sgcmg"`` (four-SGCMG pyramid), ``"wheels"`` (three orthogonal reaction
+            wheels) or ``"ideal"`` (delivers the command, optional ``max_torque``).
         h0: rotor momentum of each SGCMG [N·m·s].
         beta_deg: pyramid skew angle [deg].
         gimbal_rate_limit: per-gimbal rate limit [rad/s].
         delta0_deg: initial gimbal angles [deg] (default :data:`NULL_MOTION_EQUILIBRIUM_DEG`;
-            seed 000 starts from (45°, −45°, 45°, −45°), where its null motion reconfigures).
+            Wu et al. starts from (45°, −45°, 45°, −45°), where its null motion reconfigures).
         steering: steering-law name understood by :func:`benchmarks.runner.build_steering`
-            (``"pinv-null-motion"`` = seed 000's law, ``"pinv"``, ``"sr"``).
+            (``"pinv-null-motion"`` = Wu et al.'s law, ``"pinv"``, ``"sr"``).
         wheel_inertia, wheel_max_torque, wheel_max_speed: reaction-wheel axial inertia
             [kg·m²], torque limit [N·m] and speed limit [rad/s] (per wheel).
         wheel_layout: ``"orthogonal"`` (three wheels) or ``"pyramid"`` (four, isotropic).
         max_torque: per-axis limit of the ideal actuator [N·m] (``None``: unlimited).
     """
 
-    name: str = "seed000"
-    inertia: tuple[tuple[float, ...], ...] = SEED000_INERTIA
+    name: str = "sgcmg-bus"
+    inertia: tuple[tuple[float, ...], ...] = SGCMG_BUS_INERTIA
     actuator: str = "sgcmg"
     h0: float = 300.0
     beta_deg: float = 54.73
@@ -267,18 +285,28 @@ class SpacecraftSpec:
 
 @dataclass(frozen=True)
 class DisturbanceSpec:
-    """External torque model by name (SPEC §5.4), see :data:`DISTURBANCES`:
+    """External torque model by name, see :data:`DISTURBANCES`:
 
-    - ``"seed000"``: constant + harmonic torque (params ``n`` orbit rate, ``scale``);
-    - ``"gravity-gradient"``: ``3n²(ĉ × J_true ĉ)`` for the orbit of rate ``n`` (SPEC §5.3);
+    - ``"constant-harmonic"``: constant + harmonic torque (params ``n`` orbit rate, ``scale``);
+    - ``"gravity-gradient"``: ``3n²(ĉ × J_true ĉ)`` for the orbit of rate ``n``;
     - ``"constant"``: body torque ``(x, y, z)`` [N·m];
-    - ``"payload-seed003"``: seed 003's calibrated rotating payload (``scale``) (SPEC §5.5).
+    - ``"rotating-payload"``: Wang et al.'s (2016) calibrated rotating payload (``scale``);
+    - ``"aerodynamic"``, ``"solar-pressure"``: flat-plate drag and solar radiation pressure on a
+      box ``size_*`` [m] (default 2 m cube) whose centre sits ``offset_*`` [m] from the centre of
+      mass (default (0, 0, 0.2)), with ``drag_coefficient`` (2.2) and ``density_scale`` (1), or
+      the optical fractions ``absorption``/``specular``/``diffuse`` (1/0/0) and ``epoch_jd``
+      (J2000.0) (:mod:`spacecraft.surface_forces`);
+    - ``"residual-dipole"``: m × B for a body dipole ``(x, y, z)`` [A·m²] (default (1, 0, 0)).
+
+    The environment torques fly the orbit ``altitude_km``/``inclination_deg``/``raan_deg``
+    (missing keys from the scenario's orbit, else the circular equatorial orbit of rate 0.0011
+    rad/s, about 528 km).
 
     ``params`` are ``(name, value)`` pairs (a tuple, so the spec stays hashable); a dict is
     accepted and converted.
     """
 
-    name: str = "seed000"
+    name: str = "constant-harmonic"
     params: tuple[tuple[str, float], ...] = ()
 
     def __post_init__(self) -> None:
@@ -337,9 +365,80 @@ class ReferenceSpec:
         return Rotation.from_rotvec(self.rotvec).as_matrix()
 
 
+#: Momentum-management kinds of :class:`MomentumManagementSpec`.
+MOMENTUM_MANAGEMENT_KINDS: tuple[str, ...] = ("none", "magnetorquer")
+
+
+@dataclass(frozen=True)
+class OrbitSpec:
+    """Circular orbit of the attitude plant (``[scenario.orbit]``):
+    :meth:`spacecraft.orbit.CircularOrbit.from_altitude` with ``altitude_km`` [km] (> 0),
+    ``inclination_deg`` and ``raan_deg`` [deg]. It gives the position the geomagnetic field is
+    evaluated at, and (unless the reference sets ``n``) the orbit of an ``earth-pointing``
+    reference."""
+
+    altitude_km: float = 530.0
+    inclination_deg: float = 97.5
+    raan_deg: float = 0.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(
+            self, "altitude_km", check_positive_scalar(self.altitude_km, "altitude_km")
+        )
+        for name in ("inclination_deg", "raan_deg"):
+            object.__setattr__(self, name, as_scalar(getattr(self, name), name))
+
+    def circular_orbit(self) -> CircularOrbit:
+        """The :class:`spacecraft.orbit.CircularOrbit`."""
+        return CircularOrbit.from_altitude(
+            1e3 * self.altitude_km,
+            inclination=math.radians(self.inclination_deg),
+            raan=math.radians(self.raan_deg),
+        )
+
+    @property
+    def n(self) -> float:
+        """Orbit rate [rad/s]."""
+        return self.circular_orbit().n
+
+    @property
+    def period(self) -> float:
+        """Orbit period [s]."""
+        return self.circular_orbit().period
+
+
+@dataclass(frozen=True)
+class MomentumManagementSpec:
+    """Momentum management (``[scenario.momentum_management]``): ``kind`` ``"magnetorquer"``
+    (three rods of ``max_dipole`` [A·m²] each, cross-product law of gain ``gain`` [1/s], see
+    :mod:`spacecraft.momentum`; needs an orbit) or ``"none"``. Thruster unloading is not
+    modelled."""
+
+    kind: str = "magnetorquer"
+    max_dipole: float = 200.0
+    gain: float = 1e-3
+
+    def __post_init__(self) -> None:
+        if self.kind not in MOMENTUM_MANAGEMENT_KINDS:
+            raise ValueError(
+                f"kind: unknown momentum management {self.kind!r}; valid: "
+                f"{', '.join(MOMENTUM_MANAGEMENT_KINDS)} (thruster unloading is not modelled)"
+            )
+        object.__setattr__(self, "max_dipole", check_positive_scalar(self.max_dipole, "max_dipole"))
+        object.__setattr__(self, "gain", check_positive_scalar(self.gain, "gain"))
+
+    def build(self, orbit: OrbitSpec) -> CrossProductDumping | None:
+        """The plant's ``momentum_management`` object (``None`` for ``"none"``)."""
+        if self.kind == "none":
+            return None
+        return CrossProductDumping(
+            orbit.circular_orbit(), magnetorquers=Magnetorquers(self.max_dipole), gain=self.gain
+        )
+
+
 @dataclass(frozen=True)
 class UncertaintySpec:
-    """Model uncertainty (SPEC §5.4 last item, §8.1): the plant's true inertia is the nominal one
+    """Model uncertainty: the plant's true inertia is the nominal one
     with its principal moments scaled by ``inertia_scale`` (:func:`scale_principal_moments`);
     the controllers are given the nominal inertia."""
 
@@ -357,7 +456,7 @@ class UncertaintySpec:
 
 @dataclass(frozen=True)
 class ProximitySpec:
-    """SE(3) proximity approach (SPEC §5.6, §6 item 5): a chaser of mass ``mass`` [kg] and
+    """SE(3) proximity approach: a chaser of mass ``mass`` [kg] and
     inertia ``inertia`` reaches the docking pose ``(exp(dock_rotvec^), dock_position)`` relative
     to a target in a circular orbit of rate ``n``, starting displaced by ``initial_rotvec``
     [rad] and ``initial_position`` [m] (body axes of the docking pose) and co-moving.
@@ -472,6 +571,16 @@ class Scenario:
             this over the final 10 % of the run (also the settling threshold) [deg].
         position_tolerance_m: the same for the position error of SE(3) scenarios [m].
         sensors: ``None`` (controllers see the true state) or a :class:`SensorSpec`.
+        keep_out: pointing constraints the run is judged on
+            (:class:`liecontrol.control.constrained.KeepOutCone`; metric
+            ``min_keep_out_margin_deg``); constraint-aware controllers also see them.
+        keep_in: the same for :class:`liecontrol.control.constrained.KeepInCone`
+            (``min_keep_in_margin_deg``).
+        orbit: :class:`OrbitSpec` or ``None``; with it an ``earth-pointing`` reference follows
+            this orbit's plane (its rate is the reference's ``n``, which scenario files set from
+            the orbit unless given).
+        momentum_management: :class:`MomentumManagementSpec` or ``None`` (needs ``orbit`` and
+            an actuator that stores momentum).
 
     :func:`benchmarks.metrics.judge` turns a run's metrics into a verdict with these
     tolerances.
@@ -494,6 +603,10 @@ class Scenario:
     attitude_tolerance_deg: float = 0.1
     position_tolerance_m: float = 0.1
     sensors: SensorSpec | None = None
+    keep_out: tuple[KeepOutCone, ...] = ()
+    keep_in: tuple[KeepInCone, ...] = ()
+    orbit: OrbitSpec | None = None
+    momentum_management: MomentumManagementSpec | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name or any(c in self.name for c in "/\\ "):
@@ -568,6 +681,40 @@ class Scenario:
                     f"sensors: period {self.sensors.period} must be a positive integer multiple "
                     f"of dt={self.dt}"
                 )
+        for name, cls in (("keep_out", KeepOutCone), ("keep_in", KeepInCone)):
+            cones = getattr(self, name)
+            cones = (cones,) if isinstance(cones, cls) else cones
+            if isinstance(cones, str) or not isinstance(cones, (tuple, list)):
+                raise ValueError(f"{name}: expected a sequence of {cls.__name__}, got {cones!r}")
+            for c in cones:
+                if not isinstance(c, cls):
+                    raise ValueError(f"{name}: expected {cls.__name__} items, got {c!r}")
+            if cones and self.proximity is not None:
+                raise ValueError(f"{name}: pointing cones apply to attitude scenarios only")
+            object.__setattr__(self, name, tuple(cones))
+        if (self.keep_out or self.keep_in) and self.reference.kind == "constant":
+            # the start must be admissible (the same message a constrained controller raises;
+            # with a moving reference R₀ depends on R_d(t₀): checked at the first command)
+            check_admissible(self.keep_out + self.keep_in, self.R0, "initial_rotvec")
+        if self.orbit is not None and not isinstance(self.orbit, OrbitSpec):
+            raise ValueError(f"orbit: expected OrbitSpec or None, got {type(self.orbit).__name__}")
+        mm = self.momentum_management
+        if mm is not None:
+            if not isinstance(mm, MomentumManagementSpec):
+                raise ValueError(
+                    f"momentum_management: expected MomentumManagementSpec or None, got "
+                    f"{type(mm).__name__}"
+                )
+            if mm.kind != "none":
+                if self.orbit is None:
+                    raise ValueError(
+                        "momentum_management: magnetorquers need the orbit ([scenario.orbit])"
+                    )
+                if self.proximity is not None or self.spacecraft.actuator == "ideal":
+                    raise ValueError(
+                        "momentum_management: needs an actuator that stores momentum "
+                        "(sgcmg or wheels) on an attitude scenario"
+                    )
         if isinstance(self.tags, str):
             raise ValueError("tags: expected a sequence of strings, got a single string")
         object.__setattr__(self, "tags", tuple(str(t) for t in self.tags))
@@ -643,6 +790,10 @@ class Scenario:
             self.dt,
             self.control_period,
             self.sensors,
+            self.keep_out,
+            self.keep_in,
+            self.orbit,
+            self.momentum_management,
         )
 
 
@@ -681,16 +832,65 @@ def rest_to_rest(
     return Scenario(name=name or f"slew-{angle_deg:g}", initial_rotvec=tuple(rv), **kw)
 
 
-SEED000_SPACECRAFT = SpacecraftSpec()
-SEED003_SPACECRAFT = SpacecraftSpec(
-    name="seed003", inertia=SEED003_INERTIA, actuator="wheels", wheel_max_torque=0.2
+SGCMG_SPACECRAFT = SpacecraftSpec()
+PAYLOAD_SPACECRAFT = SpacecraftSpec(
+    name="payload-bus", inertia=PAYLOAD_BUS_INERTIA, actuator="wheels", wheel_max_torque=0.2
 )
-SEED000_DISTURBANCE = DisturbanceSpec("seed000")
+CONSTANT_HARMONIC_DISTURBANCE = DisturbanceSpec("constant-harmonic")
 #: The rotating-payload bus (Wang, Chu, Zhang & Yuan) with a four-wheel pyramid, keeping that
 #: paper's wheel torque limit of 0.2 N·m.
 PYRAMID_WHEEL_SPACECRAFT = dataclasses.replace(
-    SEED003_SPACECRAFT, name="seed003-pyramid", wheel_layout="pyramid"
+    PAYLOAD_SPACECRAFT, name="payload-bus-pyramid", wheel_layout="pyramid"
 )
+
+
+#: Sun direction of the constraint scenarios: the body-z boresight's geodesic point at φ = 60°,
+#: (0, −sin 60°, cos 60°), tilted 6° toward inertial +x.
+_SUN_ON_PATH = (0.104528, -0.861281, 0.497261)
+
+
+#: Orbit of the momentum-dumping pair: 530 km sun-synchronous-like (97.5°), ≈ 95.2 min.
+DUMPING_ORBIT = OrbitSpec(530.0, 97.5, 0.0)
+#: Dipole per rod of the dumping scenario [A·m²]. The constant 0.08 N·m of the Wu et al.
+#: disturbance lies along the orbit normal in Earth pointing; at 530 km ‖B‖ ≈ 23–47 μT, so
+#: cancelling it on average needs a dipole of order 0.08 N·m / 33 μT ≈ 2.4e3 A·m² — rods of a
+#: few thousand A·m², the class of large spacecraft (200 A·m² rods give ≤ ~0.01 N·m).
+DUMPING_MAX_DIPOLE = 3000.0
+
+
+def _momentum_dumping_pair() -> tuple[Scenario, Scenario]:
+    """Earth pointing under the constant + harmonic torque for 5 orbits, with and without
+    magnetorquer dumping (same orbit, time grid and tolerance)."""
+    orbit = DUMPING_ORBIT
+    dt = 1.0
+    duration = dt * math.ceil(5.0 * orbit.period / dt)
+    common = {
+        "reference": ReferenceSpec("earth-pointing", n=orbit.n),
+        "disturbances": (DisturbanceSpec("constant-harmonic", {"n": orbit.n}),),
+        "orbit": orbit,
+        "duration": duration,
+        "dt": dt,
+        "control_period": 1.0,
+        "attitude_tolerance_deg": 0.5,
+    }
+    return (
+        Scenario(
+            name="momentum-dumping",
+            description="hold Earth pointing for 5 orbits under the constant + harmonic torque, "
+            f"magnetorquers ({DUMPING_MAX_DIPOLE:.0f} A·m²/rod) dumping the CMG momentum",
+            momentum_management=MomentumManagementSpec("magnetorquer", DUMPING_MAX_DIPOLE),
+            tags=("momentum", "tracking", "long"),
+            **common,
+        ),
+        Scenario(
+            name="momentum-no-dumping",
+            description="the same 5 orbits without momentum dumping: the CMG momentum grows to "
+            "the envelope",
+            momentum_management=MomentumManagementSpec("none"),
+            tags=("momentum", "tracking", "long"),
+            **common,
+        ),
+    )
 
 
 def _catalogue() -> tuple[Scenario, ...]:
@@ -700,7 +900,7 @@ def _catalogue() -> tuple[Scenario, ...]:
             name="stabilisation",
             description="hold the orbit-frame attitude against the constant + harmonic "
             "disturbance of Wu, Huang, Wei & Guo's ADRC study",
-            disturbances=(SEED000_DISTURBANCE,),
+            disturbances=(CONSTANT_HARMONIC_DISTURBANCE,),
             tags=("quick", "stabilisation"),
         ),
         rest_to_rest(30.0),
@@ -731,11 +931,11 @@ def _catalogue() -> tuple[Scenario, ...]:
         Scenario(
             name="earth-pointing",
             description="track the LVLH frame (n = 0.0011 rad/s) from 10° / 0.05 °/s off, "
-            "gravity gradient + seed-000 torque",
+            "gravity gradient + constant + harmonic torque",
             initial_rotvec=(deg(10.0) / math.sqrt(2), 0.0, deg(10.0) / math.sqrt(2)),
             initial_rate=(0.0, deg(0.05), 0.0),
             reference=ReferenceSpec("earth-pointing", n=0.0011),
-            disturbances=(DisturbanceSpec("gravity-gradient"), SEED000_DISTURBANCE),
+            disturbances=(DisturbanceSpec("gravity-gradient"), CONSTANT_HARMONIC_DISTURBANCE),
             tags=("tracking",),
         ),
         Scenario(
@@ -749,18 +949,19 @@ def _catalogue() -> tuple[Scenario, ...]:
         ),
         Scenario(
             name="inertia-uncertainty",
-            description="60° manoeuvre + seed-000 torque, true principal moments × (1.2, 1.2, 0.8)",
+            description="60° manoeuvre + constant + harmonic torque, true principal moments "
+            "× (1.2, 1.2, 0.8)",
             initial_rotvec=tuple(deg(60.0) * np.array(SLEW_AXIS)),
-            disturbances=(SEED000_DISTURBANCE,),
+            disturbances=(CONSTANT_HARMONIC_DISTURBANCE,),
             uncertainty=UncertaintySpec((1.2, 1.2, 0.8)),
             tags=("uncertainty",),
         ),
         Scenario(
             name="payload-jitter",
-            description="seed-003 spacecraft (wheels) holding attitude against the 90 °/s "
+            description="payload spacecraft (wheels) holding attitude against the 90 °/s "
             "rotating payload",
-            spacecraft=SEED003_SPACECRAFT,
-            disturbances=(DisturbanceSpec("payload-seed003"),),
+            spacecraft=PAYLOAD_SPACECRAFT,
+            disturbances=(DisturbanceSpec("rotating-payload"),),
             duration=120.0,
             dt=0.05,
             control_period=0.1,
@@ -780,7 +981,7 @@ def _catalogue() -> tuple[Scenario, ...]:
             description="90° slew with gimbals limited to 0.03 rad/s: the common closed-loop "
             "spec asks for more torque than the gimbals can deliver",
             spacecraft=dataclasses.replace(
-                SEED000_SPACECRAFT, name="seed000-slow-gimbals", gimbal_rate_limit=0.03
+                SGCMG_SPACECRAFT, name="sgcmg-bus-slow-gimbals", gimbal_rate_limit=0.03
             ),
             tags=("quick", "manoeuvre", "actuator-limited"),
         ),
@@ -790,14 +991,14 @@ def _catalogue() -> tuple[Scenario, ...]:
             name="singular-transit",
             description="120° slew whose stored-momentum path (h ∥ Jâ) meets an internal "
             "singularity of a 115 N·m·s pyramid at ≈ 1.17 h₀",
-            spacecraft=dataclasses.replace(SEED000_SPACECRAFT, name="seed000-h0-115", h0=115.0),
+            spacecraft=dataclasses.replace(SGCMG_SPACECRAFT, name="sgcmg-bus-h0-115", h0=115.0),
             tags=("manoeuvre", "singularity"),
         ),
         Scenario(
             name="stabilisation-inertia-error",
             description="hold attitude against the constant + harmonic disturbance (Wu et al.) "
             "with the true principal moments × (1.2, 1.2, 0.8)",
-            disturbances=(SEED000_DISTURBANCE,),
+            disturbances=(CONSTANT_HARMONIC_DISTURBANCE,),
             uncertainty=UncertaintySpec((1.2, 1.2, 0.8)),
             tags=("stabilisation", "uncertainty"),
         ),
@@ -840,12 +1041,51 @@ def _catalogue() -> tuple[Scenario, ...]:
             "60° slew that reaches the wheel-speed limit",
             spacecraft=dataclasses.replace(
                 PYRAMID_WHEEL_SPACECRAFT,
-                name="seed003-pyramid-small-wheels",
+                name="payload-bus-pyramid-small-wheels",
                 wheel_max_torque=1.0,
                 wheel_max_speed=30.0,
             ),
             tags=("manoeuvre", "wheels"),
         ),
+        # pointing constraints (star tracker along body z). The 120° slew about body x moves the
+        # boresight along the great circle (0, −sin φ, cos φ), φ: 120° → 0°; the Sun sits at
+        # φ = 60°, tilted 6° off that circle toward +x (so the slew is not exactly symmetric
+        # about the cone axis, whose saddle a barrier law could stall on).
+        rest_to_rest(
+            120.0,
+            (1.0, 0.0, 0.0),
+            name="keep-out-sun-slew",
+            description="120° slew about body x whose geodesic takes the body-z star tracker "
+            "through a 20° Sun keep-out cone",
+            duration=900.0,
+            keep_out=(KeepOutCone((0.0, 0.0, 1.0), _SUN_ON_PATH, 20.0),),
+            tags=("constraint", "keep-out"),
+        ),
+        rest_to_rest(
+            120.0,
+            (1.0, 0.0, 0.0),
+            name="keep-out-corridor",
+            description="120° slew about body x between two keep-out cones (14° at +10° and "
+            "12° at −22° off the boresight's geodesic: a 6° corridor beside it)",
+            duration=900.0,
+            keep_out=(
+                KeepOutCone((0.0, 0.0, 1.0), (0.173648, -0.852869, 0.492404), 14.0),
+                KeepOutCone((0.0, 0.0, 1.0), (-0.374607, -0.802965, 0.463592), 12.0),
+            ),
+            tags=("constraint", "keep-out"),
+        ),
+        rest_to_rest(
+            120.0,
+            (1.0, 0.0, 0.0),
+            name="keep-in-keep-out",
+            description="the Sun-cone slew with a body-y antenna kept within 75° of "
+            "(0, cos 60°, sin 60°): detours around the Sun must stay in the keep-in cone",
+            duration=900.0,
+            keep_out=(KeepOutCone((0.0, 0.0, 1.0), _SUN_ON_PATH, 20.0),),
+            keep_in=(KeepInCone((0.0, 1.0, 0.0), (0.0, 0.5, 0.866025), 75.0),),
+            tags=("constraint", "keep-out", "keep-in"),
+        ),
+        *_momentum_dumping_pair(),
         Scenario(
             name="proximity-approach",
             description="SE(3) chaser to a docking pose 5 m behind an orbiting target, from "
@@ -859,10 +1099,10 @@ def _catalogue() -> tuple[Scenario, ...]:
     )
 
 
-#: The scenario catalogue by name (SPEC §8.1). :func:`register_scenario` adds to it.
+#: The scenario catalogue by name. :func:`register_scenario` adds to it.
 SCENARIOS: dict[str, Scenario] = {s.name: s for s in _catalogue()}
 
-#: SPEC §8.1 subset run by ``python -m benchmarks run --suite quick`` (the README's command).
+#: Subset of the catalogue run by ``python -m benchmarks run --suite quick`` (the README's command).
 QUICK_SUITE: tuple[Scenario, ...] = tuple(s for s in SCENARIOS.values() if "quick" in s.tags)
 
 #: Suites by name. ``quick`` and ``full`` run scenarios × controllers; ``unwinding`` and
@@ -874,7 +1114,7 @@ SUITES: dict[str, Suite] = {
         "stabilisation, 5° step, 90°, 179° and gimbal-rate-limited 90° slews, SE(3) approach",
         QUICK_SUITE,
     ),
-    "full": Suite("full", "the whole SPEC §8.1 catalogue", tuple(SCENARIOS.values())),
+    "full": Suite("full", "the whole scenario catalogue", tuple(SCENARIOS.values())),
     "unwinding": Suite(
         "unwinding",
         "q/−q pair, 150–179.9° starts and Haar-random starts (benchmarks.unwinding)",

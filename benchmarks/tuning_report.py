@@ -166,7 +166,9 @@ def tuning_section(result: Any, *, measure: bool = True) -> list[str]:
     for c in result.controllers:
         if c not in CONTROLLERS:
             # unregistered since the run (e.g. a plug-in's temporary entry): no factory to measure
-            lines.append(f"| {_md(c)} | not in the registry any more: not measured | — | — | — | — |")
+            lines.append(
+                f"| {_md(c)} | not in the registry any more: not measured | — | — | — | — |"
+            )
             continue
         info = get_controller(c)
         if not (info.plants & ATTITUDE_PLANTS):
@@ -191,7 +193,12 @@ def tuning_section(result: Any, *, measure: bool = True) -> list[str]:
         except TuningInfeasible as exc:
             params, wtxt, ztxt, ptxt = f"not applicable: {exc}", "—", "—", "—"
         except Exception as exc:  # noqa: BLE001 - a user's controller must not sink the report
-            params, wtxt, ztxt, ptxt = f"measurement failed: {type(exc).__name__}: {exc}", "—", "—", "—"
+            params, wtxt, ztxt, ptxt = (
+                f"measurement failed: {type(exc).__name__}: {exc}",
+                "—",
+                "—",
+                "—",
+            )
         lines.append(f"| {_md(c)} | {_md(desc)} | {_md(params)} | {wtxt} | {ztxt} | {_md(ptxt)} |")
     lines.append("")
     return lines

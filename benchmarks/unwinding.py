@@ -1,4 +1,4 @@
-"""Unwinding and large-angle test cases (SPEC §0 item 3, §8.1), runnable against any registered
+"""Unwinding and large-angle test cases, runnable against any registered
 controller.
 
 No continuous feedback on SO(3) is globally asymptotically stable (Bhat & Bernstein 2000):
@@ -26,7 +26,7 @@ Verdict per (case, controller), in this order:
 - ``"diverges"``: the run ends at least 30° farther from the target than it started
   (:data:`benchmarks.metrics.DIVERGENCE_MARGIN_DEG`) — a long path then means moving away, not
   going the long way round;
-- ``"unwinds"``: unwinding ratio ``∫‖e_Ω‖dt / θ₀ ≥ 1.5`` (SPEC §8.1: travelled ≥ 1.5× the
+- ``"unwinds"``: unwinding ratio ``∫‖e_Ω‖dt / θ₀ ≥ 1.5`` (travelled ≥ 1.5× the
   geodesic angle);
 - ``"converges"``: final error ≤ ``converged_deg``;
 - ``"not converged"`` otherwise (too slow for the horizon, or stuck).
@@ -53,7 +53,7 @@ from liecontrol._validation import as_array, as_int, check_positive_scalar
 from .controllers import available_controllers, get_controller
 from .executors import Executor
 from .runner import RunOutcome, SuiteResult, run_suite
-from .scenarios import SEED000_SPACECRAFT, SLEW_AXIS, Scenario, SpacecraftSpec
+from .scenarios import SGCMG_SPACECRAFT, SLEW_AXIS, Scenario, SpacecraftSpec
 
 __all__ = [
     "UnwindingConfig",
@@ -79,8 +79,8 @@ class UnwindingConfig:
         sweep_angles_deg: initial angles of the settling-time sweep [deg].
         n_random: number of Haar-random starts; seed: their generator's seed.
         duration, dt, control_period: simulation horizon and steps [s].
-        spacecraft: the plant (default seed 000 with the SGCMG pyramid).
-        unwinding_threshold: unwinding ratio from which a run has unwound (SPEC: 1.5).
+        spacecraft: the plant (default: the SGCMG bus).
+        unwinding_threshold: unwinding ratio from which a run has unwound (default 1.5).
         chatter_reversals: command reversals from which a run chatters.
         converged_deg: final error below which a run has converged [deg].
     """
@@ -93,7 +93,7 @@ class UnwindingConfig:
     duration: float = 900.0
     dt: float = 0.1
     control_period: float = 0.2
-    spacecraft: SpacecraftSpec = field(default_factory=lambda: SEED000_SPACECRAFT)
+    spacecraft: SpacecraftSpec = field(default_factory=lambda: SGCMG_SPACECRAFT)
     unwinding_threshold: float = 1.5
     chatter_reversals: int = 10
     converged_deg: float = 0.1

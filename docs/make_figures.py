@@ -15,7 +15,7 @@ under two minutes on one core) and is saved at 90 dpi. Names (and the page that 
 - ``error_functions.png`` (errors.md): Ψ and ‖e_R‖ against the rotation angle.
 - ``cmg_singularity_sweep.png`` (cmg.md): singularity measure over gimbal sweeps.
 - ``se3_docking.png`` (se3.md): SE(3) proximity approach, errors and trajectory.
-- ``lemmas_regions.png``, ``lemmas_lyapunov.png`` (seed002.md): the survey-lemmas reproduction
+- ``lemmas_regions.png``, ``lemmas_lyapunov.png`` (survey_lemmas.md): the survey-lemmas reproduction
   (``geometric-survey-lemmas``, reduced sample count).
 """
 
@@ -35,7 +35,7 @@ import numpy as np  # noqa: E402
 
 DPI = 90
 FIG_DIR = pathlib.Path(__file__).resolve().parent / "figures"
-J_SEED000 = np.array(
+J_BUS = np.array(
     [[15053.0, 3000.0, -1000.0], [3000.0, 6510.0, 2000.0], [-1000.0, 2000.0, 11122.0]]
 )
 
@@ -49,20 +49,20 @@ def _save(fig: plt.Figure, out: pathlib.Path, name: str) -> pathlib.Path:
 
 
 def geometric_pd_179(out: pathlib.Path) -> pathlib.Path:
-    """The three error functions with one linear design (matrix gains ∝ J) on the seed-000
+    """The three error functions with one linear design (matrix gains ∝ J) on the SGCMG-bus
     inertia, ideal torques, 179° rest-to-rest slew about a fixed axis."""
     from liecontrol.control import ConstantAttitude
     from liecontrol.control.geometric_pd import GeometricPD, gains_from_bandwidth
     from liecontrol.lie import so3
     from spacecraft import IdealTorqueActuator, RigidBody, Spacecraft, simulate
 
-    plant = Spacecraft(RigidBody(J_SEED000), IdealTorqueActuator())
+    plant = Spacecraft(RigidBody(J_BUS), IdealTorqueActuator())
     axis = np.array([1.0, 2.0, 3.0]) / np.sqrt(14.0)
     x0 = plant.initial_state(so3.exp(np.deg2rad(179.0) * axis))
     fig, axes = plt.subplots(1, 2, figsize=(8, 3))
     for kind in ("trace", "log", "large_angle"):
-        k_R, k_W = gains_from_bandwidth(J_SEED000, 0.03, 0.9, error=kind, matrix=True)
-        ctrl = GeometricPD(J_SEED000, k_R, k_W, error=kind)
+        k_R, k_W = gains_from_bandwidth(J_BUS, 0.03, 0.9, error=kind, matrix=True)
+        ctrl = GeometricPD(J_BUS, k_R, k_W, error=kind)
         res = simulate(plant, ctrl, ConstantAttitude(np.eye(3)), x0, 700.0, 0.5, log_every=4)
         err = np.rad2deg(res.attitude_error_angle()[:, 0])
         axes[0].plot(res.t, err, label=kind)
@@ -73,7 +73,7 @@ def geometric_pd_179(out: pathlib.Path) -> pathlib.Path:
         ax.set_xlabel("t [s]")
         ax.grid(True, which="both", alpha=0.3)
     axes[0].legend(fontsize=8)
-    fig.suptitle("Geometric PD, 179° slew, seed-000 inertia, ω_n = 0.03 rad/s, ζ = 0.9",
+    fig.suptitle("Geometric PD, 179° slew, SGCMG-bus inertia, ω_n = 0.03 rad/s, ζ = 0.9",
                  fontsize=9)
     return _save(fig, out, "geometric_pd_179.png")
 
@@ -127,7 +127,7 @@ def mpc_torque(out: pathlib.Path) -> pathlib.Path:
     from liecontrol.integrators import lgvi_step
     from liecontrol.lie import so3
 
-    J = J_SEED000
+    J = J_BUS
     u_max = 20.0
     mpc = SO3MPC(J, horizon=20, dt=1.0, Q=[200.0] * 3 + [2e5] * 3, R=[1.0] * 3, u_max=u_max)
     mpc.reset(0.0, 1)
@@ -276,7 +276,8 @@ def error_functions(out: pathlib.Path) -> pathlib.Path:
 
 
 def cmg_singularity_sweep(out: pathlib.Path) -> pathlib.Path:
-    """The cmg.md sweeps: m over δ₁ (others at the seed-000 start) and over δ = (θ, 0, −θ, 0)."""
+    """The cmg.md sweeps: m over δ₁ (others at the zero-momentum start (45°, −45°, 45°, −45°))
+    and over δ = (θ, 0, −θ, 0)."""
     from spacecraft.sgcmg import SgcmgPyramid
 
     cmg = SgcmgPyramid(h0=300.0)
@@ -331,7 +332,7 @@ def se3_docking(out: pathlib.Path) -> pathlib.Path:
     axes[1].legend(fontsize=7)
     for ax in axes:
         ax.grid(True, which="both", alpha=0.3)
-    fig.suptitle("SE(3) proximity approach (seed 002 eqs. 15–16 tracking controller)",
+    fig.suptitle("SE(3) proximity approach (Jiang, Meng & Yang 2023, eqs. 15–16 tracking)",
                  fontsize=9)
     return _save(fig, out, "se3_docking.png")
 

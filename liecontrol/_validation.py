@@ -1,4 +1,4 @@
-"""Input validation shared by every public entry point (SPEC §9).
+"""Input validation shared by every public entry point.
 
 Every message starts with the argument's name and then says what is wrong, e.g.
 ``"R: not orthonormal (max |RᵀR − I| = 3.2e-02 > 1e-09)"``.
@@ -29,6 +29,7 @@ __all__ = [
     "check_output_finite",
     "norm_last",
     "as_int",
+    "transform_matrix",
     "ROTATION_ATOL",
 ]
 
@@ -38,11 +39,52 @@ ROTATION_ATOL = 1e-9
 _F64 = np.dtype(np.float64)
 
 
-def _to_float_array(x: object, name: str) -> np.ndarray:
+def transform_matrix(x: object) -> np.ndarray | None:
+    """The matrix array of a rotation/rigid-motion *object*, or ``None`` for anything else.
+
+    Accepted objects: scipy's ``Rotation`` → ``(3, 3)`` or ``(N, 3, 3)`` (single or stacked,
+    via ``as_matrix()``), scipy's ``RigidTransform`` → ``(4, 4)`` or ``(N, 4, 4)``, and
+    liecontrol's own ``SO3`` / ``SE3`` wrappers. This is the one place where every validated
+    entry point learns to take those objects (it is called by the float-array conversion
+    under :func:`as_array` and :func:`check_rotation_matrix` when a matrix shape is
+    expected), so an attitude argument accepts a scipy ``Rotation`` wherever it accepts a
+    matrix, and nowhere else (see :func:`_to_float_array`). The check is by the type's module
+    and name, so scipy is never imported here.
+    """
+    t = type(x)
+    mod = t.__module__
+    if mod.startswith("scipy.spatial.transform"):
+        if t.__name__ in ("Rotation", "RigidTransform"):
+            return np.asarray(x.as_matrix(), dtype=np.float64)  # type: ignore[attr-defined]
+        return None
+    if mod == "liecontrol.lie.groups" and t.__name__ in ("SO3", "SE3"):
+        return np.array(x.as_matrix(), dtype=np.float64)  # type: ignore[attr-defined]
+    return None
+
+
+def _to_float_array(x: object, name: str, matrix: int | None = None) -> np.ndarray:
     """``x`` as a float64 array; complex input with a non-zero imaginary part, strings and
-    non-numeric objects raise (numpy alone would warn and drop the imaginary part)."""
+    non-numeric objects raise (numpy alone would warn and drop the imaginary part).
+
+    ``matrix`` = 3 (or 4) says the argument is a rotation (or rigid-motion) matrix: a scipy
+    ``Rotation`` (``RigidTransform``) or an ``SO3`` (``SE3``) is then converted to its matrices
+    (:func:`transform_matrix`). Anywhere else such an object raises — silently using its 3×3
+    matrix as, say, three rotation vectors would give a meaningless result.
+    """
     if type(x) is np.ndarray and x.dtype == _F64:
         return x  # the fast path: nothing to convert
+    m = transform_matrix(x)
+    if m is not None:
+        if matrix is not None and m.shape[-1] == matrix:
+            return m
+        kind = type(x).__name__
+        raise ValueError(
+            f"{name}: got a {kind} object where "
+            + (f"a ({matrix}, {matrix}) matrix" if matrix else "an array of numbers")
+            + f" is expected (a {kind} is accepted only for "
+            + ("rigid-motion" if m.shape[-1] == 4 else "attitude")
+            + " arguments; convert it explicitly, e.g. with .as_rotvec() or .as_quat())"
+        )
     try:
         raw = np.asarray(x)
     except (TypeError, ValueError) as exc:
@@ -70,9 +112,11 @@ def as_array(x: object, name: str, tail: tuple[int, ...] | None = None) -> np.nd
     """Return ``x`` as a finite real float64 array, checking the trailing shape if given.
 
     Never copies when ``x`` already is a float64 array (callers must not mutate the result).
-    Complex input is rejected unless every imaginary part is exactly zero.
+    Complex input is rejected unless every imaginary part is exactly zero. With ``tail``
+    (3, 3) or (4, 4), a scipy ``Rotation`` / ``RigidTransform`` (or ``SO3`` / ``SE3``) is
+    accepted and converted to its matrices.
     """
-    a = _to_float_array(x, name)
+    a = _to_float_array(x, name, tail[0] if tail in ((3, 3), (4, 4)) else None)
     if tail is not None:
         check_shape_tail(a, name, tail)
     check_finite(a, name)

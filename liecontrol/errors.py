@@ -1,4 +1,4 @@
-"""Configuration error functions on SO(3) and SE(3) (SPEC §4).
+"""Configuration error functions on SO(3) and SE(3).
 
 For an attitude ``R`` and a desired attitude ``R_d`` (both body → inertial) write the relative
 rotation ``R̃ = R_dᵀ R`` (``R̃ = I`` exactly when ``R = R_d``) and let ``θ ∈ [0, π]`` be its angle.
@@ -18,8 +18,8 @@ factor ``c`` (:data:`DERIVATIVE_FACTOR`) is
 
 Derivation of c (``tr(A ŵ) = −w · (A − Aᵀ)^∨`` for any 3×3 ``A``):
 
-- trace: ``Ψ̇ = −tr(G R̃ e_Ω^) = (G R̃ − R̃ᵀ G)^∨ · e_Ω = 2 e_R · e_Ω``: c = 2 for the SPEC's
-  normalisation (Lee et al. write ``Ψ = ½ tr(G(I − R̃))`` and get c = 1);
+- trace: ``Ψ̇ = −tr(G R̃ e_Ω^) = (G R̃ − R̃ᵀ G)^∨ · e_Ω = 2 e_R · e_Ω``: c = 2 for this
+  package's normalisation (Lee et al. write ``Ψ = ½ tr(G(I − R̃))`` and get c = 1);
 - large_angle: ``Ψ̇ = −tr(R̃ e_Ω^) / (2√(1 + tr R̃)) = e_R · e_Ω``: c = 1;
 - log: ``θ̇ θ = φ · J_r(φ)⁻¹ e_Ω = φ · e_Ω`` because ``J_r(φ)⁻ᵀ φ = φ``: c = 1.
 
@@ -27,11 +27,12 @@ Angle relations (used by the tests, independent of scipy): trace with ``G = g I`
 ``Ψ = 2g(1 − cos θ)``; large_angle: ``√(1 + tr R̃) = 2|cos(θ/2)|`` so ``Ψ = 2 − 2 cos(θ/2)``
 and ``‖e_R‖ = sin(θ/2) ≤ 1``; log: ``Ψ = θ²/2``, ``‖e_R‖ = θ``.
 
-Singular set (SPEC §9: never NaN). At ``θ = π`` the large-angle formula is 0/0 and
+Singular set (never NaN). At ``θ = π`` the large-angle formula is 0/0 and
 the logarithm is two-valued. Both are evaluated through the rotation vector
 ``φ = log(R̃)^∨`` of :func:`liecontrol.lie.so3.log` (accurate up to and including π, taken from
 the symmetric part of ``R̃``): the large-angle error is computed in the equivalent half-angle
-form ``Ψ = 4 sin²(θ/4)``, ``e_R = (sin(θ/2)/θ) φ``, which equals the SPEC formula for θ < π
+form ``Ψ = 4 sin²(θ/4)``, ``e_R = (sin(θ/2)/θ) φ``, which equals ``Ψ = 2 − √(1 + tr R̃)``,
+``e_R = (R̃ − R̃ᵀ)^∨ / (2√(1 + tr R̃))`` for θ < π
 (tested) without its cancellation near 0 and π. **Choice at the antipodal set** (θ = π):
 ``e_R`` is the unit vector ``φ/π`` (large-angle) or ``φ`` (log), with the sign of the
 deterministic-but-arbitrary branch chosen by ``so3.log``. That is one of the two one-sided limits,
@@ -45,11 +46,11 @@ so ``ṗ = R v``). :func:`se3_error` returns the attitude error above plus the i
 and velocity errors ``e_p = p − p_d``, ``e_v = R v − R_d v_d`` (so ``ė_p = e_v`` exactly), and
 :func:`se3_log_error` returns the exponential coordinates ``log(g_d⁻¹ g)^∨ = (φ, ρ)``.
 
-Sources: SPEC §4; D. E. Koditschek, "The application of total energy as a Lyapunov function for
+Sources: D. E. Koditschek, "The application of total energy as a Lyapunov function for
 mechanical control systems" (1989); F. Bullo and R. M. Murray, "Proportional derivative (PD)
 control on the Euclidean group" (1995); T. Lee, "Exponential stability of an attitude tracking
 control system on SO(3) for large-angle rotational maneuvers", Systems & Control Letters (2012);
-survey seed 002 eqs. (7)–(11), (13).
+Jiang, Meng & Yang 2023 eqs. (7)–(11), (13).
 """
 
 from __future__ import annotations
@@ -228,7 +229,7 @@ def _check_kind(kind: object, name: str = "kind") -> str:
 
 
 def trace_error(R: object, R_d: object, G: object = None) -> tuple[np.ndarray, np.ndarray]:
-    """Koditschek's trace error (SPEC §4; seed 002 eq. (7)).
+    """Koditschek's trace error (Jiang, Meng & Yang 2023 eq. (7)).
 
     ``Ψ = tr(G(I − R_dᵀR))``, ``e_R = ½ (G R_dᵀR − RᵀR_d G)^∨``; ``d/dt Ψ = 2 e_R · e_Ω``.
 
@@ -247,7 +248,7 @@ def trace_error(R: object, R_d: object, G: object = None) -> tuple[np.ndarray, n
 
 
 def large_angle_error(R: object, R_d: object) -> tuple[np.ndarray, np.ndarray]:
-    """Lee's large-angle error (SPEC §4; Lee 2012; seed 002 eqs. (10)–(11)).
+    """Lee's large-angle error (Lee 2012; Jiang, Meng & Yang 2023 eqs. (10)–(11)).
 
     ``Ψ = 2 − √(1 + tr R̃)``, ``e_R = (R̃ − R̃ᵀ)^∨ / (2√(1 + tr R̃))`` with ``R̃ = R_dᵀR``;
     ``d/dt Ψ = e_R · e_Ω``. Evaluated in the equivalent half-angle form ``Ψ = 2 − 2cos(θ/2)``,
@@ -263,7 +264,7 @@ def large_angle_error(R: object, R_d: object) -> tuple[np.ndarray, np.ndarray]:
 
 
 def log_error(R: object, R_d: object) -> tuple[np.ndarray, np.ndarray]:
-    """Bullo–Murray logarithmic error (SPEC §4; seed 002 eq. (8), Lemma 2).
+    """Bullo–Murray logarithmic error (Jiang, Meng & Yang 2023 eq. (8), Lemma 2).
 
     ``Ψ = ½ ‖log(R_dᵀR)^∨‖² = θ²/2``, ``e_R = log(R_dᵀR)^∨`` (rotation vector);
     ``d/dt Ψ = e_R · e_Ω`` for θ < π. At θ = π, ``e_R`` is the branch chosen by ``so3.log``
@@ -277,7 +278,7 @@ def log_error(R: object, R_d: object) -> tuple[np.ndarray, np.ndarray]:
 
 
 def angular_velocity_error(R: object, omega: object, R_d: object, omega_d: object) -> np.ndarray:
-    """``e_Ω = Ω − Rᵀ R_d Ω_d`` (SPEC §4; seed 002 eq. (13)): both rates in the body frame.
+    """``e_Ω = Ω − Rᵀ R_d Ω_d`` (Jiang, Meng & Yang 2023 eq. (13)): both rates in the body frame.
 
     Args:
         R, R_d: ``(..., 3, 3)`` attitude and desired attitude.
@@ -354,7 +355,7 @@ def se3_error(
     kind: str = "large_angle",
     G: object = None,
 ) -> SE3Error:
-    """Attitude and translation tracking errors on SE(3) (SPEC §4, SE(3) analogues).
+    """Attitude and translation tracking errors on SE(3) (SE(3) analogues).
 
     ``g = [[R, p], [0, 1]]``, body twists ``ξ = (ω, v)`` (rotation first; ``ṗ = R v``). The attitude
     part is ``attitude_error(kind, R, R_d)`` and ``e_Ω = ω − R̃ᵀω_d``; the translational part is
@@ -395,7 +396,7 @@ def se3_error(
 
 
 def se3_log_error(g: object, g_d: object) -> np.ndarray:
-    """Exponential-coordinate error ``log(g_d⁻¹ g)^∨ = (φ, ρ)``, shape ``(..., 6)`` (SPEC §4).
+    """Exponential-coordinate error ``log(g_d⁻¹ g)^∨ = (φ, ρ)``, shape ``(..., 6)``.
 
     ``g_d⁻¹ g = [[R̃, t], [0, 1]]`` with ``R̃ = R_dᵀR``, ``t = R_dᵀ(p − p_d)``; then
     ``φ = log(R̃)^∨`` and ``ρ = J_l(φ)⁻¹ t`` (the SE(3) closed form, ``V = J_l``), twist ordering

@@ -8,5 +8,5 @@ __all__ = ["ChartSingularityError"]
 class ChartSingularityError(ValueError):
     """A chart (Euler angles, MRP without switching, ...) is evaluated at its singularity.
 
-    Raised instead of returning NaN or an ill-conditioned result (SPEC §9).
+    Raised instead of returning NaN or an ill-conditioned result.
     """

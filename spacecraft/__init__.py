@@ -1,5 +1,5 @@
 """spacecraft: the plant (rigid body, flexible modes, actuators, disturbances, environment,
-sensors, simulator) — SPEC §5."""
+sensors, simulator)."""
 
 from .actuators import (
     Actuator,
@@ -13,9 +13,9 @@ from .actuators import (
     pyramid_wheel_axes,
 )
 from .disturbances import (
+    ConstantHarmonicTorque,
     ConstantTorque,
     DisturbanceSource,
-    Seed000Disturbance,
     SumOfDisturbances,
     ZeroDisturbance,
 )
@@ -23,8 +23,8 @@ from .environment import GravityGradientTorque
 from .flexible import FlexibleModes
 from .orbit import CircularOrbit, EarthPointingReference
 from .payload import (
-    SEED003_J,
-    SEED003_PAYLOAD,
+    PAYLOAD_SATELLITE_J,
+    ROTATING_PAYLOAD_EXAMPLE,
     RotatingPayload,
     RotatingPayloadTorque,
     jitter_estimate,
@@ -48,6 +48,14 @@ from .steering import (
     SingularityRobust,
     saturate_gimbal_rates,
 )
+from .surface_forces import (
+    AerodynamicTorque,
+    ExponentialAtmosphere,
+    Plate,
+    ResidualDipoleTorque,
+    SolarPressureTorque,
+    box_plates,
+)
 
 __all__ = [
     "FirstOrderServo",
@@ -69,6 +77,12 @@ __all__ = [
     "EarthPointingReference",
     "FlexibleModes",
     "GravityGradientTorque",
+    "AerodynamicTorque",
+    "ExponentialAtmosphere",
+    "Plate",
+    "ResidualDipoleTorque",
+    "SolarPressureTorque",
+    "box_plates",
     "IdealTorqueActuator",
     "PlantState",
     "PseudoInverse",
@@ -77,9 +91,9 @@ __all__ = [
     "RigidBody",
     "RotatingPayload",
     "RotatingPayloadTorque",
-    "SEED003_J",
-    "SEED003_PAYLOAD",
-    "Seed000Disturbance",
+    "PAYLOAD_SATELLITE_J",
+    "ROTATING_PAYLOAD_EXAMPLE",
+    "ConstantHarmonicTorque",
     "SgcmgActuator",
     "SgcmgPyramid",
     "SimulationDiverged",

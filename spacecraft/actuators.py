@@ -1,4 +1,4 @@
-"""The actuator seam between a controller's torque command and the plant (SPEC §1, §5.1, §5.2).
+"""The actuator seam between a controller's torque command and the plant.
 
 An actuator owns ``n_states`` states appended to the plant's ODE state (the four gimbal angles
 of the SGCMG pyramid; none for the ideal torque actuator) and is used in two phases per
@@ -14,7 +14,7 @@ simulator step:
 ``momentum(x_act)`` is the stored momentum ``h`` in body axes (what the controller may know), and
 ``log(x_act, held)`` the actuator quantities to record (``(B, ...)`` arrays).
 
-SGCMG physics (SPEC §5.1–5.2): the cluster stores ``h(δ)``, ``ḣ = A(δ) δ̇``, and the bus feels
+SGCMG physics: the cluster stores ``h(δ)``, ``ḣ = A(δ) δ̇``, and the bus feels
 ``u = −ḣ − ω × h = −A(δ) δ̇ − ω × h(δ)``. The steering law inverts the momentum rate
 ``ḣ_cmd = −u_cmd − ω × h`` for ``δ̇``; the gimbal-rate limit clips the result (saturation is
 logged), so the delivered torque ``u`` differs from ``u_cmd`` near singularities and at the limit.
@@ -128,7 +128,7 @@ class Actuator(abc.ABC):
 
 @dataclass(frozen=True)
 class IdealTorqueActuator(Actuator):
-    """Delivers the commanded torque exactly (papers that assume an ideal actuator, SPEC §5.2).
+    """Delivers the commanded torque exactly (papers that assume an ideal actuator).
 
     Args:
         max_torque: optional per-axis saturation ``|u_i| ≤ max_torque`` [N·m] (scalar or
@@ -197,7 +197,7 @@ class CmgCommand:
 
 @dataclass(frozen=True)
 class FirstOrderServo:
-    """First-order gimbal-rate servo (SPEC §5.2 "gimbal servo ideal or first-order lag")::
+    """First-order gimbal-rate servo (the gimbal servo is ideal or, here, a first-order lag)::
 
         δ̈ = (δ̇_cmd − δ̇) / τ,
 
@@ -234,12 +234,12 @@ def _default_steering() -> Any:
 
 
 class SgcmgActuator(Actuator):
-    """Four-SGCMG pyramid with a steering law and a gimbal-rate limit (SPEC §5.2).
+    """Four-SGCMG pyramid with a steering law and a gimbal-rate limit.
 
     State: the gimbal angles ``δ`` ``(B, 4)``. Per step (ZOH of gimbal rates):
     ``ḣ_cmd = −u_cmd − ω × h(δ)``, ``δ̇ = steering(A(δ), ḣ_cmd)``, clipped to the cluster's
     gimbal-rate limit. In the integration stages ``δ̇`` is constant and the bus feels
-    ``u = −A(δ) δ̇ − ω × h(δ)`` (SPEC §5.1) — which conserves the total inertial momentum
+    ``u = −A(δ) δ̇ − ω × h(δ)`` — which conserves the total inertial momentum
     ``R (J ω + h)`` exactly in continuous time, whatever the steering does.
 
     Gimbal servo: ``"ideal"`` (the gimbals turn at the commanded rate; state ``δ`` ``(B, 4)``)
@@ -257,7 +257,7 @@ class SgcmgActuator(Actuator):
         steering: a steering law ``law(A, h_dot_cmd, delta=..., t=..., cluster=...) -> δ̇``
             (default: :class:`spacecraft.steering.SingularityRobust` with its defaults).
         delta0: initial gimbal angles ``(4,)`` or ``(B, 4)`` [rad] (default (45°, −45°, 45°,
-            −45°): zero stored momentum, seed 000).
+            −45°): zero stored momentum, Wu et al.).
         servo: ``"ideal"`` (default) or :class:`FirstOrderServo` ``(time_constant)``.
     """
 
@@ -715,12 +715,12 @@ class WheelCommand:
 
 @dataclass(frozen=True, eq=False)
 class ReactionWheelAssembly(Actuator):
-    """N reaction wheels on fixed spin axes (SPEC §5.1–5.2; seed 003's satellite).
+    """N reaction wheels on fixed spin axes (Wang et al.'s (2016) satellite).
 
     State: the wheel speeds Ω ``(B, N)`` [rad/s]. Stored momentum and dynamics::
 
         h = Σᵢ I_w,ᵢ Ωᵢ aᵢ = A (I_w ∘ Ω),    I_w,ᵢ Ω̇ᵢ = τᵢ,    ḣ = A τ,
-        body torque u = −ḣ − ω × h = −A τ − ω × h       (SPEC §5.1)
+        body torque u = −ḣ − ω × h = −A τ − ω × h
 
     with A = [a₁ … a_N] the ``axes``. Ωᵢ is the wheel's axial spin rate such that its axial
     momentum is I_w Ωᵢ (Markley & Crassidis 2014, §3.3.5: J is then the spacecraft inertia

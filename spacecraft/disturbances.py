@@ -1,14 +1,18 @@
-"""Disturbance torques on the spacecraft body (SPEC §5.4).
+"""Disturbance torques on the spacecraft body.
 
 A disturbance source is any callable ``source(t, R, omega) -> (B, 3)`` giving the external torque
 about the centre of mass in body axes [N·m], for time ``t`` [s], attitude ``R`` ``(B, 3, 3)``
 (body → inertial) and body rate ``omega`` ``(B, 3)``. The plant evaluates it at every integration
 stage, so sources must be pure functions of their arguments. The library:
 
-- here: :class:`ZeroDisturbance`, :class:`ConstantTorque`, :class:`Seed000Disturbance` (SPEC §5.4
-  item 1) and the composition :class:`SumOfDisturbances`;
-- :class:`spacecraft.environment.GravityGradientTorque` (SPEC §5.3, state-dependent);
-- :class:`spacecraft.payload.RotatingPayloadTorque` (seed 003, SPEC §5.5);
+- here: :class:`ZeroDisturbance`, :class:`ConstantTorque`, :class:`ConstantHarmonicTorque` (Wu,
+  Huang, Wei & Guo) and the composition :class:`SumOfDisturbances`;
+- :class:`spacecraft.environment.GravityGradientTorque` (state-dependent);
+- :mod:`spacecraft.surface_forces`: :class:`~spacecraft.surface_forces.AerodynamicTorque`,
+  :class:`~spacecraft.surface_forces.SolarPressureTorque` (flat plates, exponential
+  atmosphere, Sun ephemeris and eclipse) and :class:`~spacecraft.surface_forces.
+  ResidualDipoleTorque` (m × B);
+- :class:`spacecraft.payload.RotatingPayloadTorque` (Wang, Chu, Zhang & Yuan 2016);
 - flexible appendage modes are not a torque source but extra plant states (they need ω̇):
   :class:`spacecraft.flexible.FlexibleModes`, passed as ``Spacecraft(..., modes=...)``;
 - parameter uncertainty is on the controller's side: :func:`spacecraft.rigid_body.
@@ -38,7 +42,7 @@ __all__ = [
     "DisturbanceSource",
     "ZeroDisturbance",
     "ConstantTorque",
-    "Seed000Disturbance",
+    "ConstantHarmonicTorque",
     "SumOfDisturbances",
 ]
 
@@ -77,15 +81,15 @@ class ConstantTorque:
 
 
 @dataclass(frozen=True)
-class Seed000Disturbance:
-    """Constant + harmonic body torque of seed 000 (SPEC §5.4, item 1), orbit rate ``n``:
+class ConstantHarmonicTorque:
+    """Constant + harmonic body torque of Wu, Huang, Wei & Guo, orbit rate ``n``:
 
         T_d = (0.02 + 0.02 sin nt + 0.01 sin 2nt,
                0.08 + 0.04 sin nt + 0.01 sin 2nt,
                0.02 + 0.02 sin nt + 0.01 sin 2nt)  · scale   [N·m]
 
     Args:
-        n: orbit rate [rad/s] (default 0.0011, SPEC §5.3).
+        n: orbit rate [rad/s] (default 0.0011).
         scale: multiplies the whole torque (robustness sweeps; 1 = the paper's values).
     """
 
@@ -127,7 +131,7 @@ class SumOfDisturbances:
 
     Example:
         >>> d = SumOfDisturbances({"bias": ConstantTorque([0.0, 0.1, 0.0]),
-        ...                        "seed000": Seed000Disturbance()})
+        ...                        "constant_harmonic": ConstantHarmonicTorque()})
         >>> d(0.0, np.eye(3)[None], np.zeros((1, 3)))
         array([[0.02, 0.18, 0.02]])
     """

@@ -1,10 +1,10 @@
-"""Environmental torque sources (SPEC §5.3, §5.4).
+"""Environmental torque sources.
 
 Each source fits the disturbance contract of :mod:`spacecraft.disturbances`: a callable
 ``source(t, R (B, 3, 3), omega (B, 3)) -> (B, 3)`` body torque [N·m], and composes with
 :class:`spacecraft.disturbances.SumOfDisturbances`.
 
-Gravity-gradient torque on a rigid body in a circular orbit (SPEC §5.3):
+Gravity-gradient torque on a rigid body in a circular orbit:
 
     T_gg = 3 n² (ĉ × J ĉ),   ĉ = Rᵀ(−r̂) = nadir unit vector in body axes,
 
@@ -47,7 +47,7 @@ def gravity_gradient_torque(J: object, c: object, n: float) -> np.ndarray:
 
 @dataclass(frozen=True)
 class GravityGradientTorque:
-    """Gravity-gradient disturbance source 3n²(ĉ × Jĉ) (SPEC §5.3).
+    """Gravity-gradient disturbance source 3n²(ĉ × Jĉ).
 
     Args:
         J: the **true** body inertia ``(3, 3)`` [kg·m²] (validated: symmetric, positive definite,

@@ -1,8 +1,8 @@
-"""Flexible appendage modes in hybrid coordinates (SPEC §5.4, seed 003; *reconstructed*).
+"""Flexible appendage modes in hybrid coordinates (Wang et al. 2016; *reconstructed*).
 
-Seed 003 lists flexible appendages among the disturbances but gives no equations; SPEC §5.4 fixes
-the standard hybrid-coordinate form (Hughes, *Spacecraft Attitude Dynamics*, §6; Wie, *Space
-Vehicle Dynamics and Control*, 2nd ed., §10.3), with ``N`` modal coordinates ``q``:
+Wang, Chu, Zhang & Yuan (2016) list flexible appendages among the disturbances but give no
+equations; we use the standard hybrid-coordinate form (Hughes, *Spacecraft Attitude Dynamics*,
+§6; Wie, *Space Vehicle Dynamics and Control*, 2nd ed., §10.3), with ``N`` modal coordinates ``q``:
 
     J ω̇ + Bᵀ q̈ + ω × (J ω + Bᵀ q̇ + h) = −ḣ + T_d                      (1)
     q̈ + 2 ζ Λ q̇ + Λ² q + B ω̇ = 0                                      (2)
@@ -49,7 +49,7 @@ def _readonly(a: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class FlexibleModes:
-    """``N`` flexible appendage modes (SPEC §5.4, hybrid coordinates, *reconstructed*).
+    """``N`` flexible appendage modes (hybrid coordinates, *reconstructed*).
 
     Args:
         coupling: ``B`` ``(N, 3)`` rotational coupling matrix [√(kg)·m] (row ``i``: how mode

@@ -1,4 +1,4 @@
-"""CMG hardware limits as linear MPC input constraints (SPEC §6 item 4, §5.2).
+"""CMG hardware limits as linear MPC input constraints.
 
 :class:`liecontrol.control.mpc.SO3MPC` accepts ``extra_constraints(state) -> (C, lo, hi)``,
 imposing ``lo ≤ C u_k ≤ hi`` on every stage's body torque ``u_k``. This module builds such
@@ -6,7 +6,7 @@ callables for the SGCMG pyramid from the current actuator state (``AttitudeState
 the gimbal angles δ, ``(1, 4)`` or ``(1, 8)`` with a first-order servo).
 
 **Gimbal-rate limit** (:func:`cmg_gimbal_rate_constraint`). The plant realises a torque command
-``u`` through ``ḣ_cmd = −u − ω × h`` (SPEC §5.1) and the steering law ``δ̇ = S(δ) ḣ_cmd + s₀(δ)``
+``u`` through ``ḣ_cmd = −u − ω × h`` and the steering law ``δ̇ = S(δ) ḣ_cmd + s₀(δ)``
 — for the Moore–Penrose law ``S = A⁺ = Aᵀ(AAᵀ)⁻¹``, ``s₀ = 0``; every law of
 :mod:`spacecraft.steering` is affine in ``ḣ_cmd`` at fixed δ and t (SR inverse: λ depends on δ
 only; null motion: ``s₀ = k(I − A⁺A)∇m``), so ``(S, s₀)`` are read off the law itself by
@@ -43,7 +43,7 @@ h₀ Σ √(1 − (gᵢ·n)²) = 2.83 h₀ there and the 3.0–3.27 h₀ elsewhe
 is star-shaped about 0 (it is filled for the pyramid; checked against dense sampling in the
 tests).
 
-Sources: SPEC §5.1–5.2; B. Wie, *Space Vehicle Dynamics and Control*, 2nd ed., §7.5 (SGCMG
+Sources: B. Wie, *Space Vehicle Dynamics and Control*, 2nd ed., §7.5 (SGCMG
 momentum envelopes and singular surfaces); Kalabić et al. 2017 (constrained MPC on SO(3)).
 """
 

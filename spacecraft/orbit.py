@@ -1,4 +1,4 @@
-"""Circular orbit, LVLH frame, Earth-pointing reference and point-mass/J2 gravity (SPEC §5.3, §5.6).
+"""Circular orbit, LVLH frame, Earth-pointing reference and point-mass/J2 gravity.
 
 Orbit. A circular orbit of radius r and rate n, related by Kepler's third law n = √(μ/r³)
 (μ = :data:`MU_EARTH` = 3.986004418e14 m³/s², WGS-84/EGM-96 value). The orbit plane is placed in
@@ -7,7 +7,7 @@ and the spacecraft's argument of latitude is u(t) = ``arg_lat0`` + n t, so
 
     r(t) = r R_orb (cos u, sin u, 0),   ĥ = R_orb e_z   (orbit normal).
 
-LVLH frame (SPEC §5.3): z_L = −r̂ (nadir), y_L = −ĥ (opposite the orbit normal), x_L = y_L × z_L
+LVLH frame: z_L = −r̂ (nadir), y_L = −ĥ (opposite the orbit normal), x_L = y_L × z_L
 (= the velocity direction on a circular orbit). ``C(t) = [x_L y_L z_L]`` maps LVLH → inertial;
 the frame turns at the orbit rate about −y_L: Ċ = C ω_L^ with ω_L = (0, −n, 0) (LVLH axes).
 
@@ -23,7 +23,7 @@ Gravity (per unit mass, inertial position r, Earth's polar axis = inertial Z):
                                                    z (3 − 5z²/|r|²))
 
 (Vallado, *Fundamentals of Astrodynamics and Applications*, 4th ed., §8.6.1; Montenbruck & Gill,
-*Satellite Orbits*, §3.2). The SE(3) plant (SPEC §5.6) uses :func:`gravity_acceleration`.
+*Satellite Orbits*, §3.2). The SE(3) plant uses :func:`gravity_acceleration`.
 """
 
 from __future__ import annotations
@@ -75,10 +75,11 @@ def _rz(a: float) -> np.ndarray:
 
 @dataclass(frozen=True)
 class CircularOrbit:
-    """A circular Keplerian orbit (SPEC §5.3).
+    """A circular Keplerian orbit.
 
     Args:
-        n: orbit rate [rad/s] (> 0; default 0.0011, SPEC §5.3 and seeds 000/003).
+        n: orbit rate [rad/s] (> 0; default 0.0011, the low orbit of the ADRC and
+            rotating-payload papers).
         mu: gravitational parameter [m³/s²] (> 0); with ``n`` it fixes the radius
             r = (μ/n²)^(1/3) through n = √(μ/r³). Use :meth:`from_radius` to give r instead.
         inclination, raan: orientation of the orbit plane in the inertial frame [rad].
@@ -107,6 +108,30 @@ class CircularOrbit:
         r = check_positive_scalar(radius, "radius")
         m = check_positive_scalar(mu, "mu")
         return cls(n=float(np.sqrt(m / r**3)), mu=m, **kwargs)
+
+    @classmethod
+    def from_altitude(
+        cls,
+        altitude: float,
+        inclination: float = 0.0,
+        raan: float = 0.0,
+        arg_lat0: float = 0.0,
+        mu: float = MU_EARTH,
+        earth_radius: float = R_EARTH,
+    ) -> CircularOrbit:
+        """The circular orbit ``altitude`` [m] (> 0) above a spherical Earth of radius
+        ``earth_radius`` (WGS-84 equatorial by default), inclination and RAAN in radians:
+        r = R_e + altitude, n = √(μ/r³)."""
+        alt = check_positive_scalar(altitude, "altitude")
+        R_e = check_positive_scalar(earth_radius, "earth_radius")
+        return cls.from_radius(
+            R_e + alt, mu=mu, inclination=inclination, raan=raan, arg_lat0=arg_lat0
+        )
+
+    @property
+    def altitude(self) -> float:
+        """Height above the WGS-84 equatorial radius, r − R_e [m]."""
+        return self.radius - R_EARTH
 
     @property
     def radius(self) -> float:
@@ -170,7 +195,7 @@ class CircularOrbit:
 
 @dataclass(frozen=True)
 class EarthPointingReference:
-    """Earth-pointing attitude reference (SPEC §5.3): desired body = LVLH rotated by ``offset``.
+    """Earth-pointing attitude reference: desired body = LVLH rotated by ``offset``.
 
     R_d(t) = C(t) O,  ω_d = Oᵀ (0, −n, 0) (desired body axes),  ω̇_d = 0.
 

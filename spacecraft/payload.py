@@ -1,9 +1,10 @@
-"""Rotating payload disturbance torque and attitude-jitter estimate (SPEC §5.5, seed 003).
+"""Rotating payload disturbance torque and attitude-jitter estimate (Wang, Chu, Zhang & Yuan 2016).
 
-*Reconstructed* model (seed 003, eq. (3), its symbols rebuilt from the text: the paper's equation
-images are missing). A payload rotor A is hinged at ``hinge`` r_A (from the satellite centre of
-mass, body axes) and spins about its own z axis at ω_pz relative to the bus; α = phase + ∫ω_pz dt
-and R_A = R_mount R_z(α) maps payload axes to body axes. With mass m_A, inertia I_A about the
+*Reconstructed* model (Wang et al. 2016, eq. (3), its symbols rebuilt from the text: the paper's
+equation images are missing). A payload rotor A is hinged at ``hinge`` r_A (from the satellite
+centre of mass, body axes) and spins about its own z axis at ω_pz relative to the bus;
+α = phase + ∫ω_pz dt and R_A = R_mount R_z(α) maps payload axes to body axes. With mass m_A,
+inertia I_A about the
 hinge in payload axes (products of inertia I_xz, I_yz), hinge-to-CoM vector ρ_A (payload axes),
 ω_p = (0, 0, ω_pz) and r_c = r_A + R_A ρ_A, the torque on the bus is
 
@@ -14,16 +15,16 @@ hinge in payload axes (products of inertia I_xz, I_yz), hinge-to-CoM vector ρ_A
 
 with r̈_c = R_A (ω_p × (ω_p × ρ_A) + ω̇_p × ρ_A) (bus rotation neglected in r̈_c, as the paper).
 
-Properties (seed 003 §1.2, tested): T_pd = ω_pz² R_A (I_yz, −I_xz, 0) is perpendicular to the
-spin axis, sinusoidal at ω_pz, amplitude ω_pz² √(I_xz² + I_yz²); T_ps is a three-axis sinusoid at
-ω_pz with amplitude ∝ ω_pz² m_A √(ρ_x² + ρ_y²) that depends on r_A; several payloads add.
+Properties (Wang et al. 2016 §1.2, tested): T_pd = ω_pz² R_A (I_yz, −I_xz, 0) is perpendicular to
+the spin axis, sinusoidal at ω_pz, amplitude ω_pz² √(I_xz² + I_yz²); T_ps is a three-axis sinusoid
+at ω_pz with amplitude ∝ ω_pz² m_A √(ρ_x² + ρ_y²) that depends on r_A; several payloads add.
 
-Jitter estimate (seed 003 §1.3, eqs. (10)–(14)). The closed attitude loop of axis j is
+Jitter estimate (Wang et al. 2016 §1.3, eqs. (10)–(14)). The closed attitude loop of axis j is
 approximated by G_j(s) = 1/(J_jj (s² + 2ξω_n s + ω_n²)); a torque T_w sin(ω_p t) gives the steady
 attitude oscillation of amplitude φ_j = T_w |G_j(iω_p)| and rate amplitude ω_p φ_j; without
 control (or ω_p ≫ ω_n, eq. (14)) φ_j ≈ T_w/(J_jj ω_p²).
 
-Seed-003 calibration (:data:`SEED003_PAYLOAD`). The paper gives J = diag(520, 450, 660) kg·m²,
+Calibration (:data:`ROTATING_PAYLOAD_EXAMPLE`). The paper gives J = diag(520, 450, 660) kg·m²,
 a 90°/s payload and the predicted open-loop jitter 0.0012°, 0.0010°, 0.0011° (x, y, z), but no
 mass properties. We chose a plausible scanning-instrument rotor (25 kg, hinge 0.35/0.25/0.60 m
 from the CoM, spin axis tilted 30° from body z towards −y, then 20° about body z) and fitted the
@@ -63,10 +64,10 @@ __all__ = [
     "jitter_estimate",
     "closed_loop_gain",
     "fit_payload_imbalance",
-    "SEED003_J",
-    "SEED003_SPIN_RATE",
-    "SEED003_PUBLISHED_JITTER_DEG",
-    "SEED003_PAYLOAD",
+    "PAYLOAD_SATELLITE_J",
+    "PAYLOAD_SPIN_RATE",
+    "PAYLOAD_PUBLISHED_JITTER_DEG",
+    "ROTATING_PAYLOAD_EXAMPLE",
 ]
 
 TERM_NAMES = ("speed_change", "gyroscopic", "dynamic_imbalance", "static_imbalance")
@@ -138,7 +139,7 @@ def _readonly(a: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class RotatingPayload:
-    """One rotating payload (SPEC §5.5, *reconstructed* from seed 003).
+    """One rotating payload (*reconstructed* from Wang et al. 2016).
 
     Args:
         mass: m_A [kg] (≥ 0).
@@ -218,7 +219,7 @@ class RotatingPayload:
         return self.mount @ _rz(alpha)
 
     def torque_terms(self, t: object, omega: object) -> dict[str, np.ndarray]:
-        """The four torque terms of SPEC §5.5 on the bus [N·m], body axes.
+        """The four torque terms of the module docstring on the bus [N·m], body axes.
 
         ``t`` scalar or ``(...,)`` and ``omega`` (bus body rate) ``(..., 3)`` broadcast together;
         each term has shape ``broadcast(t.shape, omega.shape[:-1]) + (3,)``. Keys:
@@ -373,7 +374,7 @@ def harmonic_phasor(payload: RotatingPayload, n_samples: int = 16) -> tuple[np.n
     """First-harmonic phasor P ``(3,)`` (complex) of the payload torque at a bus at rest, so that
     T(t) = Re[P e^{iα(t)}], and its frequency ω_pz [rad/s]; needs a constant spin rate.
 
-    At ω = 0 and ω̇_p = 0 the torque is exactly a first harmonic of α (SPEC §5.5), so the
+    At ω = 0 and ω̇_p = 0 the torque is exactly a first harmonic of α, so the
     ``n_samples``-point DFT over one revolution is exact to round-off.
     """
     if not isinstance(payload, RotatingPayload):
@@ -393,7 +394,7 @@ def harmonic_phasor(payload: RotatingPayload, n_samples: int = 16) -> tuple[np.n
 
 
 def closed_loop_gain(J_jj: object, omega: object, omega_n: float, zeta: float) -> np.ndarray:
-    """|G_j(iω)| = 1/(J_jj |ω_n² − ω² + 2iξω_nω|) (seed 003 eq. (10)); ω_n = 0 gives the
+    """|G_j(iω)| = 1/(J_jj |ω_n² − ω² + 2iξω_nω|) (Wang et al. 2016 eq. (10)); ω_n = 0 gives the
     open-loop 1/(J_jj ω²).
 
     ``J_jj`` > 0 and ``omega`` broadcast together; ``omega_n``, ``zeta`` ≥ 0 are scalars. The
@@ -437,7 +438,7 @@ def _closed_loop_gain(J: np.ndarray, w: np.ndarray, wn: float, z: float) -> np.n
 
 @dataclass(frozen=True)
 class JitterEstimate:
-    """Per-axis steady oscillation amplitudes (seed 003 §1.3).
+    """Per-axis steady oscillation amplitudes (Wang et al. 2016 §1.3).
 
     Attributes:
         attitude, rate: closed-loop attitude [rad] and rate [rad/s] amplitudes ``(3,)``.
@@ -462,7 +463,7 @@ def jitter_estimate(
     zeta: float = 0.707,
     omega_p: float | None = None,
 ) -> JitterEstimate:
-    """Steady attitude/rate oscillation amplitudes per body axis (SPEC §5.5, seed 003 (13)–(14)).
+    """Steady attitude/rate oscillation amplitudes per body axis (Wang et al. 2016 eqs. (13)–(14)).
 
     φ_j = Σ_k T_w,kj |G_j(iω_k)|,   φ̇_j = Σ_k ω_k T_w,kj |G_j(iω_k)|,
     G_j(s) = 1/(J_jj (s² + 2ξω_n s + ω_n²)),  open loop: |G_j| = 1/(J_jj ω_k²).
@@ -584,17 +585,17 @@ def fit_payload_imbalance(
 
 
 # ---------------------------------------------------------------------------------------------
-# Seed 003 case
+# The rotating-payload paper's case (Wang, Chu, Zhang & Yuan 2016)
 
-#: Seed 003 satellite inertia [kg·m²].
-SEED003_J = np.diag([520.0, 450.0, 660.0])
-#: Seed 003 nominal payload rate, 90°/s [rad/s].
-SEED003_SPIN_RATE = float(np.deg2rad(90.0))
-#: Published predicted steady jitter amplitudes (x, y, z) [deg], seed 003 §3.
-SEED003_PUBLISHED_JITTER_DEG = np.array([0.0012, 0.0010, 0.0011])
+#: Satellite inertia of Wang, Chu, Zhang & Yuan (2016) [kg·m²].
+PAYLOAD_SATELLITE_J = np.diag([520.0, 450.0, 660.0])
+#: Nominal payload rate of Wang, Chu, Zhang & Yuan (2016), 90°/s [rad/s].
+PAYLOAD_SPIN_RATE = float(np.deg2rad(90.0))
+#: Published predicted steady jitter amplitudes (x, y, z) [deg], Wang et al. 2016 §3.
+PAYLOAD_PUBLISHED_JITTER_DEG = np.array([0.0012, 0.0010, 0.0011])
 
 
-def _seed003_mount() -> np.ndarray:
+def _example_payload_mount() -> np.ndarray:
     # spin axis tilted 30° from body z towards −y (about x), then the mount turned 20° about z
     a, b = np.deg2rad(30.0), np.deg2rad(20.0)
     Rx = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
@@ -602,13 +603,14 @@ def _seed003_mount() -> np.ndarray:
     return Rz @ Rx
 
 
-#: Calibrated seed-003 payload (see the module docstring and docs/environment.md): the output of
-#: :func:`fit_payload_imbalance` for the published amplitudes, rounded to 4 significant digits.
-SEED003_PAYLOAD = RotatingPayload(
+#: Calibrated example rotating payload (see the module docstring and docs/environment.md): the
+#: output of :func:`fit_payload_imbalance` for the published amplitudes, rounded to 4 significant
+#: digits.
+ROTATING_PAYLOAD_EXAMPLE = RotatingPayload(
     mass=25.0,
     inertia=np.array([[2.5, 0.0, -7.529e-3], [0.0, 2.5, 1.631e-2], [-7.529e-3, 1.631e-2, 1.8]]),
     hinge=np.array([0.35, 0.25, 0.60]),
     com_offset=np.array([1.037e-4, 5.452e-4, 0.2]),
-    spin_rate=SEED003_SPIN_RATE,
-    mount=_seed003_mount(),
+    spin_rate=PAYLOAD_SPIN_RATE,
+    mount=_example_payload_mount(),
 )

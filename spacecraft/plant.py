@@ -1,10 +1,10 @@
 """The attitude plant: rigid body + actuator + disturbances (+ flexible modes), RKMK4-integrated
-(SPEC §5.1, §5.4, §5.8).
+.
 
 State ``(R, ω, x_act[, q, q̇])`` with ``R ∈ SO(3)`` (body → inertial), body rate ``ω``, the
 actuator's states ``x_act`` (gimbal angles for the SGCMG pyramid) and, with flexible appendages
 (:class:`spacecraft.flexible.FlexibleModes`), the modal coordinates ``q`` and rates ``q̇``.
-Rigid equations (SPEC §5.1):
+Rigid equations:
 
     Ṙ = R ω^,
     J ω̇ = −ω × J ω + u(ω, x_act, held) + T_d(t, R, ω),
@@ -13,9 +13,9 @@ Rigid equations (SPEC §5.1):
 with ``u`` the actuator's internal torque on the bus (for the CMG cluster ``u = −A(δ) δ̇ − ω ×
 h(δ)``, which is the momentum form ``J ω̇ + ω × (J ω + h) = −ḣ + T_d``). ``held`` is the actuator
 command held over the step (see :mod:`spacecraft.actuators`). With flexible modes the body
-equation becomes the hybrid-coordinate pair of SPEC §5.4 (see :mod:`spacecraft.flexible`),
+equation becomes the hybrid-coordinate pair (see :mod:`spacecraft.flexible`),
 solved through the Schur complement ``J − BᵀB`` precomputed here. The Lie-group integrator RKMK4
-(SPEC §3.3) keeps ``R`` on SO(3) to round-off.
+ keeps ``R`` on SO(3) to round-off.
 
 Packed ℝⁿ state of the integrator (:meth:`PlantState.packed`): ``(ω, x_act, q, q̇)``, i.e. columns
 ``[0:3]``, ``Spacecraft.act_slice``, ``Spacecraft.q_slice``, ``Spacecraft.q_dot_slice``.
@@ -107,7 +107,7 @@ class PlantState:
 @dataclass(frozen=True, eq=False)
 class Spacecraft:
     """Rigid spacecraft with one actuator, optional disturbance torque and optional flexible
-    appendage modes (SPEC §5.1, §5.4).
+    appendage modes.
 
     Args:
         body: the rigid body (inertia ``J`` of the whole spacecraft; with per-spacecraft
@@ -118,12 +118,18 @@ class Spacecraft:
         disturbance: a callable ``(t, R, omega) -> (B, 3)`` body torque [N·m], or ``None``.
         modes: :class:`spacecraft.flexible.FlexibleModes`, or ``None`` (rigid). Validated
             against ``body``: ``J − BᵀB`` must be positive definite.
+        momentum_management: e.g. :class:`spacecraft.momentum.CrossProductDumping`, or
+            ``None``. An object with ``dipole(t, R, h) -> (B, 3)`` (computed from the state at
+            the start of each step and held over it) and ``torque(t, R, m) -> (B, 3)`` (an
+            external body torque added at every integration stage); it runs alongside the
+            actuator, which still takes the controller's torque.
     """
 
     body: RigidBody
     actuator: Actuator
     disturbance: DisturbanceSource | None = None
     modes: FlexibleModes | None = None
+    momentum_management: Any = None
     _Js_inv: np.ndarray | None = field(init=False, repr=False, default=None)
     _slices: tuple = field(init=False, repr=False, default=())
     _stage_attitude: bool = field(init=False, repr=False, compare=False, default=True)
@@ -137,6 +143,14 @@ class Spacecraft:
                 raise ValueError(f"actuator: has no method {name}() (see spacecraft.actuators)")
         if self.disturbance is not None and not callable(self.disturbance):
             raise ValueError("disturbance: must be callable as (t, R, omega) -> (B, 3)")
+        mm = self.momentum_management
+        if mm is not None and not all(
+            callable(getattr(mm, n, None)) for n in ("dipole", "torque")
+        ):
+            raise ValueError(
+                "momentum_management: must have methods dipole(t, R, h) and torque(t, R, m) "
+                f"(e.g. spacecraft.momentum.CrossProductDumping), got {type(mm).__name__}"
+            )
         if self.modes is not None:
             if not isinstance(self.modes, FlexibleModes):
                 raise ValueError(
@@ -158,11 +172,14 @@ class Spacecraft:
         object.__setattr__(
             self,
             "_stage_attitude",
-            self.disturbance is not None and _reads_attitude(self.disturbance),
+            (self.disturbance is not None and _reads_attitude(self.disturbance))
+            or self.momentum_management is not None,
         )
         # one rigid spacecraft may run its RK stages on Python floats (:meth:`step_packed`)
         object.__setattr__(
-            self, "_float_route", self.modes is None and self.body._J_rows is not None
+            self,
+            "_float_route",
+            self.modes is None and self.body._J_rows is not None,
         )
 
     @property
@@ -361,11 +378,13 @@ class Spacecraft:
         return np.asarray(self.disturbance(t, R, omega), dtype=np.float64)
 
     def derivatives(
-        self, t: float, R: np.ndarray, x: np.ndarray, held: Any
+        self, t: float, R: np.ndarray, x: np.ndarray, held: Any, dipole: Any = None
     ) -> tuple[np.ndarray, np.ndarray]:
         """Right-hand side for RKMK4: ``(ω, ẋ)`` with ``Ṙ = R ω^`` and ``x = (ω, x_act, q, q̇)``.
 
         ``x`` is ``(B, n_x)``; returns body rate ``(B, 3)`` and ``ẋ = (ω̇, ẋ_act, q̇, q̈)``.
+        ``dipole``: the held momentum-management dipole ``(B, 3)`` (its torque
+        ``momentum_management.torque(t, R, dipole)`` is added), or ``None``.
         """
         omega = x[:, :3]
         act = self.actuator
@@ -374,6 +393,8 @@ class Spacecraft:
         tau = act.body_torque(omega, x_act, held)
         if self.disturbance is not None:
             tau = tau + self.disturbance(t, R, omega)
+        if dipole is not None:
+            tau = tau + self.momentum_management.torque(t, R, dipole)
         x_dot = np.empty(x.shape)
         if modes is None:
             x_dot[:, :3] = self.body.angular_acceleration_unchecked(omega, tau)
@@ -403,28 +424,51 @@ class Spacecraft:
         # the stage attitudes R e^θ and passes R=None (same result, three exponentials and 3×3
         # products fewer per step)
         stage_attitude = self._stage_attitude
+        m = None
+        if self.momentum_management is not None:
+            m = self.held_dipole(t, R, x[:, self.act_slice])
         if x.shape[0] == 1 and self._float_route:
             stage = getattr(self.actuator, "float_stage", lambda held: None)(held)
             if stage is not None:
                 R_next, x_next = rkmk4_step_floats(
-                    self._float_field(stage), t, R, x[0].tolist(), h, stage_attitude
+                    self._float_field(stage, m), t, R, x[0].tolist(), h, stage_attitude
                 )
                 return R_next, np.array([x_next])
         derivatives = self.derivatives
 
         def f(tt: float, RR: np.ndarray, xx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            return derivatives(tt, RR, xx, held)
+            return derivatives(tt, RR, xx, held, m)
 
         return rkmk4_step_unchecked(f, t, R, x, h, stage_attitude=stage_attitude)
 
-    def _float_field(self, stage: Any) -> Any:
+    def held_dipole(self, t: float, R: np.ndarray, x_act: np.ndarray) -> np.ndarray | None:
+        """The momentum-management dipole ``(B, 3)`` held over the step from ``t`` (from the
+        actuator's stored momentum), or ``None`` without momentum management."""
+        mm = self.momentum_management
+        if mm is None:
+            return None
+        return np.asarray(mm.dipole(t, R, self.actuator.momentum(x_act)), dtype=np.float64)
+
+    def momentum_management_log(
+        self, t: float, R: np.ndarray, x_act: np.ndarray
+    ) -> dict[str, np.ndarray]:
+        """Log entries at ``t``: ``dipole`` held from ``t`` and its ``magnetic_torque``
+        ``(B, 3)`` (empty without momentum management)."""
+        m = self.held_dipole(t, R, x_act)
+        if m is None:
+            return {}
+        return {"dipole": m, "magnetic_torque": self.momentum_management.torque(t, R, m)}
+
+    def _float_field(self, stage: Any, dipole: np.ndarray | None = None) -> Any:
         """:meth:`derivatives` for one rigid spacecraft on Python floats (the RK stages of a
         single run: ~3× cheaper than on 1-element arrays), given the actuator's
         :meth:`~spacecraft.actuators.Actuator.float_stage`. Same arithmetic in the same order
-        (τ = u + T_d, then ω̇), so :meth:`step_packed` gives bitwise the array route's result."""
+        (τ = u + T_d [+ m × B], then ω̇), so :meth:`step_packed` gives bitwise the array route's
+        result. ``dipole``: the held momentum-management dipole ``(1, 3)`` or ``None``."""
         acc = self.body._angular_acceleration_floats
         dist = self.disturbance
         n = self.n_act
+        mm_torque = None if dipole is None else self.momentum_management.torque
 
         def f(tt: float, RR: np.ndarray | None, xx: list) -> tuple:
             w0, w1, w2 = xx[0], xx[1], xx[2]
@@ -432,22 +476,26 @@ class Spacecraft:
             if dist is not None:
                 d0, d1, d2 = np.asarray(dist(tt, RR, np.array([[w0, w1, w2]]))).ravel().tolist()
                 t0, t1, t2 = t0 + d0, t1 + d1, t2 + d2
+            if mm_torque is not None:
+                d0, d1, d2 = np.asarray(mm_torque(tt, RR, dipole)).ravel().tolist()
+                t0, t1, t2 = t0 + d0, t1 + d1, t2 + d2
             return (w0, w1, w2), [*acc(w0, w1, w2, t0, t1, t2), *xa_dot]
 
         return f
 
     def step(self, state: PlantState, held: Any, t: float, h: float) -> PlantState:
         """Advance ``state`` from ``t`` to ``t + h`` with the actuator command ``held`` fixed
-        (``held = plant.command(u_cmd, state, t)``), by one RKMK4 step (SPEC §3.3).
+        (``held = plant.command(u_cmd, state, t)``), by one RKMK4 step.
 
         Validated (:func:`liecontrol.integrators.rk.rkmk4_step` checks ``t``, ``h``, the state
         and that the right-hand side stays finite, raising ``ValueError`` otherwise).
         """
         derivatives = self.derivatives
+        state = self.check_state(state, "state")
+        m = self.held_dipole(t, state.R, state.x_act)
 
         def f(tt: float, RR: np.ndarray, xx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            return derivatives(tt, RR, xx, held)
+            return derivatives(tt, RR, xx, held, m)
 
-        state = self.check_state(state, "state")
         R, x = rkmk4_step(f, t, state.R, state.packed(), h)
         return self.unpack(R, x)

@@ -1,9 +1,9 @@
-"""Rigid spacecraft body with internal momentum devices (SPEC §5.1).
+"""Rigid spacecraft body with internal momentum devices.
 
 Total angular momentum about the centre of mass, in body axes, is ``H = J ω + h`` with ``h`` the
 momentum stored in the actuators (CMG rotors, wheels). Euler's equation in body axes:
 
-    J ω̇ + ω × (J ω + h) = −ḣ + T_d                                     (SPEC §5.1)
+    J ω̇ + ω × (J ω + h) = −ḣ + T_d
 
 Writing the internal control torque ``u = −ḣ − ω × h`` (what the actuator exerts on the bus),
 this is the familiar ``J ω̇ + ω × J ω = u + T_d``. Kinematics ``Ṙ = R ω^`` with ``R`` body →
@@ -160,7 +160,7 @@ class RigidBody:
     # -- dynamics ------------------------------------------------------------------------------
 
     def angular_acceleration(self, omega: np.ndarray, torque: np.ndarray) -> np.ndarray:
-        """``ω̇ = J⁻¹ (−ω × J ω + τ)`` with ``τ = u + T_d`` the total body torque (SPEC §5.1).
+        """``ω̇ = J⁻¹ (−ω × J ω + τ)`` with ``τ = u + T_d`` the total body torque.
 
         Args:
             omega: ``(..., 3)`` body angular velocity [rad/s] (``(..., B, 3)`` with
@@ -238,7 +238,7 @@ class RigidBody:
         h_dot: np.ndarray,
         disturbance: np.ndarray | None = None,
     ) -> np.ndarray:
-        """``ω̇ = J⁻¹ (−ω × (J ω + h) − ḣ + T_d)``, the momentum form of SPEC §5.1.
+        """``ω̇ = J⁻¹ (−ω × (J ω + h) − ḣ + T_d)``, the momentum form of Euler's equation.
 
         Equivalent to :meth:`angular_acceleration` with ``τ = −ḣ − ω × h + T_d``; kept as a
         separate entry point so tests can check the two forms against each other.
@@ -280,7 +280,7 @@ class RigidBody:
         return E
 
 
-# -- parameter uncertainty (SPEC §5.4) -------------------------------------------------------------
+# -- parameter uncertainty -------------------------------------------------------------
 
 
 def _physical(lam: np.ndarray, rtol: float = 1e-9) -> np.ndarray:
@@ -299,7 +299,7 @@ def perturbed_inertia(
     size: int | None = None,
     max_tries: int = 100,
 ) -> np.ndarray:
-    """An inertia the controller believes in, differing from the plant's ``J`` (SPEC §5.4,
+    """An inertia the controller believes in, differing from the plant's ``J`` (
     parameter uncertainty).
 
     With ``J = Q diag(λ) Qᵀ`` (principal axes ``Q``, moments ``λ``):

@@ -1,6 +1,7 @@
-"""6-DOF rigid-body plant on SE(3), chaser/target proximity operations, pose simulator (SPEC §5.6).
+"""6-DOF rigid-body plant on SE(3), chaser/target proximity operations, pose simulator.
 
-Plant (seed 002 eqs. 1–6), pose g = [[R, p], [0, 1]] (R body → inertial, p inertial position),
+Plant (Jiang, Meng & Yang 2023 eqs. 1–6), pose g = [[R, p], [0, 1]] (R body → inertial, p inertial
+position),
 body twist ξ = (ω, v) (rotation first)::
 
     ġ = g ξ^                         (Ṙ = R ω^, ṗ = R v)
@@ -14,7 +15,7 @@ Z; :mod:`spacecraft.orbit`). With r = |p|, ĉ = Rᵀp/r (body axes), J_I = R J R
 
     U(p, R) = m U₀(p) + m U₂(p) − μ tr J/(2r³) + 3μ ĉᵀJĉ/(2r³)            (potential energy)
     f_g = m (a₀ + a₂)(p) − (3/2) μ tr J p/r⁵ − 3μ J_I p/r⁵ + (15/2) μ (pᵀJ_I p) p/r⁷   (= −∂U/∂p)
-    τ_g = 3μ/r³ ĉ × Jĉ                                     (gravity-gradient torque, SPEC §5.3)
+    τ_g = 3μ/r³ ĉ × Jĉ                                     (gravity-gradient torque)
     F_g = Rᵀ f_g                                           (gravity in body axes)
 
 (``gravity_gradient=False`` keeps only the point-mass/J2 force m (a₀ + a₂) and no torque).
@@ -268,7 +269,7 @@ class IdealWrenchActuator:
 
 @dataclass(frozen=True)
 class SE3Plant:
-    """Rigid-body 6-DOF plant in a central gravity field (SPEC §5.6; module docstring).
+    """Rigid-body 6-DOF plant in a central gravity field (module docstring).
 
     Args:
         m: mass [kg] > 0; J: 3×3 inertia [kg·m²].
@@ -537,12 +538,17 @@ class PoseSimulationResult:
     """Logged pose loop: ``K`` samples of ``B`` bodies.
 
     Attributes:
-        t: ``(K,)`` [s]; g, g_d: ``(K, B, 4, 4)``; xi, xi_d: ``(K, B, 6)``;
-        wrench_cmd: ``(K, B, 6)`` controller command held from ``t`` on; wrench: ``(K, B, 6)``
-        applied (after actuator limits); saturated: ``(K, B, 6)`` bool;
-        attitude_error: ``(K, B)`` angle of R_dᵀR [rad]; position_error: ``(K, B)`` |p − p_d| [m];
-        log_error: ``(K, B, 6)`` log(g_d⁻¹ g)^∨; controller: diagnostics ``(K, B, ...)``;
-        dt, control_period [s].
+        t: ``(K,)`` sample times [s].
+        g: ``(K, B, 4, 4)`` poses; ``g_d`` the desired ones.
+        xi: ``(K, B, 6)`` body twists; ``xi_d`` the desired ones.
+        wrench_cmd: ``(K, B, 6)`` controller command held from ``t`` on.
+        wrench: ``(K, B, 6)`` wrench applied (after actuator limits).
+        saturated: ``(K, B, 6)`` bool, where a limit was active.
+        attitude_error: ``(K, B)`` angle of R_dᵀR [rad].
+        position_error: ``(K, B)`` |p − p_d| [m].
+        log_error: ``(K, B, 6)`` log(g_d⁻¹ g)^∨.
+        controller: diagnostics ``(K, B, ...)``.
+        dt: plant step [s]; ``control_period`` the controller's sampling period [s].
     """
 
     t: np.ndarray
@@ -632,12 +638,18 @@ def simulate_pose(
     finite state included), the original error chained as the cause.
 
     Args:
-        plant: :class:`SE3Plant`; controller: a :class:`PoseController` (``reset(t0, B)`` first);
-        reference: ``t -> PoseReference``; g0 ``(B, 4, 4)``, xi0 ``(B, 6)``: initial state;
-        t_final [s]: at least one step after ``t0``; not a multiple of ``dt`` → rounded up to
-        whole steps with a ``UserWarning`` (as :func:`spacecraft.simulator.simulate`);
-        dt [s] > 0; control_period: a positive integer multiple of ``dt`` (default ``dt``);
-        log_every: positive integer; t0 [s].
+        plant: the :class:`SE3Plant`.
+        controller: a :class:`PoseController` (``reset(t0, B)`` is called first).
+        reference: ``t -> PoseReference``.
+        g0: ``(B, 4, 4)`` initial poses.
+        xi0: ``(B, 6)`` initial body twists.
+        t_final: end time [s], at least one step after ``t0``; not a multiple of ``dt`` →
+            rounded up to whole steps with a ``UserWarning`` (as
+            :func:`spacecraft.simulator.simulate`).
+        dt: plant step [s] > 0.
+        control_period: a positive integer multiple of ``dt`` (default ``dt``).
+        log_every: log every this many steps (positive integer).
+        t0: start time [s].
     """
     if not isinstance(plant, SE3Plant):
         raise ValueError(f"plant: expected SE3Plant, got {type(plant).__name__}")

@@ -1,4 +1,4 @@
-"""Attitude sensors (SPEC §5.7): star tracker, rate gyro, two-vector (TRIAD) attitude.
+"""Attitude sensors: star tracker, rate gyro, two-vector (TRIAD) attitude.
 
 Sampling. Every sensor has its own ``period`` [s] (> 0). The simulator calls
 ``sensor.measure(t, R, omega, rng)`` at each sensor sample time t_k = t₀ + k·period, with the
@@ -19,14 +19,14 @@ Models:
   std b(t) − b(0) = σ_u √t (Farrenkopf's model, sampled; Crassidis & Junkins, *Optimal
   Estimation of Dynamic Systems*, §7.2.1). The bias is state: :class:`GyroState`.
 * :class:`TwoVectorAttitude`: two reference directions r₁, r₂ (inertial; e.g. gravity/sun and
-  the geomagnetic field, seed 001 §1.2) are measured in body axes, b_i = exp(δ_i^) Rᵀ r_i
+  the geomagnetic field, Wang et al. 2015 §1.2) are measured in body axes, b_i = exp(δ_i^) Rᵀ r_i
   (δ_i ~ N(0, σ_i² I)), and the attitude is solved with TRIAD (:func:`triad`), returned as Euler
-  angles (seed 001 uses roll/pitch/yaw; with ``seq="ZYX"`` the angles are (ψ, θ, φ) in the
+  angles (Wang et al. 2015 uses roll/pitch/yaw; with ``seq="ZYX"`` the angles are (ψ, θ, φ) in the
   order of ``liecontrol.charts.euler``) or a matrix.
 
 TRIAD (Black 1964; Shuster & Oh, J. Guidance Control 4(1), 1981): with the orthonormal triads
 t₁ = v₁/|v₁|, t₂ = (v₁ × v₂)/|v₁ × v₂|, t₃ = t₁ × t₂ built from the body pair (b) and the
-reference pair (r), R = [t^r] [t^b]ᵀ (body → inertial); the first vector is trusted exactly.
+reference pair (r), ``R = [t^r] [t^b]ᵀ`` (body → inertial); the first vector is trusted exactly.
 """
 
 from __future__ import annotations
@@ -132,7 +132,7 @@ def triad(b1: object, b2: object, r1: object, r2: object) -> np.ndarray:
 
 @dataclass(frozen=True)
 class StarTracker:
-    """Star tracker: true attitude × misalignment × small random rotation (SPEC §5.7).
+    """Star tracker: true attitude × misalignment × small random rotation.
 
     Args:
         noise_std: σ per body axis [rad], scalar or ``(3,)`` (≥ 0).
@@ -140,7 +140,7 @@ class StarTracker:
             ``"matrix"`` ``(B, 3, 3)``.
         seq: Euler sequence for ``output="euler"`` (scipy notation).
         period: sample period [s] (> 0).
-        misalignment: fixed mounting error as a rotation vector ``(3,)`` [rad] (seed 003
+        misalignment: fixed mounting error as a rotation vector ``(3,)`` [rad] (Wang et al. 2016
             considers installation errors).
     """
 
@@ -206,7 +206,7 @@ class GyroState:
 
 
 class RateGyro:
-    """Rate gyro with white noise and a bias random walk (SPEC §5.7); batched over B.
+    """Rate gyro with white noise and a bias random walk; batched over B.
 
     Args:
         white_std: white-noise σ_v per sample [rad/s] (scalar or ``(3,)``), or
@@ -310,15 +310,16 @@ def _direction(ref: object, name: str) -> np.ndarray | Callable[[float], np.ndar
 
 @dataclass(frozen=True)
 class TwoVectorAttitude:
-    """Two-vector attitude sensor: two measured directions → TRIAD → attitude (SPEC §5.7,
-    seed 001 §1.2: gravity from accelerometers and the geomagnetic field from magnetometers).
+    """Two-vector attitude sensor: two measured directions → TRIAD → attitude (
+    Wang, Li et al. 2015 §1.2: gravity from accelerometers and the geomagnetic field from
+    magnetometers).
 
     Args:
         ref1, ref2: reference directions in the inertial frame, ``(3,)`` or callables
             ``t -> (3,)`` (e.g. a sun or geomagnetic-field model); ``ref1`` is the trusted one.
         noise_std: angular noise σ of each measured direction [rad], scalar or a pair.
         seq: Euler sequence for ``output="euler"``.
-        output: ``"euler"`` (default, as seed 001) or ``"matrix"`` or ``"quaternion"``.
+        output: ``"euler"`` (default, as Wang et al. 2015) or ``"matrix"`` or ``"quaternion"``.
         period: sample period [s] (> 0).
     """
 

@@ -1,6 +1,6 @@
-"""Pyramid cluster of four single-gimbal control moment gyroscopes (SGCMG), SPEC §5.2.
+"""Pyramid cluster of four single-gimbal control moment gyroscopes (SGCMG).
 
-Geometry (SPEC §5.2, seed 000's actuator; c = cos β, s = sin β, β the pyramid skew angle)::
+Geometry (Wu et al.'s actuator; c = cos β, s = sin β, β the pyramid skew angle)::
 
     h₁ = (−c sin δ₁,  cos δ₁,    s sin δ₁)
     h₂ = (−cos δ₂,   −c sin δ₂,  s sin δ₂)
@@ -13,7 +13,7 @@ Each unit's momentum turns about its fixed gimbal axis gᵢ (``gimbal_axes``), s
 column is aᵢ = h₀ gᵢ × hᵢ and its derivative is ∂aᵢ/∂δᵢ = −h₀ hᵢ. Both are used below in
 closed form: one sin/cos evaluation gives h, A and everything the singularity measure needs.
 
-Singularity measure (SPEC §5.2): m = √det(Â Âᵀ) with the normalised Jacobian Â = A/h₀
+Singularity measure: m = √det(Â Âᵀ) with the normalised Jacobian Â = A/h₀
 (dimensionless; 0 at a singular configuration, at most (4/3)^{3/2} ≈ 1.54 for four unit columns).
 Its gradient follows from Jacobi's formula (derived here, not taken from a paper)::
 
@@ -95,11 +95,11 @@ def det_sym3(M: object, adj: object | None = None) -> np.ndarray:
 
 @dataclass(frozen=True)
 class SgcmgPyramid:
-    """Four-SGCMG pyramid (SPEC §5.2).
+    """Four-SGCMG pyramid.
 
     Parameters
     ----------
-    h0 : rotor angular momentum of each unit [N m s] (seed 000: 300).
+    h0 : rotor angular momentum of each unit [N m s] (Wu et al.: 300).
     beta : pyramid skew angle [rad], 0 < β < π/2 (default 54.73°, near-spherical envelope).
     gimbal_rate_limit : per-gimbal rate limit [rad/s] (applied by the plant through
         ``spacecraft.steering.saturate_gimbal_rates``).
@@ -139,12 +139,12 @@ class SgcmgPyramid:
 
     def gimbal_axes(self) -> np.ndarray:
         """Unit gimbal axes gᵢ as columns, ``(3, 4)``: g₁ = (s, 0, c), g₂ = (0, s, c),
-        g₃ = (−s, 0, c), g₄ = (0, −s, c) (derived from SPEC §5.2: gᵢ = hᵢ × ∂hᵢ/∂δᵢ)."""
+        g₃ = (−s, 0, c), g₄ = (0, −s, c) (derived from gᵢ = hᵢ × ∂hᵢ/∂δᵢ)."""
         c, s = np.cos(self.beta), np.sin(self.beta)
         return np.array([[s, 0.0, -s, 0.0], [0.0, s, 0.0, -s], [c, c, c, c]])
 
     def unit_momenta(self, delta: object) -> np.ndarray:
-        """Unit momentum vectors hᵢ(δᵢ) as columns, ``(..., 3, 4)`` (SPEC §5.2)."""
+        """Unit momentum vectors hᵢ(δᵢ) as columns, ``(..., 3, 4)``."""
         sn, cs = self._sincos(delta)
         return self._S * sn + self._C * cs
 
@@ -166,7 +166,7 @@ class SgcmgPyramid:
 
     # ------------------------------------------------------------------ singularity
     def singularity_measure(self, delta: object) -> np.ndarray:
-        """m = √det(ÂÂᵀ), Â = A/h₀ (SPEC §5.2), shape ``(...)``; 0 at singular gimbal sets."""
+        """m = √det(ÂÂᵀ), Â = A/h₀, shape ``(...)``; 0 at singular gimbal sets."""
         sn, cs = self._sincos(delta)
         Ahat = self._S * cs - self._C * sn
         M = Ahat @ np.swapaxes(Ahat, -1, -2)

@@ -1,4 +1,4 @@
-"""Fixed-step multi-rate closed-loop simulator (SPEC §5.8).
+"""Fixed-step multi-rate closed-loop simulator.
 
 One step of length ``dt`` from ``t_k = t0 + k dt``:
 
@@ -69,7 +69,7 @@ _DICT_GROUPS = (
 
 
 class SimulationDiverged(RuntimeError):
-    """The plant state became non-finite (SPEC §5.8, §9).
+    """The plant state became non-finite.
 
     Attributes:
         time: simulation time [s] at which the non-finite state appeared.
@@ -379,7 +379,7 @@ def _check_controller(controller: Any) -> None:
 
 @dataclass(frozen=True)
 class StarTrackerGyro:
-    """Measurement hook: attitude from one attitude sensor, rate from a gyro (SPEC §5.7, §5.8).
+    """Measurement hook: attitude from one attitude sensor, rate from a gyro.
 
     ``hook(t, outputs, truth) -> AttitudeState(R, omega, h)`` with ``R`` from
     ``outputs[attitude]`` and ``omega`` from ``outputs[rate]`` (the held, i.e. zero-order-held,
@@ -587,7 +587,7 @@ def simulate(
     | None = None,
     rng: np.random.Generator | None = None,
 ) -> SimulationResult:
-    """Run the closed loop from ``t0`` to ``t_final`` with fixed step ``dt`` (SPEC §5.8).
+    """Run the closed loop from ``t0`` to ``t_final`` with fixed step ``dt``.
 
     Args:
         plant: the :class:`spacecraft.plant.Spacecraft` (rigid or with flexible modes).
@@ -684,6 +684,7 @@ def simulate(
     has_modes = plant.modes is not None
     q_sl, qd_sl = plant.q_slice, plant.q_dot_slice
     has_diag = callable(getattr(ctrl, "diagnostics", None))
+    has_mm = getattr(plant, "momentum_management", None) is not None
     components = (
         plant.disturbance.components if isinstance(plant.disturbance, SumOfDisturbances) else None
     )
@@ -704,6 +705,8 @@ def simulate(
         log.u[row] = actuator.body_torque(omega, x_act, held)
         log.disturbance[row] = plant.disturbance_torque(t, R, omega)
         log.put_dict("actuator", row, actuator.log(x_act, held))
+        if has_mm:
+            log.put_dict("actuator", row, plant.momentum_management_log(t, R, x_act))
         if has_diag:
             log.put_dict("controller", row, ctrl.diagnostics())
         if components is not None:

@@ -1,4 +1,4 @@
-"""Steering laws for the SGCMG cluster (SPEC §5.2): momentum-rate command → gimbal rates.
+"""Steering laws for the SGCMG cluster: momentum-rate command → gimbal rates.
 
 Every law is a small frozen dataclass called as::
 
@@ -12,7 +12,7 @@ signature) and ``cluster`` the :class:`~spacecraft.sgcmg.SgcmgPyramid` whose Jac
 The plant should pass all of them; each law uses what it needs. Results are ``(..., n)``
 [rad/s] and finite for every finite input, including exact singularities.
 
-Laws (SPEC §5.2):
+Laws:
 
 - :class:`PseudoInverse`: δ̇ = Aᵀ(AAᵀ + ε̄ I)⁻¹ ḣ_cmd with ε̄ = ε tr(AAᵀ)/3, ε = 1e-12 (a
   Tikhonov floor, our choice): the Moore–Penrose solution up to a relative error ≈ ε̄/λ_min(AAᵀ)
@@ -22,12 +22,12 @@ Laws (SPEC §5.2):
   |ḣ_cmd|/(2√ε̄) ≈ 1.4e3 |ḣ_cmd|/h₀ — the plant's rate limit then applies. Exactly at a
   singularity the rounding residue (~1e-14 h₀) of the zero singular value is amplified by
   1/ε̄, a noise of ~1e-3 |ḣ_cmd|/h₀ in δ̇.
-- :class:`PseudoInverseNullMotion` (seed 000's law): δ̇ = A⁺ḣ_cmd + k (I − A⁺A) ∇_δ m; the
+- :class:`PseudoInverseNullMotion` (Wu et al.'s law): δ̇ = A⁺ḣ_cmd + k (I − A⁺A) ∇_δ m; the
   second term lies in the null space of A (produces no torque) and climbs m.
 - :class:`SingularityRobust` (Nakamura–Hanafusa / Bedrossian): δ̇ = Âᵀ(ÂÂᵀ + λI)⁻¹ ḣ_cmd / s
   = Aᵀ(AAᵀ + λ s² I)⁻¹ ḣ_cmd, λ = λ₀ exp(−μ m²), with the dimensionless Jacobian Â = A/s and
   s = √(‖A‖²_F / n) the RMS column norm. For the SGCMG pyramid every column of A has norm h₀, so
-  s = h₀ exactly and m = √det(ÂÂᵀ) is the SPEC's singularity measure; λ₀ is therefore
+  s = h₀ exactly and m = √det(ÂÂᵀ) is the singularity measure used here; λ₀ is therefore
   dimensionless and the defaults do not depend on h₀.
 
 - :class:`GeneralizedSingularityRobust` (Wie 2005): δ̇ = Aᵀ(AAᵀ + λ s² E(t))⁻¹ ḣ_cmd with the
@@ -351,7 +351,7 @@ def pseudo_inverse(A: object, eps: float = PINV_EPS) -> np.ndarray:
 
 
 def singularity_robust_inverse(A: object, lam: object, eps: float = PINV_EPS) -> np.ndarray:
-    """SR inverse Aᵀ(AAᵀ + λI)⁻¹, ``(..., n, 3)`` (Nakamura–Hanafusa 1986; SPEC §5.2).
+    """SR inverse Aᵀ(AAᵀ + λI)⁻¹, ``(..., n, 3)`` (Nakamura–Hanafusa 1986).
 
     ``lam`` ≥ 0 (scalar or batch-shaped ``(...)``) is in the units of AAᵀ (for the SGCMG:
     [N m s]²; the :class:`SingularityRobust` law passes λ h₀²). The tiny floor ε tr(AAᵀ)/3 of
@@ -578,7 +578,7 @@ class SteeringLaw(abc.ABC):
 
 @dataclass(frozen=True)
 class PseudoInverse(SteeringLaw):
-    """Moore–Penrose steering δ̇ = Aᵀ(AAᵀ)⁻¹ ḣ_cmd (SPEC §5.2), with the relative floor
+    """Moore–Penrose steering δ̇ = Aᵀ(AAᵀ)⁻¹ ḣ_cmd, with the relative floor
     ``eps`` (see :func:`pseudo_inverse`) so that exact singularities give finite rates."""
 
     eps: float = PINV_EPS
@@ -601,13 +601,13 @@ def _zero_lambda(m2: float, s2: float) -> float:
 
 @dataclass(frozen=True)
 class PseudoInverseNullMotion(SteeringLaw):
-    """Pseudo-inverse plus null motion (seed 000's law, SPEC §5.2)::
+    """Pseudo-inverse plus null motion (Wu et al.'s law)::
 
         δ̇ = A⁺ ḣ_cmd + k (I − A⁺A) ∇_δ m,
 
     ∇_δ m from :meth:`SgcmgPyramid.singularity_measure_and_gradient` (m with Â = A/h₀, so k is
     in rad/s per unit of |∇m| [1/rad]). A (I − A⁺A) = 0, so the null term adds no torque, and
-    ∇mᵀ(I − A⁺A)∇m = |(I − A⁺A)∇m|² ≥ 0, so it never decreases m to first order. Seed 000 does
+    ∇mᵀ(I − A⁺A)∇m = |(I − A⁺A)∇m|² ≥ 0, so it never decreases m to first order. Wu et al. do
     not give k (*reconstructed* default 0.01 rad/s: keeps the null-motion rates at the paper's
     scale of < 0.02 rad/s). ``delta`` is required; ``cluster`` is taken from the call or, if
     not given there, from the field (``A`` must be that cluster's Jacobian at ``delta``).
@@ -666,7 +666,7 @@ class PseudoInverseNullMotion(SteeringLaw):
 
 @dataclass(frozen=True)
 class SingularityRobust(SteeringLaw):
-    """Singularity-robust inverse (Nakamura & Hanafusa 1986; Bedrossian 1990; SPEC §5.2)::
+    """Singularity-robust inverse (Nakamura & Hanafusa 1986; Bedrossian 1990)::
 
         δ̇ = Aᵀ(AAᵀ + λ s² I)⁻¹ ḣ_cmd,  λ = λ₀ exp(−μ m²),
 

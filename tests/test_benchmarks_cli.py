@@ -31,7 +31,7 @@ from benchmarks.runner import (
     run_suite,
     sampled_for,
 )
-from benchmarks.scenarios import QUICK_SUITE, SEED000_SPACECRAFT, get_scenario, rest_to_rest
+from benchmarks.scenarios import QUICK_SUITE, SGCMG_SPACECRAFT, get_scenario, rest_to_rest
 from liecontrol.control import AttitudeController, AttitudeState, ConstantAttitude
 
 
@@ -107,15 +107,11 @@ def test_horizon_scale_controller_subset_and_scenario_file(tmp_path):
     )  # fmt: skip
     assert code == 0
     doc = _strict_json((out / "metrics.json").read_text(encoding="utf-8"))
-    assert [s["name"] for s in doc["scenarios"]] == [
-        "stabilisation",
-        "slew-90",
-        "slew-179",
-        "proximity-approach",
-        "mine",
-    ]
+    assert [s["name"] for s in doc["scenarios"]] == [s.name for s in QUICK_SUITE] + ["mine"]
     # 20 s × 0.005 = one step of dt = 0.1 s (a horizon shorter than a step is an error)
-    assert [s["duration"] for s in doc["scenarios"]] == [3.0, 3.0, 3.0, 2.0, 0.1]
+    assert [s["duration"] for s in doc["scenarios"]] == pytest.approx(
+        [0.005 * s.duration for s in QUICK_SUITE] + [0.1]
+    )
     assert {r["controller"] for r in doc["results"]} == {"geometric-pd-log", "mrp-pd"}
     assert not (out / "figures").exists()
     # a file alone runs only its scenarios
@@ -147,7 +143,7 @@ def test_bad_input_gives_clear_errors(tmp_path, capsys):
     assert cli.main(["throughput", "--controller", "nope"]) == 2
     assert "valid controllers" in capsys.readouterr().err
     with pytest.raises(ValueError, match="^name: unknown controller"):
-        make_controller("nope", SEED000_SPACECRAFT)
+        make_controller("nope", SGCMG_SPACECRAFT)
     with pytest.raises(ValueError, match="^name: controller 'geometric-pd-log' is already"):
         register("geometric-pd-log", lambda ctx: None)
     with pytest.raises(ValueError, match="^plants"):
@@ -281,13 +277,13 @@ def test_stacked_controller_equals_separate_controllers():
     R_d = Rotation.random(2, random_state=rng).as_matrix()
     refs = (ConstantAttitude(R_d[0]), ConstantAttitude(R_d[1]))
     names = ("geometric-pd-trace", "geometric-pd-log")
-    members = [TimedController(make_controller(n, SEED000_SPACECRAFT)) for n in names]
+    members = [TimedController(make_controller(n, SGCMG_SPACECRAFT)) for n in names]
     stacked = StackedController(members, [1, 2])
     stacked.reset(0.0, 3)
     ref = StackedReference(refs, (1, 2))
     u = stacked.command(0.0, AttitudeState(R, w), ref(0.0))
     for i, (n, sl) in enumerate(zip(names, (slice(0, 1), slice(1, 3)), strict=True)):
-        c = make_controller(n, SEED000_SPACECRAFT)
+        c = make_controller(n, SGCMG_SPACECRAFT)
         c.reset(0.0, sl.stop - sl.start)
         np.testing.assert_allclose(u[sl], c.command(0.0, AttitudeState(R[sl], w[sl]), refs[i](0.0)))
         assert members[i].calls == 1 and members[i].mean_time_per_call > 0
@@ -298,7 +294,7 @@ def test_stacked_controller_equals_separate_controllers():
 
 
 def test_held_controller_samples_at_its_own_period():
-    inner = TimedController(make_controller("geometric-pd-log", SEED000_SPACECRAFT))
+    inner = TimedController(make_controller("geometric-pd-log", SGCMG_SPACECRAFT))
     held = HeldController(inner, 1.0)
     held.reset(0.0, 1)
     R = np.eye(3)[None]

@@ -94,7 +94,13 @@ def _log() -> tuple[Log, np.ndarray, np.ndarray]:
 def test_every_metric_against_a_hand_computation():
     log, a, adot = _log()
     t = log.t
-    m = compute_metrics(log, gimbal_rate_limit=2.0, wheel_max_speed=[600.0, 600.0, 500.0, 600.0])
+    from spacecraft.actuators import ReactionWheelAssembly
+
+    limits = [600.0, 600.0, 500.0, 600.0]
+    wheels = ReactionWheelAssembly.pyramid(max_speed=limits)
+    m = compute_metrics(
+        log, gimbal_rate_limit=2.0, wheel_max_speed=limits, momentum_actuator=wheels
+    )
     got = m.as_dict(0)
     theta = np.abs(a)
     win = t >= 9.0 - 1e-9
@@ -127,6 +133,9 @@ def test_every_metric_against_a_hand_computation():
         "unwinding_ratio": sp_trapezoid(rate, t) / 30.0,
         "unwound": False,
         "command_reversals": 9.0,
+        # wheels: max_i |Ω_i|/Ω_max,i over the run (450/500) and at the last sample (all 0)
+        "peak_momentum_fraction": 0.9,
+        "final_momentum_fraction": 0.0,
     }
     # the dict covers every field, so a new metric without a hand value fails here
     assert set(expected) == {f.name for f in dataclasses.fields(Metrics)}

@@ -11,9 +11,10 @@ import pytest
 from liecontrol.integrators.rk import rkmk4_step_floats, rkmk4_step_unchecked
 from liecontrol.lie import so3
 from spacecraft import (
-    SEED003_PAYLOAD,
+    ROTATING_PAYLOAD_EXAMPLE,
     CircularOrbit,
     CmgCommand,
+    ConstantHarmonicTorque,
     GeneralizedSingularityRobust,
     GravityGradientTorque,
     IdealTorqueActuator,
@@ -21,7 +22,6 @@ from spacecraft import (
     PseudoInverseNullMotion,
     RigidBody,
     RotatingPayloadTorque,
-    Seed000Disturbance,
     SgcmgActuator,
     SgcmgPyramid,
     SingularityRobust,
@@ -75,9 +75,9 @@ def test_float_rkmk4_step_is_bitwise_the_array_step(stage_attitude):
     "disturbance",
     [
         None,
-        Seed000Disturbance(),
+        ConstantHarmonicTorque(),
         SumOfDisturbances(
-            {"s": Seed000Disturbance(), "p": RotatingPayloadTorque([SEED003_PAYLOAD])}
+            {"s": ConstantHarmonicTorque(), "p": RotatingPayloadTorque([ROTATING_PAYLOAD_EXAMPLE])}
         ),
         GravityGradientTorque(J, CircularOrbit()),
     ],
@@ -228,12 +228,12 @@ def test_column_wise_rate_limit_equals_reduction():
 
 
 def test_payload_float_torque_equals_torque_terms():
-    src = RotatingPayloadTorque([SEED003_PAYLOAD])
+    src = RotatingPayloadTorque([ROTATING_PAYLOAD_EXAMPLE])
     rng = np.random.default_rng(8)
     for B in (1, 4):
         for t in (0.0, 2.7, 91.3):
             w = 0.01 * rng.normal(size=(B, 3))
-            ref = SEED003_PAYLOAD.torque(t, w)
+            ref = ROTATING_PAYLOAD_EXAMPLE.torque(t, w)
             np.testing.assert_allclose(src(t, None, w), ref, rtol=1e-12, atol=1e-15)
 
 
@@ -250,7 +250,7 @@ def test_star_tracker_cached_misalignment():
     np.testing.assert_array_equal(got0, R @ so3.exp(np.zeros(3)) @ so3.exp(delta))
 
 
-@pytest.mark.parametrize("disturbance", [None, Seed000Disturbance()])
+@pytest.mark.parametrize("disturbance", [None, ConstantHarmonicTorque()])
 @pytest.mark.parametrize("B", [3, 600])  # 600: the column-wise cross product (≥ 512 rows)
 def test_per_spacecraft_inertia_step_is_bitwise_the_float_route(disturbance, B):
     """The (B, 3, 3) inertia route sums J ω and J⁻¹ r in the float route's order: every

@@ -17,8 +17,8 @@ from liecontrol.control import ConstantAttitude
 from liecontrol.control.geometric_pd import GeometricPD, gains_from_bandwidth
 from liecontrol.lie import so3
 from spacecraft import (
-    SEED003_J,
-    SEED003_PAYLOAD,
+    PAYLOAD_SATELLITE_J,
+    ROTATING_PAYLOAD_EXAMPLE,
     IdealTorqueActuator,
     RigidBody,
     RotatingPayloadTorque,
@@ -31,16 +31,18 @@ DT = 0.1  # 40 steps per payload revolution (4 s)
 
 
 def _steady_amplitude(omega_n, zeta, t_final, t_settle, dt=DT):
-    kR, kW = gains_from_bandwidth(SEED003_J, omega_n, zeta, error="log", matrix=True)
-    ctrl = GeometricPD(SEED003_J, kR, kW, error="log")
+    kR, kW = gains_from_bandwidth(PAYLOAD_SATELLITE_J, omega_n, zeta, error="log", matrix=True)
+    ctrl = GeometricPD(PAYLOAD_SATELLITE_J, kR, kW, error="log")
     plant = Spacecraft(
-        RigidBody(SEED003_J), IdealTorqueActuator(), RotatingPayloadTorque([SEED003_PAYLOAD])
+        RigidBody(PAYLOAD_SATELLITE_J),
+        IdealTorqueActuator(),
+        RotatingPayloadTorque([ROTATING_PAYLOAD_EXAMPLE]),
     )
     res = simulate(
         plant, ctrl, ConstantAttitude(np.eye(3)), plant.initial_state(np.eye(3)), t_final, dt
     )
     theta = so3.log(res.R[:, 0])  # small-angle attitude about the inertial target, body axes
-    wp = SEED003_PAYLOAD.constant_rate
+    wp = ROTATING_PAYLOAD_EXAMPLE.constant_rate
     m = res.t >= t_settle
     t = res.t[m]
     A = np.column_stack([np.ones_like(t), t - t.mean(), np.cos(wp * t), np.sin(wp * t)])
@@ -56,7 +58,7 @@ def test_jitter_estimate_matches_simulation_when_payload_is_fast():
     and its open-loop approximation T_w/(J_jj ω_p²))."""
     omega_n, zeta = 0.1, 0.7
     fit, peak = _steady_amplitude(omega_n, zeta, t_final=170.0, t_settle=130.0)
-    est = jitter_estimate(SEED003_PAYLOAD, SEED003_J, omega_n=omega_n, zeta=zeta)
+    est = jitter_estimate(ROTATING_PAYLOAD_EXAMPLE, PAYLOAD_SATELLITE_J, omega_n=omega_n, zeta=zeta)
     np.testing.assert_allclose(fit, est.attitude, rtol=0.10)
     np.testing.assert_allclose(peak, est.attitude, rtol=0.10)
     np.testing.assert_allclose(fit, est.open_loop_attitude, rtol=0.10)
@@ -71,7 +73,7 @@ def test_jitter_estimate_tracks_the_closed_loop_gain():
     shifts the stiff loop's response by ~3 % at dt = 0.1 s, ~0.8 % at dt = 0.025 s."""
     omega_n, zeta = 0.8, 0.2
     fit, _ = _steady_amplitude(omega_n, zeta, t_final=80.0, t_settle=40.0, dt=0.025)
-    est = jitter_estimate(SEED003_PAYLOAD, SEED003_J, omega_n=omega_n, zeta=zeta)
+    est = jitter_estimate(ROTATING_PAYLOAD_EXAMPLE, PAYLOAD_SATELLITE_J, omega_n=omega_n, zeta=zeta)
     assert np.all(est.attitude > 1.2 * est.open_loop_attitude)
     np.testing.assert_allclose(fit, est.attitude, rtol=0.03)
     assert np.all(np.abs(fit / est.open_loop_attitude - 1.0) > 0.1)
@@ -81,19 +83,21 @@ def test_attitude_stays_at_the_target():
     """The payload torque has no mean at a bus at rest: the loop holds the target (bias ≪
     jitter), so the jitter is the whole pointing error."""
     omega_n = 0.1
-    kR, kW = gains_from_bandwidth(SEED003_J, omega_n, 0.7, error="log", matrix=True)
+    kR, kW = gains_from_bandwidth(PAYLOAD_SATELLITE_J, omega_n, 0.7, error="log", matrix=True)
     plant = Spacecraft(
-        RigidBody(SEED003_J), IdealTorqueActuator(), RotatingPayloadTorque([SEED003_PAYLOAD])
+        RigidBody(PAYLOAD_SATELLITE_J),
+        IdealTorqueActuator(),
+        RotatingPayloadTorque([ROTATING_PAYLOAD_EXAMPLE]),
     )
     res = simulate(
         plant,
-        GeometricPD(SEED003_J, kR, kW, error="log"),
+        GeometricPD(PAYLOAD_SATELLITE_J, kR, kW, error="log"),
         ConstantAttitude(np.eye(3)),
         plant.initial_state(np.eye(3)),
         60.0,
         DT,
         log_every=5,
     )
-    est = jitter_estimate(SEED003_PAYLOAD, SEED003_J, omega_n=omega_n, zeta=0.7)
+    est = jitter_estimate(ROTATING_PAYLOAD_EXAMPLE, PAYLOAD_SATELLITE_J, omega_n=omega_n, zeta=0.7)
     # transient included: the start-up excursion stays within a few times the jitter/rate ratio
     assert res.attitude_error_angle().max() < 20.0 * np.linalg.norm(est.attitude)

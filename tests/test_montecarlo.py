@@ -26,7 +26,7 @@ from benchmarks.montecarlo import (
     run_montecarlo,
     write_montecarlo_report,
 )
-from benchmarks.scenarios import SEED000_SPACECRAFT, scale_principal_moments
+from benchmarks.scenarios import SGCMG_SPACECRAFT, scale_principal_moments
 from liecontrol.control import AttitudeController
 
 CFG = MonteCarloConfig(n_samples=6, chunk_size=3, duration=20.0, seed=7)
@@ -65,12 +65,12 @@ def test_samples_are_seeded_haar_and_physical():
     assert np.all(s.inertia_scale.min(axis=0) < 0.81) and np.all(s.inertia_scale.max(axis=0) > 1.19)
     lam = np.linalg.eigvalsh(s.J)
     assert np.all(lam[:, 0] + lam[:, 1] >= lam[:, 2])
-    lam0, V = np.linalg.eigh(SEED000_SPACECRAFT.J)
+    lam0, V = np.linalg.eigh(SGCMG_SPACECRAFT.J)
     np.testing.assert_allclose(
         np.einsum("ji,bjk,ki->bi", V, s.J, V), lam0 * s.inertia_scale, rtol=1e-12
     )
     for k in (0, 1, 3999):  # the scenarios' single-matrix route
-        Jk = scale_principal_moments(SEED000_SPACECRAFT.J, s.inertia_scale[k])
+        Jk = scale_principal_moments(SGCMG_SPACECRAFT.J, s.inertia_scale[k])
         np.testing.assert_allclose(s.J[k], Jk, rtol=0, atol=1e-12 * np.abs(Jk).max())
     again = chunk_samples(cfg, 0)
     np.testing.assert_array_equal(again.R0, s.R0)
@@ -320,4 +320,4 @@ def test_config_validation():
         run_montecarlo(("nope",), CFG, progress=False)
     with pytest.raises(ValueError, match="^controllers: 'se3-tracking' does not apply"):
         run_montecarlo(("se3-tracking",), CFG, progress=False)
-    assert MonteCarloConfig().spacecraft == SEED000_SPACECRAFT
+    assert MonteCarloConfig().spacecraft == SGCMG_SPACECRAFT

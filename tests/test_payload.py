@@ -11,10 +11,10 @@ from scipy.spatial.transform import Rotation
 
 from spacecraft.disturbances import SumOfDisturbances
 from spacecraft.payload import (
-    SEED003_J,
-    SEED003_PAYLOAD,
-    SEED003_PUBLISHED_JITTER_DEG,
-    SEED003_SPIN_RATE,
+    PAYLOAD_PUBLISHED_JITTER_DEG,
+    PAYLOAD_SATELLITE_J,
+    PAYLOAD_SPIN_RATE,
+    ROTATING_PAYLOAD_EXAMPLE,
     RotatingPayload,
     RotatingPayloadTorque,
     SpinRamp,
@@ -22,7 +22,7 @@ from spacecraft.payload import (
     jitter_estimate,
 )
 
-W = SEED003_SPIN_RATE  # 90°/s
+W = PAYLOAD_SPIN_RATE  # 90°/s
 MOUNT = Rotation.from_euler("ZYX", [0.5, 0.3, -0.8]).as_matrix()
 HINGE = np.array([0.4, -0.3, 0.7])
 
@@ -204,7 +204,7 @@ def test_two_payloads_add():
     t, T = _series(p1)
     _, Tq = _series(q)
     amp, _ = _harmonic_fit(t, T + Tq, W)
-    est = jitter_estimate([p1, q], SEED003_J)
+    est = jitter_estimate([p1, q], PAYLOAD_SATELLITE_J)
     np.testing.assert_allclose(est.torque_amplitude[0], amp, rtol=1e-10)
 
 
@@ -260,7 +260,7 @@ def _steady_amplitude(J, c, k, Tw, w, t_end):
     ],
 )
 def test_jitter_estimate_vs_forced_response(w_n, zeta, w_p):
-    J = SEED003_J
+    J = PAYLOAD_SATELLITE_J
     Tw = np.array([0.03, 0.02, 0.025])
     est = jitter_estimate(Tw, J, omega_n=w_n, zeta=zeta, omega_p=w_p)
     for j in range(3):
@@ -276,10 +276,10 @@ def test_jitter_estimate_vs_forced_response(w_n, zeta, w_p):
 def test_jitter_estimate_vs_rigid_body_simulation():
     """Payload torques (full model) on a rigid body under per-axis PD: steady attitude amplitude
     vs the estimator (solve_ivp, small-angle attitude)."""
-    J = SEED003_J
+    J = PAYLOAD_SATELLITE_J
     w_n, zeta = 0.5, 0.7
     Kp, Kd = J * w_n**2, J * 2 * zeta * w_n
-    p = SEED003_PAYLOAD
+    p = ROTATING_PAYLOAD_EXAMPLE
     src = RotatingPayloadTorque([p])
 
     def f(t, y):
@@ -297,10 +297,12 @@ def test_jitter_estimate_vs_rigid_body_simulation():
 
 
 def test_seed003_calibration_matches_published():
-    est = jitter_estimate(SEED003_PAYLOAD, SEED003_J, omega_n=2 * np.pi * 0.02, zeta=0.707)
+    est = jitter_estimate(
+        ROTATING_PAYLOAD_EXAMPLE, PAYLOAD_SATELLITE_J, omega_n=2 * np.pi * 0.02, zeta=0.707
+    )
     ol = np.rad2deg(est.open_loop_attitude)
-    np.testing.assert_allclose(ol, SEED003_PUBLISHED_JITTER_DEG, rtol=0.2)
-    np.testing.assert_allclose(ol, SEED003_PUBLISHED_JITTER_DEG, rtol=1e-3)  # actually ~0.03 %
+    np.testing.assert_allclose(ol, PAYLOAD_PUBLISHED_JITTER_DEG, rtol=0.2)
+    np.testing.assert_allclose(ol, PAYLOAD_PUBLISHED_JITTER_DEG, rtol=1e-3)  # actually ~0.03 %
     # ω_p ≫ ω_n: the closed loop barely changes it (seed 003 eq. (14))
     np.testing.assert_allclose(est.attitude, est.open_loop_attitude, rtol=0.01)
     # published peak rate "about 0.002°/s" before compensation
@@ -308,19 +310,19 @@ def test_seed003_calibration_matches_published():
     # the fitting helper reaches the published numbers (a one-parameter family of solutions:
     # 3 amplitudes, 4 imbalance parameters; x0 near the documented one)
     p = fit_payload_imbalance(
-        np.deg2rad(SEED003_PUBLISHED_JITTER_DEG),
-        SEED003_J,
+        np.deg2rad(PAYLOAD_PUBLISHED_JITTER_DEG),
+        PAYLOAD_SATELLITE_J,
         W,
-        mass=SEED003_PAYLOAD.mass,
-        principal_inertia=np.diag(SEED003_PAYLOAD.inertia),
-        hinge=SEED003_PAYLOAD.hinge,
-        mount=SEED003_PAYLOAD.mount,
-        com_offset_z=SEED003_PAYLOAD.com_offset[2],
+        mass=ROTATING_PAYLOAD_EXAMPLE.mass,
+        principal_inertia=np.diag(ROTATING_PAYLOAD_EXAMPLE.inertia),
+        hinge=ROTATING_PAYLOAD_EXAMPLE.hinge,
+        mount=ROTATING_PAYLOAD_EXAMPLE.mount,
+        com_offset_z=ROTATING_PAYLOAD_EXAMPLE.com_offset[2],
         x0=[-7.5e-3, 1.6e-2, 1e-4, 5e-4],
     )
     np.testing.assert_allclose(
-        np.rad2deg(jitter_estimate(p, SEED003_J).open_loop_attitude),
-        SEED003_PUBLISHED_JITTER_DEG,
+        np.rad2deg(jitter_estimate(p, PAYLOAD_SATELLITE_J).open_loop_attitude),
+        PAYLOAD_PUBLISHED_JITTER_DEG,
         rtol=1e-6,
     )
 
@@ -330,7 +332,7 @@ def test_fit_refuses_unreachable_targets():
     with pytest.raises(ValueError, match="^target_attitude:"):
         fit_payload_imbalance(
             np.deg2rad([0.0012, 0.0010, 0.0011]),
-            SEED003_J,
+            PAYLOAD_SATELLITE_J,
             W,
             mass=25.0,
             principal_inertia=[2.5, 2.5, 1.8],
@@ -370,17 +372,17 @@ def test_bad_jitter_and_profile_inputs():
     with pytest.raises(ValueError, match="^duration:"):
         SpinRamp(1.0, 2.0, 0.0, 0.0)
     with pytest.raises(ValueError, match="^omega_p:"):
-        jitter_estimate([0.1, 0.1, 0.1], SEED003_J)
+        jitter_estimate([0.1, 0.1, 0.1], PAYLOAD_SATELLITE_J)
     with pytest.raises(ValueError, match="^source:"):
-        jitter_estimate([0.1, 0.1], SEED003_J, omega_p=1.0)
+        jitter_estimate([0.1, 0.1], PAYLOAD_SATELLITE_J, omega_p=1.0)
     with pytest.raises(ValueError, match="^omega_n:"):
-        jitter_estimate(SEED003_PAYLOAD, SEED003_J, omega_n=-1.0)
+        jitter_estimate(ROTATING_PAYLOAD_EXAMPLE, PAYLOAD_SATELLITE_J, omega_n=-1.0)
     with pytest.raises(ValueError, match="^J:"):
-        jitter_estimate(SEED003_PAYLOAD, np.diag([1.0, 1.0, 5.0]))
+        jitter_estimate(ROTATING_PAYLOAD_EXAMPLE, np.diag([1.0, 1.0, 5.0]))
     with pytest.raises(ValueError, match="^payloads:"):
         RotatingPayloadTorque([])
     with pytest.raises(ValueError, match="^omega:"):
-        SEED003_PAYLOAD.torque(0.0, np.zeros((2, 2)))
+        ROTATING_PAYLOAD_EXAMPLE.torque(0.0, np.zeros((2, 2)))
     ramp = RotatingPayload(1.0, np.eye(3), np.zeros(3), np.zeros(3), SpinRamp(0, 1, 0, 1))
     with pytest.raises(ValueError, match="^payload:"):
-        jitter_estimate(ramp, SEED003_J)
+        jitter_estimate(ramp, PAYLOAD_SATELLITE_J)

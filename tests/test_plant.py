@@ -13,12 +13,12 @@ from scipy.spatial.transform import Rotation
 from liecontrol.lie import so3
 from spacecraft import (
     CmgCommand,
+    ConstantHarmonicTorque,
     ConstantTorque,
     IdealTorqueActuator,
     PlantState,
     PseudoInverse,
     RigidBody,
-    Seed000Disturbance,
     SgcmgActuator,
     SgcmgPyramid,
     SingularityRobust,
@@ -74,7 +74,7 @@ def test_momentum_form_equals_internal_torque_form(w, h, hdot, td):
 # ----------------------------------------------------------------------------- disturbances
 def test_seed000_disturbance_values():
     n = 0.0011
-    d = Seed000Disturbance(n=n)
+    d = ConstantHarmonicTorque(n=n)
     R = np.broadcast_to(np.eye(3), (2, 3, 3))
     w = np.zeros((2, 3))
     np.testing.assert_allclose(d(0.0, R, w), [[0.02, 0.08, 0.02]] * 2, atol=1e-15)
@@ -83,9 +83,10 @@ def test_seed000_disturbance_values():
     t = np.pi / (4 * n)  # sin nt = √2/2, sin 2nt = 1
     s = np.sqrt(0.5)
     expect = [0.02 + 0.02 * s + 0.01, 0.08 + 0.04 * s + 0.01, 0.02 + 0.02 * s + 0.01]
-    np.testing.assert_allclose(Seed000Disturbance(n=n, scale=3.0)(t, R, w)[1], 3 * np.array(expect))
+    scaled = ConstantHarmonicTorque(n=n, scale=3.0)(t, R, w)[1]
+    np.testing.assert_allclose(scaled, 3 * np.array(expect))
     with pytest.raises(ValueError, match="^n:"):
-        Seed000Disturbance(n=0.0)
+        ConstantHarmonicTorque(n=0.0)
 
 
 def test_disturbances_compose():
@@ -94,7 +95,7 @@ def test_disturbances_compose():
     w = rng.normal(size=(4, 3))
     bias = ConstantTorque([0.1, -0.2, 0.3])
     per_sc = ConstantTorque(rng.normal(size=(4, 3)))
-    seed = Seed000Disturbance()
+    seed = ConstantHarmonicTorque()
     total = SumOfDisturbances(
         {"bias": bias, "per_sc": per_sc, "seed": seed, "zero": ZeroDisturbance()}
     )
@@ -493,7 +494,7 @@ def test_batched_inertia_simulation_equals_per_spacecraft_runs():
     spacecraft flown one by one, each with its own J, under a controller with the nominal J."""
     B = 4
     Js = _inertias(B)
-    plant, R0, w0, fly = _flight(Js, B, disturbance=Seed000Disturbance())
+    plant, R0, w0, fly = _flight(Js, B, disturbance=ConstantHarmonicTorque())
     res = fly(plant, R0, w0)
     assert np.abs(res.omega[-1]).max() > 0  # a real manoeuvre, not a trivial rest
     for b in range(B):

@@ -26,7 +26,7 @@ from liecontrol.control.prescribed_performance import (
 from liecontrol.integrators import rkmk4_step
 from liecontrol.lie import so3
 from spacecraft import (
-    Seed000Disturbance,
+    ConstantHarmonicTorque,
     simulate,
 )
 
@@ -325,7 +325,7 @@ def test_funnel_is_never_left_on_the_sgcmg_spacecraft(case, rho_inf):
     initial errors. With the seed-000 disturbance, ρ_∞ = 0.003 is below the steady error the
     linear design (a PD with the same ω_n) would leave, max_i |K_R⁻¹ d|_i ≈ 0.007: the funnel
     forces the error down."""
-    dist = None if case == "nominal" else Seed000Disturbance()
+    dist = None if case == "nominal" else ConstantHarmonicTorque()
     plant = seed000_spacecraft(dist)
     decay = 0.01
     ctrl = PrescribedPerformance(J, rho_inf=rho_inf, decay=decay)

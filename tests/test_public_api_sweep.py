@@ -152,9 +152,41 @@ def _orbit():
 
 
 def _payload():
-    from spacecraft import SEED003_PAYLOAD
+    from spacecraft import ROTATING_PAYLOAD_EXAMPLE
 
-    return SEED003_PAYLOAD
+    return ROTATING_PAYLOAD_EXAMPLE
+
+
+def _plates():
+    from spacecraft.surface_forces import box_plates
+
+    return box_plates([1.0, 2.0, 1.5], [0.0, 0.0, 0.2])
+
+
+def _surface_forces_overrides() -> dict[str, dict[str, Callable[[], Any]]]:
+    """Examples for the environment torques (spacecraft.surface_forces)."""
+    mod = "spacecraft.surface_forces."
+    return {
+        mod + "Plate": {"area": lambda: 2.0, "normal": lambda: np.array([0.0, 0.6, 0.8])},
+        mod + "box_plates": {"size": lambda: np.array([1.0, 2.0, 1.5])},
+        mod + "sun_position_au": {"jd": lambda: 2453827.5},
+        mod + "in_cylindrical_shadow": {"sun_direction": lambda: np.array([1.0, 0.2, 0.1])},
+        mod + "aerodynamic_torque": {
+            "plates": _plates,
+            "velocity": lambda: np.array([7000.0, 500.0, -200.0]),
+            "density": lambda: 1e-12,
+        },
+        mod + "solar_pressure_torque": {
+            "plates": _plates,
+            "sun_direction": lambda: np.array([0.3, 0.5, 0.8]),
+        },
+        mod + "AerodynamicTorque": {"plates": _plates, "orbit": _orbit},
+        mod + "SolarPressureTorque": {"plates": _plates, "orbit": _orbit},
+        mod + "ResidualDipoleTorque": {
+            "dipole": lambda: np.array([1.0, -0.5, 0.2]),
+            "orbit": _orbit,
+        },
+    }
 
 
 def _spacecraft_spec():
@@ -308,6 +340,14 @@ NAME_EXAMPLES: dict[str, Callable[[], Any]] = {
     "result": _sim_result,
     "angle_deg": lambda: 30.0,
     "scale": lambda: (1.1, 0.9, 1.0),
+    # liecontrol.interop.basilisk
+    "sigma_BN": lambda: np.array([0.1, -0.2, 0.05]),
+    "omega_BN_B": lambda: np.array([0.01, -0.02, 0.03]),
+    "dcm": lambda: R_EX.T.copy(),
+    "euler_set": lambda: "321",
+    "beta": lambda: Q_EX.copy(),
+    "prv": lambda: np.array([0.3, -0.2, 0.1]),
+    "delta0": lambda: np.array([0.785, -0.785, 0.785, -0.785]),
 }
 
 #: parameters whose value must be > 0 (a negative or zero value is invalid)
@@ -327,6 +367,15 @@ FREE_TEXT = frozenset("name description suite notes family source where label ti
 
 #: per-callable example overrides: qualified name -> {parameter: factory}
 OVERRIDES: dict[str, dict[str, Callable[[], Any]]] = {
+    # 6×6 matrices acting on twists (the generic "M" example is 3×3)
+    **{
+        f"liecontrol.interop.twist_order.{fn}": {"M": lambda: _spd(6)}
+        for fn in ("swap_blocks", "matrix_to_v_omega", "matrix_to_omega_v")
+    },
+    **{
+        f"liecontrol.control.chart_baselines.{cls}": {"K": lambda: 2.0, "P": lambda: 5.0}
+        for cls in ("MrpPD", "MrpPDLaw")
+    },
     "spacecraft.plant.PlantState": {
         "R": lambda: R_EX[None].copy(),
         "omega": lambda: np.zeros((1, 3)),
@@ -337,12 +386,75 @@ OVERRIDES: dict[str, dict[str, Callable[[], Any]]] = {
         "actuator": lambda: __import__("spacecraft").IdealTorqueActuator(),
     },
     "spacecraft.rigid_body.perturbed_inertia": {"scale_std": lambda: 0.05},
+    # pointing cones (liecontrol.control.constrained, issue 13)
+    **{
+        f"liecontrol.control.constrained.{cls}": {
+            "body_axis": lambda: np.array([0.0, 0.0, 1.0]),
+            "inertial_direction": lambda: np.array([1.0, 0.0, 0.0]),
+            "half_angle_deg": lambda: 30.0,
+        }
+        for cls in ("KeepOutCone", "KeepInCone")
+    },
+    **{
+        f"liecontrol.control.constrained.{fn}": {
+            "cones": lambda: (
+                __import__("liecontrol.control.constrained").control.constrained.KeepOutCone(
+                    (0.0, 0.0, 1.0), (1.0, 0.0, 0.0), 30.0
+                ),
+            )
+        }
+        for fn in ("cone_margins_deg", "check_admissible")
+    },
+    # the Gymnasium environments' pure maps and wrappers (spacecraft.envs, issue 16)
+    "spacecraft.envs.observations.check_components": {"observation": lambda: ("rotvec", "rate")},
+    "spacecraft.envs.observations.observation_size": {
+        "components": lambda: ("rotvec", "rate", "actuator"),
+        "scales": lambda: __import__("spacecraft.envs").envs.ObservationScales(),
+        "n_act": lambda: 4,
+    },
+    "spacecraft.envs.observations.build_observation": {
+        "components": lambda: ("rotvec", "quaternion", "6d", "rate", "momentum", "actuator"),
+        "scales": lambda: __import__("spacecraft.envs").envs.ObservationScales(),
+        "R": lambda: R_EX[None].copy(),
+        "omega": lambda: np.array([[0.01, -0.02, 0.03]]),
+        "R_d": lambda: np.eye(3),
+        "omega_d": lambda: np.zeros(3),
+        "h": lambda: np.array([[1.0, 2.0, 3.0]]),
+        "x_act": lambda: np.array([[0.1, -0.2, 0.3, -0.4]]),
+    },
+    "spacecraft.envs.observations.check_action": {
+        "action": lambda: np.array([0.1, -0.2, 0.3]),
+        "batch": lambda: None,
+    },
+    "spacecraft.envs.observations.action_to_torque": {
+        "action": lambda: np.array([0.1, -0.2, 0.3]),
+        "mode": lambda: "torque",
+        "scale": lambda: 10.0,
+    },
+    "spacecraft.envs.cem.LinearPolicy": {"W": lambda: np.zeros((3, 6))},
+    "spacecraft.envs.policy.PolicyController": {"policy": lambda: _zero_policy},
+    "benchmarks.policies.policy_factory": {
+        "policy": lambda: _zero_policy,
+        "config": lambda: __import__("spacecraft.envs").envs.AttitudeEnvConfig(),
+    },
     "spacecraft.actuators.ReactionWheelAssembly": {"axes": lambda: np.eye(3)},
     "spacecraft.disturbances.ConstantTorque": {"torque": lambda: np.array([0.1, -0.2, 0.3])},
     "spacecraft.disturbances.SumOfDisturbances": {
         "sources": lambda: {"c": __import__("spacecraft").ConstantTorque(np.ones(3))}
     },
     "spacecraft.environment.GravityGradientTorque": {"orbit": _orbit},
+    **_surface_forces_overrides(),
+    # momentum management (spacecraft.momentum, spacecraft.geomagnetic)
+    "spacecraft.momentum.sgcmg_momentum_capacity": {
+        "gimbal_axes": lambda: _cluster().gimbal_axes(),
+        "h0": lambda: 300.0,
+        "direction": lambda: np.array([0.3, -0.5, 0.8]),
+    },
+    "spacecraft.momentum.momentum_fraction": {
+        "actuator": lambda: __import__("spacecraft").SgcmgActuator(),
+        "x_act": lambda: np.array([[0.3, -0.6, 0.8, -0.2]]),
+    },
+    "spacecraft.momentum.CrossProductDumping": {"orbit": _orbit},
     "spacecraft.orbit.EarthPointingReference": {"orbit": _orbit},
     "spacecraft.payload.RotatingPayload": {"inertia": lambda: np.diag([1.0, 1.0, 1.5])},
     "spacecraft.payload.RotatingPayloadTorque": {"payloads": lambda: (_payload(),)},
@@ -381,6 +493,8 @@ OVERRIDES: dict[str, dict[str, Callable[[], Any]]] = {
         "omega": lambda: np.array([1.0, 2.0]),
     },
     "benchmarks.metrics.compute_metrics": {"result": _sim_result},
+    "benchmarks.results_file.history_arrays": {"result": _sim_result},
+    "benchmarks.results_file.history_unit": {"name": lambda: "R"},
     "benchmarks.metrics.error_angle": {"R": lambda: R_EX[None], "R_d": lambda: np.eye(3)[None]},
     "benchmarks.metrics.rate_error": {
         "R": lambda: R_EX[None],
@@ -525,6 +639,11 @@ def _docking_xi0():
     return ref.offset_state(0.0, np.zeros((1, 3)), np.zeros((1, 3)))[1]
 
 
+def _zero_policy(obs: np.ndarray) -> np.ndarray:
+    """A policy ``obs -> action`` for the sweep (spacecraft.envs): the zero action."""
+    return np.zeros((np.shape(obs)[0], 3))
+
+
 #: methods swept on an instance built from the class's example call: qualified class name ->
 #: {method: {parameter: factory}} (parameters not listed come from the tables above)
 METHODS: dict[str, dict[str, dict[str, Callable[[], Any]]]] = {
@@ -569,7 +688,7 @@ METHODS: dict[str, dict[str, dict[str, Callable[[], Any]]]] = {
     },
     "spacecraft.flexible.FlexibleModes": {"schur_inertia": {}, "free_free_frequencies": {}},
     "spacecraft.orbit.CircularOrbit": {"position": {}, "lvlh_attitude": {}},
-    "spacecraft.disturbances.Seed000Disturbance": {"torque_at": {}},
+    "spacecraft.disturbances.ConstantHarmonicTorque": {"torque_at": {}},
     "spacecraft.payload.RotatingPayload": {"torque": {}},
     "spacecraft.sensors.StarTracker": {
         "measure": {"R": lambda: R_EX[None].copy(), "omega": lambda: np.zeros((1, 3))}
@@ -591,6 +710,16 @@ NOT_SWEPT: dict[str, str] = {
     "benchmarks.montecarlo.run_montecarlo": "runs a Monte Carlo campaign (seconds per call); "
     "its arguments are validated by MonteCarloConfig, which is swept",
     "benchmarks.montecarlo.measure_throughput": "a timing run (seconds per call)",
+    "benchmarks.results_file.write_histories": "writes a file from a suite/Monte Carlo result; "
+    "its bad input (format, path, result) is tested in test_results_file",
+    "benchmarks.results_file.write_histories_with_report": "the CLI's wrapper of "
+    "write_histories (tested in test_results_file)",
+    "benchmarks.results_file.load_histories": "reads a file; missing, foreign and corrupt files "
+    "are tested in test_results_file",
+    "benchmarks.results_file.provenance": "takes a suite/Monte Carlo result (tested in "
+    "test_results_file)",
+    "benchmarks.results_file.Histories": "a loaded file's container, built by load_histories",
+    "benchmarks.results_file.RunHistory": "one run of a loaded file, built by load_histories",
     "benchmarks.unwinding.run_unwinding": "runs the unwinding campaign (seconds per call); its "
     "arguments are validated by UnwindingConfig, which is swept",
     "benchmarks.perf_lie.run": "a timing run",
@@ -628,6 +757,13 @@ NOT_SWEPT: dict[str, str] = {
             "benchmarks.metrics.judge",
         )
     },
+    "spacecraft.envs.cem.train_cem": "a training run (seconds per call); its argument checks "
+    "are tested in test_envs",
+    "spacecraft.envs.cem.episode_returns": "rollouts of a vector environment (seconds per call)",
+    "spacecraft.envs.cem.CemResult": "a result record the library builds and returns",
+    "benchmarks.policies.register_policy": "mutates the global controller registry",
+    "benchmarks.policies.compare_policy": "runs benchmark simulations (seconds per call); "
+    "tested in test_envs",
     "spacecraft.payload.fit_payload_imbalance": "a least-squares fit that needs a reachable "
     "target; its argument checks are tested in test_payload",
     # result records: built by the library from validated inputs and returned, never passed in
@@ -666,7 +802,14 @@ ACCEPTED: dict[tuple[str, str, str], str] = {
     "a sensor; simulate() checks it against the sensors it is given",
     ("spacecraft.simulator.StarTrackerGyro", "rate", "unknown_name"): "as attitude",
     ("spacecraft.steering.pseudo_inverse", "A", "wrong_shape"): "A is (..., 3, n) for any n",
+    ("spacecraft.envs.cem.LinearPolicy", "W", "wrong_shape"): "W is (3, n_obs) for any "
+    "observation size",
+    ("spacecraft.envs.observations.build_observation", "h", "negative"): "h is the actuator "
+    "momentum (a signed vector), not a step size",
+    ("spacecraft.envs.observations.build_observation", "h", "zero"): "as negative",
     ("spacecraft.actuators.ReactionWheelAssembly", "axes", "wrong_shape"): "(3, N), any N >= 3",
+    ("spacecraft.momentum.sgcmg_momentum_capacity", "gimbal_axes", "wrong_shape"): "(3, n) for "
+    "any number n of units",
     **{
         ("benchmarks.metrics.settling_time", p, pert): "documented: NaN when the error never "
         "settles below the threshold"

@@ -14,7 +14,7 @@ from repro_markdown import PAPER_BY_NUMBER, check_reproduction_markdown
 
 from benchmarks.reproductions import rotating_payload as rp
 from benchmarks.reproductions._common import CALIBRATED, PARTLY, REPRODUCED
-from spacecraft.payload import SEED003_PAYLOAD, SEED003_SPIN_RATE
+from spacecraft.payload import PAYLOAD_SPIN_RATE, ROTATING_PAYLOAD_EXAMPLE
 
 # compensation at 150 s; the sensitivity on the same horizons (its baseline is this run) with
 # one un-fitted imbalance (×2)
@@ -75,9 +75,9 @@ def test_true_harmonic_is_the_payload_torque_fundamental():
     payload torque sampled over one revolution (independent of the DFT in harmonic_phasor)."""
     W, beta = rp.true_harmonic()
     t = np.linspace(0.0, 4.0, 97)
-    T = SEED003_PAYLOAD.torque(t, np.zeros(3))
-    A = np.column_stack([np.ones_like(t), np.sin(SEED003_SPIN_RATE * t),
-                         np.cos(SEED003_SPIN_RATE * t)])
+    T = ROTATING_PAYLOAD_EXAMPLE.torque(t, np.zeros(3))
+    A = np.column_stack([np.ones_like(t), np.sin(PAYLOAD_SPIN_RATE * t),
+                         np.cos(PAYLOAD_SPIN_RATE * t)])
     c, *_ = np.linalg.lstsq(A, T, rcond=None)
     np.testing.assert_allclose(W * np.cos(beta), c[1], rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(W * np.sin(beta), c[2], rtol=1e-9, atol=1e-12)
@@ -86,11 +86,11 @@ def test_true_harmonic_is_the_payload_torque_fundamental():
 def test_scaled_imbalance_scales_the_harmonic():
     """×k on (I_xz, I_yz, ρ_x, ρ_y) scales the first-harmonic torque by k (it is linear in
     them), against an independent least-squares fit of the payload torque."""
-    big = rp.scaled_imbalance(SEED003_PAYLOAD, 2.0)
+    big = rp.scaled_imbalance(ROTATING_PAYLOAD_EXAMPLE, 2.0)
     t = np.linspace(0.0, 4.0, 97)
-    A = np.column_stack([np.ones_like(t), np.sin(SEED003_SPIN_RATE * t),
-                         np.cos(SEED003_SPIN_RATE * t)])
-    c1, *_ = np.linalg.lstsq(A, SEED003_PAYLOAD.torque(t, np.zeros(3)), rcond=None)
+    A = np.column_stack([np.ones_like(t), np.sin(PAYLOAD_SPIN_RATE * t),
+                         np.cos(PAYLOAD_SPIN_RATE * t)])
+    c1, *_ = np.linalg.lstsq(A, ROTATING_PAYLOAD_EXAMPLE.torque(t, np.zeros(3)), rcond=None)
     c2, *_ = np.linalg.lstsq(A, big.torque(t, np.zeros(3)), rcond=None)
     np.testing.assert_allclose(c2[1:], 2.0 * c1[1:], rtol=1e-9, atol=1e-12)
 

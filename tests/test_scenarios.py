@@ -15,7 +15,7 @@ from benchmarks.runner import build_plant, build_reference, initial_state
 from benchmarks.scenarios import (
     QUICK_SUITE,
     SCENARIOS,
-    SEED000_SPACECRAFT,
+    SGCMG_SPACECRAFT,
     SUITES,
     DisturbanceSpec,
     ReferenceSpec,
@@ -65,7 +65,7 @@ def test_catalogue_covers_spec_8_1():
     assert q.initial_quaternion[0] > 0
     # the slew axis (1,1,1)/√3 is not a principal axis of the seed-000 inertia
     a = np.array(SCENARIOS["slew-179"].initial_rotvec) / np.deg2rad(179.0)
-    Ja = SEED000_SPACECRAFT.J @ a
+    Ja = SGCMG_SPACECRAFT.J @ a
     assert np.linalg.norm(np.cross(Ja, a)) > 0.1 * np.linalg.norm(Ja)
     # the random axis is what its comment says
     v = np.random.default_rng(2026).normal(size=3)
@@ -86,7 +86,7 @@ def test_initial_quaternion_matches_scipy_and_sign():
 
 
 def test_scaled_inertia_keeps_axes_and_scales_moments():
-    J = SEED000_SPACECRAFT.J
+    J = SGCMG_SPACECRAFT.J
     Jt = scale_principal_moments(J, [1.2, 1.2, 0.8])
     lam, V = np.linalg.eigh(J)
     np.testing.assert_allclose(V.T @ Jt @ V, np.diag(lam * [1.2, 1.2, 0.8]), atol=1e-9)
@@ -121,16 +121,16 @@ def test_bad_scenarios_name_the_argument():
         Scenario("x", "bad", dt=0.1, control_period=0.15)
     with pytest.raises(ValueError, match="^name: unknown disturbance 'solar-wind'"):
         DisturbanceSpec("solar-wind")
-    with pytest.raises(ValueError, match="^params: 'seed000' has no parameter 'q'"):
-        DisturbanceSpec("seed000", {"q": 1.0})
+    with pytest.raises(ValueError, match="^params: 'constant-harmonic' has no parameter 'q'"):
+        DisturbanceSpec("constant-harmonic", {"q": 1.0})
     with pytest.raises(ValueError, match="^kind: unknown reference kind"):
         ReferenceSpec("lvlh")
     with pytest.raises(ValueError, match="^quaternion_sign"):
         Scenario("x", "bad", quaternion_sign=0)
     with pytest.raises(ValueError, match="^inertia"):
-        dataclasses.replace(SEED000_SPACECRAFT, inertia=((1, 0, 0), (0, 1, 0), (0, 0, 3)))
+        dataclasses.replace(SGCMG_SPACECRAFT, inertia=((1, 0, 0), (0, 1, 0), (0, 0, 3)))
     with pytest.raises(ValueError, match="^actuator: unknown actuator 'jets'"):
-        dataclasses.replace(SEED000_SPACECRAFT, actuator="jets")
+        dataclasses.replace(SGCMG_SPACECRAFT, actuator="jets")
     with pytest.raises(ValueError, match="^axis"):
         rest_to_rest(30.0, axis=(0.0, 0.0, 0.0))
     with pytest.raises(ValueError, match="^name: unknown suite 'nope'; valid suites: full"):
@@ -166,7 +166,7 @@ def test_example_files_load():
     assert a.duration == 300.0 and a.control_period == 0.2
     assert a.initial_error_deg == pytest.approx(120.0)
     np.testing.assert_allclose(a.initial_rotvec, [np.deg2rad(120), 0, 0])
-    assert a.disturbances == (DisturbanceSpec("seed000"),)
+    assert a.disturbances == (DisturbanceSpec("constant-harmonic"),)
     # a w < 0 quaternion is the −q start of the same rotation
     assert b.quaternion_sign == -1 and b.initial_error_deg == pytest.approx(135.0, abs=1e-6)
     np.testing.assert_allclose(b.initial_rotvec, [0, 0, np.deg2rad(135)], atol=1e-7)
@@ -214,7 +214,8 @@ def test_round_trip_through_the_file_schema(tmp_path):
             r"scenario\[0\] \(a\)\.disturbance\[0\]\.name: unknown disturbance 'wind'",
         ),
         (
-            '[[scenario]]\nname = "a"\n[[scenario.disturbance]]\nname = "seed000"\nscale = "x"\n',
+            '[[scenario]]\nname = "a"\n[[scenario.disturbance]]\n'
+            'name = "constant-harmonic"\nscale = "x"\n',
             r"scenario\[0\] \(a\)\.disturbance\[0\]\.scale: expected a number",
         ),
         (
@@ -223,7 +224,7 @@ def test_round_trip_through_the_file_schema(tmp_path):
         ),
         (
             '[[scenario]]\nname = "a"\n[scenario.spacecraft]\npreset = "hubble"\n',
-            r"scenario\[0\] \(a\)\.spacecraft\.preset: unknown preset 'hubble'; valid: seed000",
+            r"scenario\[0\] \(a\)\.spacecraft\.preset: unknown preset 'hubble'; valid: sgcmg-bus",
         ),
         ('[[scenario]]\ndescription = "x"\n', r"scenario\[0\]\.name: missing"),
         ("[defaults]\ndt = 0.1\n", r"scenario: no \[\[scenario\]\] table found"),

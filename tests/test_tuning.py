@@ -26,7 +26,7 @@ from benchmarks.controllers import (
     register,
     unregister,
 )
-from benchmarks.scenarios import SEED000_SPACECRAFT, Scenario, SpacecraftSpec, rest_to_rest
+from benchmarks.scenarios import SGCMG_SPACECRAFT, Scenario, SpacecraftSpec, rest_to_rest
 from liecontrol.control import GeometricPD, MrpADRC
 from liecontrol.control.adrc import PAPER, eso_poles
 from liecontrol.control.tuning import (
@@ -71,7 +71,7 @@ def _measure(name: str, sc: SpacecraftSpec, rule: GainRule):
 # (and a faster loop keeps the test short)
 @pytest.mark.parametrize(
     ("sc", "rule"),
-    [(SEED000_SPACECRAFT, GainRule(0.1, 0.9)), (BUS, GainRule(0.08, 0.95))],
+    [(SGCMG_SPACECRAFT, GainRule(0.1, 0.9)), (BUS, GainRule(0.08, 0.95))],
     ids=["benchmark-spacecraft", "wheel-bus-1000"],
 )
 def test_every_attitude_controller_meets_the_spec(sc, rule):
@@ -94,7 +94,7 @@ def test_every_attitude_controller_meets_the_spec(sc, rule):
 
 def test_measurement_detects_a_mistuned_controller():
     # scalar gains from the largest principal moment: the other axes are faster
-    J = SEED000_SPACECRAFT.J
+    J = SGCMG_SPACECRAFT.J
     k_R, k_W = 0.03**2 * np.linalg.eigvalsh(J)[-1], 2 * 0.9 * 0.03 * np.linalg.eigvalsh(J)[-1]
     r = measure_small_angle_response(GeometricPD(J, k_R, k_W, error="log"), J, 0.2, duration=200)
     lam = np.linalg.eigvalsh(J)
@@ -120,7 +120,7 @@ def test_step_peaks_against_the_matrix_exponential(zeta):
 
 
 def test_mpc_weights_give_the_spec_by_continuous_lqr():
-    J = SEED000_SPACECRAFT.J
+    J = SGCMG_SPACECRAFT.J
     spec = ClosedLoopSpec(0.03, 0.9, 0.2)
     kw = tune_mpc(J, spec, ActuatorLimits(50.0))
     A = np.block([[np.zeros((3, 3)), np.eye(3)], [np.zeros((3, 6))]])
@@ -172,7 +172,7 @@ def test_actuator_limits_against_brute_force():
     assert lim.max_torque == (0.5, 0.5, 0.5) and lim.max_momentum == pytest.approx((60.0,) * 3)
     from spacecraft.sgcmg import SgcmgPyramid
 
-    sc = SEED000_SPACECRAFT
+    sc = SGCMG_SPACECRAFT
     cl = SgcmgPyramid(sc.h0, math.radians(sc.beta_deg), sc.gimbal_rate_limit)
     h_min = actuator_limits(sc).max_momentum[0]
     # along any direction the reachable momentum is the sum of each CMG's best gimbal angle
@@ -291,7 +291,7 @@ def test_other_bad_input():
     with pytest.raises(TuningInfeasible, match="^omega_n: .* peak momentum"):
         check_actuator(1e4 * np.eye(3), spec, ActuatorLimits(None, 1.0), [1.0, 0, 0])
     with pytest.raises(TuningInfeasible, match="^J:"):
-        tune_small_angle_pid(SEED000_SPACECRAFT.J, spec)
+        tune_small_angle_pid(SGCMG_SPACECRAFT.J, spec)
     with pytest.raises(TypeError, match="^controller:"):
         measure_small_angle_response(object(), np.eye(3), 0.2, duration=10.0)
     with pytest.raises(ValueError, match="^duration:"):

@@ -37,7 +37,7 @@ from benchmarks.runner import (
 from benchmarks.scenarios import (
     NULL_MOTION_EQUILIBRIUM_DEG,
     SCENARIOS,
-    SEED000_SPACECRAFT,
+    SGCMG_SPACECRAFT,
     SINGULAR_TRANSIT_AXIS,
     SensorSpec,
 )
@@ -244,7 +244,7 @@ def test_wheel_run_metrics_match_the_logged_wheel_speeds():
 def test_gimbal_start_is_a_null_motion_equilibrium():
     from spacecraft.steering import PseudoInverseNullMotion
 
-    act = build_actuator(SEED000_SPACECRAFT)
+    act = build_actuator(SGCMG_SPACECRAFT)
     cl = act.cluster
     d = np.deg2rad(np.array(NULL_MOTION_EQUILIBRIUM_DEG))
     np.testing.assert_allclose(cl.momentum(d), 0.0, atol=1e-10)
@@ -266,7 +266,7 @@ def test_singular_transit_axis_reaches_an_internal_singularity():
     from spacecraft.sgcmg import SgcmgPyramid
     from spacecraft.steering import pseudo_inverse
 
-    J = SEED000_SPACECRAFT.J
+    J = SGCMG_SPACECRAFT.J
     a = np.array(SINGULAR_TRANSIT_AXIS)
     d = J @ a / np.linalg.norm(J @ a)
     d_sweep = np.array([-0.398, 0.47, -0.788])
@@ -360,7 +360,7 @@ def test_sensor_spec_and_tolerance_validation():
     with pytest.raises(ValueError, match="^sensors:"):
         dataclasses.replace(POSE, sensors=SensorSpec())
     with pytest.raises(ValueError, match="^wheel_layout:"):
-        dataclasses.replace(SEED000_SPACECRAFT, wheel_layout="tetrahedron")
+        dataclasses.replace(SGCMG_SPACECRAFT, wheel_layout="tetrahedron")
 
 
 def test_scenario_files_round_trip_the_new_fields():

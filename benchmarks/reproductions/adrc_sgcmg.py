@@ -75,7 +75,7 @@ from liecontrol.control.adrc import ADRCParams, MrpADRC
 from liecontrol.control.base import AttitudeController, AttitudeReference, AttitudeState
 from liecontrol.lie import so3
 from spacecraft.actuators import SgcmgActuator
-from spacecraft.disturbances import Seed000Disturbance
+from spacecraft.disturbances import ConstantHarmonicTorque
 from spacecraft.orbit import CircularOrbit, EarthPointingReference
 from spacecraft.plant import Spacecraft
 from spacecraft.rigid_body import RigidBody
@@ -214,7 +214,7 @@ def build_plant(
         PseudoInverseNullMotion(k=cfg.null_motion_gain, cluster=cluster),
         delta0=np.radians(cfg.delta0_deg),
     )
-    plant = Spacecraft(RigidBody(PAPER_J), act, Seed000Disturbance(n=cfg.n))
+    plant = Spacecraft(RigidBody(PAPER_J), act, ConstantHarmonicTorque(n=cfg.n))
     return plant, orbit, EarthPointingReference(orbit)
 
 

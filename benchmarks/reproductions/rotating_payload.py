@@ -12,7 +12,7 @@ The paper's case (its verification section) and how it is modelled here:
   (``ReactionWheelAssembly.orthogonal``: I_w = 0.05 kg·m², 0.2 N·m, 600 rad/s — *our choice*,
   not given), gravity-gradient torque on (ours; the paper's flexible appendages are omitted: no
   data).
-* Payload: 90°/s rotor, ``spacecraft.payload.SEED003_PAYLOAD`` — the paper gives no mass
+* Payload: 90°/s rotor, ``spacecraft.payload.ROTATING_PAYLOAD_EXAMPLE`` — the paper gives no mass
   properties; the calibrated rotor (25 kg, hinge (0.35, 0.25, 0.60) m, spin axis tilted 30°
   then turned 20°, imbalance fitted so that the open-loop jitter estimate eq. (14) gives the
   published 0.0012°, 0.0010°, 0.0011°; ``docs/environment.md``). Those three rows are the
@@ -89,10 +89,10 @@ from spacecraft.disturbances import SumOfDisturbances
 from spacecraft.environment import GravityGradientTorque
 from spacecraft.orbit import CircularOrbit, EarthPointingReference
 from spacecraft.payload import (
-    SEED003_J,
-    SEED003_PAYLOAD,
-    SEED003_PUBLISHED_JITTER_DEG,
-    SEED003_SPIN_RATE,
+    PAYLOAD_PUBLISHED_JITTER_DEG,
+    PAYLOAD_SATELLITE_J,
+    PAYLOAD_SPIN_RATE,
+    ROTATING_PAYLOAD_EXAMPLE,
     RotatingPayload,
     RotatingPayloadTorque,
     fit_payload_imbalance,
@@ -214,35 +214,35 @@ class RotatingPayloadConfig:
                    inject_start=50.0, fit_start_min=100.0, timing_calls=50)
 
 
-def true_harmonic(payload=SEED003_PAYLOAD) -> tuple[np.ndarray, np.ndarray]:  # noqa: ANN001
+def true_harmonic(payload=ROTATING_PAYLOAD_EXAMPLE) -> tuple[np.ndarray, np.ndarray]:  # noqa: ANN001
     """(W, β) ``(3,)`` of the payload torque at a bus at rest, T_j = W_j sin(ω_p t + β_j):
     from the first-harmonic phasor P (T = Re[P e^{iω_p t}]), W = |P|, β = arg P + π/2."""
     P, _ = harmonic_phasor(payload)
     return np.abs(P), np.angle(P) + 0.5 * np.pi
 
 
-def payload_spin_momentum(payload=SEED003_PAYLOAD) -> np.ndarray:  # noqa: ANN001
+def payload_spin_momentum(payload=ROTATING_PAYLOAD_EXAMPLE) -> np.ndarray:  # noqa: ANN001
     """Nominal (rotation-averaged) payload momentum in body axes, ω_pz I_zz R_mount e_z."""
     return payload.constant_rate * payload.inertia[2, 2] * np.asarray(payload.mount)[:, 2]
 
 
 def build_case(cfg: RotatingPayloadConfig, mode: str, compensation_start: float,
                injected: tuple[np.ndarray, np.ndarray] | None = None,
-               payload: RotatingPayload = SEED003_PAYLOAD) -> dict:
+               payload: RotatingPayload = ROTATING_PAYLOAD_EXAMPLE) -> dict:
     """Plant, controller, reference, initial state and sensors of one run."""
     orbit = CircularOrbit(n=cfg.n)
     ref = EarthPointingReference(orbit)
     sources = {"payload": RotatingPayloadTorque([payload])}
     if cfg.gravity_gradient:
-        sources["gravity_gradient"] = GravityGradientTorque(SEED003_J, orbit)
+        sources["gravity_gradient"] = GravityGradientTorque(PAYLOAD_SATELLITE_J, orbit)
     wheels = ReactionWheelAssembly.orthogonal(
         wheel_inertia=cfg.wheel_inertia, max_torque=cfg.wheel_max_torque,
         max_speed=cfg.wheel_max_speed)
-    plant = Spacecraft(RigidBody(SEED003_J), wheels, SumOfDisturbances(sources))
+    plant = Spacecraft(RigidBody(PAYLOAD_SATELLITE_J), wheels, SumOfDisturbances(sources))
     r0 = ref(0.0)
     x0 = plant.initial_state(r0.R_d, omega0=r0.omega_d)
     ctrl = SmallAnglePIDWithFeedforward(
-        SEED003_J, SEED003_SPIN_RATE, bandwidth_hz=cfg.bandwidth_hz, zeta=cfg.zeta,
+        PAYLOAD_SATELLITE_J, PAYLOAD_SPIN_RATE, bandwidth_hz=cfg.bandwidth_hz, zeta=cfg.zeta,
         integral_ratio=cfg.integral_ratio, dt_c=cfg.dt_c, dt_p=cfg.dt_p, mode=mode,
         injected=injected, compensation_start=compensation_start, forgetting=cfg.forgetting,
         extra_momentum=payload_spin_momentum(payload))
@@ -260,7 +260,7 @@ def build_case(cfg: RotatingPayloadConfig, mode: str, compensation_start: float,
 
 def run_case(cfg: RotatingPayloadConfig, mode: str, t_end: float, compensation_start: float,
              injected: tuple[np.ndarray, np.ndarray] | None = None,
-             progress: bool = False, payload: RotatingPayload = SEED003_PAYLOAD) -> dict:
+             progress: bool = False, payload: RotatingPayload = ROTATING_PAYLOAD_EXAMPLE) -> dict:
     """One closed-loop run; returns the time series (true small angles ``att`` and relative
     rates ``rate`` (K, 3) [rad, rad/s], wheel torque, identified Ŵ, β̂) and the wall time."""
     c = build_case(cfg, mode, compensation_start, injected, payload)
@@ -308,11 +308,11 @@ def _phasor_error(W: np.ndarray, beta: np.ndarray, W0: np.ndarray, b0: np.ndarra
 
 
 def _summarise(cfg: RotatingPayloadConfig, main_case: dict, inj_case: dict,
-               payload: RotatingPayload = SEED003_PAYLOAD) -> dict:
-    wp = SEED003_SPIN_RATE
+               payload: RotatingPayload = ROTATING_PAYLOAD_EXAMPLE) -> dict:
+    wp = PAYLOAD_SPIN_RATE
     W0, b0 = true_harmonic(payload)
     wn = 2.0 * np.pi * cfg.bandwidth_hz
-    est = jitter_estimate(payload, SEED003_J, omega_n=wn, zeta=cfg.zeta)
+    est = jitter_estimate(payload, PAYLOAD_SATELLITE_J, omega_n=wn, zeta=cfg.zeta)
     t, t_on = main_case["t"], main_case["t_on"]
     fit_a = max(cfg.fit_start_min, t_on - cfg.fit_window)
     m_fit = (t >= fit_a) & (t < t_on)
@@ -324,9 +324,9 @@ def _summarise(cfg: RotatingPayloadConfig, main_case: dict, inj_case: dict,
     rate_deg = np.rad2deg(main_case["rate"])
     ti = inj_case["t"]
     mi = ti >= inj_case["t_on"] + cfg.settle
-    hold_err = W0 * cfg.dt_p / np.diag(SEED003_J)
+    hold_err = W0 * cfg.dt_p / np.diag(PAYLOAD_SATELLITE_J)
     return {
-        "published_jitter_deg": SEED003_PUBLISHED_JITTER_DEG.tolist(),
+        "published_jitter_deg": PAYLOAD_PUBLISHED_JITTER_DEG.tolist(),
         "estimate_open_loop_deg": np.rad2deg(est.open_loop_attitude).tolist(),
         "estimate_closed_loop_deg": np.rad2deg(est.attitude).tolist(),
         "measured_jitter_deg": np.rad2deg(amp).tolist(),
@@ -459,7 +459,7 @@ def payload_variant(mass: float = 25.0, hinge_scale: float = 1.0,
     Rx = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
     Rz = np.array([[np.cos(b), -np.sin(b), 0], [np.sin(b), np.cos(b), 0], [0, 0, 1]])
     return fit_payload_imbalance(
-        np.deg2rad(SEED003_PUBLISHED_JITTER_DEG), SEED003_J, SEED003_SPIN_RATE, mass=mass,
+        np.deg2rad(PAYLOAD_PUBLISHED_JITTER_DEG), PAYLOAD_SATELLITE_J, PAYLOAD_SPIN_RATE, mass=mass,
         principal_inertia=np.array([2.5, 2.5, 1.8]) * mass / 25.0,
         hinge=np.array([0.35, 0.25, 0.60]) * hinge_scale, mount=Rz @ Rx, com_offset_z=0.2)
 
@@ -487,23 +487,23 @@ def sensitivity(cfg: RotatingPayloadConfig, baseline: dict | None = None) -> Sen
     time, each variant re-fitted to the published jitter (module docstring), on ``cfg``'s
     horizons. The baseline column is the calibrated payload on the same horizons (``baseline``:
     its summary when already computed on exactly ``cfg``)."""
-    grid = [("ours", "", SEED003_PAYLOAD)]
+    grid = [("ours", "", ROTATING_PAYLOAD_EXAMPLE)]
     grid += [("mass", f"{m:g} kg", payload_variant(mass=m)) for m in cfg.sens_mass]
     grid += [("hinge position", f"×{h:g}", payload_variant(hinge_scale=h))
              for h in cfg.sens_hinge_scale]
     grid += [("spin-axis tilt", f"{d:g}°", payload_variant(tilt_deg=d))
              for d in cfg.sens_tilt_deg]
-    grid += [("imbalance, not re-fitted", f"×{k:g}", scaled_imbalance(SEED003_PAYLOAD, k))
+    grid += [("imbalance, not re-fitted", f"×{k:g}", scaled_imbalance(ROTATING_PAYLOAD_EXAMPLE, k))
              for k in cfg.sens_imbalance_scale]
     variations = []
     for par, val, pl in grid:
-        if pl is SEED003_PAYLOAD and baseline is not None:
+        if pl is ROTATING_PAYLOAD_EXAMPLE and baseline is not None:
             o = _outcomes(cfg, baseline)
         else:
             o = _outcomes(cfg, _run_payload(cfg, pl))
         if par == "ours":
             par, val = "mass, hinge, tilt", "25 kg, ×1, 30°"
-        variations.append(Variation(par, val, o, baseline=pl is SEED003_PAYLOAD))
+        variations.append(Variation(par, val, o, baseline=pl is ROTATING_PAYLOAD_EXAMPLE))
     return SensitivityStudy(
         CLAIM_KEYS, variations,
         note=f"Compensation on at {cfg.compensation_start:g} s, end {cfg.t_end:g} s, injected "
@@ -532,9 +532,9 @@ def time_per_step(cfg: RotatingPayloadConfig, calls: int) -> dict:
     state = AttitudeState(R=R[None], omega=ref.omega_d[None] + 1e-5, h=np.zeros((1, 3)))
     ctrl = build_case(cfg, "identify", 0.0)["controller"]
     per_cycle = int(round(cfg.dt_c / cfg.dt_p))
-    kR, kW = gains_from_bandwidth(SEED003_J, 2 * np.pi * cfg.bandwidth_hz, cfg.zeta,
+    kR, kW = gains_from_bandwidth(PAYLOAD_SATELLITE_J, 2 * np.pi * cfg.bandwidth_hz, cfg.zeta,
                                   error="log", matrix=True)
-    pd = GeometricPD(SEED003_J, kR, kW, error="log")
+    pd = GeometricPD(PAYLOAD_SATELLITE_J, kR, kW, error="log")
     pd.reset(0.0, 1)
 
     def best(f, n) -> float:  # noqa: ANN001 - local helper
@@ -552,7 +552,7 @@ def time_per_step(cfg: RotatingPayloadConfig, calls: int) -> dict:
 
     # a twin sampled only at Δt_c (Δt_p = Δt_c): every call is a PID sample (+ feed-forward)
     twin = SmallAnglePIDWithFeedforward(
-        SEED003_J, SEED003_SPIN_RATE, bandwidth_hz=cfg.bandwidth_hz, zeta=cfg.zeta,
+        PAYLOAD_SATELLITE_J, PAYLOAD_SPIN_RATE, bandwidth_hz=cfg.bandwidth_hz, zeta=cfg.zeta,
         integral_ratio=cfg.integral_ratio, dt_c=cfg.dt_c, dt_p=cfg.dt_c,
         compensation_start=0.0, extra_momentum=payload_spin_momentum())
 

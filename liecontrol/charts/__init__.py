@@ -1,4 +1,4 @@
-"""Charts (local coordinates) of SO(3): conversions and kinematics (SPEC §2).
+"""Charts (local coordinates) of SO(3): conversions and kinematics.
 
 Submodules, each a set of pure, batched functions:
 

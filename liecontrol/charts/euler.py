@@ -1,4 +1,4 @@
-"""Euler angles for all 12 sequences, scipy notation (SPEC §2).
+"""Euler angles for all 12 sequences, scipy notation.
 
 ``seq`` is a 3-letter string over ``x, y, z`` with no two consecutive letters equal:
 

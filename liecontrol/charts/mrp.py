@@ -1,4 +1,4 @@
-"""Modified Rodrigues parameters (MRP) with the shadow set (SPEC §2).
+"""Modified Rodrigues parameters (MRP) with the shadow set.
 
 An MRP ``p`` (shape ``(..., 3)``) is p = v / (1 + w) for the unit quaternion q = (w, v), i.e.
 p = tan(θ/4)·axis. It is the stereographic projection of the quaternion sphere from q = (−1, 0),
@@ -9,7 +9,7 @@ the same rotation. The set |p| ≤ 1 (θ ≤ π) is reached by switching to the 
 Conventions match the quaternion module (``docs/design.md``): ``R = to_matrix(p)`` maps
 body → inertial, and ṗ = G(p) ω with ω the body angular velocity (Ṙ = R ω^).
 
-Kinematic matrix, SPEC §2:  G(p) = ½[(1 − pᵀp)/2 · I + p^ + p pᵀ].
+Kinematic matrix:  G(p) = ½[(1 − pᵀp)/2 · I + p^ + p pᵀ].
 This is the same as Schaub & Junkins' σ̇ = ¼ B(σ) ω with B(σ) = (1 − σ²) I + 2σ^ + 2σσᵀ
 (expand: ½·(1 − p²)/2 = (1 − p²)/4, ½p^ = 2p^/4, ½ppᵀ = 2ppᵀ/4). Schaub's σ parametrises the
 DCM [BN] (inertial → body components) whose Euler parameters β equal our Hamilton q of
@@ -158,7 +158,7 @@ def switch(p: object, threshold: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
 
 
 def kinematics_matrix(p: object) -> np.ndarray:
-    """G(p) = ½[(1 − pᵀp)/2 · I + p^ + p pᵀ] (SPEC §2; = ¼ B(σ) of Schaub & Junkins)."""
+    """G(p) = ½[(1 − pᵀp)/2 · I + p^ + p pᵀ] (= ¼ B(σ) of Schaub & Junkins)."""
     p = _p(p)
     with np.errstate(over="ignore", invalid="ignore"):
         n2 = np.sum(p * p, axis=-1)[..., None, None]

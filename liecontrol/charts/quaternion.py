@@ -1,8 +1,8 @@
-"""Unit quaternions (Hamilton convention) as a chart of SO(3) (SPEC §2).
+"""Unit quaternions (Hamilton convention) as a chart of SO(3).
 
 Storage order. Every function takes ``scalar_first: bool = True``:
 
-* ``scalar_first=True`` (default, as in the seed papers): ``q = (w, x, y, z)``;
+* ``scalar_first=True`` (default, as in the source papers): ``q = (w, x, y, z)``;
 * ``scalar_first=False``: ``q = (x, y, z, w)``, the order of
   ``scipy.spatial.transform.Rotation.as_quat()``.
 
@@ -24,7 +24,7 @@ so a drifting integrator is caught rather than silently rescaled; inside the tol
 renormalise so the result is exact to round-off. :func:`normalize` is the explicit fix.
 Algebraic functions (:func:`multiply`, :func:`conjugate`, :func:`inverse`, :func:`kinematics`,
 :func:`kinematics_matrix`, :func:`canonicalize`) accept any finite non-zero quaternion.
-Zero or non-finite quaternions always raise ``ValueError`` naming the argument (SPEC §9).
+Zero or non-finite quaternions always raise ``ValueError`` naming the argument.
 Norms are computed without overflow or underflow (``normalize(1e300·q)`` is ``q/|q|``), batch
 shapes that do not broadcast raise naming the argument, ``scalar_first`` must be a bool and
 ``norm_tol`` a finite number > 0; a result that would overflow float64 (e.g. the product of two
@@ -322,7 +322,7 @@ def rotate(
 
 
 def kinematics(q: object, omega: object, scalar_first: bool = True) -> np.ndarray:
-    """q̇ = ½ q ⊗ (0, ω) with ω the body angular velocity (SPEC §2). Shapes broadcast."""
+    """q̇ = ½ q ⊗ (0, ω) with ω the body angular velocity. Shapes broadcast."""
     a = _take(q, "q", scalar_first)
     w = as_array(omega, "omega", (3,))
     broadcast_batch(("q", a.shape[:-1]), ("omega", w.shape[:-1]))

@@ -1,4 +1,4 @@
-"""Rotation vector (exponential coordinates, axis–angle) as a chart of SO(3) (SPEC §2).
+"""Rotation vector (exponential coordinates, axis–angle) as a chart of SO(3).
 
 θ ``(..., 3)`` with R = exp(θ^) (Rodrigues, :func:`liecontrol.lie.so3.exp`), R body → inertial.
 :func:`from_matrix` returns the principal value |θ| ≤ π (:func:`liecontrol.lie.so3.log`).

@@ -1,4 +1,4 @@
-"""Controllers (SPEC §6) behind the common seams.
+"""Controllers behind the common seams.
 
 Attitude controllers implement :class:`~liecontrol.control.base.AttitudeController` (body torque);
 pose controllers implement :class:`~liecontrol.control.se3_control.PoseController` (body wrench).
@@ -15,6 +15,7 @@ from .adapters import (
 from .adrc import ADRCParams, MrpADRC, eso_gains_from_poles
 from .base import AttitudeController, AttitudeReference, AttitudeState
 from .chart_baselines import MrpPD, QuaternionPD
+from .constrained import ConstrainedGeometricPD, KeepInCone, KeepOutCone
 from .geometric_pd import GeometricPD, gains_from_bandwidth
 from .geometric_pid import IntegralPD, IntrinsicPID, integral_gain
 from .mpc import SO3MPC
@@ -78,4 +79,7 @@ __all__ = [
     "ActuatorLimits",
     "TuningInfeasible",
     "measure_small_angle_response",
+    "ConstrainedGeometricPD",
+    "KeepOutCone",
+    "KeepInCone",
 ]

@@ -1,5 +1,5 @@
 """Chart-based adapters: wrap a control law written in chart coordinates as an SO(3) controller
-(SPEC §1, §6 item 6).
+.
 
 A *chart law* is written in the coordinates of one chart — Euler angles of a given sequence,
 modified Rodrigues parameters (MRP) or a unit quaternion — of the body **relative to a base
@@ -30,12 +30,12 @@ relative to R_d(t); then y_d is the chart's identity and ẏ_d = ÿ_d = 0), ``"i
 (identity frame), or any callable ``base(t)`` returning an object with attributes ``R_d``
 (base → inertial, ``(3, 3)`` or ``(B, 3, 3)``), ``omega_d`` (the base frame's inertial angular
 velocity in base axes) and ``omega_dot_d`` — e.g. ``spacecraft.orbit.EarthPointingReference``
-for the orbit (LVLH) frame of seed 000, or :class:`RotatingFrame`.
+for the orbit (LVLH) frame of Wu et al., or :class:`RotatingFrame`.
 
 Kinematics used (R: body → inertial, R_b: base → inertial, ω_b its rate in base axes):
 
     R_rel = R_bᵀ R (body → base),  C_bo = R_relᵀ (base → body),
-    ω_rel = ω − C_bo ω_b   (body rate relative to the base, body axes; seed 000 eq. (8)),
+    ω_rel = ω − C_bo ω_b   (body rate relative to the base, body axes; Wu et al. eq. (8)),
     R_d,rel = R_bᵀ R_d,  ω_d,rel = ω_d − R_d,relᵀ ω_b,
     ω̇_d,rel = ω̇_d + ω_d × (R_d,relᵀ ω_b) − R_d,relᵀ ω̇_b,
     ẏ = B(y) ω_rel,   ÿ_d = B(y_d)(ω̇_d,rel − Ṁ(y_d, ẏ_d) ẏ_d)   with ω_rel = M(y) ẏ, B = M⁻¹.
@@ -53,7 +53,7 @@ The chart-law protocol (what the wrapped ``law`` must provide)::
         def diagnostics(self) -> dict[str, np.ndarray]: ...           # optional, (B, ...) arrays
         def on_shadow_switch(self, state_mask, desired_mask) -> None: ...  # optional, MRP only
 
-Euler-angle laws (e.g. seed 004's terminal sliding mode, sequence ``"ZYX"`` = 3-2-1,
+Euler-angle laws (e.g. Liu, Tang & Yu's terminal sliding mode, sequence ``"ZYX"`` = 3-2-1,
 y = (a1, a2, a3), R = Rz(a1) Ry(a2) Rx(a3)) are wrapped as::
 
     ctrl = EulerChartAdapter(law, seq="ZYX", base="inertial", lock_tol=1e-2)
@@ -461,7 +461,7 @@ class ChartState:
         R_rel: ``(B, 3, 3)`` body → base.  R_d_rel: desired body → base.
         omega: ``(B, 3)`` inertial body rate in body axes (the gyro's quantity) [rad/s].
         omega_rel: body rate relative to the base frame, body axes, ``ω − C_bo ω_b``.
-        omega_base: the base frame's inertial rate in body axes, ``C_bo ω_b`` (seed 000's
+        omega_base: the base frame's inertial rate in body axes, ``C_bo ω_b`` (Wu et al.'s
             ``C_bo ω_io``).
         omega_dot_base: ``C_bo ω̇_b`` (body axes).
         omega_d_rel, omega_dot_d_rel: desired rate relative to the base (desired-body axes) and
@@ -720,7 +720,8 @@ class EulerChartAdapter(ChartAdapter):
     Args:
         law: chart law; receives ``s.y = (a1, a2, a3)`` of the body relative to ``base``.
         seq: Euler sequence, scipy notation (``"ZYX"`` = aerospace 3-2-1, the default).
-        base: ``"inertial"`` (default here, seed 004), ``"reference"`` or a callable frame.
+        base: ``"inertial"`` (default here, as in Liu, Tang & Yu 2008), ``"reference"`` or a
+            callable frame.
         lock_tol: gimbal-lock tolerance on |cos a2| (Tait–Bryan) or |sin a2| (proper Euler);
             below it (state or reference) :class:`ChartSingularityError` is raised. Default
             1e-2, i.e. |a2| > 89.43° for ``"ZYX"``.
@@ -770,7 +771,7 @@ class MrpChartAdapter(ChartAdapter):
     Args:
         law: chart law; may implement ``on_shadow_switch(state_mask, desired_mask)``.
         base: ``"reference"`` (default: p is the attitude-error MRP, p_d = 0), ``"inertial"``
-            or a callable frame (seed 000: the orbit frame).
+            or a callable frame (Wu et al.: the orbit frame).
         threshold: switch to the shadow when |p| > threshold (≥ 1; 1 = classical switch).
     """
 

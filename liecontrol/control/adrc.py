@@ -1,10 +1,10 @@
 """Active disturbance rejection control (ADRC) on MRP with a composite-measurement ESO
-(SPEC §6.1; seed 000: Wu, Huang, Wei & Guo, "Active disturbance rejection control of attitude
+(Wu, Huang, Wei & Guo, "Active disturbance rejection control of attitude
 for spacecraft", Control Theory & Applications, Beihang University).
 
-Model (seed eqs. (4)–(5)): p = MRP of the body relative to the base frame (the orbit frame in the
-paper), x₁ = p, x₂ = ṗ, x₃ = f (the total disturbance: model error, gyroscopic and frame terms,
-external torques), so
+Model (the paper's eqs. (4)–(5)): p = MRP of the body relative to the base frame (the orbit frame
+in the paper), x₁ = p, x₂ = ṗ, x₃ = f (the total disturbance: model error, gyroscopic and frame
+terms, external torques), so
 
     ẋ₁ = x₂,   ẋ₂ = x₃ + B τ,   ẋ₃ = a,   B = G(p) J⁻¹,
 
@@ -41,7 +41,7 @@ B τ_{k−1} that the plant really held over the interval (zero-order hold) and 
 a zero-order hold of the newest sample biases z₃ by O(h) while the attitude moves).
 Any sampling period therefore keeps the ESO's discrete poles at exp(λ_i h) — stable for every h.
 The paper does not say how the ESO starts: by default z(0) = (y_p(0), rate-derived ṗ(0) if
-β > 0 else 0, 0) (``eso_init="measured"``), or z(0) = 0 (``"zero"``, used by the seed-000
+β > 0 else 0, 0) (``eso_init="measured"``), or z(0) = 0 (``"zero"``, used by the ADRC
 reproduction, where p(0) = ṗ(0) = 0 and both coincide without noise). The TD starts at
 v = (y_p(0), 0), so it arranges a smooth transition from the initial attitude to p_d.
 
@@ -111,7 +111,7 @@ def _alpha_beta(alpha: object, beta: object) -> tuple[float, float]:
 
 
 def eso_error_matrix(K1: object, K2: object, K3: object, alpha: float, beta: float) -> np.ndarray:
-    """Per-axis error-dynamics matrix F of seed eq. (13)/(15), ``(3 axes, 3, 3)``:
+    """Per-axis error-dynamics matrix F of the paper's eq. (13)/(15), ``(3 axes, 3, 3)``:
     F = [[−K₁α, 1 − K₁β, 0], [−K₂α, −K₂β, 1], [−K₃α, −K₃β, 0]]."""
     k1, k2, k3 = _gain3(K1, "K1"), _gain3(K2, "K2"), _gain3(K3, "K3")
     a, b = _alpha_beta(alpha, beta)
@@ -130,7 +130,7 @@ def eso_characteristic_polynomial(
     K1: object, K2: object, K3: object, alpha: float, beta: float
 ) -> np.ndarray:
     """Coefficients (highest power first) of s³ + (K₁α + K₂β)s² + (K₂α + K₃β)s + K₃α per axis
-    (seed eq. (16); SPEC §6.1), ``(3 axes, 4)``."""
+    (the paper's eq. (16)), ``(3 axes, 4)``."""
     k1, k2, k3 = _gain3(K1, "K1"), _gain3(K2, "K2"), _gain3(K3, "K3")
     a, b = _alpha_beta(alpha, beta)
     return np.stack((np.ones(3), k1 * a + k2 * b, k2 * a + k3 * b, k3 * a), axis=-1)
@@ -145,7 +145,7 @@ def eso_poles(K1: object, K2: object, K3: object, alpha: float, beta: float) -> 
 def eso_gains_from_poles(
     poles: object, alpha: float, beta: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """ESO gains placing the per-axis poles (seed eqs. (17)–(18)).
+    """ESO gains placing the per-axis poles (the paper's eqs. (17)–(18)).
 
     With the desired poles s = −λ₁, −λ₂, −λ₃ (``poles``: shape ``(3,)`` for the same poles on
     every axis or ``(3 axes, 3)``; real, or complex in conjugate pairs, all with negative real
@@ -193,7 +193,7 @@ def eso_gains_from_poles(
 
 @dataclass(frozen=True)
 class ADRCParams:
-    """ADRC parameters (SPEC §6.1). Gains are positive scalars or length-3 diagonals.
+    """ADRC parameters. Gains are positive scalars or length-3 diagonals.
 
     Attributes:
         K1, K2, K3: ESO gains (diagonal).  k1, k2: AFC gains [1/s², 1/s].
@@ -220,7 +220,7 @@ class ADRCParams:
         object.__setattr__(self, "beta", b)
 
 
-#: Seed 000's parameters (composite ESO, β = 0.5).
+#: Wu et al.'s parameters (composite ESO, β = 0.5).
 PAPER = ADRCParams()
 
 
@@ -429,7 +429,7 @@ class MrpADRCLaw:
 
 
 class MrpADRC(MrpChartAdapter):
-    """Seed 000's ADRC as an SO(3) controller: :class:`MrpADRCLaw` in an
+    """Wu et al.'s ADRC as an SO(3) controller: :class:`MrpADRCLaw` in an
     :class:`~liecontrol.control.adapters.MrpChartAdapter`.
 
     Args:
@@ -438,7 +438,7 @@ class MrpADRC(MrpChartAdapter):
             ``ADRCParams(beta=0.0)`` is the attitude-sensor-only ESO.
         base: chart base frame — ``"reference"`` (p = attitude-error MRP, p_d = 0),
             ``"inertial"`` or a callable frame such as the orbit frame
-            ``spacecraft.orbit.EarthPointingReference(orbit)`` (seed 000).
+            ``spacecraft.orbit.EarthPointingReference(orbit)`` (Wu, Huang, Wei & Guo).
         threshold: MRP shadow-switch threshold (≥ 1).
         eso_init: ESO initialisation, ``"measured"`` or ``"zero"`` (:class:`MrpADRCLaw`).
 

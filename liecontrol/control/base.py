@@ -1,4 +1,4 @@
-"""The controller seam (SPEC §1, §6): a controller sees a state and a reference, returns a torque.
+"""The controller seam: a controller sees a state and a reference, returns a torque.
 
 All arrays are batched: the leading axis ``B`` indexes independent spacecraft; a single run is a
 batch of one. See ``docs/design.md``.

@@ -1,9 +1,9 @@
-"""Chart-based baseline controllers (SPEC §6 item 6): quaternion PD and MRP PD.
+"""Chart-based baseline controllers: quaternion PD and MRP PD.
 
 Both are chart laws wrapped by the adapters of :mod:`liecontrol.control.adapters` with
 ``base="reference"``, so the chart coordinates are those of the attitude error R̃ = R_dᵀR and
 ``ω_rel = e_Ω = ω − RᵀR_d ω_d``. They share the tracking feed-forward of the geometric PD
-(SPEC §6 item 1): ``ff = ω × Jω − J(ω × (RᵀR_d ω_d) − RᵀR_d ω̇_d)``.
+: ``ff = ω × Jω − J(ω × (RᵀR_d ω_d) − RᵀR_d ω̇_d)``.
 
 * :class:`QuaternionPD` (Wie & Barba 1985; Wie, *Space Vehicle Dynamics and Control*, §7.3):
 
@@ -22,6 +22,21 @@ Both are chart laws wrapped by the adapters of :mod:`liecontrol.control.adapters
   With the switch at |σ| = 1, σ is the short-way error, so the law does not unwind; the torque
   is discontinuous at 180° (where σ and its shadow both have norm 1 and opposite sign).
 
+  ``feedforward`` picks the nonlinear terms added to −Kσ − P e_Ω (ω_r = RᵀR_d ω_d, the
+  reference rate in body axes):
+
+  - ``"gyroscopic"`` (default): ff above, ω × Jω − J(ω × ω_r − ω̇_r) — Basilisk's
+    ``mrpFeedback`` with ``controlLawType = 1``;
+  - ``"reference"``: ω_r × Jω − J(ω × ω_r − ω̇_r) — Basilisk's default ``mrpFeedback`` law
+    (``controlLawType = 0``, no integral term, no wheels, no known torque), which avoids the
+    term quadratic in ω (Schaub & Junkins, §8.4; the Basilisk module documentation states both
+    forms); when regulating (ω_r = 0) it is the plain PD u = −Kσ − Pω;
+  - ``"none"``: u = −Kσ − P e_Ω, no feed-forward at all.
+
+  With a scalar K, V = ½ e_Ωᵀ J e_Ω + 2K ln(1 + σᵀσ) has V̇ = −e_Ωᵀ P e_Ω for "gyroscopic"
+  and "reference" (tracking), and for "none" when ω_r = 0 (ω × Jω ⊥ ω); the cross terms that
+  remain are orthogonal to e_Ω.
+
 Gains are positive scalars, positive 3-vectors (diagonal) or SPD 3×3 matrices
 (:func:`liecontrol.control.geometric_pd.check_gain`); units N·m per unit of q_v/σ and
 N·m·s/rad.
@@ -36,7 +51,7 @@ from .._validation import check_inertia_3x3
 from .adapters import ChartState, MrpChartAdapter, QuaternionChartAdapter
 from .geometric_pd import _apply_gain, check_gain
 
-__all__ = ["QuaternionPD", "MrpPD", "QuaternionPDLaw", "MrpPDLaw"]
+__all__ = ["QuaternionPD", "MrpPD", "QuaternionPDLaw", "MrpPDLaw", "MRP_FEEDFORWARDS"]
 
 
 def _inertia(J: object) -> np.ndarray:
@@ -77,22 +92,49 @@ class QuaternionPDLaw:
         return dict(self._diag)
 
 
+#: The ``feedforward`` options of :class:`MrpPD` (module docstring).
+MRP_FEEDFORWARDS: tuple[str, ...] = ("gyroscopic", "reference", "none")
+
+
+def _check_feedforward(feedforward: object) -> str:
+    if not isinstance(feedforward, str) or feedforward not in MRP_FEEDFORWARDS:
+        raise ValueError(
+            f"feedforward: expected one of {', '.join(map(repr, MRP_FEEDFORWARDS))}, got "
+            f"{feedforward!r}"
+        )
+    return feedforward
+
+
 class MrpPDLaw:
-    """u = −K σ − P e_Ω + ff on the (shadow-switched) error MRP ``s.y`` (module docstring)."""
+    """u = −K σ − P e_Ω + ff on the (shadow-switched) error MRP ``s.y``; ``feedforward``
+    selects ff (module docstring)."""
 
     batched = True
 
-    def __init__(self, J: object, K: object, P: object) -> None:
+    def __init__(
+        self, J: object, K: object, P: object, feedforward: str = "gyroscopic"
+    ) -> None:
         self.J = _inertia(J)
         self.K = check_gain(K, "K")
         self.P = check_gain(P, "P")
+        self.feedforward = _check_feedforward(feedforward)
 
     def reset(self, t0: float, batch_size: int) -> None:
         """Stateless."""
 
     def __call__(self, t: float, s: ChartState) -> np.ndarray:
         u = -_apply_gain(self.K, s.y) - _apply_gain(self.P, s.omega_rel)
-        return u + _feed_forward(self.J, s)
+        if self.feedforward == "gyroscopic":
+            return u + _feed_forward(self.J, s)
+        if self.feedforward == "reference":
+            # Basilisk's default: ω_r × Jω in place of ω × Jω (no term quadratic in ω)
+            w = s.omega
+            return (
+                u
+                + _cross(s.omega_base, w @ self.J.T)
+                - (_cross(w, s.omega_base) - s.omega_dot_base) @ self.J.T
+            )
+        return u
 
 
 class QuaternionPD(QuaternionChartAdapter):
@@ -133,7 +175,18 @@ class MrpPD(MrpChartAdapter):
         K: attitude gain [N·m per unit of σ] (σ ≈ θ/4 near the target).
         P: rate gain [N·m·s/rad].
         threshold: shadow-switch threshold (≥ 1; 1 = classical).
+        feedforward: ``"gyroscopic"`` (default, ω × Jω + tracking terms), ``"reference"``
+            (Basilisk's default ``mrpFeedback``: ω_r × Jω + tracking terms) or ``"none"``.
     """
 
-    def __init__(self, J: object, K: object, P: object, threshold: float = 1.0) -> None:
-        super().__init__(MrpPDLaw(J, K, P), base="reference", threshold=threshold)
+    def __init__(
+        self,
+        J: object,
+        K: object,
+        P: object,
+        threshold: float = 1.0,
+        feedforward: str = "gyroscopic",
+    ) -> None:
+        super().__init__(
+            MrpPDLaw(J, K, P, feedforward=feedforward), base="reference", threshold=threshold
+        )

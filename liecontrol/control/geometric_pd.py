@@ -1,6 +1,6 @@
-"""Geometric PD attitude controller on SO(3) (SPEC §6 item 1).
+"""Geometric PD attitude controller on SO(3).
 
-Control law (Lee 2012; seed 002 Lemmas 2 and 4 in tracking form)::
+Control law (Lee 2012; Jiang, Meng & Yang 2023 Lemmas 2 and 4 in tracking form)::
 
     M = −K_R e_R − K_Ω e_Ω + Ω × JΩ − J (Ω^ RᵀR_d Ω_d − RᵀR_d Ω̇_d)
 
@@ -181,7 +181,7 @@ def _half_sinc_one(theta: float) -> float:
 
 
 class GeometricPD(AttitudeController):
-    """Geometric PD / tracking controller on SO(3) (SPEC §6 item 1; seed 002 Lemmas 2, 4).
+    """Geometric PD / tracking controller on SO(3) (Jiang, Meng & Yang 2023 Lemmas 2, 4).
 
     ``M = −K_R e_R − K_Ω e_Ω + Ω × JΩ − J (Ω^ RᵀR_d Ω_d − RᵀR_d Ω̇_d)``.
 

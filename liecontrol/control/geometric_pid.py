@@ -1,4 +1,4 @@
-"""Geometric PID attitude controllers on SO(3) (SPEC §6 item 2; survey seed 002, Lemma 5).
+"""Geometric PID attitude controllers on SO(3) (Jiang, Meng & Yang 2023, Lemma 5).
 
 Both controllers are the geometric PD of :mod:`liecontrol.control.geometric_pd` plus an integral
 term ``−K_I z`` whose state ``z`` (``(B, 3)``) is integrated inside the controller:
@@ -11,8 +11,8 @@ Lemma 5). The integral state ``z = ω_I`` obeys
     ω̇_I = Γ(e_Ω, ω_I) + e_R,
     Γ(ω, η) = ½ (ω × η − J⁻¹(Jη × ω + Jω × η))                        (connection="survey")
 
-as printed in the survey and SPEC §6 item 2, with ``e_R`` the gradient of the chosen error
-function (``log(R_dᵀR)^∨`` by default, Lemma 5's ``log(R)``). *Reconstructed* parts:
+as printed in the survey (Jiang, Meng & Yang 2023, Lemma 5), with ``e_R`` the gradient of the
+chosen error function (``log(R_dᵀR)^∨`` by default, Lemma 5's ``log(R)``). *Reconstructed* parts:
 
 - the survey prints ``τ = J⁻¹(ω × Jω − d_ω − K_p log R − K_I ω_I − K_d ω)``, which is not
   dimensionally a torque for the model ``J ω̇ = −ω × Jω + τ + d_ω`` it states; the law used here is
@@ -27,7 +27,7 @@ function (``log(R_dᵀR)^∨`` by default, Lemma 5's ``log(R)``). *Reconstructed
   ``∇_ω ω_I = e_R`` in this package's convention. ``connection="levi_civita"`` integrates
   ``∇_{e_Ω} ω_I = e_R``, i.e. ``ω̇_I = −Γ(e_Ω, ω_I) + e_R``. The two differ by terms quadratic in
   (e_Ω, ω_I), so both have the same linearisation and both reject constant disturbances
-  (tests); the default follows the SPEC.
+  (tests); the default follows the survey.
 
 :class:`IntegralPD` — the integral-of-error variant (Goodarzi, Lee & Lee, "Geometric nonlinear
 PID control of a quadrotor UAV on SE(3)", ECC 2013): ``ż = e_Ω + c e_R`` with ``c > 0`` [1/s] and
@@ -83,7 +83,7 @@ def connection_term(
 ) -> np.ndarray:
     """The velocity-dependent part of the intrinsic integrator, ``(B, 3)``.
 
-    ``connection="survey"``: ``Γ(ω, η) = ½(ω × η − J⁻¹(Jη × ω + Jω × η))`` (SPEC §6 item 2);
+    ``connection="survey"``: ``Γ(ω, η) = ½(ω × η − J⁻¹(Jη × ω + Jω × η))``;
     ``"levi_civita"``: ``−Γ(ω, η)``, so that ``η̇ = connection_term(...) + e`` is
     ``∇_ω η = e`` for the Levi-Civita connection of the metric ``J`` (module docstring).
 
@@ -248,7 +248,7 @@ class _IntegralController(AttitudeController):
 
 
 class IntrinsicPID(_IntegralController):
-    """Intrinsic PID of Maithripala & Berg on SO(3) (SPEC §6 item 2; survey seed 002, Lemma 5).
+    """Intrinsic PID of Maithripala & Berg on SO(3) (Jiang, Meng & Yang 2023, Lemma 5).
 
     ``M = PD(e_R, e_Ω) − K_I ω_I`` with ``ω̇_I = connection_term(J, e_Ω, ω_I) + e_R``
     (module docstring for the law, its reconstruction and the anti-windup).
@@ -259,7 +259,7 @@ class IntrinsicPID(_IntegralController):
             3-vector (diagonal) or SPD 3×3 matrix.
         error: error function whose gradient is integrated: ``"log"`` (default, Lemma 5),
             ``"large_angle"`` or ``"trace"``; G: trace-error weight.
-        connection: ``"survey"`` (default, SPEC formula) or ``"levi_civita"``.
+        connection: ``"survey"`` (default, the survey's formula) or ``"levi_civita"``.
         integral_limit: clamp of ``‖K_I ω_I‖`` [N·m], or ``None``.
         torque_limit: output box [N·m] (scalar or (3,)), or ``None``.
         conditional: conditional integration while saturated (only with ``torque_limit``).
@@ -296,7 +296,7 @@ class IntrinsicPID(_IntegralController):
 
 
 class IntegralPD(_IntegralController):
-    """Geometric PD plus the integral of ``e_Ω + c e_R`` (SPEC §6 item 2, integral variant).
+    """Geometric PD plus the integral of ``e_Ω + c e_R`` (integral variant).
 
     ``M = PD(e_R, e_Ω) − K_I e_I``, ``ė_I = e_Ω + c e_R`` (Goodarzi, Lee & Lee 2013).
 

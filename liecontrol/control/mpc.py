@@ -1,6 +1,6 @@
-"""Model predictive control on SO(3) (SPEC §6 item 4; Kalabić et al. 2017 style).
+"""Model predictive control on SO(3) (Kalabić et al. 2017 style).
 
-Error state (SPEC §4, log error): with ``R̃ = R_dᵀR``,
+Error state (log error): with ``R̃ = R_dᵀR``,
 
     x = (ξ, e_Ω) ∈ ℝ⁶,   ξ = log(R̃)^∨,   e_Ω = Ω − R̃ᵀΩ_d,
 
@@ -11,7 +11,7 @@ so that exactly ``d/dt R̃ = R̃ e_Ω^`` and ``ξ̇ = J_r(ξ)⁻¹ e_Ω``. The Q
 Prediction model (*reconstructed*; the structure follows Kalabić, Gupta, Di Cairano, Bloch &
 Kolmanovsky, "MPC on manifolds with an application to the control of spacecraft attitude on
 SO(3)", Automatica 76 (2017) 293–300: discrete Lie-group dynamics, error linearised in the Lie
-algebra about the reference). The discrete dynamics are the rigid-body LGVI (SPEC §3 item 1;
+algebra about the reference). The discrete dynamics are the rigid-body LGVI (
 Lee, Leok & McClamroch 2005) with step ``T`` and the held torque ``M_k = M_{k+1} = u_k``:
 
     T (Π_k + (T/2) u_k)^ = F_k J_d − J_d F_kᵀ,   R_{k+1} = R_k F_k,
@@ -214,7 +214,7 @@ def _jd(J: np.ndarray) -> np.ndarray:
 
 
 def error_state(R: object, omega: object, R_d: object, omega_d: object) -> np.ndarray:
-    """``x = (log(R_dᵀR)^∨, Ω − R̃ᵀΩ_d)``, ``(..., 6)`` (module docstring; SPEC §4)."""
+    """``x = (log(R_dᵀR)^∨, Ω − R̃ᵀΩ_d)``, ``(..., 6)`` (module docstring)."""
     R = check_rotation_matrix(R, "R")
     R_d = check_rotation_matrix(R_d, "R_d")
     w = as_array(omega, "omega", (3,))
@@ -766,7 +766,7 @@ def _check_int(v: object, name: str, minimum: int) -> int:
 
 
 class SO3MPC(AttitudeController):
-    """Linear MPC on the Lie-algebra error of the LGVI (module docstring; SPEC §6 item 4).
+    """Linear MPC on the Lie-algebra error of the LGVI (module docstring).
 
     Args:
         J: ``(3, 3)`` inertia the controller assumes [kg·m²].

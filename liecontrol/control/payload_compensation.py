@@ -1,6 +1,7 @@
-"""Small-angle Euler PID with rotating-payload feed-forward compensation (SPEC §6.3, seed 003).
+"""Small-angle Euler PID with rotating-payload feed-forward compensation (Wang, Chu, Zhang & Yuan
+2016).
 
-Seed 003 (Wang, Chu, Zhang & Yuan, "On the influence of rotatable payload and control for
+Wang, Chu, Zhang & Yuan (2016, "On the influence of rotatable payload and control for
 satellite attitude", *Aerospace Control and Application* 2016(5)) controls an Earth-pointing
 satellite carrying a 90°/s rotating payload with a wheel PID plus a feed-forward sinusoid that
 cancels the payload's imbalance torque.
@@ -9,14 +10,14 @@ cancels the payload's imbalance torque.
 read through :class:`~liecontrol.control.adapters.EulerChartAdapter` (``base="reference"``): the
 adapter gives the angles ``y`` of R_dᵀR and their exact rates ẏ = B(y) ω_rel with
 ω_rel = ω − R_relᵀ ω_d. For the orbit frame (ω_d = (0, −n, 0)) and small angles this is the
-seed's kinematics (its eq. (4), from Tu Shancheng's textbook)
+paper's kinematics (its eq. (4), from Tu Shancheng's textbook)
 
     ω_x = φ̇ − nψ,   ω_y = θ̇ − n,   ω_z = ψ̇ + nφ,
 
 to first order in the angles (checked in the tests). Any Tait–Bryan sequence may be used; the
 small angles are mapped to body axes by their rotation axis (``seq="XYZ"``: y = (φ, θ, ψ)).
 
-**PID** (seed eq. (17), sampled every Δt_c, held in between), per axis j:
+**PID** (the paper's eq. (17), sampled every Δt_c, held in between), per axis j:
 
     T_c,j = −(k_p,j Δφ_j + k_i,j ∫Δφ_j dt + k_d,j Δφ̇_j) + T_gyro,j,
     T_gyro = ω × (J ω + h_x)   [+ ω × h with ``gyro_momentum="controller"``].
@@ -25,24 +26,24 @@ The seed writes T_gyro = ω × (Jω + H) with H the wheel momentum because its c
 torque −ḣ. Our actuator seam (``spacecraft.actuators``: ḣ_cmd = −u − ω × h) already adds ω × h,
 so by default (``gyro_momentum="actuator"``) the law adds only ω × Jω plus ω × h_x for momentum
 the actuator does not know (``extra_momentum``, e.g. the payload rotor's nominal spin momentum).
-Gains (*reconstructed*: the seed only gives the bandwidth 0.02 Hz; with ξ = 0.707 its bandwidth
+Gains (*reconstructed*: the paper only gives the bandwidth 0.02 Hz; with ξ = 0.707 its bandwidth
 equals ω_n, seed §1.3): the closed loop J_jj s³ + k_d s² + k_p s + k_i = J_jj (s + r ω_n)
 (s² + 2ξ ω_n s + ω_n²), ω_n = 2π·bandwidth, r = ``integral_ratio`` (default 0.1: the integral
 pole a decade below ω_n), i.e. k_p = J_jj (1 + 2ξr) ω_n², k_i = J_jj r ω_n³,
 k_d = J_jj (2ξ + r) ω_n (:func:`pid_gains`).
 
-**Feed-forward** (seed eqs. (15), (19)), refreshed every Δt_p < Δt_c:
+**Feed-forward** (the paper's eqs. (15), (19)), refreshed every Δt_p < Δt_c:
 
     T_comp,j(t) = −Ŵ_j sin(ω_p t + β̂_j),   T = T_c (held over Δt_c) + T_comp (held over Δt_p).
 
 With ``hold_correction`` (default) the value held over [t_k, t_k + Δt_p] is
 −Ŵ_j/sinc(ω_pΔt_p/2) · sin(ω_p(t_k + Δt_p/2) + β̂_j): the fundamental of a centred hold equals the
 continuous sinusoid exactly (a plain hold would lag by Δt_p/2 — 2 % of the harmonic here; the
-seed notes that delays are removed "by adjusting the phase angle"). The seed's design rule for
+paper notes that delays are removed "by adjusting the phase angle"). The paper's design rule for
 Δt_p (eq. (18)): the rate error caused by the hold, ≈ T_w Δt_p / J_jj, must stay below the
 requirement.
 
-**Identification** (seed §2: "identified on line by a Kalman filter, or injected from ground
+**Identification** (the paper's §2: "identified on line by a Kalman filter, or injected from ground
 analysis"; *reconstructed*). The residual is the disturbance torque recovered from the rate
 increments between two PID samples t_{k−1}, t_k (Δ = t_k − t_{k−1}):
 
@@ -296,7 +297,7 @@ class HarmonicIdentifier:
 
 
 class SmallAnglePIDLaw:
-    """The seed-003 PID of Euler small angles as a chart law for
+    """The rotating-payload paper's PID of Euler small angles as a chart law for
     :class:`~liecontrol.control.adapters.EulerChartAdapter` (module docstring):
 
         T = −(k_p Δφ + k_i ∫Δφ dt + k_d Δφ̇) + ω × (J ω + h_g).
@@ -408,8 +409,8 @@ class SmallAnglePIDLaw:
 
 
 class SmallAnglePIDWithFeedforward(AttitudeController):
-    """Seed-003 composite controller: Euler small-angle PID at Δt_c + payload feed-forward at
-    Δt_p with on-line (or injected) amplitude/phase (SPEC §6.3; module docstring).
+    """Composite controller of Wang, Chu, Zhang & Yuan (2016): Euler small-angle PID at Δt_c +
+    payload feed-forward at Δt_p with on-line (or injected) amplitude/phase (module docstring).
 
     Args:
         J: controller inertia model ``(3, 3)`` [kg·m²].
@@ -425,7 +426,7 @@ class SmallAnglePIDWithFeedforward(AttitudeController):
         compensation_start: time the feed-forward is switched on [s].
         forgetting, include_bias, initial_covariance: :class:`HarmonicIdentifier` settings.
         seq, base, lock_tol: the :class:`EulerChartAdapter` (``base="reference"``: angles of the
-            body relative to the reference, which for seed 003 is the orbit frame).
+            body relative to the reference, which for Wang et al. 2016 is the orbit frame).
         extra_momentum, gyro_momentum, integral_limit: :class:`SmallAnglePIDLaw` settings.
         hold_correction: centre the Δt_p hold and correct its sinc gain (module docstring).
     """

@@ -1,6 +1,6 @@
-"""Prescribed-performance attitude control on SO(3) (SPEC §6 item 3).
+"""Prescribed-performance attitude control on SO(3).
 
-**Funnel.** Each component of Lee's large-angle error vector ``e_R`` (SPEC §4; ``|e_R,i| ≤ 1``)
+**Funnel.** Each component of Lee's large-angle error vector ``e_R`` (``|e_R,i| ≤ 1``)
 must stay inside
 
     |e_i(t)| < ρ(t),     ρ(t) = (ρ₀ − ρ_∞) e^{−l (t − t₀)} + ρ_∞,     0 < ρ_∞ < ρ₀ ≤ 1, l > 0
@@ -277,7 +277,7 @@ def virtual_rate(
 
 
 class PrescribedPerformance(AttitudeController):
-    """Prescribed-performance controller on SO(3) (SPEC §6 item 3; module docstring).
+    """Prescribed-performance controller on SO(3) (module docstring).
 
     Args:
         J: 3×3 inertia the controller assumes [kg·m²].

@@ -1,8 +1,8 @@
-"""Regions of attraction of the geometric PD controllers (survey seed 002, Lemmas 1–4).
+"""Regions of attraction of the geometric PD controllers (Jiang, Meng & Yang 2023, Lemmas 1–4).
 
 Setting: rigid body ``J Ω̇ + Ω × JΩ = M`` under :class:`~liecontrol.control.GeometricPD` with the
 exact inertia and no disturbance, so that the closed loop is ``J ė_Ω = −k_R e_R − K_Ω e_Ω``,
-``d/dt R̃ = R̃ e_Ω^`` (SPEC §6 item 1). For a scalar ``k_R`` the function
+``d/dt R̃ = R̃ e_Ω^``. For a scalar ``k_R`` the function
 
     V = ½ e_Ωᵀ J e_Ω + (k_R / c) Ψ,     V̇ = −e_Ωᵀ K_Ω e_Ω ≤ 0,
 
@@ -39,7 +39,8 @@ in extraction):
 The survey's Lemma 4 also claims exponential stability, which in Lee 2012 needs an additional
 cross term in V and a gain condition on ``k_Ω``; only the attraction part is checked here.
 
-Sources: survey seed 002, Lemmas 1–4 and eqs. (7)–(11); Koditschek 1989; Bullo & Murray 1995;
+Sources: Jiang, Meng & Yang, Control and Decision 38(8), 2023, Lemmas 1–4 and eqs. (7)–(11);
+Koditschek 1989; Bullo & Murray 1995;
 T. Lee, Systems & Control Letters 61 (2012), Prop. 1.
 """
 

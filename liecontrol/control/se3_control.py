@@ -1,16 +1,16 @@
-"""Coupled attitude–orbit (pose) control on SE(3) (SPEC §6 item 5; seed 002 Lemma 3, eqs. 15–16).
+"""Coupled attitude–orbit (pose) control on SE(3) (Jiang, Meng & Yang 2023 Lemma 3, eqs. 15–16).
 
 The seam mirrors :mod:`liecontrol.control.base` for 6-DOF: a :class:`PoseController` is given a
 :class:`PoseState` ``(g, ξ)`` and a :class:`PoseReference` ``(g_d, ξ_d, ξ̇_d)`` and returns the body
 wrench ``(τ, F)`` as ``(B, 6)`` — rotation first, as every twist here (``docs/design.md``).
 
-Plant (seed 002 eqs. 5–6, SPEC §5.6), with I = diag(J, m I₃) and ξ = (ω, v) body velocities::
+Plant (Jiang, Meng & Yang 2023 eqs. 5–6), with I = diag(J, m I₃) and ξ = (ω, v) body velocities::
 
     ġ = g ξ^,    I ξ̇ = ad_ξᵀ I ξ + u + w_g(g) + d,    ad_ξᵀ I ξ = (−ω × Jω, −ω × m v),
 
-``w_g`` the gravity wrench in body axes. Errors (seed 002 §3, corrected): g̃ = g_d⁻¹ g = (R̃, t)
-with R̃ = R_dᵀR, t = R_dᵀ(p − p_d); η = Ad_{g̃⁻¹} ξ_d (the desired twist seen in the current body
-frame); ξ̃ = ξ − η. Then (seed 002 eqs. 15–16)::
+``w_g`` the gravity wrench in body axes. Errors (Jiang, Meng & Yang 2023 §3, corrected):
+g̃ = g_d⁻¹ g = (R̃, t) with R̃ = R_dᵀR, t = R_dᵀ(p − p_d); η = Ad_{g̃⁻¹} ξ_d (the desired twist
+seen in the current body frame); ξ̃ = ξ − η. Then (Jiang, Meng & Yang 2023 eqs. 15–16)::
 
     d/dt g̃ = g̃ ξ̃^,
     I ξ̃̇ = ad_ξᵀ I ξ + I (ad_ξ̃ η − Ad_{g̃⁻¹} ξ̇_d) + u + w_g + d.
@@ -52,7 +52,7 @@ Units: J [kg·m²], m [kg], K_R [N·m/rad], K_p [N/m], K_ω [N·m·s/rad], K_v [
 (τ [N·m], F [N]) in body axes.
 
 Sources: F. Bullo, R. M. Murray, "Proportional derivative control on the Euclidean group",
-Proc. 3rd ECC, 1995; seed 002 (Jiang, Meng, Yang 2023) Lemma 3 and eqs. (5)–(6), (15)–(16);
+Proc. 3rd ECC, 1995; Jiang, Meng & Yang (2023) Lemma 3 and eqs. (5)–(6), (15)–(16);
 T. Lee, M. Leok, N. H. McClamroch (2010) for the decoupled SO(3) × ℝ³ design.
 """
 
@@ -366,7 +366,7 @@ class _PoseControllerBase(PoseController):
 
 
 class BulloMurrayPD(_PoseControllerBase):
-    """Bullo–Murray PD on SE(3) (seed 002 Lemma 3; module docstring).
+    """Bullo–Murray PD on SE(3) (Jiang, Meng & Yang 2023 Lemma 3; module docstring).
 
     ``u = −ad_ξᵀIξ (if cancel_coriolis) − w_g(g) − P − K_d ξ̃``, K_d = diag(K_ω, K_v).
 
@@ -410,7 +410,8 @@ class BulloMurrayPD(_PoseControllerBase):
 
 
 class SE3TrackingController(_PoseControllerBase):
-    """Tracking controller on the SE(3) error dynamics (seed 002 eqs. 15–16; module docstring).
+    """Tracking controller on the SE(3) error dynamics (Jiang, Meng & Yang 2023 eqs. 15–16;
+    module docstring).
 
     ``u = −ad_ξᵀIξ − I(ad_ξ̃ η − Ad_{g̃⁻¹}ξ̇_d) − w_g(g) − P − K_d ξ̃`` ⇒ ``I ξ̃̇ = −P − K_d ξ̃``.
 

@@ -1,18 +1,18 @@
-"""Terminal sliding mode on Euler angles with feedback linearisation (SPEC §6.2; seed 004).
+"""Terminal sliding mode on Euler angles with feedback linearisation (Liu, Tang & Yu 2008).
 
 Source: Liu Luhua, Tang Guojian, Yu Menglun, "Space RVD terminal approach to attitude tracking
-by terminal sliding mode control", J. National Univ. of Defense Technology 30(2), 2008 (seed 004),
+by terminal sliding mode control", J. National Univ. of Defense Technology 30(2), 2008,
 eqs. (1)–(19); the feedback linearisation follows Isidori's relative-degree construction.
 
-**Feedback linearisation** (seed §2, eqs. (9)–(12)). Output y = a = (a1, a2, a3), the Euler
-angles of the body (R body → inertial, any of scipy's 12 sequences; the seed uses the 3-2-1
+**Feedback linearisation** (the paper's §2, eqs. (9)–(12)). Output y = a = (a1, a2, a3), the Euler
+angles of the body (R body → inertial, any of scipy's 12 sequences; the paper uses the 3-2-1
 sequence ``"ZYX"``). With ω = M(a) ȧ (:func:`liecontrol.charts.euler.rates_matrix_inv`) and
 B(a) = M(a)⁻¹ (ȧ = B ω), differentiating ω = M ȧ once more gives
 
     ä = B(a) (ω̇ − Ṁ(a, ȧ) ȧ),      ω̇ = J⁻¹(−ω × Jω + L),
 
 so with the control input u = J⁻¹L (angular-acceleration input; for principal J this is the
-seed's u = (L_x/J_x, L_y/J_y, L_z/J_z)) the output has relative degree (2, 2, 2) and
+paper's u = (L_x/J_x, L_y/J_y, L_z/J_z)) the output has relative degree (2, 2, 2) and
 
     ÿ = b(x) + A(x) u,   A = B(a) = ∂ẏ/∂ω,   b = L_f²h = B(a) (J⁻¹(−ω × Jω) − Ṁ(a, ȧ) ȧ).
 
@@ -20,17 +20,17 @@ This holds for a **general full (symmetric positive-definite) inertia J**, not o
 For an intrinsic sequence of axes (i, j, k), M = [R_kᵀ(a3) R_jᵀ(a2) e_i, R_kᵀ(a3) e_j, e_k] and
 Ṁ ȧ = ȧ1 (−ȧ3 e_k × m1 − ȧ2 R_kᵀ(e_j × R_jᵀ e_i)) + ȧ2 (−ȧ3 e_k × m2) (m1, m2 the first two
 columns); an extrinsic sequence is the reversed intrinsic one with reversed angles. For ``"ZYX"``
-and principal J this reproduces the seed's closed form eq. (12) (tested).
+and principal J this reproduces the paper's closed form eq. (12) (tested).
 
-**Time-shaping polynomial** (seed eqs. (16), (18)–(19)). With τ = t/T,
+**Time-shaping polynomial** (the paper's eqs. (16), (18)–(19)). With τ = t/T,
 
     p(t) = e₀(1 − 10τ³ + 15τ⁴ − 6τ⁵) + ė₀T(τ − 6τ³ + 8τ⁴ − 3τ⁵)
            + ë₀T²(τ²/2 − 1.5τ³ + 1.5τ⁴ − 0.5τ⁵)   for 0 ≤ t ≤ T,   p(t) = 0 for t > T,
 
-the coefficients being the seed's R = M⁻¹S (eq. (19)): p, ṗ, p̈ equal e, ė, ë at t = 0 and vanish
+the coefficients being the paper's R = M⁻¹S (eq. (19)): p, ṗ, p̈ equal e, ė, ë at t = 0 and vanish
 at t = T.
 
-**Sliding surface and control** (seed eqs. (14)–(17), smoothed as in its §3.2). e = y − y_d
+**Sliding surface and control** (the paper's eqs. (14)–(17), smoothed as in its §3.2). e = y − y_d
 (first and third angles wrapped to (−π, π]),
 
     σ = C₁(e − p) + C₂(ė − ṗ)                    (σ(0) = 0 by construction of p),
@@ -38,16 +38,16 @@ at t = T.
     S_δ = C₂ᵀσ / (‖C₂ᵀσ‖ + δ),   δ = δ₀ + δ₁‖e‖,
 
 and the body torque is L = J u. With ÿ = b + Δb + Au + d, ‖Δb‖ ≤ F, ‖d‖ ≤ D and the unsmoothed
-unit vector, V = ½σᵀσ gives V̇ ≤ −K‖C₂ᵀσ‖ < 0 (seed §3.2), so the state stays on σ = 0 from t = 0
-and e(t) follows the homogeneous solution that ends at 0 at t = T; with the smoothing the
+unit vector, V = ½σᵀσ gives V̇ ≤ −K‖C₂ᵀσ‖ < 0 (the paper's §3.2), so the state stays on σ = 0
+from t = 0 and e(t) follows the homogeneous solution that ends at 0 at t = T; with the smoothing the
 error stays in a boundary layer of width ≈ δ·(F + D)/(F + D + K).
 
-*Reconstructed / our choices* (the seed leaves them open):
+*Reconstructed / our choices* (the paper leaves them open):
 
 - ë₀ is the **drift** error acceleration ë₀ = b(x₀) − ÿ_d(t₀) (what the error acceleration is
   with u = 0), which makes the commanded torque start at exactly 0 (no initial jump);
-- the seed's "‖C_n^Tσ‖₊" is read as ‖C₂ᵀσ‖ + δ (SPEC §6.2);
-- F, D, K are constants (the seed gives no values).
+- the paper's "‖C_n^Tσ‖₊" is read as ‖C₂ᵀσ‖ + δ;
+- F, D, K are constants (the paper gives no values).
 
 Gimbal lock: B(a) and b contain 1/cos a2 (Tait–Bryan) or 1/sin a2 (proper Euler); the law raises
 :class:`~liecontrol.exceptions.ChartSingularityError` when |cos a2| (|sin a2|) < ``lock_tol``,
@@ -96,7 +96,7 @@ __all__ = [
     "SHAPING_COEFFICIENTS",
 ]
 
-#: The seed's r_jl (eq. (19), R = M⁻¹S with M = [[1,1,1],[3,4,5],[6,12,20]],
+#: The paper's r_jl (eq. (19), R = M⁻¹S with M = [[1,1,1],[3,4,5],[6,12,20]],
 #: S = [[−1,−1,−0.5],[0,−1,−1],[0,0,−1]]): the coefficient of e^{(l)}(0) T^l τ^{j+3} in p(t).
 SHAPING_COEFFICIENTS: np.ndarray = np.array(
     [[-10.0, -6.0, -1.5], [15.0, 8.0, 1.5], [-6.0, -3.0, -0.5]]
@@ -210,12 +210,13 @@ def euler_feedback_linearisation(
     omega_base: object | None = None,
     omega_dot_base: object | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Feedback-linearised Euler-angle dynamics ÿ = b + A u with u = J⁻¹L (seed eqs. (10)–(12)).
+    """Feedback-linearised Euler-angle dynamics ÿ = b + A u with u = J⁻¹L (the paper's
+    eqs. (10)–(12)).
 
     A = B(a) (= ∂ẏ/∂ω = ∂ÿ/∂u), b = L_f²h = B(a)(J⁻¹(−ω × Jω) − Ṁ(a, ȧ) ȧ), for a general
-    full inertia ``J`` (principal J gives the seed's u = (L_x/J_x, L_y/J_y, L_z/J_z)).
+    full inertia ``J`` (principal J gives the paper's u = (L_x/J_x, L_y/J_y, L_z/J_z)).
 
-    Euler angles relative to a rotating base frame (extension, not in the seed): with the base's
+    Euler angles relative to a rotating base frame (extension, not in the paper): with the base's
     inertial rate ``omega_base`` = C_bo ω_b and ``omega_dot_base`` = C_bo ω̇_b in body axes,
     ω_rel = ω − C_bo ω_b, ẏ = B ω_rel and ω̇_rel = ω̇ + ω_rel × C_bo ω_b − C_bo ω̇_b, so
     b = B(J⁻¹(−ω × Jω) + ω_rel × C_bo ω_b − C_bo ω̇_b − Ṁ ẏ) and A = B as before.
@@ -224,7 +225,7 @@ def euler_feedback_linearisation(
         angles: ``(..., 3)`` Euler angles [rad] of ``seq`` (of the body relative to the base).
         omega: ``(..., 3)`` inertial body angular velocity, body axes [rad/s].
         J: ``(3, 3)`` inertia [kg·m²] (symmetric positive definite).
-        seq: scipy Euler sequence (default ``"ZYX"``, the seed's 3-2-1).
+        seq: scipy Euler sequence (default ``"ZYX"``, the paper's 3-2-1).
         lock_tol: gimbal-lock threshold on |cos a2| (|sin a2|).
         omega_base, omega_dot_base: ``(..., 3)`` or ``None`` (inertial base).
 
@@ -283,7 +284,7 @@ def euler_reference(
 
 def _shape_coefficients() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Coefficients of τ^m in the shape functions P_l(τ) (rows l = 0, 1, 2) and in their first
-    and second τ-derivatives: the Taylor part τ^l / l!, then the seed's r_jl on τ^{j+3}."""
+    and second τ-derivatives: the Taylor part τ^l / l!, then the paper's r_jl on τ^{j+3}."""
     C = np.zeros((3, 6))
     for ell in range(3):
         C[ell, ell] = 1.0 / math.factorial(ell)
@@ -327,7 +328,7 @@ def _shape_core(
 def time_shaping_polynomial(
     t: object, T: float, e0: object, edot0: object, eddot0: object
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The seed's time-shaping function p(t) and its first two time derivatives (eq. (16)).
+    """The paper's time-shaping function p(t) and its first two time derivatives (eq. (16)).
 
     p(t) = e₀P₀(τ) + ė₀T P₁(τ) + ë₀T² P₂(τ), τ = t/T, for 0 ≤ t ≤ T; 0 for t > T (module
     docstring). p(0) = e₀, ṗ(0) = ė₀, p̈(0) = ë₀; p = ṗ = p̈ = 0 at t = T.
@@ -370,7 +371,7 @@ def _apply(C: np.ndarray, x: np.ndarray) -> np.ndarray:
 def sliding_surface(
     e: object, edot: object, p: object, pdot: object, C1: object, C2: object
 ) -> np.ndarray:
-    """σ = C₁(e − p) + C₂(ė − ṗ) (seed eq. (15) for n = 2), ``(..., 3)``; ``C1, C2`` 3×3."""
+    """σ = C₁(e − p) + C₂(ė − ṗ) (the paper's eq. (15) for n = 2), ``(..., 3)``; ``C1, C2`` 3×3."""
     C1 = np.asarray(C1, dtype=np.float64)
     C2 = np.asarray(C2, dtype=np.float64)
     e, edot = as_array(e, "e", (3,)), as_array(edot, "edot", (3,))
@@ -389,7 +390,7 @@ def tsm_control(
     yddot_d: np.ndarray,
     params: TSMParams,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Seed eq. (17) with the smoothed switching term (SPEC §6.2):
+    """The paper's eq. (17) with the smoothed switching term:
 
     u = −A⁻¹{ b − ÿ_d − p̈ + C₂⁻¹C₁(ė − ṗ) + S_δ (F + D + K) },
     S_δ = C₂ᵀσ / (‖C₂ᵀσ‖ + δ), δ = δ₀ + δ₁‖e‖.
@@ -424,13 +425,13 @@ def _check_weight(C: object, name: str) -> np.ndarray:
 
 @dataclass(frozen=True)
 class TSMParams:
-    """Terminal-sliding-mode parameters (seed §3; SPEC §6.2).
+    """Terminal-sliding-mode parameters (the paper's §3).
 
     Attributes:
         T: prescribed convergence time [s], > 0.
         C1, C2: surface weights, positive scalar / (3,) / SPD 3×3 (stored 3×3); the sliding
             dynamics ė − ṗ = −C₂⁻¹C₁(e − p) are stable because C₂⁻¹C₁ has positive eigenvalues.
-        delta0: smoothing floor δ₀ [rad/s], > 0 (seed 0.03).
+        delta0: smoothing floor δ₀ [rad/s], > 0 (paper: 0.03).
         delta1: smoothing slope δ₁ [1/s], ≥ 0 (seed 5).
         F: bound on ‖Δb‖ (model error) [rad/s²], ≥ 0.
         D: bound on ‖d‖ (external disturbance) [rad/s²], ≥ 0.
@@ -474,7 +475,7 @@ class TSMParams:
 
 
 class TerminalSlidingMode:
-    """Chart-level terminal sliding mode law on Euler angles (seed 004; SPEC §6.2).
+    """Chart-level terminal sliding mode law on Euler angles (Liu, Tang & Yu 2008).
 
     Works on Euler angles of ``seq`` directly (no SO(3) objects): ``command(t, angles, omega,
     angles_d, rates_d, accels_d)`` returns the body torque L = J u. The first ``command`` after
@@ -487,9 +488,10 @@ class TerminalSlidingMode:
     Args:
         J: ``(3, 3)`` inertia the controller assumes [kg·m²] (full inertia allowed).
         T: prescribed time [s] (> 0).
-        C1, C2, delta0, delta1, F, D, K: see :class:`TSMParams` (defaults: the seed's C₁ = C₂ =
-            I, δ₀ = 0.03, δ₁ = 5; F = D = 0; K = 0.5 rad/s² as in our seed-004 reproduction).
-        seq: Euler sequence (default ``"ZYX"``, the seed's 3-2-1).
+        C1, C2, delta0, delta1, F, D, K: see :class:`TSMParams` (defaults: the paper's C₁ = C₂ =
+            I, δ₀ = 0.03, δ₁ = 5; F = D = 0; K = 0.5 rad/s² as in our terminal-sliding-mode
+            reproduction).
+        seq: Euler sequence (default ``"ZYX"``, the paper's 3-2-1).
         lock_tol: |cos a2| (|sin a2|) below which :class:`ChartSingularityError` is raised.
     """
 
@@ -560,7 +562,7 @@ class TerminalSlidingMode:
             omega: ``(..., 3)`` inertial body angular velocity, body axes [rad/s].
             angles_d, rates_d, accels_d: ``(..., 3)`` or ``(3,)`` reference y_d, ẏ_d, ÿ_d.
             omega_base, omega_dot_base: the base frame's inertial rate and its derivative in
-                body axes (C_bo ω_b, C_bo ω̇_b); ``None`` = inertial base (the seed's case).
+                body axes (C_bo ω_b, C_bo ω̇_b); ``None`` = inertial base (the paper's case).
                 With a rotating base ω_rel = ω − C_bo ω_b and ω̇_rel = ω̇ + ω_rel × C_bo ω_b
                 − C_bo ω̇_b, so b = B(J⁻¹(−ω × Jω) + ω_rel × C_bo ω_b − C_bo ω̇_b − Ṁ ẏ).
 
@@ -609,10 +611,10 @@ class TerminalSlidingMode:
 
 class TerminalSlidingModeSO3(EulerChartAdapter):
     """SO(3) :class:`~liecontrol.control.base.AttitudeController`: :class:`TerminalSlidingMode`
-    wrapped by :class:`~liecontrol.control.adapters.EulerChartAdapter` (SPEC §1, §6.2).
+    wrapped by :class:`~liecontrol.control.adapters.EulerChartAdapter`.
 
     The adapter converts (R, ω) and (R_d, ω_d, ω̇_d) into Euler angles of ``seq`` of the body
-    relative to ``base`` (``"inertial"`` = the seed's choice; ``"reference"`` makes the chart the
+    relative to ``base`` (``"inertial"`` = the paper's choice; ``"reference"`` makes the chart the
     attitude error, y_d = 0; or a callable rotating frame such as an orbit frame) and refuses
     states/references within ``lock_tol`` of gimbal lock with ChartSingularityError.
 

@@ -1,4 +1,4 @@
-"""Attitude estimation: the UKF family of seed 001 and manifold filters (SPEC §7).
+"""Attitude estimation: the UKF family of Wang et al. 2015 and manifold filters.
 
 See ``docs/estimators.md``. All filters share the interface of :class:`Filter`
 (``predict(u, dt)``, ``update(z)``, ``x``, ``P``, ``S``, ``innovation``, ``diagnostics``).

@@ -1,4 +1,4 @@
-"""Common filter interface for ``liecontrol.estimation`` (SPEC §7, §9).
+"""Common filter interface for ``liecontrol.estimation``.
 
 Every filter exposes::
 
@@ -12,7 +12,7 @@ Every filter exposes::
                               # "update_rejected", "reason", "nis", "gated",
                               # "gate_threshold"
 
-Bad input (SPEC §9): a wrong ``z``/``u`` shape, ``dt ≤ 0``, non-PD initial covariance →
+Bad input: a wrong ``z``/``u`` shape, ``dt ≤ 0``, non-PD initial covariance →
 ``ValueError`` naming the argument. A non-finite measurement is **rejected**: the update is
 skipped, the prediction kept, the reason logged (``logging`` logger ``liecontrol.estimation``)
 and returned in ``diagnostics``. A covariance that loses positive-definiteness is repaired

@@ -14,7 +14,7 @@ All square roots here are **lower triangular** ``S`` with ``P = S Sᵀ``.
   ``m ≥ n``) via the QR decomposition of ``Aᵀ`` (the "qr{·}" of the SRUKF papers).
 
 A downdate that would make the matrix indefinite raises :class:`NotPositiveDefiniteError`
-(SPEC §9: loss of positive-definiteness is repaired by the caller or raised, never NaN).
+(loss of positive-definiteness is repaired by the caller or raised, never NaN).
 """
 
 from __future__ import annotations

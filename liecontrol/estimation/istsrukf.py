@@ -1,6 +1,7 @@
-"""ISTSRUKF — improved strong-tracking square-root UKF, the seed-001 filter (SPEC §7 item 4).
+"""ISTSRUKF — improved strong-tracking square-root UKF, the filter of Wang, Li, Zhang, Zhu & Li
+(2015).
 
-*Reconstructed*: the seed's step list (eqs. (42)–(60)) was lost in extraction; the text states
+*Reconstructed*: the paper's step list (eqs. (42)–(60)) was lost in extraction; the text states
 the three ingredients, implemented here as follows.
 
 1. Strong tracking with multiple fading factors in the Jacobian-free equivalent form, applied
@@ -8,21 +9,21 @@ the three ingredients, implemented here as follows.
    :mod:`liecontrol.estimation.stukf` but in square-root form:
    ``S_{k+1|k} = qr{[Λ^½ S_f, √Q]}``.
 2. The covariance of propagated points is taken about the **central sigma point** (Julier,
-   Uhlmann & Durrant-Whyte 2000, modified form, the seed's ref. [3])::
+   Uhlmann & Durrant-Whyte 2000, modified form, the paper's ref. [3])::
 
        S_f = qr{[√Wᵢ (Yᵢ − Y₀)]_{i=1…2n}},   S_z = qr{[√Wᵢ (Zᵢ − Z₀)]_{i=1…2n}, √R]},
 
    so only the positive weights Wᵢ = 1/(2(n+λ)) enter: no Cholesky downdate with a negative
-   W₀ᶜ can fail (the seed's stated defect of the standard SRUKF, its eqs. (48)–(49)).
+   W₀ᶜ can fail (the paper's stated defect of the standard SRUKF, its eqs. (48)–(49)).
 3. Joseph-form square-root measurement update with the equivalent H = (P⁻¹ P_xz)ᵀ
-   (the seed's eq. (56); Kaminski, Bryson & Schmidt 1971)::
+   (the paper's eq. (56); Kaminski, Bryson & Schmidt 1971)::
 
        S_{k+1} = qr{[(I − K H) S_{k+1|k},  K √R]},   K = (P_xz / S_zᵀ) / S_z,
 
    which is a sum of squares — positive semi-definite by construction, unlike the m
    successive downdates of the standard SRUKF.
 
-The quaternion is normalised after each predict and update (seed eq. (9)).
+The quaternion is normalised after each predict and update (the paper's eq. (9)).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Manifold UKF on SO(3) × ℝ³ (USQUE-style; beyond the seed, SPEC §7 item 5).
+"""Manifold UKF on SO(3) × ℝ³ (USQUE-style; beyond the paper).
 
 The covariance lives on the 6-dim error δ = (δθ, δv) with the attitude error a rotation vector
 in the body-frame tangent space of SO(3): x ⊞ δ = (q ⊗ Exp(δθ), v + δv) (see

@@ -1,4 +1,4 @@
-"""Multiplicative extended Kalman filter (MEKF) — the industry baseline (SPEC §7 item 5).
+"""Multiplicative extended Kalman filter (MEKF) — the industry baseline.
 
 Error state δ = (δθ, δv) with q_true = q̂ ⊗ Exp(δθ) (body-frame rotation vector); for the
 gyro-equipped model v is the gyro bias (Lefferts, Markley & Shuster, "Kalman filtering for

@@ -1,20 +1,20 @@
-"""Process and measurement models for attitude estimation (SPEC §7, seed 001).
+"""Process and measurement models for attitude estimation (Wang, Li, Zhang, Zhu & Li 2015).
 
 Two models, both with state stored as a 7-vector and every function batched over a leading
 dimension ``(N, ·)`` so that all 2n+1 sigma points go through one call:
 
-* :class:`GyrolessAttitudeModel` — the seed's model. State ``x = (q₀, q₁, q₂, q₃, ω_x, ω_y, ω_z)``
+* :class:`GyrolessAttitudeModel` — the paper's model. State ``x = (q₀, q₁, q₂, q₃, ω_x, ω_y, ω_z)``
   (scalar-first Hamilton quaternion, body → inertial; body rates). Continuous dynamics
   ``q̇ = ½ q ⊗ (0, ω)``, ``J ω̇ = −ω × Jω + N`` with the known control torque ``N = u`` held over
   the step, discretised with one classical RK4 step of length T_s and the quaternion normalised
-  after the step (seed eqs. (5), (9), (11)).
+  after the step (the paper's eqs. (5), (9), (11)).
 * :class:`GyroAttitudeModel` — gyro-equipped variant. State ``x = (q, b)`` with ``b`` the gyro
   bias; input ``u = ω̃`` (gyro reading); ``q_{k+1} = q ⊗ exp((ω̃ − b) T_s)`` (exact for a rate
   held over the step), ``b`` a random walk (Farrenkopf's discrete noise, see :meth:`Q_err`).
 
 Measurement (both): Euler angles ``z = (φ, θ, ψ)`` = (roll, pitch, yaw) of the aerospace 3-2-1
 sequence (scipy ``"ZYX"``, ``R = Rz(ψ) Ry(θ) Rx(φ)``), as delivered by the two-vector attitude
-solution (seed eq. (7)), with additive white noise of covariance ``R``::
+solution (the paper's eq. (7)), with additive white noise of covariance ``R``::
 
     φ = atan2(2(q₀q₁ + q₂q₃), 1 − 2(q₁² + q₂²))
     θ = asin(2(q₀q₂ − q₃q₁))
@@ -138,7 +138,7 @@ def _boxminus_q(q_y: np.ndarray, q_x: np.ndarray) -> np.ndarray:
 
 
 def _rk4(f, y: np.ndarray, h: float) -> np.ndarray:
-    """One classical RK4 step of an autonomous ``f`` (batched; SPEC §3). The unchecked variant
+    """One classical RK4 step of an autonomous ``f`` (batched). The unchecked variant
     is used because this is the filters' hot path and the inputs are validated upstream."""
     return rk4_step_unchecked(lambda t, yy: f(yy), 0.0, y, h)
 
@@ -167,7 +167,7 @@ class _EulerMeasurement:
         return _wrap_angle(Z[0] + Wm @ _wrap_angle(Z - Z[0]))
 
     def normalize(self, x: np.ndarray) -> np.ndarray:
-        """Unit-normalise the quaternion part (seed eq. (9)); other components untouched."""
+        """Unit-normalise the quaternion part (the paper's eq. (9)); other components untouched."""
         q = x[..., :4]
         nrm = np.linalg.norm(q, axis=-1, keepdims=True)
         if np.any(nrm < 1e-12) or not np.all(np.isfinite(nrm)):
@@ -209,7 +209,7 @@ def _sigma(v: object, name: str, positive: bool = False) -> float:
 
 @dataclass(frozen=True, eq=False)
 class GyrolessAttitudeModel(_EulerMeasurement):
-    """Seed-001 gyroless model: state (q, ω), input the known torque N (SPEC §7).
+    """Gyroless model of Wang, Li, Zhang, Zhu & Li (2015): state (q, ω), input the known torque N.
 
     Parameters
     ----------
@@ -262,7 +262,8 @@ class GyrolessAttitudeModel(_EulerMeasurement):
         return out
 
     def f(self, x: np.ndarray, u: np.ndarray, dt: float) -> np.ndarray:
-        """One RK4 step of length dt with the torque u held, then q normalised (seed eq. (11))."""
+        """One RK4 step of length dt with the torque u held, then q normalised (the paper's
+        eq. (11))."""
         torque = np.asarray(u, dtype=np.float64)
         y = _rk4(lambda yy: self.rhs(yy, torque), x, dt)
         return self.normalize(y)

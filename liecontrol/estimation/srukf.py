@@ -1,4 +1,4 @@
-"""Square-root UKF (Van der Merwe & Wan, ICASSP 2001, additive-noise form) — SPEC §7 item 2.
+"""Square-root UKF (Van der Merwe & Wan, ICASSP 2001, additive-noise form).
 
 Propagates the lower Cholesky factor S (P = S Sᵀ) directly::
 

@@ -1,5 +1,5 @@
 """Strong-tracking UKF with multiple fading factors, Jacobian-free ("equivalent description")
-form — SPEC §7 item 3 (*reconstructed*: the seed's eqs. (26)–(41) were lost in extraction; this
+form (*reconstructed*: the paper's eqs. (26)–(41) were lost in extraction; this
 is the standard suboptimal-fading-factor STF of Zhou, Xi & Zhang (1999) with the multiple
 factors of Qian et al. (2013) and the UT-based equivalent measurement matrix).
 

@@ -1,5 +1,5 @@
 """Additive unscented Kalman filter on the 7-state (q, ω) with quaternion normalisation — the
-seed-001 baseline (SPEC §7 item 1; Julier & Uhlmann 2004; seed eqs. (12)–(22)).
+baseline of Wang, Li, Zhang, Zhu & Li (2015) (Julier & Uhlmann 2004; the paper's eqs. (12)–(22)).
 
 Predict (sigma points from the Cholesky factor of P, all 2n+1 propagated in one batched call)::
 
@@ -73,7 +73,7 @@ class _AdditiveUT(Filter):
 
 
 class UKF(_AdditiveUT):
-    """Additive UKF with quaternion normalisation (the seed's baseline), covariance form.
+    """Additive UKF with quaternion normalisation (the paper's baseline), covariance form.
 
     Parameters: ``model`` (e.g. :class:`~liecontrol.estimation.models.GyrolessAttitudeModel`),
     ``x0`` (7,), ``P0`` (7, 7) SPD, scaled-UT ``alpha`` (> 0), ``beta``, ``kappa`` (default

@@ -1,4 +1,4 @@
-"""Scaled unscented transform (Julier 2002; Van der Merwe 2004) — SPEC §7 item 1.
+"""Scaled unscented transform (Julier 2002; Van der Merwe 2004).
 
 Weights for an n-dimensional state with parameters (α, β, κ):
 
@@ -16,7 +16,7 @@ Julier's *modified form* (Julier, Uhlmann & Durrant-Whyte, IEEE TAC 45(3):477–
 the covariance about the transformed central point instead of the mean,
 P_y = Σ_{i≥1} Wᵢ (Yᵢ − Y₀)(Yᵢ − Y₀)ᵀ = P_y(standard, Wᶜ=Wᵐ) + (ȳ − Y₀)(ȳ − Y₀)ᵀ, which has only
 positive weights and is therefore positive semi-definite for any α, κ with n + λ > 0
-(``central=True`` below); the seed's ISTSRUKF uses it (*reconstructed*, SPEC §7 item 4).
+(``central=True`` below); the paper's ISTSRUKF uses it (*reconstructed*).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Integrators on Lie groups (SPEC §3).
+"""Integrators on Lie groups.
 
 - :mod:`.rk`: classical RK4 on ℝⁿ and RKMK4 (Runge–Kutta–Munthe-Kaas, order 4) on SO(3) × ℝⁿ —
   the plant's integrator; ``*_unchecked`` variants skip validation for hot loops.

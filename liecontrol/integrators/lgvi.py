@@ -1,4 +1,4 @@
-"""Lie-group variational integrator (LGVI) for the rigid body on SO(3) (SPEC §3 item 1).
+"""Lie-group variational integrator (LGVI) for the rigid body on SO(3).
 
 Lee, Leok & McClamroch's discrete Euler–Poincaré equations, with Π = Jω the body angular
 momentum, J_d = ½ tr(J) I − J the nonstandard moment of inertia, step h and body torque M:
@@ -278,7 +278,7 @@ def lgvi_step(
     tol: float = 1e-14,
     max_iter: int = 30,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """One LGVI step ``(R_k, Π_k) -> (R_{k+1}, Π_{k+1})`` (module docstring; SPEC §3 item 1).
+    """One LGVI step ``(R_k, Π_k) -> (R_{k+1}, Π_{k+1})`` (module docstring).
 
     Args:
         R: ``(..., 3, 3)`` attitude (body → inertial).
@@ -323,7 +323,7 @@ def lgvi_step_unchecked(
 ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`lgvi_step` without any validation, for hot loops whose caller validated once.
 
-    The same step (module docstring; SPEC §3 item 1) and the same kernel, so the result equals
+    The same step (module docstring) and the same kernel, so the result equals
     :func:`lgvi_step`'s bit for bit. The caller guarantees: ``R`` a finite float64 rotation
     ``(..., 3, 3)``; ``Pi``, ``M_k``, ``M_k1`` finite float64 ``(..., 3)`` broadcastable to R's
     batch shape; ``h`` a Python float > 0; ``J`` a valid ``(3, 3)`` inertia (shared by the batch)

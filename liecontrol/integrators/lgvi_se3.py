@@ -1,4 +1,4 @@
-"""Lie-group variational integrator on SE(3): a rigid body in a gravity field (SPEC §3 item 2).
+"""Lie-group variational integrator on SE(3): a rigid body in a gravity field.
 
 What is implemented (the "full body" LGVI of Lee, Leok & McClamroch 2007, specialised to one
 rigid body moving in a *fixed* external field — the central body does not move). State: attitude
@@ -183,7 +183,7 @@ class SE3LGVITrajectory:
 
     Attributes: ``t`` (K,); ``R`` (K, ..., 3, 3); ``x`` (K, ..., 3) inertial position; ``Pi``
     (K, ..., 3) body angular momentum; ``gamma`` (K, ..., 3) inertial linear momentum;
-    ``omega`` = J⁻¹Π and ``v`` = Rᵀγ/m (body velocities, the twist ξ = (ω, v) of SPEC §5.6).
+    ``omega`` = J⁻¹Π and ``v`` = Rᵀγ/m (body velocities, the twist ξ = (ω, v) of the SE(3) plant).
     """
 
     t: np.ndarray

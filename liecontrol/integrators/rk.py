@@ -1,4 +1,4 @@
-"""Explicit Runge–Kutta integrators: classical RK4 on ℝⁿ and RKMK4 on SO(3) × ℝⁿ (SPEC §3.3).
+"""Explicit Runge–Kutta integrators: classical RK4 on ℝⁿ and RKMK4 on SO(3) × ℝⁿ.
 
 RKMK4 (Runge–Kutta–Munthe-Kaas, order 4) integrates the mixed system
 
@@ -24,7 +24,7 @@ without a branch.
 
 Sources: H. Munthe-Kaas, "High order Runge–Kutta methods on manifolds", Appl. Numer. Math. 29
 (1999) 115–127; Iserles, Munthe-Kaas, Nørsett & Zanna, "Lie-group methods", Acta Numerica 9
-(2000) §5; SPEC §3 item 3.
+(2000) §5.
 
 The ``*_unchecked`` steps do no validation at all (the simulator's hot path); the public
 :func:`rk4_step`, :func:`rkmk4_step` and :func:`integrate` validate their arguments and the
@@ -465,7 +465,7 @@ def integrate(
 
     ``method``: ``"rkmk4"`` (Lie-group RKMK4, R stays on SO(3)) or ``"rk4"`` (classical RK4 on
     the 9 entries of R and on x in the embedding ℝ⁹ × ℝⁿ: R drifts off SO(3); kept as the
-    textbook baseline the geometric integrators are compared with — SPEC §3 item 1).
+    textbook baseline the geometric integrators are compared with).
     Samples every ``save_every`` steps (the initial and, if n_steps is a multiple, final state
     included). Raises ``FloatingPointError`` if the state becomes non-finite.
     """

@@ -1,4 +1,4 @@
-"""RKMK4 (Runge–Kutta–Munthe-Kaas, order 4) on SE(3) × ℝⁿ (SPEC §3 item 3, SE(3) version).
+"""RKMK4 (Runge–Kutta–Munthe-Kaas, order 4) on SE(3) × ℝⁿ (SE(3) version).
 
 The mixed system
 

@@ -16,7 +16,7 @@ axis–angle form, so nothing overflows to inf/NaN.
 
 Sources: Barfoot, *State Estimation for Robotics* (2017), §7.1.9 (exp/log with V = J_l(ω)) and
 eq. (7.86) (the Q block of the Jacobian, rewritten here for the (ω, v) ordering); Solà, Deray &
-Atchuthan, *A micro Lie theory for state estimation in robotics* (2018), App. D; SPEC §2.
+Atchuthan, *A micro Lie theory for state estimation in robotics* (2018), App. D.
 """
 
 from __future__ import annotations

@@ -15,7 +15,7 @@ validated their inputs already call the explicitly named unchecked variants
 
 Sources: Rodrigues' formula and the SO(3) Jacobians as in Barfoot, *State Estimation for
 Robotics* (2017), §7.1; Solà, Deray & Atchuthan, *A micro Lie theory for state estimation in
-robotics* (2018), App. B. The logarithm near π uses the symmetric part of R (SPEC §2).
+robotics* (2018), App. B. The logarithm near π uses the symmetric part of R.
 """
 
 from __future__ import annotations
@@ -97,7 +97,8 @@ def _rot(R: object, name: str) -> np.ndarray:
     """A (batch of) rotation matrices within :data:`ARRAY_ROTATION_ATOL` (cheap check first)."""
     if rotations_pass_fast(R, ARRAY_ROTATION_ATOL):
         return R  # type: ignore[return-value]
-    return check_rotation_matrix(_mat(R, name), name, ARRAY_ROTATION_ATOL)
+    # check_rotation_matrix converts (and accepts a scipy Rotation), checks shape and finiteness
+    return check_rotation_matrix(R, name, ARRAY_ROTATION_ATOL)
 
 
 _batch = broadcast_batch  # short local name
@@ -340,7 +341,7 @@ def log(R: object) -> np.ndarray:
     with θ/sin θ → 1 at θ = 0 (exact: no series needed since atan2(s, c)/s is accurate for tiny s).
     Nearer π the antisymmetric part is too small to give the axis to full relative accuracy, so
     the axis comes from the symmetric part, (R + Rᵀ)/2 − cos θ I = (1 − cos θ) n nᵀ, its sign
-    from (R − Rᵀ)^∨ (SPEC §2): accurate to round-off up to and including θ = π. At exactly θ = π
+    from (R − Rᵀ)^∨: accurate to round-off up to and including θ = π. At exactly θ = π
     both ±π n are logarithms; the one returned is deterministic but arbitrary.
     """
     return _log_angle_unchecked(_rot(R, "R"))[0]

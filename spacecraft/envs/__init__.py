@@ -25,7 +25,7 @@ except ImportError as exc:  # pragma: no cover - depends on the installation
     ) from exc
 
 from .attitude import RESET_OPTIONS, AttitudeEnv, AttitudeVectorEnv
-from .core import AttitudeBatch, AttitudeEnvConfig
+from .core import AttitudeEnvConfig
 from .observations import (
     ACTION_MODES,
     OBSERVATION_COMPONENTS,
@@ -41,7 +41,6 @@ __all__ = [
     "RESET_OPTIONS",
     "ACTION_MODES",
     "OBSERVATION_COMPONENTS",
-    "AttitudeBatch",
     "AttitudeEnv",
     "AttitudeEnvConfig",
     "AttitudeVectorEnv",

@@ -149,7 +149,11 @@ class AttitudeEnv(gym.Env):
 class AttitudeVectorEnv(VectorEnv):
     """``num_envs`` spacecraft stepped as one batch, next-step autoreset (module docstring).
     Keyword options as :class:`AttitudeEnv`. ``info`` of ``step`` holds the same keys as the
-    single environment's, as ``(num_envs, ...)`` arrays."""
+    single environment's, as ``(num_envs, ...)`` arrays (for a row that was just reset, ``time``
+    is 0 and the other entries describe the discarded step).
+
+    ``reset(seed=s)`` seeds row ``i`` with ``s + i``; a list of ``num_envs`` seeds (ints or
+    ``None``) seeds the rows one by one."""
 
     metadata = {"render_modes": ["rgb_array"], "autoreset_mode": AutoresetMode.NEXT_STEP}
 
@@ -163,7 +167,12 @@ class AttitudeVectorEnv(VectorEnv):
         self.num_envs = int(num_envs)
         self.render_mode = render_mode
         self.config = AttitudeEnvConfig.from_options({}, options)
-        self._batch = AttitudeBatch(self.config, self.num_envs)
+        try:
+            self._batch = AttitudeBatch(self.config, self.num_envs)
+        except (MemoryError, ValueError) as exc:
+            raise ValueError(
+                f"num_envs: {self.num_envs} spacecraft do not fit in memory ({exc})"
+            ) from None
         n = self._batch.n_obs
         self.single_observation_space = spaces.Box(-np.inf, np.inf, shape=(n,), dtype=np.float64)
         self.single_action_space = spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float64)
@@ -178,9 +187,14 @@ class AttitudeVectorEnv(VectorEnv):
     ) -> tuple[np.ndarray, dict[str, Any]]:
         opts = _check_reset_options(options)
         if seed is not None:
-            seeds = [seed + i for i in range(self.num_envs)] if isinstance(seed, int) else seed
-            if len(seeds) != self.num_envs:
-                raise ValueError(f"seed: expected {self.num_envs} seeds, got {len(seeds)}")
+            if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+                seeds = [int(seed) + i for i in range(self.num_envs)]
+            elif isinstance(seed, (list, tuple)) and len(seed) == self.num_envs:
+                seeds = list(seed)
+            else:
+                raise ValueError(
+                    f"seed: expected an int or a list of {self.num_envs} seeds, got {seed!r}"
+                )
             self._rngs = [seeding.np_random(s)[0] for s in seeds]
         self._batch.reset_rows(np.arange(self.num_envs), self._rngs, opts)
         self._autoreset[:] = False

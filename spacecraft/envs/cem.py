@@ -7,7 +7,7 @@ cross-entropy method", Annals of Operations Research 134, 2005) keeps a diagonal
 ``W``; each iteration draws ``population`` candidates, scores every candidate on the same
 ``episodes`` start conditions (common random numbers: one vector environment of
 ``population × episodes`` spacecraft stepped as one batch), and refits the Gaussian to the
-``elite`` best.
+``elite`` best (the current mean is one of the candidates).
 
 Score: the undiscounted episode return of the environment (its reward is documented in
 :mod:`spacecraft.envs.attitude`); an episode ends at its first termination or truncation.
@@ -20,14 +20,24 @@ from typing import Any
 
 import numpy as np
 
+from liecontrol._validation import as_array, as_int, check_positive_scalar
+
 __all__ = ["LinearPolicy", "CemResult", "episode_returns", "train_cem"]
 
 
 @dataclass(frozen=True)
 class LinearPolicy:
-    """``a = tanh(obs @ Wᵀ)`` for ``obs`` ``(B, n_obs)``; ``W`` ``(3, n_obs)``."""
+    """``a = tanh(obs @ Wᵀ)`` for ``obs`` ``(B, n_obs)``; ``W`` ``(3, n_obs)`` (copied)."""
 
     W: np.ndarray
+
+    def __post_init__(self) -> None:
+        W = as_array(self.W, "W")
+        if W.ndim != 2 or W.shape[0] != 3:
+            raise ValueError(f"W: expected shape (3, n_obs), got {W.shape}")
+        W = W.copy()
+        W.setflags(write=False)
+        object.__setattr__(self, "W", W)
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         return np.tanh(np.asarray(obs) @ self.W.T)
@@ -53,6 +63,11 @@ def episode_returns(
     ``k`` on episode seed ``seed + e``)."""
     import gymnasium as gym
 
+    weights = as_array(weights, "weights")
+    if weights.ndim != 3 or weights.shape[1] != 3:
+        raise ValueError(f"weights: expected shape (K, 3, n_obs), got {weights.shape}")
+    episodes = as_int(episodes, "episodes", 1)
+    seed = as_int(seed, "seed", 0)
     K = weights.shape[0]
     N = K * episodes
     env = gym.make_vec(env_id, num_envs=N, vectorization_mode="vector_entry_point",
@@ -87,6 +102,12 @@ def train_cem(
     on the fixed episodes ``seed + e``."""
     import gymnasium as gym
 
+    iterations = as_int(iterations, "iterations", 1)
+    population = as_int(population, "population", 1)
+    elite = as_int(elite, "elite", 1)
+    episodes = as_int(episodes, "episodes", 1)
+    sigma0 = check_positive_scalar(sigma0, "sigma0")
+    seed = as_int(seed, "seed", 0)
     if not 1 <= elite <= population:
         raise ValueError(f"elite: expected 1 <= elite <= population = {population}, got {elite}")
     rng = np.random.default_rng(seed)
@@ -99,6 +120,7 @@ def train_cem(
     result = CemResult(policy=LinearPolicy(mu.copy()), baseline_return=base)
     for i in range(iterations):
         cand = mu + sd * rng.standard_normal((population, 3, n_obs))
+        cand[0] = mu  # the current mean competes too: the elite never gets worse in-sample
         score = episode_returns(env_id, cand, episodes, seed + 1000 * (i + 1), **options)
         best = np.argsort(score.mean(axis=1))[::-1][:elite]
         mu = cand[best].mean(axis=0)

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from liecontrol._validation import as_array, as_int, check_positive_scalar, check_rotation_matrix
 from liecontrol.charts import quaternion as _quat
 from liecontrol.lie import so3
 
@@ -39,9 +40,7 @@ __all__ = [
     "OBSERVATION_COMPONENTS",
     "ACTION_MODES",
     "ObservationScales",
-    "attitude_error",
-    "rate_error",
-    "quaternion_w_nonneg",
+    "check_components",
     "observation_size",
     "build_observation",
     "check_action",
@@ -90,7 +89,10 @@ class ObservationScales:
 
 
 def check_components(observation: object, name: str = "observation") -> tuple[str, ...]:
-    """Validate a sequence of observation component names (non-empty, known, no repeats)."""
+    """Validate a sequence of observation component names (non-empty, known, no repeats);
+    ``name`` names the argument in the messages."""
+    if not isinstance(name, str) or not name:
+        raise ValueError(f"name: expected a non-empty str, got {name!r}")
     if isinstance(observation, str):
         observation = (observation,)
     if not isinstance(observation, Sequence) or not observation:
@@ -106,61 +108,107 @@ def check_components(observation: object, name: str = "observation") -> tuple[st
     return comps
 
 
-def attitude_error(R: np.ndarray, R_d: np.ndarray) -> np.ndarray:
-    """``R_e = R_dᵀ R`` ``(B, 3, 3)`` (body relative to desired), ``R_d`` ``(3, 3)`` or
-    ``(B, 3, 3)``."""
+def _attitude_error(R: np.ndarray, R_d: np.ndarray) -> np.ndarray:
+    """``R_e = R_dᵀ R`` ``(B, 3, 3)`` (body relative to desired)."""
     return np.swapaxes(R_d, -1, -2) @ R
 
 
-def rate_error(R_e: np.ndarray, omega: np.ndarray, omega_d: np.ndarray) -> np.ndarray:
+def _rate_error(R_e: np.ndarray, omega: np.ndarray, omega_d: np.ndarray) -> np.ndarray:
     """``e_Ω = Ω − R_eᵀ Ω_d`` ``(B, 3)`` (``Ω_d`` in the desired frame, carried to the body)."""
     return omega - np.einsum("...ji,...j->...i", R_e, np.broadcast_to(omega_d, omega.shape))
 
 
-def quaternion_w_nonneg(R_e: np.ndarray) -> np.ndarray:
-    """Scalar-first quaternion ``(B, 4)`` of ``R_e`` with ``w ≥ 0`` (canonical sign)."""
-    return _quat.from_matrix(R_e)
-
-
 def _actuator_size(scales: ObservationScales, n_act: int) -> int:
     if scales.actuator == "sgcmg":
-        return 2 * n_act
+        return 2 * min(n_act, 4)
     return n_act if scales.actuator == "wheels" else 0
+
+
+def _check_scales(scales: object) -> ObservationScales:
+    if not isinstance(scales, ObservationScales):
+        raise ValueError(f"scales: expected an ObservationScales, got {type(scales).__name__}")
+    return scales
 
 
 def observation_size(components: Sequence[str], scales: ObservationScales, n_act: int) -> int:
     """Length of the observation of ``components`` (``n_act``: actuator state size)."""
+    components = check_components(components, "components")
+    scales = _check_scales(scales)
+    n_act = as_int(n_act, "n_act", 0)
     sizes = {"rotvec": 3, "quaternion": 4, "6d": 6, "rate": 3, "momentum": 3}
-    return sum(
-        _actuator_size(scales, n_act) if c == "actuator" else sizes[c] for c in components
-    )
+    return sum(_actuator_size(scales, n_act) if c == "actuator" else sizes[c] for c in components)
 
 
 def build_observation(
+    components: Sequence[str],
+    scales: ObservationScales,
+    R: object,
+    omega: object,
+    R_d: object,
+    omega_d: object,
+    h: object | None = None,
+    x_act: object | None = None,
+) -> np.ndarray:
+    """Observation ``(B, n_obs)`` float64 of ``components`` (module docstring) from the body
+    state ``R`` ``(B, 3, 3)``, ``omega`` ``(B, 3)``, the reference ``R_d`` ``(3, 3)`` or
+    ``(B, 3, 3)``, ``omega_d`` ``(3,)`` or ``(B, 3)`` and the actuator's momentum ``h``
+    ``(B, 3)`` and state ``x_act`` ``(B, n)`` (needed only by the ``"momentum"`` and
+    ``"actuator"`` components). Validated; the environments and
+    :class:`~spacecraft.envs.policy.PolicyController` call the same computation on arrays
+    they have validated."""
+    components = check_components(components, "components")
+    scales = _check_scales(scales)
+    R = check_rotation_matrix(R, "R")
+    if R.ndim != 3:
+        raise ValueError(f"R: expected shape (B, 3, 3), got {R.shape}")
+    B = R.shape[0]
+    w = as_array(omega, "omega")
+    if w.shape != (B, 3):
+        raise ValueError(f"omega: expected shape {(B, 3)}, got {w.shape}")
+    R_d = check_rotation_matrix(R_d, "R_d")
+    if R_d.shape not in ((3, 3), (B, 3, 3)):
+        raise ValueError(f"R_d: expected shape (3, 3) or {(B, 3, 3)}, got {R_d.shape}")
+    w_d = as_array(omega_d, "omega_d")
+    if w_d.shape not in ((3,), (B, 3)):
+        raise ValueError(f"omega_d: expected shape (3,) or {(B, 3)}, got {w_d.shape}")
+    if h is not None:
+        h = as_array(h, "h")
+        if h.shape != (B, 3):
+            raise ValueError(f"h: expected shape {(B, 3)}, got {h.shape}")
+    if x_act is not None:
+        x_act = as_array(x_act, "x_act")
+        if x_act.ndim != 2 or x_act.shape[0] != B:
+            raise ValueError(f"x_act: expected shape ({B}, n), got {x_act.shape}")
+        if scales.actuator == "sgcmg" and x_act.shape[1] not in (4, 8):
+            raise ValueError(
+                f"x_act: the SGCMG state is (B, 4) gimbal angles (or (B, 8) with a gimbal "
+                f"servo), got {x_act.shape}"
+            )
+    return _observe(components, scales, R, w, R_d, w_d, h, x_act)
+
+
+def _observe(
     components: Sequence[str],
     scales: ObservationScales,
     R: np.ndarray,
     omega: np.ndarray,
     R_d: np.ndarray,
     omega_d: np.ndarray,
-    h: np.ndarray | None = None,
-    x_act: np.ndarray | None = None,
+    h: np.ndarray | None,
+    x_act: np.ndarray | None,
 ) -> np.ndarray:
-    """Observation ``(B, n_obs)`` float64 of ``components`` (module docstring) from the body
-    state ``R`` ``(B, 3, 3)``, ``omega`` ``(B, 3)``, the reference ``R_d``, ``omega_d`` and the
-    actuator's momentum ``h`` ``(B, 3)`` and state ``x_act`` ``(B, n)`` (needed only by the
-    ``"momentum"`` and ``"actuator"`` components)."""
-    R_e = attitude_error(R, R_d)
+    """:func:`build_observation` on validated arrays (the per-step path)."""
+    R_e = _attitude_error(R, R_d)
     parts = []
     for c in components:
         if c == "rotvec":
             parts.append(so3.log(R_e))
         elif c == "quaternion":
-            parts.append(quaternion_w_nonneg(R_e))
+            parts.append(_quat.from_matrix(R_e))
         elif c == "6d":
             parts.append(np.concatenate((R_e[..., :, 0], R_e[..., :, 1]), axis=-1))
         elif c == "rate":
-            parts.append(rate_error(R_e, omega, omega_d) / scales.rate)
+            parts.append(_rate_error(R_e, omega, omega_d) / scales.rate)
         elif c == "momentum":
             if h is None:
                 raise ValueError("h: the 'momentum' observation needs the actuator momentum")
@@ -181,15 +229,18 @@ def build_observation(
 def check_action(action: object, batch: int | None, name: str = "action") -> np.ndarray:
     """The action as float64 ``(3,)`` (``batch`` ``None``) or ``(batch, 3)``: finite and inside
     ``[−1, 1]`` — a wrong shape, a NaN or an out-of-range entry raises ``ValueError`` (no silent
-    clipping: wrap the environment in ``gymnasium.wrappers.ClipAction`` to clip)."""
-    try:
-        a = np.asarray(action, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected a float array, got {type(action).__name__}") from None
+    clipping: wrap the environment in ``gymnasium.wrappers.ClipAction`` to clip). ``name``
+    names the argument in the messages."""
+    if not isinstance(name, str) or not name:
+        raise ValueError(f"name: expected a non-empty str, got {name!r}")
+    if batch is not None:
+        batch = as_int(batch, "batch", 1)
+    a = _real_array(action, name)
     want = (3,) if batch is None else (batch, 3)
     if a.shape != want:
         raise ValueError(f"{name}: expected shape {want}, got {a.shape}")
-    if not np.all(np.isfinite(a)):
+    # one reduction: NaN/inf anywhere makes the sum non-finite
+    if not np.isfinite(a.sum()):
         raise ValueError(f"{name}: contains NaN or inf: {a.tolist()}")
     big = float(np.max(np.abs(a))) if a.size else 0.0
     if big > 1.0:
@@ -197,13 +248,44 @@ def check_action(action: object, batch: int | None, name: str = "action") -> np.
     return a
 
 
+def _real_array(x: object, name: str) -> np.ndarray:
+    """``x`` as a float64 array; a non-numeric, complex or ragged input raises ``ValueError``."""
+    try:
+        a = np.asarray(x)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected an array of real numbers, got {x!r}") from None
+    if a.dtype.kind not in "biuf":
+        raise ValueError(f"{name}: expected real numbers, got dtype {a.dtype}")
+    return a.astype(np.float64, copy=False)
+
+
 def action_to_torque(
-    action: np.ndarray, mode: str, scale: float, baseline: np.ndarray | None = None
+    action: object, mode: str, scale: float, baseline: object | None = None
 ) -> np.ndarray:
-    """Body torque command [N·m]: ``scale · a`` (``"torque"``, ``scale`` = ``u_max``) or
-    ``baseline + scale · a`` (``"residual"``, ``baseline`` = the PD torque)."""
+    """Body torque command [N·m] of actions ``(3,)`` or ``(B, 3)`` in ``[−1, 1]``:
+    ``scale · a`` (``"torque"``, ``scale`` = ``u_max``) or ``baseline + scale · a``
+    (``"residual"``, ``baseline`` the PD torque, same shape as ``action``)."""
+    a = _real_array(action, "action")
+    a = check_action(a, a.shape[0] if a.ndim == 2 else None)
+    if mode not in ACTION_MODES:
+        raise ValueError(f"mode: expected one of {ACTION_MODES}, got {mode!r}")
+    scale = check_positive_scalar(scale, "scale")
+    if mode == "residual":
+        if baseline is None:
+            raise ValueError("baseline: the 'residual' action mode needs the baseline torque")
+        base = as_array(baseline, "baseline")
+        if base.shape != a.shape:
+            raise ValueError(f"baseline: expected shape {a.shape}, got {base.shape}")
+        return _to_torque(a, mode, scale, base)
+    if baseline is not None:
+        raise ValueError("baseline: only the 'residual' action mode takes a baseline torque")
+    return _to_torque(a, mode, scale, None)
+
+
+def _to_torque(
+    action: np.ndarray, mode: str, scale: float, baseline: np.ndarray | None
+) -> np.ndarray:
+    """:func:`action_to_torque` on validated arrays (the per-step path)."""
     if mode == "torque":
         return scale * action
-    if baseline is None:
-        raise ValueError("baseline: the 'residual' action mode needs the baseline torque")
     return baseline + scale * action

@@ -1,11 +1,13 @@
 """A learned (or any) policy ``obs -> action`` as an attitude controller of the suite.
 
 :class:`PolicyController` builds the observation from the state it is given (the true state or
-an estimate) and the reference with :func:`~spacecraft.envs.observations.build_observation`,
-calls the policy and maps its action to a torque with
-:func:`~spacecraft.envs.observations.action_to_torque` — the same functions the environments
-use, so a policy trained in :mod:`spacecraft.envs` sees the same numbers in a benchmark run.
-Register one in the benchmark with :func:`benchmarks.policies.register_policy`.
+an estimate) and the reference, calls the policy and maps its action to a torque with the same
+computation the environments run at every step (that of
+:func:`~spacecraft.envs.observations.build_observation` and
+:func:`~spacecraft.envs.observations.action_to_torque`, without re-validating the arrays the
+simulator has validated), so a policy trained in :mod:`spacecraft.envs` sees the same numbers
+in a benchmark run. Register one in the benchmark with
+:func:`benchmarks.policies.register_policy`.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ from liecontrol.control.base import (
 )
 
 from .core import AttitudeEnvConfig
-from .observations import action_to_torque, build_observation, check_action
+from .observations import _observe, _to_torque, check_action
 
 __all__ = ["PolicyController"]
 
@@ -79,7 +81,7 @@ class PolicyController(AttitudeController):
         """The policy's input ``(B, n_obs)`` for ``state`` and ``reference``."""
         R = np.asarray(state.R)
         omega_d = np.broadcast_to(reference.omega_d, (R.shape[0], 3))
-        return build_observation(
+        return _observe(
             self.config.observation,
             self._scales,
             R,
@@ -96,9 +98,9 @@ class PolicyController(AttitudeController):
         self._last = a
         cfg = self.config
         if cfg.action == "torque":
-            return action_to_torque(a, "torque", cfg.max_torque)
+            return _to_torque(a, "torque", cfg.max_torque, None)
         u_pd = np.asarray(self.baseline.command(t, state, reference), dtype=np.float64)
-        return action_to_torque(a, "residual", cfg.residual_scale, u_pd)
+        return _to_torque(a, "residual", cfg.residual_scale, u_pd)
 
     def diagnostics(self) -> dict[str, np.ndarray]:
         return {"action": self._last.copy()}
