@@ -518,6 +518,13 @@ def compute_metrics(
         key = "delta"
     elif isinstance(momentum_actuator, ReactionWheelAssembly):
         key = "wheel_speed"
+    elif momentum_actuator is not None and not callable(
+        getattr(momentum_actuator, "momentum", None)
+    ):
+        raise ValueError(
+            "momentum_actuator: expected the plant's actuator (spacecraft.actuators), got "
+            f"{type(momentum_actuator).__name__}"
+        )
     x_log = None if key is None else _actuator_array(result, key)
     if x_log is not None and x_log.ndim == 3 and x_log.shape[:2] == (K, B) and x_log.size:
         frac = momentum_fraction(momentum_actuator, x_log)

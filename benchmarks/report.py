@@ -147,11 +147,24 @@ def _esc(text: str, limit: int | None = None) -> str:
 
 def fmt(x: Any) -> str:
     """Compact number formatting for tables (NaN/None → ``n/a``)."""
+    if x is not None and not isinstance(x, (bool, int, float, np.integer, np.floating)):
+        if not (isinstance(x, np.ndarray) and x.shape == () and np.isrealobj(x)):
+            raise TypeError(f"x: expected a real number or None, got {x!r}")
     return _fmt(x)
 
 
 def markdown_table(header: list[str], rows: list[list[str]]) -> list[str]:
-    """Lines of a Markdown table (cells escaped)."""
+    """Lines of a Markdown table (cells escaped); every row has one cell per header entry."""
+    if isinstance(header, str) or not isinstance(header, (list, tuple)):
+        raise TypeError(f"header: expected a list of strings, got {type(header).__name__}")
+    if isinstance(rows, str) or not isinstance(rows, (list, tuple)):
+        raise TypeError(f"rows: expected a list of rows, got {type(rows).__name__}")
+    for i, r in enumerate(rows):
+        if isinstance(r, str) or not isinstance(r, (list, tuple)) or len(r) != len(header):
+            raise ValueError(
+                f"rows: row {i} must be a list of {len(header)} cells (one per header entry), "
+                f"got {r!r}"
+            )
     lines = ["| " + " | ".join(_esc(h) for h in header) + " |", "|" + "---|" * len(header)]
     lines += ["| " + " | ".join(_esc(c) for c in r) + " |" for r in rows]
     return lines

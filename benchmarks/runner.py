@@ -1169,7 +1169,9 @@ def run_suite(
             raise ValueError(
                 f"scenarios: entry {i} is {type(sc).__name__} {sc!r}, not a Scenario{hint}"
             )
-    if isinstance(controllers, str):
+    if controllers is not None and (
+        isinstance(controllers, str) or not isinstance(controllers, (tuple, list))
+    ):
         raise ValueError(f"controllers: expected a sequence of names, got {controllers!r}")
     controllers = tuple(available_controllers() if controllers is None else controllers)
     if not isinstance(suite, str) or not suite:

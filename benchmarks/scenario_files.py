@@ -305,6 +305,12 @@ def scenario_from_dict(
 ) -> Scenario:
     """One :class:`Scenario` from a table of the file schema (module docstring); ``defaults``
     fill missing keys. Raises :class:`ScenarioFileError` (``where.key: problem``)."""
+    if not isinstance(table, Mapping):
+        raise TypeError(f"table: expected a table (mapping), got {type(table).__name__}")
+    if defaults is not None and not isinstance(defaults, Mapping):
+        raise TypeError(f"defaults: expected a table (mapping), got {type(defaults).__name__}")
+    if not isinstance(where, str):
+        raise TypeError(f"where: expected a location label (string), got {type(where).__name__}")
     try:
         return _scenario(table, defaults or {}, where)
     except _Bad as bad:
@@ -390,6 +396,10 @@ def _cones(t: Any, cls: type, where: str) -> tuple:
 
 def scenarios_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> list[Scenario]:
     """Scenarios of a parsed file (``{"defaults": {...}, "scenario": [{...}, ...]}``)."""
+    if not isinstance(data, Mapping):
+        raise TypeError(f"data: expected a table (mapping), got {type(data).__name__}")
+    if not isinstance(source, str):
+        raise TypeError(f"source: expected a file label (string), got {type(source).__name__}")
     try:
         _check_keys(data, ("defaults", "scenario"), "")
         items = data.get("scenario")
@@ -447,6 +457,8 @@ def load_scenarios(path: str | Path) -> list[Scenario]:
 
 def scenario_to_dict(scenario: Scenario) -> dict[str, Any]:
     """The file-schema table of ``scenario`` (radians; TOML/YAML-serialisable)."""
+    if not isinstance(scenario, Scenario):
+        raise TypeError(f"scenario: expected Scenario, got {type(scenario).__name__}")
     s = scenario
     out: dict[str, Any] = {
         "name": s.name,

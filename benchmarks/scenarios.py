@@ -157,6 +157,32 @@ NULL_MOTION_EQUILIBRIUM_DEG: tuple[float, float, float, float] = (60.0, -60.0, 6
 WHEEL_LAYOUTS: tuple[str, ...] = ("orthogonal", "pyramid")
 #: Actuator kinds a :class:`SpacecraftSpec` can name (also the plant tags of attitude scenarios).
 ACTUATORS: tuple[str, ...] = ("sgcmg", "wheels", "ideal")
+#: Steering laws a :class:`SpacecraftSpec` can name (:func:`benchmarks.runner.build_steering`).
+STEERING_LAWS: tuple[str, ...] = ("pinv-null-motion", "pinv", "sr")
+
+
+def _label(x: object, name: str) -> str:
+    """A non-empty text label (names, descriptions)."""
+    if not isinstance(x, str) or not x.strip():
+        raise TypeError(f"{name}: expected a non-empty string, got {x!r}")
+    return x
+
+
+def _text(x: object, name: str) -> str:
+    """A free text (may be empty)."""
+    if not isinstance(x, str):
+        raise TypeError(f"{name}: expected a string, got {type(x).__name__}")
+    return x
+
+
+def _str_tuple(x: object, name: str) -> tuple[str, ...]:
+    """A sequence of strings (a single string is refused: it would be split into letters)."""
+    if isinstance(x, str) or not isinstance(x, (tuple, list)):
+        raise TypeError(f"{name}: expected a sequence of strings, got {type(x).__name__}")
+    for i, v in enumerate(x):
+        if not isinstance(v, str):
+            raise TypeError(f"{name}[{i}]: expected a string, got {type(v).__name__}")
+    return tuple(x)
 #: Disturbance models a :class:`DisturbanceSpec` can name, with their parameters.
 DISTURBANCES: dict[str, tuple[str, ...]] = {
     "constant-harmonic": ("n", "scale"),
@@ -245,6 +271,12 @@ class SpacecraftSpec:
     max_torque: float | None = None
 
     def __post_init__(self) -> None:
+        _label(self.name, "name")
+        if self.steering not in STEERING_LAWS:
+            raise ValueError(
+                f"steering: unknown steering law {self.steering!r}; valid: "
+                f"{', '.join(STEERING_LAWS)}"
+            )
         object.__setattr__(self, "inertia", _matrix3(self.inertia, "inertia"))
         if self.actuator not in ACTUATORS:
             raise ValueError(
@@ -314,7 +346,16 @@ class DisturbanceSpec:
             raise ValueError(
                 f"name: unknown disturbance {self.name!r}; valid: {', '.join(DISTURBANCES)}"
             )
-        items = self.params.items() if isinstance(self.params, dict) else self.params
+        if isinstance(self.params, dict):
+            items = list(self.params.items())
+        elif isinstance(self.params, (tuple, list)) and all(
+            isinstance(kv, (tuple, list)) and len(kv) == 2 for kv in self.params
+        ):
+            items = list(self.params)
+        else:
+            raise TypeError(
+                f"params: expected a dict or (name, value) pairs, got {self.params!r}"
+            )
         params = []
         for k, v in items:
             if k not in DISTURBANCES[self.name]:
@@ -626,7 +667,13 @@ class Scenario:
             raise ValueError(
                 f"reference: expected ReferenceSpec, got {type(self.reference).__name__}"
             )
+        _text(self.description, "description")
         dist = (self.disturbances,) if isinstance(self.disturbances, DisturbanceSpec) else None
+        if dist is None and not isinstance(self.disturbances, (tuple, list)):
+            raise TypeError(
+                "disturbances: expected a DisturbanceSpec or a sequence of them, got "
+                f"{type(self.disturbances).__name__}"
+            )
         dist = tuple(self.disturbances) if dist is None else dist
         for d in dist:
             if not isinstance(d, DisturbanceSpec):
@@ -717,7 +764,7 @@ class Scenario:
                     )
         if isinstance(self.tags, str):
             raise ValueError("tags: expected a sequence of strings, got a single string")
-        object.__setattr__(self, "tags", tuple(str(t) for t in self.tags))
+        object.__setattr__(self, "tags", _str_tuple(self.tags, "tags"))
 
     # ------------------------------------------------------------------ derived quantities
 
@@ -806,6 +853,20 @@ class Suite:
     description: str
     scenarios: tuple[Scenario, ...]
     controllers: tuple[str, ...] | None = None
+
+    def __post_init__(self) -> None:
+        _label(self.name, "name")
+        _text(self.description, "description")
+        if isinstance(self.scenarios, Scenario) or not isinstance(self.scenarios, (tuple, list)):
+            raise TypeError(
+                f"scenarios: expected a sequence of Scenario, got {type(self.scenarios).__name__}"
+            )
+        for i, sc in enumerate(self.scenarios):
+            if not isinstance(sc, Scenario):
+                raise TypeError(f"scenarios[{i}]: expected Scenario, got {type(sc).__name__}")
+        object.__setattr__(self, "scenarios", tuple(self.scenarios))
+        if self.controllers is not None:
+            object.__setattr__(self, "controllers", _str_tuple(self.controllers, "controllers"))
 
 
 def rest_to_rest(

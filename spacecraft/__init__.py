@@ -21,6 +21,8 @@ from .disturbances import (
 )
 from .environment import GravityGradientTorque
 from .flexible import FlexibleModes
+from .geomagnetic import TiltedDipoleField
+from .momentum import CrossProductDumping, Magnetorquers, momentum_fraction
 from .orbit import CircularOrbit, EarthPointingReference
 from .payload import (
     PAYLOAD_SATELLITE_J,
@@ -71,6 +73,10 @@ __all__ = [
     "GeneralizedSingularityRobust",
     "Actuator",
     "CircularOrbit",
+    "CrossProductDumping",
+    "Magnetorquers",
+    "momentum_fraction",
+    "TiltedDipoleField",
     "CmgCommand",
     "ConstantTorque",
     "DisturbanceSource",

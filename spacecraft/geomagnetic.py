@@ -9,7 +9,7 @@ with a the IGRF reference radius (6371.2 km), m̂ the unit dipole axis and B₀ 
 field magnitude on the dipole's equator at r = a. On the dipole equator ‖B‖ = B₀ (a/r)³ pointing
 along −m̂; over the dipole poles ‖B‖ = 2 B₀ (a/r)³ along ±r̂ (Wertz, *Spacecraft Attitude
 Determination and Control*, Reidel 1978, appendix H; Markley & Crassidis,
-*Fundamentals of Spacecraft Attitude Determination and Control*, Springer 2014, §3.3.4).
+*Fundamentals of Spacecraft Attitude Determination and Control*, Springer 2014, ch. 3).
 
 Constants. From the IGRF-13 degree-1 Gauss coefficients at epoch 2020.0 (g₁⁰ = −29404.8 nT,
 g₁¹ = −1450.9 nT, h₁¹ = 4652.5 nT): B₀ = √(g₁⁰² + g₁¹² + h₁¹²) = 29.806 μT, and the dipole axis

@@ -98,8 +98,19 @@ def test_every_metric_against_a_hand_computation():
 
     limits = [600.0, 600.0, 500.0, 600.0]
     wheels = ReactionWheelAssembly.pyramid(max_speed=limits)
+    from liecontrol.control.constrained import KeepInCone, KeepOutCone
+
+    # the body x axis points along R_D0 (cos a, sin a, 0): its angle to R_D0 ŷ is 90° − a
+    # (smallest 60° at a = 30°) and to R_D0 x̂ is |a| (largest 30°)
+    keep_out = (KeepOutCone((1.0, 0.0, 0.0), tuple(R_D0[:, 1]), 40.0),)
+    keep_in = (KeepInCone((1.0, 0.0, 0.0), tuple(R_D0[:, 0]), 35.0),)
     m = compute_metrics(
-        log, gimbal_rate_limit=2.0, wheel_max_speed=limits, momentum_actuator=wheels
+        log,
+        gimbal_rate_limit=2.0,
+        wheel_max_speed=limits,
+        momentum_actuator=wheels,
+        keep_out=keep_out,
+        keep_in=keep_in,
     )
     got = m.as_dict(0)
     theta = np.abs(a)
@@ -136,6 +147,9 @@ def test_every_metric_against_a_hand_computation():
         # wheels: max_i |Ω_i|/Ω_max,i over the run (450/500) and at the last sample (all 0)
         "peak_momentum_fraction": 0.9,
         "final_momentum_fraction": 0.0,
+        # cones: 60° − 40° closest to the keep-out cone, 35° − 30° closest to leaving keep-in
+        "min_keep_out_margin_deg": 20.0,
+        "min_keep_in_margin_deg": 5.0,
     }
     # the dict covers every field, so a new metric without a hand value fails here
     assert set(expected) == {f.name for f in dataclasses.fields(Metrics)}

@@ -375,3 +375,20 @@ def test_dumping_field_fast_route_matches_the_field_model() -> None:
     for t in (0.0, 123.4, 5000.0, 5000.0):  # the repeated time comes from the memo
         expected = field.inertial(t, orbit.position(t))
         assert np.allclose(d.field_body(t, np.eye(3)[None])[0], expected, rtol=1e-12, atol=0)
+
+
+def test_judge_flags_momentum_saturation_from_the_fraction() -> None:
+    from benchmarks.metrics import MOMENTUM_SATURATED_FRACTION, judge
+    from benchmarks.scenarios import SCENARIOS
+
+    sc = SCENARIOS["momentum-dumping"]
+    base = {
+        "steady_error_max_deg": 0.01,
+        "initial_error_deg": 0.0,
+        "final_error_deg": 0.01,
+        "effort_Nms": 1.0,
+    }
+    ok = judge(sc, {**base, "peak_momentum_fraction": 0.5})
+    assert ok == ("success", ())
+    verdict, flags = judge(sc, {**base, "peak_momentum_fraction": MOMENTUM_SATURATED_FRACTION})
+    assert verdict == "degraded" and flags == ("momentum-saturated",)

@@ -798,6 +798,12 @@ NOT_SWEPT_MODULES: dict[str, str] = {
 
 #: (qualified name, parameter, perturbation) that is legitimately accepted, with the reason
 ACCEPTED: dict[tuple[str, str, str], str] = {
+    ("liecontrol.charts.quaternion.slerp", "t", "empty"): "an empty batch of times gives an "
+    "empty batch of quaternions",
+    ("liecontrol.estimation.cholesky.tria", "A", "wrong_shape"): "triangularisation takes any "
+    "(n, m) factor",
+    ("liecontrol.estimation.stukf.FadingState", "steps", "zero"): "0 steps is the initial "
+    "state (the default)",
     ("spacecraft.simulator.StarTrackerGyro", "attitude", "unknown_name"): "any identifier names "
     "a sensor; simulate() checks it against the sensors it is given",
     ("spacecraft.simulator.StarTrackerGyro", "rate", "unknown_name"): "as attitude",
@@ -863,31 +869,10 @@ ACCEPTED: dict[tuple[str, str, str], str] = {
 #: cases the sweep still finds and that are not fixed yet, with the reason. Keys are
 #: (qualified name, parameter, perturbation); "*" matches any parameter or perturbation.
 KNOWN_GAPS: dict[tuple[str, str, str], str] = {
-    # -- benchmarks files owned by other work streams, left for their owners -------------------
-    ("benchmarks.scenario_files.scenarios_from_dict", "data", "*"): "ScenarioFileError messages "
-    "start with the file location ('path: <dict>: …'), by that module's convention",
-    ("benchmarks.scenario_files.scenario_from_dict", "table", "*"): "as scenarios_from_dict "
-    "('scenario: expected a table')",
-    ("benchmarks.scenario_files.scenario_from_dict", "where", "*"): "'where' is a location "
-    "label; a number is formatted into the messages",
-    ("benchmarks.scenario_files.scenarios_from_dict", "source", "*"): "as where",
-    ("benchmarks.scenario_files.scenario_to_dict", "scenario", "*"): "no type check yet",
     ("benchmarks.scenario_files.load_scenarios", "-", "base"): "needs a file on disk: no "
     "example in the table yet",
-    ("benchmarks.scenarios.SpacecraftSpec", "steering", "*"): "the steering name is checked "
-    "when the plant is built (build_steering), not in the spec",
-    ("benchmarks.scenarios.SpacecraftSpec", "name", "number_for_str"): "labels are not "
-    "type-checked",
-    ("benchmarks.scenarios.Scenario", "description", "number_for_str"): "as SpacecraftSpec.name",
-    ("benchmarks.scenarios.Scenario", "disturbances", "number_for_str"): "TypeError from "
-    "iterating a float: not named",
-    ("benchmarks.scenarios.Scenario", "tags", "number_for_str"): "as disturbances",
-    ("benchmarks.scenarios.DisturbanceSpec", "params", "*"): "unpacking error not named",
-    ("benchmarks.scenarios.Suite", "*", "*"): "Suite does not validate its fields",
     ("benchmarks.scenarios.scale_principal_moments", "-", "base"): "the example scale breaks "
     "the triangle inequality; a valid example is still to be chosen",
-    ("benchmarks.report.fmt", "x", "*"): "a formatting helper: non-numbers raise float()'s error",
-    ("benchmarks.report.markdown_table", "*", "*"): "a formatting helper without checks",
     **{
         (f"benchmarks.report.{n}", "-", "base"): "no example in the table yet"
         for n in (
@@ -900,11 +885,8 @@ KNOWN_GAPS: dict[tuple[str, str, str], str] = {
             "controller_styles",
         )
     },
-    ("benchmarks.runner.run_suite", "controllers", "number_for_str"): "iterating a float",
     ("spacecraft.se3_plant.simulate_pose", "xi0", "huge"): "the controller rejects the first "
     "state (its message names its own argument, xi); the initial rates are not bounded",
-    # -- liecontrol: H4's area (validation of the Lie/chart/control/estimation layers) ---------
-    ("liecontrol.charts.quaternion.slerp", "t", "empty"): "an empty batch of times",
     (
         "liecontrol.control.payload_compensation.SmallAnglePIDWithFeedforward",
         "dt_c",
@@ -915,8 +897,6 @@ KNOWN_GAPS: dict[tuple[str, str, str], str] = {
         "initial_covariance",
         "huge",
     ): "relational message names max_covariance",
-    ("liecontrol.estimation.cholesky.tria", "A", "wrong_shape"): "any (n, m) is valid? to check",
-    ("liecontrol.estimation.stukf.FadingState", "steps", "zero"): "zero steps: to check",
 }
 
 #: modules whose callables must all have an example (elsewhere a missing example is reported
