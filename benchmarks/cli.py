@@ -13,8 +13,12 @@
     python -m benchmarks reproduce NAME --out DIR [--quick] [--plugin ...]
     python -m benchmarks reproduce --list    # each paper reproduction with its citation
 
-``run`` exits 0 when every run completed, 1 when some failed (they are in the report with their
-error), 2 for bad arguments (unknown names are listed with the valid ones; a malformed scenario
+(Installed, the same command is ``liecontrol-bench``; usage and help name whichever was
+invoked.) ``run`` ends with one line counting the verdicts (e.g. ``57 runs + 21 not-applicable:
+32 success, 8 degraded, 17 failed, 0 error``). It exits 0 when every run completed — a
+``failed`` verdict (the controller missed the scenario's tolerance) is a finding, not a crash —
+1 when some run raised (verdict ``error``; it is in the report with its error), 2 for bad
+arguments (unknown names are listed with the valid ones; a malformed scenario
 file names the offending key; an unreachable dask scheduler is reported before anything runs; a
 selection in which no controller applies to any scenario says why). ``--plugin`` (repeatable)
 imports a module by name or a ``.py`` file before anything else, so the code in it can call
@@ -38,11 +42,18 @@ import importlib.util
 import os
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from types import ModuleType
 
-__all__ = ["main", "build_parser", "available_reproductions", "load_plugins", "PluginError"]
+__all__ = [
+    "main",
+    "build_parser",
+    "program_name",
+    "available_reproductions",
+    "load_plugins",
+    "PluginError",
+]
 
 #: Plug-in files already imported in this process (resolved path → module): loading the same
 #: file twice must not register its controllers twice.
@@ -101,14 +112,46 @@ def load_plugins(specs: Sequence[str]) -> list[ModuleType]:
     return modules
 
 
-def build_parser() -> argparse.ArgumentParser:
+#: The console script installed by ``pip install`` (``[project.scripts]`` in pyproject.toml).
+CONSOLE_SCRIPT = "liecontrol-bench"
+
+
+def program_name(argv0: str | None = None) -> str:
+    """How the user invoked us, for usage and help text: ``liecontrol-bench`` when ``argv0``
+    (default ``sys.argv[0]``) is that console script (any folder, a Windows ``.exe``/``-script.py``
+    suffix allowed), else ``python -m benchmarks`` (``argv0`` is then ``.../__main__.py``, or a
+    test runner when :func:`main` is called from Python)."""
+    if argv0 is None:
+        argv0 = sys.argv[0] if sys.argv else ""
+    if not isinstance(argv0, str):
+        raise TypeError(f"argv0: expected a str or None, got {type(argv0).__name__}")
+    base = os.path.basename(argv0).lower()
+    for suffix in (".exe", "-script.py", ".py"):
+        base = base.removesuffix(suffix)
+    return CONSOLE_SCRIPT if base == CONSOLE_SCRIPT else "python -m benchmarks"
+
+
+def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
+    """The argument parser; ``prog`` (default :func:`program_name`) is the command shown in
+    usage and help."""
+    if prog is not None and not isinstance(prog, str):
+        raise TypeError(f"prog: expected a str or None, got {type(prog).__name__}")
     p = argparse.ArgumentParser(
-        prog="python -m benchmarks",
+        prog=program_name() if prog is None else prog,
         description="liecontrol benchmark suite: scenarios × controllers → metrics and report.",
+        epilog="exit status of run: 0 when every run completed (a 'failed' verdict — the "
+        "controller missed the scenario's tolerance — is a finding, not a crash), 1 when some "
+        "run raised (verdict 'error', kept in the report), 2 for bad arguments.",
     )
     sub = p.add_subparsers(dest="command", required=True)
 
-    r = sub.add_parser("run", help="run a suite and write a report folder")
+    r = sub.add_parser(
+        "run",
+        help="run a suite and write a report folder",
+        description="Run a suite and write a report folder. Exit status: 0 when every run "
+        "completed (a 'failed' verdict is a finding, not a crash), 1 when some run raised "
+        "(verdict 'error'), 2 for bad arguments.",
+    )
     r.add_argument("--suite", default=None, help="quick (default), full, unwinding, montecarlo")
     r.add_argument("--out", type=Path, default=Path("report"), help="report folder")
     r.add_argument(
@@ -262,6 +305,31 @@ def _check_selection(scenarios: Sequence, controllers: Sequence[str] | None) -> 
     )
 
 
+def _runs(n: int) -> str:
+    return f"{n} run" if n == 1 else f"{n} runs"
+
+
+def _count(values: Iterable[str]) -> dict[str, int]:
+    counts: dict[str, int] = {}
+    for v in values:
+        counts[v] = counts.get(v, 0) + 1
+    return counts
+
+
+def _verdict_summary(outcomes: Iterable) -> str:
+    """``"57 runs + 21 not-applicable: 32 success, 9 degraded, 16 failed, 0 error"`` from the
+    outcomes' verdicts (:func:`benchmarks.metrics.judge`); a verdict outside those five (a
+    plug-in's own) is appended with its count."""
+    unjudged = {"n/a": "not-applicable", "failed": "error"}  # a verdict not yet set
+    counts = _count(o.verdict or unjudged.get(o.status, "unjudged") for o in outcomes)
+    n_na = counts.pop("not-applicable", 0)
+    main = ("success", "degraded", "failed", "error")
+    parts = [f"{counts.get(v, 0)} {v}" for v in main]
+    parts += [f"{n} {v}" for v, n in sorted(counts.items()) if v not in main]
+    head = _runs(sum(counts.values())) + (f" + {n_na} not-applicable" if n_na else "")
+    return f"{head}: {', '.join(parts)}"
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
     from .controllers import get_controller, quick_controllers
     from .executors import ExecutorUnavailable, make_executor
@@ -346,7 +414,13 @@ def _cmd_run(args: argparse.Namespace) -> int:
             cfg = dataclasses.replace(cfg, duration=_horizon(args, cfg.duration))
             res = unwinding.run_unwinding(controllers, cfg, executor=executor, progress=progress)
             path = unwinding.write_unwinding_report(res, args.out, figures=figures)
-            n_runs, n_failed = len(res.records), res.n_failed
+            counts = _count(r.verdict for r in res.records)
+            # the unwinding table's own verdicts; its "failed" means the run raised
+            summary = _runs(len(res.records)) + ": " + ", ".join(
+                f"{counts.get(v, 0)} {v}" + (" (raised)" if v == "failed" else "")
+                for v in unwinding.VERDICTS
+            )
+            n_failed = res.n_failed
         elif suite_name == "montecarlo":
             from . import montecarlo
 
@@ -389,7 +463,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 from .results_file import write_histories_with_report
 
                 write_histories_with_report(res, args.out, path)
-            n_runs, n_failed = len(res.records), res.n_failed
+            n_failed = res.n_failed
+            summary = f"{_runs(len(res.records))}, {n_failed} error"
         else:
             from .report import write_report, write_sweep_report
             from .runner import run_suite
@@ -417,7 +492,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
                         write_histories_with_report(sweep[w], sub.parent, sub)
                 path = write_sweep_report(sweep, args.out, figures=figures)
-                n_runs = sum(len(r.outcomes) for r in sweep.values())
+                summary = _verdict_summary(o for r in sweep.values() for o in r.outcomes)
                 n_failed = sum(r.n_failed for r in sweep.values())
             else:
                 result = run_suite(
@@ -429,11 +504,13 @@ def _cmd_run(args: argparse.Namespace) -> int:
                     from .results_file import write_histories_with_report
 
                     write_histories_with_report(result, args.out, path)
-                n_runs, n_failed = len(result.outcomes), result.n_failed
+                summary = _verdict_summary(result.outcomes)
+                n_failed = result.n_failed
     print(
-        f"report: {path} ({n_runs} runs, {n_failed} failed, "
-        f"{time.perf_counter() - t0:.1f} s, executor {executor.name})"
+        f"report: {path} ({summary}; {time.perf_counter() - t0:.1f} s, "
+        f"executor {executor.name})"
     )
+    # n_failed counts runs that raised (status "failed", verdict "error"), not failed verdicts
     return 0 if n_failed == 0 else 1
 
 
@@ -466,7 +543,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     from . import reproductions
 
     if args.list:
-        print("reproductions (python -m benchmarks reproduce NAME --out DIR [--quick]):")
+        print(f"reproductions ({program_name()} reproduce NAME --out DIR [--quick]):")
         _print_reproductions("  ")
         return 0
     valid = ", ".join(reproductions.available())

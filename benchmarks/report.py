@@ -206,6 +206,11 @@ def _cell(o: RunOutcome, key: str) -> str:
     v = o.metrics.get(key, float("nan"))
     if key == "settling_time_s" and isinstance(v, float) and math.isnan(v):
         return f"not settled ({_fmt(o.metrics.get('final_error_deg'))}° at end)"
+    unset = v is None or (isinstance(v, float) and math.isnan(v))
+    if key == "position_settling_time_s" and unset:
+        return f"not settled ({_fmt(o.metrics.get('final_position_error_m'))} m at end)"
+    if key == "command_reversals" and isinstance(v, (int, float)) and math.isfinite(v):
+        return str(int(round(v)))
     s = _fmt(v)
     if key == "unwinding_ratio" and o.metrics.get("unwound"):
         s += " **unwound**"
@@ -219,16 +224,30 @@ def _verdict_text(o: RunOutcome) -> str:
 
 def _summary_cell(o: RunOutcome) -> str:
     if o.status == "n/a":
-        return f"not-applicable: {NOT_APPLICABLE} ({_esc(o.error or '', 60)})"
+        # the reason is written in full: a cut mid-word ("not for lar…") misleads
+        return f"not-applicable: {NOT_APPLICABLE} ({_esc(o.error or '')})"
     if o.status != "ok":
         return f"{_verdict_text(o)} FAILED: " + _esc(o.error or "", 90)
     m = o.metrics
-    ts = m.get("settling_time_s", float("nan"))
-    if math.isnan(ts):
-        txt = f"θ_f = {_fmt(m.get('final_error_deg'))}°"
+    ts = float(m.get("settling_time_s", float("nan")))
+    converged = o.verdict != "failed" and "attitude-not-converged" not in o.flags
+    att = "attitude " if "final_position_error_m" in m else ""
+    if converged and math.isfinite(ts):
+        txt = f"{att}t_s = {_fmt(ts)} s"
     else:
-        txt = f"t_s = {_fmt(ts)} s"
+        # a settling time of a run that did not converge is the last crossing into the
+        # tolerance, not a settling time: show where the error ended and how far it swung
+        txt = f"θ_f = {_fmt(m.get('final_error_deg'))}°"
+        if "steady_error_max_deg" in m:
+            txt += f" (max {_fmt(m.get('steady_error_max_deg'))}° over the final 10 %)"
     if "final_position_error_m" in m:
+        tp = m.get("position_settling_time_s")
+        tp = float("nan") if tp is None else float(tp)
+        pos_ok = converged and "position-not-converged" not in o.flags
+        if pos_ok and math.isfinite(tp):
+            txt += f"; position t_s = {_fmt(tp)} s"
+        else:
+            txt += "; position not settled"
         txt += f", ‖Δp‖_f = {_fmt(m['final_position_error_m'])} m"
     return f"{_verdict_text(o)}; {txt}"
 
@@ -320,12 +339,48 @@ def _scale_axis(ax: Any, values: Sequence[float], axis: str = "x") -> str:
     return ""
 
 
-def pareto_front(points: Mapping[str, tuple[float, float]]) -> list[str]:
-    """Names whose ``(x, y)`` no other point dominates (both minimised: another point is at
-    least as good in both and strictly better in one); non-finite points are never on it.
-    Sorted by ``x``."""
+def _axis_fraction(values: Sequence[float]) -> Callable[[float], float]:
+    """Map a value to its fraction of the span of ``values`` on the scale
+    :func:`_scale_axis` picks (log beyond a decade), to find markers that overlap on screen."""
+    v = [x for x in values if math.isfinite(x)]
+    pos = [x for x in v if x > 0]
+    if pos and len(pos) == len(v) and max(pos) / min(pos) > 10.0:
+        lo, hi = math.log(min(pos)), math.log(max(pos))
+        return lambda x: (math.log(x) - lo) / (hi - lo)
+    if not v or max(v) == min(v):
+        return lambda x: 0.0
+    lo, hi = min(v), max(v)
+    return lambda x: (x - lo) / (hi - lo)
+
+
+#: Relative tolerance of the Pareto comparison: values within 1 % are equivalent.
+PARETO_REL_TOL = 0.01
+
+
+def pareto_front(
+    points: Mapping[str, tuple[float, float]],
+    *,
+    rel_tol: float = 0.0,
+    abs_tol: tuple[float, float] = (0.0, 0.0),
+) -> list[str]:
+    """Names whose ``(x, y)`` no other point dominates (both minimised), sorted by ``x``.
+
+    Two values a, b of one axis are equivalent when ``|a − b| ≤ max(abs_tol, rel_tol·max(|a|,
+    |b|))``. A point is dominated when another is better beyond that tolerance in one axis and
+    not worse beyond it in the other; so identical (or equivalent) points are either both on
+    the front or both off it. With zero tolerances this is the classical strict definition.
+    Non-finite points are never on the front."""
     if not isinstance(points, Mapping):
         raise TypeError(f"points: expected a mapping name -> (x, y), got {type(points).__name__}")
+    rel_tol = float(rel_tol)
+    if not (math.isfinite(rel_tol) and rel_tol >= 0):
+        raise ValueError(f"rel_tol: must be a finite number >= 0, got {rel_tol}")
+    try:
+        atol = tuple(float(a) for a in abs_tol)
+    except (TypeError, ValueError):
+        raise TypeError(f"abs_tol: expected two numbers, got {abs_tol!r}") from None
+    if len(atol) != 2 or not all(math.isfinite(a) and a >= 0 for a in atol):
+        raise ValueError(f"abs_tol: must be two finite numbers >= 0, got {abs_tol!r}")
     pts = {}
     for k, v in points.items():
         try:
@@ -334,14 +389,29 @@ def pareto_front(points: Mapping[str, tuple[float, float]]) -> list[str]:
             raise ValueError(f"points: {k!r} must map to two numbers (x, y), got {v!r}") from None
         if math.isfinite(x) and math.isfinite(y):
             pts[k] = (x, y)
+
+    def better(a: float, b: float, i: int) -> bool:  # a beats b beyond the tolerance
+        return b - a > max(atol[i], rel_tol * max(abs(a), abs(b)))
+
     front = []
     for k, (x, y) in pts.items():
         dominated = any(
-            (x2 <= x and y2 <= y) and (x2 < x or y2 < y) for k2, (x2, y2) in pts.items() if k2 != k
+            (better(x2, x, 0) and not better(y, y2, 1))
+            or (better(y2, y, 1) and not better(x, x2, 0))
+            for k2, (x2, y2) in pts.items()
+            if k2 != k
         )
         if not dominated:
             front.append(k)
     return sorted(front, key=lambda k: (pts[k][0], pts[k][1]))
+
+
+def _narrow_axis(values: Sequence[float], rel: float = 5e-3) -> bool:
+    """True when all finite ``values`` lie within ``rel`` (relative to the largest)."""
+    v = [abs(float(a)) for a in values if math.isfinite(a)]
+    if len(v) < 2:
+        return False
+    return max(v) - min(v) <= rel * max(v)
 
 
 def _pareto_points(
@@ -355,6 +425,8 @@ def _pareto_points(
         if o.status != "ok":
             continue
         perf, perf_label = performance(scenario, o.metrics)
+        if o.verdict == "failed":
+            perf = float("nan")  # a failed run has no settling time: drawn on the top line
         use, use_label = peak_actuator_use(scenario, o.metrics)
         out[c] = (perf, _effort(scenario, o.metrics)[0], use)
     return out, perf_label, use_label
@@ -362,24 +434,52 @@ def _pareto_points(
 
 def _fronts(result: SuiteResult, scenario: Any) -> tuple[list[str], list[str]]:
     """Pareto fronts (performance vs effort, performance vs peak actuator use) among the runs
-    whose verdict is success or degraded (a run that failed is on no front)."""
+    whose verdict is success or degraded (a run that failed is on no front). Values within
+    :data:`PARETO_REL_TOL` (settling times also within one control period) are equivalent."""
     pts, _, _ = _pareto_points(result, scenario)
     ok = {
         c: v
         for c, v in pts.items()
         if result.outcome(scenario.name, c).verdict in ("success", "degraded")
     }
-    effort = pareto_front({c: (v[1], v[0]) for c, v in ok.items()})
-    use = pareto_front({c: (v[2], v[0]) for c, v in ok.items()})
+    period = getattr(scenario, "control_period", None) or getattr(scenario, "dt", 0.0)
+    perf_abs = float(period) if _is_settling(scenario) else 0.0
+    kw = {"rel_tol": PARETO_REL_TOL, "abs_tol": (0.0, perf_abs)}
+    effort = pareto_front({c: (v[1], v[0]) for c, v in ok.items()}, **kw)
+    use = pareto_front({c: (v[2], v[0]) for c, v in ok.items()}, **kw)
     return effort, use
+
+
+def _is_settling(scenario: Any) -> bool:
+    """True when the performance axis of ``scenario`` is a settling time (not an RMS error)."""
+    return bool(performance(scenario, {"settling_time_s": 0.0,
+                                        "position_settling_time_s": 0.0,
+                                        "steady_error_rms_deg": 0.0})[1].endswith("[s]"))
+
+
+def _front_cell(result: SuiteResult, scenario: Any, front: list[str], axis: int) -> str:
+    pts, _, _ = _pareto_points(result, scenario)
+    vals = [v[axis] for c, v in pts.items()
+            if result.outcome(scenario.name, c).verdict in ("success", "degraded")]
+    names = ", ".join(f"`{c}`" for c in front) or "none"
+    if _narrow_axis(vals):
+        lo, hi = min(vals), max(vals)
+        return (f"{names} (cost {_fmt(lo)}–{_fmt(hi)}: within 0.5 %, not a separating axis; "
+                "the front is decided by performance alone)")
+    return names
 
 
 def write_pareto_figure(result: SuiteResult, scenario: Any, path: Path) -> Path | None:
     """Performance vs control effort and vs peak actuator use for ``scenario``: one marker per
     controller (its colour and shape), filled for ``success``, hollow for ``degraded``, hollow
     with a grey cross for ``failed``; runs that did not settle are drawn at the top edge
-    (marked). The Pareto front of the success/degraded runs is drawn as a step line."""
+    (marked). Coincident markers are spread a few points apart on a small circle and labelled
+    "n overlapping". The legend shows each controller with a filled marker; the verdict
+    encoding has its own grey entries. The Pareto front (with the tie tolerance of
+    :func:`pareto_front`) of the success/degraded runs is drawn as a step line."""
     plt = _plt()
+    from matplotlib.transforms import offset_copy
+
     pts, perf_label, use_label = _pareto_points(result, scenario)
     if not pts:
         return None
@@ -394,49 +494,81 @@ def write_pareto_figure(result: SuiteResult, scenario: Any, path: Path) -> Path 
         (axes[0], 1, effort_label, fronts[0]),
         (axes[1], 2, use_label, fronts[1]),
     ):
-        for c, v in pts.items():
-            o = result.outcome(scenario.name, c)
-            st = styles[c]
-            y = v[0] if math.isfinite(v[0]) else top
-            any_unsettled |= not math.isfinite(v[0])
-            x = v[j]
-            if not math.isfinite(x):
-                continue
-            filled = o.verdict == "success"
-            ax.plot(
-                [x], [y], linestyle="none", marker=st["marker"], markersize=9,
-                markeredgecolor=st["color"], markeredgewidth=1.6,
-                markerfacecolor=st["color"] if filled else "none", label=c,
-            )  # fmt: skip
-            if o.verdict in ("failed", "error"):
-                ax.plot([x], [y], linestyle="none", marker="x", color="0.45", markersize=12)
+        # groups of (near-)coincident markers: spread them by a few points on screen
+        # (deterministic, scale-independent) and say how many overlap
+        drawn = [(c, v[j], v[0] if math.isfinite(v[0]) else top) for c, v in pts.items()
+                 if math.isfinite(v[j])]
+        nx = _axis_fraction([d[1] for d in drawn])
+        ny = _axis_fraction([d[2] for d in drawn])
+        groups: list[list[tuple[str, float, float]]] = []
+        for item in drawn:
+            for g in groups:
+                # markers closer than ~2 % of the axis span in both directions overlap
+                if (abs(nx(item[1]) - nx(g[0][1])) <= 0.02
+                        and abs(ny(item[2]) - ny(g[0][2])) <= 0.02):
+                    g.append(item)
+                    break
+            else:
+                groups.append([item])
+        for g in groups:
+            for n, (c, x, y) in enumerate(g):
+                o = result.outcome(scenario.name, c)
+                st = styles[c]
+                any_unsettled |= not math.isfinite(pts[c][0])
+                ang = 2 * math.pi * n / len(g)
+                r = 0.0 if len(g) == 1 else 4.0 + 1.0 * len(g)
+                tr = offset_copy(ax.transData, fig=fig, x=r * math.cos(ang),
+                                 y=r * math.sin(ang), units="points")
+                filled = o.verdict == "success"
+                ax.update_datalim([(x, y)])  # the offset transform hides it from autoscaling
+                ax.plot(
+                    [x], [y], linestyle="none", marker=st["marker"], markersize=9,
+                    markeredgecolor=st["color"], markeredgewidth=1.6,
+                    markerfacecolor=st["color"] if filled else "none", transform=tr,
+                )  # fmt: skip
+                if o.verdict in ("failed", "error"):
+                    ax.plot([x], [y], linestyle="none", marker="x", color="0.45",
+                            markersize=12, transform=tr)  # fmt: skip
+        multi = [g for g in groups if len(g) > 1]
+        for gi, g in enumerate(multi):
+            if len(g) > 1:  # alternate above/below so neighbouring labels do not collide
+                ax.annotate(f"{len(g)} overlapping", (g[0][1], g[0][2]),
+                            xytext=(10, 8 if gi % 2 == 0 else -14),
+                            textcoords="offset points", fontsize=7, color="0.25")  # fmt: skip
         fp = [(pts[c][j], pts[c][0]) for c in front]
         if len(fp) > 1:
             xs, ys = zip(*sorted(fp), strict=True)
-            ax.step(xs, ys, where="post", color="0.3", lw=1.0, ls="--", label="Pareto front")
+            ax.step(xs, ys, where="post", color="0.3", lw=1.0, ls="--")
         if any_unsettled:
             ax.axhline(top, color="0.6", lw=0.8, ls=":")
             ax.set_title("markers on the dotted top line did not settle", fontsize=8)
+        ax.autoscale_view()
+        if _narrow_axis([v[j] for v in pts.values()]):
+            xlabel += " — all within 0.5 %: not a separating axis"
         xlabel += _scale_axis(ax, [v[j] for v in pts.values()], "x")
         _scale_axis(ax, [v[0] for v in pts.values()] + [top], "y")
         ax.set_xlabel(xlabel)
         ax.set_ylabel(perf_label)
         ax.grid(True, alpha=0.3)
-    handles, labels = axes[0].get_legend_handles_labels()
-    seen: dict[str, Any] = {}
-    for h, lab in zip(handles, labels, strict=True):
-        seen.setdefault(lab, h)
     from matplotlib.lines import Line2D
 
+    # controller identity: its colour and shape, always filled; the verdict encoding is
+    # explained only by the grey entries below
+    ident = [
+        Line2D([], [], ls="none", marker=styles[c]["marker"], markersize=8,
+               color=styles[c]["color"], markerfacecolor=styles[c]["color"], label=c)
+        for c in pts
+    ]  # fmt: skip
     extra = [
-        Line2D([], [], ls="none", marker="o", color="0.3", markerfacecolor="0.3", label="success"),
+        Line2D([], [], ls="none", marker="o", color="0.3", markerfacecolor="0.3",
+               label="verdict success: filled"),
         Line2D([], [], ls="none", marker="o", color="0.3", markerfacecolor="none",
-               label="degraded"),
-        Line2D([], [], ls="none", marker="x", color="0.45", label="failed"),
+               label="verdict degraded: hollow"),
+        Line2D([], [], ls="none", marker="x", color="0.45", label="verdict failed: ×"),
+        Line2D([], [], color="0.3", lw=1.0, ls="--", label="Pareto front"),
     ]  # fmt: skip
     fig.legend(
-        list(seen.values()) + extra,
-        list(seen) + ["success (filled)", "degraded (hollow)", "failed (×)"],
+        handles=ident + extra,
         loc="outside right center",
         fontsize=7,
     )
@@ -483,6 +615,63 @@ VERDICT_RULES = (
     "**error** — the run raised (its message is listed under Failures); "
     "**not-applicable** — the controller is not defined for that plant."
 )
+
+
+WALL_TIME_NOTE = (
+    "Runs batched together (one vectorised simulation of several spacecraft) share one "
+    "wall-time measurement: `sim_wall_time_s` is the batch's, and the per-step time is the "
+    "batch's time divided among its spacecraft. Microsecond timings on a shared machine are "
+    "noisy; compare orders of magnitude, not digits."
+)
+
+#: Relative band around the median settling time inside which a step-5 run is "in the spread".
+SPREAD_BAND = 0.30
+
+
+def _spread_lines(result: SuiteResult) -> list[str]:
+    """Settling-time spread on every ``step-5`` scenario (named or tagged): at equal tuning
+    the controllers should settle within ±30 % of the median; the outliers are named."""
+    out: list[str] = []
+    for s in result.scenarios:
+        if s.name != "step-5" and "step-5" not in getattr(s, "tags", ()):
+            continue
+        ts = {}
+        for c in result.controllers:
+            o = result.outcome(s.name, c)
+            v = float(o.metrics.get("settling_time_s", float("nan"))) if o.status == "ok" else (
+                float("nan"))
+            if o.status == "ok" and o.verdict != "failed" and math.isfinite(v):
+                ts[c] = v
+        if not ts:
+            continue
+        med = float(np.median(list(ts.values())))
+        if med <= 0:
+            continue
+        outside = [c for c, v in ts.items() if abs(v / med - 1.0) > SPREAD_BAND]
+        lo, hi = min(ts.values()) / med, max(ts.values()) / med
+        line = (f"Spread on `{s.name}`: median settling time {_fmt(med)} s over {len(ts)} "
+                f"settled run{'s' if len(ts) != 1 else ''}; min/median {_fmt(lo)}, "
+                f"max/median {_fmt(hi)}. ")
+        if outside:
+            parts = []
+            for c in outside:
+                why = ""
+                if "pid" in c:
+                    why = " (the integral mode of a PID at about −ω_n/5 decays slowly)"
+                parts.append(f"`{c}` {_fmt(ts[c] / med)}×{why}")
+            line += f"Outside ±{SPREAD_BAND:.0%}: " + "; ".join(parts) + "."
+        else:
+            line += f"All settled runs lie within ±{SPREAD_BAND:.0%} of the median."
+        unsettled = [c for c in result.controllers
+                     if result.outcome(s.name, c).status == "ok" and c not in ts]
+        if unsettled:
+            line += (" Not settled (left out of the median): "
+                     + ", ".join(f"`{c}`" for c in unsettled) + ".")
+            if any("pid" in c for c in unsettled):
+                line += (" A PID's integral mode near −ω_n/5 decays about five times slower "
+                         "than the PD modes, so at equal ω_n it is the slowest to settle.")
+        out += ["", line]
+    return out
 
 
 def write_report(result: SuiteResult, out_dir: Path, *, figures: bool = True) -> Path:
@@ -536,6 +725,7 @@ def write_report(result: SuiteResult, out_dir: Path, *, figures: bool = True) ->
         "",
     ]
     lines += _table(result, _summary_cell)
+    lines += _spread_lines(result)
     lines += [
         "",
         "## Pareto fronts",
@@ -543,8 +733,11 @@ def write_report(result: SuiteResult, out_dir: Path, *, figures: bool = True) ->
         "Per scenario, the controllers no other controller beats in both performance (settling "
         "time; for regulation scenarios the steady RMS error) and cost — control effort ∫‖u‖dt, "
         "or peak actuator use (gimbal rate or wheel speed as a fraction of its limit; torque or "
-        "force on ideal and SE(3) plants). Only success/degraded runs compete. Figures: "
-        "`figures/<scenario>-pareto.png`.",
+        "force on ideal and SE(3) plants). Only success/degraded runs compete. Ties: two values "
+        f"within {PARETO_REL_TOL:.0%} (settling times also within one control period) are "
+        "equivalent; a controller is off the front only if another is better beyond that "
+        "tolerance on one axis and not worse beyond it on the other, so identical runs are both "
+        "on or both off. Figures: `figures/<scenario>-pareto.png`.",
         "",
         "| scenario | front: performance vs effort | front: performance vs peak actuator use |",
         "|---|---|---|",
@@ -552,8 +745,8 @@ def write_report(result: SuiteResult, out_dir: Path, *, figures: bool = True) ->
     for s in result.scenarios:
         f_eff, f_use = _fronts(result, s)
         lines.append(
-            f"| {s.name} | {', '.join(f'`{c}`' for c in f_eff) or 'none'} "
-            f"| {', '.join(f'`{c}`' for c in f_use) or 'none'} |"
+            f"| {s.name} | {_front_cell(result, s, f_eff, 1)} "
+            f"| {_front_cell(result, s, f_use, 2)} |"
         )
     tables = list(TABLE_METRICS)
     if any(s.plant == "se3" for s in result.scenarios):
@@ -566,6 +759,8 @@ def write_report(result: SuiteResult, out_dir: Path, *, figures: bool = True) ->
         if plants is not None and any(s.plant not in plants for s in result.scenarios):
             lines += [f"Scenarios whose plant has no such quantity are left out. "
                       f"{_esc(DESCRIPTIONS.get(key, ''))}.", ""]  # fmt: skip
+        if key == "controller_time_us":
+            lines += [WALL_TIME_NOTE, ""]
         lines += _table(result, lambda o, k=key: _cell(o, k), plants)
     failed = [o for o in result.outcomes if o.status == "failed"]
     if failed:
@@ -708,6 +903,11 @@ def write_figures(result: SuiteResult, fig_dir: Path) -> dict[str, Path]:
         if not runs:
             continue
         panels = [p for p in _PANELS if s.plant in p[3] and any(p[0] in o.series for o in runs)]
+        # line style per trace: the suite-wide style, except that a figure whose traces are all
+        # broken lines draws its first trace solid, so dashed-over-solid shows coinciding traces
+        fig_ls = {o.controller: styles[o.controller]["ls"] for o in runs}
+        if all(ls not in ("-", "solid") for ls in fig_ls.values()):
+            fig_ls[runs[0].controller] = "-"
         ncol = 2
         nrow = max(1, math.ceil(len(panels) / ncol))
         fig, axes = plt.subplots(
@@ -725,9 +925,18 @@ def write_figures(result: SuiteResult, fig_dir: Path) -> dict[str, Path]:
                 t = np.asarray(o.series["t"], dtype=float)
                 st = styles[o.controller]
                 lab = o.controller if o.status == "ok" else f"{o.controller} (failed)"
+                # identical traces (two controllers flying the same dynamics) must not hide
+                # one another: solid lines lie underneath, broken lines are drawn over them
+                # and the markers of trace k are shifted by k samples
+                k = runs.index(o)
+                ls = fig_ls[o.controller]
+                solid = ls in ("-", "solid")
+                every = max(1, len(t) // 8)
                 ax.plot(
-                    t, y, label=lab, lw=1.2, color=st["color"], ls=st["ls"],
-                    marker=st["marker"], markersize=4, markevery=max(1, len(t) // 8),
+                    t, y, label=lab, lw=1.8 if solid else 1.1, color=st["color"], ls=ls,
+                    marker=st["marker"], markersize=4,
+                    markevery=(min(k * max(1, every // len(runs)), len(t) - 1), every),
+                    zorder=2 if solid else 3,
                 )  # fmt: skip
             if log:
                 ax.set_yscale("log")
@@ -786,6 +995,8 @@ def _overview_figure(result: SuiteResult, path: Path) -> Path | None:
                 text[i][j] = "error"
             else:
                 ts = o.metrics.get("settling_time_s", float("nan"))
+                if s.plant == "se3":  # the pose settles when the position does
+                    ts = o.metrics.get("position_settling_time_s", float("nan"))
                 short = {"attitude-not-converged": "no conv.", "position-not-converged": "pos.",
                          "diverged": "diverged"}  # fmt: skip
                 if v == "failed":
@@ -807,7 +1018,11 @@ def _overview_figure(result: SuiteResult, path: Path) -> Path | None:
     ax.set_xticks(range(S), [s.name for s in result.scenarios], rotation=40, ha="right", fontsize=8)
     ax.set_yticks(range(C), list(result.controllers), fontsize=8)
     ax.set_title(
-        "verdict per run; number: settling time [s], *: degraded (flags in report.md)", fontsize=9
+        "verdict per run; number: settling time [s] (SE(3): position); *: degraded (flags in "
+        "report.md); —: does not apply\n"
+        "failed cells name the first flag: 'no conv.' attitude not converged, 'pos.' position "
+        "not converged",
+        fontsize=8,
     )
     ax.legend(
         handles=[Patch(color=VERDICT_COLORS[v], label=v) for v in order],

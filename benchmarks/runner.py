@@ -1275,7 +1275,7 @@ def _split_groups(
     (or nothing left to split), so every worker gets work. Which batch a pair runs in does not
     change its result beyond round-off (vectorized vs single-spacecraft arithmetic)."""
     groups = [list(g) for g in groups]
-    while len(groups) < n:
+    while groups and len(groups) < n:
         sizes = [len({c for _, c in g}) for g in groups]
         i = int(np.argmax([len(g) if k > 1 else 0 for g, k in zip(groups, sizes, strict=True)]))
         if sizes[i] < 2:

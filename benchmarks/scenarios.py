@@ -40,8 +40,9 @@ and scenarios built to separate controllers (the quick suite runs the first two)
 
 - ``step-5``: a 5° step — at equal tuning every controller should settle within ±30 % of the
   others (the check of the common tuning);
-- ``fast-slew-rate-limited``: the 90° slew with gimbals limited to 0.03 rad/s, so the common
-  closed-loop spec asks for more torque than the cluster delivers;
+- ``fast-slew-rate-limited``: the 90° slew with gimbals limited to 0.02 rad/s, so the common
+  closed-loop spec asks for ≈ 3.4× the torque the cluster delivers at the start and the command
+  rides the rate limit for the first tens of seconds;
 - ``singular-transit``: a 120° slew about :data:`SINGULAR_TRANSIT_AXIS` with a 115 N·m·s
   pyramid, whose stored-momentum path meets an internal singularity;
 - ``stabilisation-inertia-error``: stabilisation against the constant + harmonic disturbance
@@ -1039,10 +1040,16 @@ def _catalogue() -> tuple[Scenario, ...]:
         rest_to_rest(
             90.0,
             name="fast-slew-rate-limited",
-            description="90° slew with gimbals limited to 0.03 rad/s: the common closed-loop "
-            "spec asks for more torque than the gimbals can deliver",
+            description="90° slew with gimbals limited to 0.02 rad/s (≈ 4 N·m from the "
+            "cluster): the common tuning asks ≈ 14 N·m at the start, so the command rides the "
+            "rate limit for its first 10-30 s (ADRC ≈ 2 min) and settles a few seconds later "
+            "than slew-90",
+            # 0.02 rad/s is about the tightest limit the registry still tunes for: below
+            # ≈ 0.017 rad/s the initial demand exceeds its 4× torque margin and every
+            # controller is not-applicable. The PD demand K_R·θ is largest at the start and
+            # falls as the rate builds, so the limit binds early rather than all along.
             spacecraft=dataclasses.replace(
-                SGCMG_SPACECRAFT, name="sgcmg-bus-slow-gimbals", gimbal_rate_limit=0.03
+                SGCMG_SPACECRAFT, name="sgcmg-bus-slow-gimbals", gimbal_rate_limit=0.02
             ),
             tags=("quick", "manoeuvre", "actuator-limited"),
         ),

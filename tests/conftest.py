@@ -11,9 +11,26 @@ import json
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from liecontrol.control import AttitudeController, AttitudeReference, AttitudeState
 from spacecraft import RigidBody, SgcmgActuator, SgcmgPyramid, SingularityRobust, Spacecraft
+
+
+@pytest.fixture(autouse=True)
+def _isolated_registries():
+    """Every test starts from the built-in controller and scenario registries: a docs example or
+    a test that registers a controller (e.g. a learned policy) must not leak it into later tests
+    that run "every registered controller"."""
+    from benchmarks import controllers, scenarios
+
+    saved = (dict(controllers.CONTROLLERS), dict(scenarios.SCENARIOS), dict(scenarios.SUITES))
+    yield
+    for live, snap in zip(
+        (controllers.CONTROLLERS, scenarios.SCENARIOS, scenarios.SUITES), saved, strict=True
+    ):
+        live.clear()
+        live.update(snap)
 
 #: Seed-000 inertia [kg·m²] (SPEC §6.1); read-only because every test module shares it.
 SEED000_J = np.array(

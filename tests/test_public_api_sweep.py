@@ -824,6 +824,8 @@ ACCEPTED: dict[tuple[str, str, str], str] = {
     ("benchmarks.report.fmt", "x", "nan"): "formats a table cell: NaN is printed as 'n/a'",
     ("benchmarks.report.fmt", "x", "inf"): "formats a table cell: inf is printed as such",
     ("benchmarks.scenarios.rest_to_rest", "name", "wrong_type"): "'abc' is a valid name",
+    ("benchmarks.cli.build_parser", "prog", "wrong_type"): "'abc' is a valid program name",
+    ("benchmarks.cli.program_name", "argv0", "wrong_type"): "'abc' is a valid argv[0]",
     ("benchmarks.unwinding.UnwindingConfig", "sweep_angles_deg", "empty"): "no sweep cases is a "
     "valid configuration (pair and random cases only)",
     ("benchmarks.unwinding.UnwindingConfig", "sweep_angles_deg", "wrong_shape"): "one more angle",

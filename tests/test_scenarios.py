@@ -163,14 +163,14 @@ def test_example_files_load():
     toml = sf.load_scenarios(EXAMPLES / "example.toml")
     assert [s.name for s in toml] == ["slew-120-x", "minus-q-135", "earth-pointing-ideal"]
     a, b, c = toml
-    assert a.duration == 300.0 and a.control_period == 0.2
+    assert a.duration == 600.0 and a.control_period == 0.2
     assert a.initial_error_deg == pytest.approx(120.0)
     np.testing.assert_allclose(a.initial_rotvec, [np.deg2rad(120), 0, 0])
     assert a.disturbances == (DisturbanceSpec("constant-harmonic"),)
     # a w < 0 quaternion is the −q start of the same rotation
     assert b.quaternion_sign == -1 and b.initial_error_deg == pytest.approx(135.0, abs=1e-6)
     np.testing.assert_allclose(b.initial_rotvec, [0, 0, np.deg2rad(135)], atol=1e-7)
-    assert c.plant == "ideal" and c.spacecraft.max_torque == 5.0 and c.duration == 200.0
+    assert c.plant == "ideal" and c.spacecraft.max_torque == 5.0 and c.duration == 600.0
     assert c.reference.kind == "earth-pointing" and c.uncertainty.inertia_scale == (0.8, 1.2, 1.1)
     pytest.importorskip("yaml")
     yml = sf.load_scenarios(EXAMPLES / "example.yaml")

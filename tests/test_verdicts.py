@@ -70,7 +70,7 @@ def test_clean_run_is_success():
 
 
 def test_position_not_converged_fails_even_when_attitude_settles():
-    """bullo-murray-pd on the approach: attitude settled, 3344 m off in position."""
+    """A pose law without the centripetal term on the approach: attitude settled, 3344 m off."""
     m = _good(initial_error_deg=150.0, final_position_error_m=3344.3)
     m["steady_position_error_max_m"] = 3344.3
     verdict, flags = judge(POSE, m)

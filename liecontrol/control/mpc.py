@@ -62,6 +62,14 @@ linearisation changed) and warm-starts from the previous solution shifted by one
 ``"cvxpy"`` is the readable reference formulation with ``cp.Parameter``s (DPP: compiled once),
 solved by Clarabel (an interior-point method: an independent route to the same minimiser).
 
+Pointing cones (``keep_out``/``keep_in``): with ``c(R) = bᵀRᵀs`` and stage ``k``'s attitude
+``R_k = R_d,k exp(ξ_k^)`` linearised about the previous plan ``ξ̄_k`` (shifted by one stage),
+``c(R_k) ≈ c̄_k + (b × R̄_kᵀs)·J_r(ξ̄_k)(ξ_k − ξ̄_k)`` (:func:`_cone_rows`); each cone gives the
+row ``G_k ξ_k − s_k ≤ h_k`` with a slack ``s_k ≥ 0`` costing ``ρ s_k + ρ s_k²``,
+``ρ = slack_weight · λ_max(P)`` (an exact penalty: the slack is zero whenever the linearised
+cones can be met). The rows change every step (a KKT refactorisation per step); slack use is in
+``diagnostics()`` (``cone_slack_max``, ``cone_slack_used``) and its onset is logged.
+
 Failure: a status other than *solved* (optionally *solved inaccurate*) or a solver exception
 hands the step to the fallback controller (default :class:`GeometricPD` built from the same
 ``J``), whose torque is clipped to the box; the status code, the fallback flag and a warning on
@@ -72,7 +80,7 @@ from __future__ import annotations
 
 import copy
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -93,6 +101,7 @@ from .._validation import (
 from ..integrators.lgvi import lgvi_step_unchecked
 from ..lie import so3
 from .base import AttitudeController, AttitudeReference, AttitudeState, check_state_batch
+from .constrained import KeepInCone, KeepOutCone
 from .geometric_pd import GeometricPD, gains_from_bandwidth
 
 __all__ = [
@@ -155,6 +164,10 @@ _OSQP_DEFAULTS: dict[str, Any] = {
     "warm_starting": True,
     "verbose": False,
 }
+
+#: OSQP iteration cap when pointing cones are given (measured on the keep-out scenarios: the
+#: default 4000 is reached on ~1 % of the steps while a cone is active).
+_OSQP_CONE_MAX_ITER = 20000
 
 #: Tolerance factor of the re-solve after a failed polish (see _OSQP_DEFAULTS).
 _POLISH_RETRY_FACTOR = 1e-2
@@ -449,14 +462,20 @@ class _OsqpQP:
         m: int,
         settings: dict,
         u_max: np.ndarray,
+        nc: int = 0,
+        slack_weights: tuple[float, float] = (0.0, 0.0),
     ) -> None:
         import osqp
 
-        self.N, self.m = N, m
-        nx, nu = 6 * N, 3 * N
-        self.nx, self.nu = nx, nu
+        self.N, self.m, self.nc = N, m, nc
+        nx, nu, ns = 6 * N, 3 * N, nc * N
+        self.nx, self.nu, self.ns = nx, nu, ns
         Hx = sp.block_diag([Q] * (N - 1) + [P]) if N > 1 else sp.csc_matrix(P)
-        H = sp.block_diag([Hx, sp.kron(sp.eye(N), R)], format="csc")
+        blocks = [Hx, sp.kron(sp.eye(N), R)]
+        if ns:
+            # the cvxpy cost is twice OSQP's ½zᵀHz + qᵀz: ρ₁ Σs + ρ₂ Σs² ↔ H = ρ₂ I, q = ρ₁/2
+            blocks.append(slack_weights[1] * sp.eye(ns))
+        H = sp.block_diag(blocks, format="csc")
         self.R = R
         # COO triplets of the constraint matrix; `slots` remembers where each block lives
         rows: list[np.ndarray] = []
@@ -490,12 +509,22 @@ class _OsqpQP:
         for k in range(N):
             if m:
                 slot_C.append(add(r_ext + m * k, nx + 3 * k, np.ones((m, 3))))
+        # cone rows a_kᵀ ξ_{k+1} − s_k ≤ h_k (one per cone and stage), then s ≥ 0
+        r_cone = r_ext + m * N
+        r_slack = r_cone + ns
+        slot_G: list[slice] = []
+        for k in range(nc and N):
+            slot_G.append(add(r_cone + nc * k, 6 * k, np.ones((nc, 3))))
+            for j in range(nc):
+                add(r_cone + nc * k + j, nx + nu + nc * k + j, -np.ones((1, 1)))
+                add(r_slack + nc * k + j, nx + nu + nc * k + j, np.ones((1, 1)))
+        self.r_ext, self.r_cone, self.r_slack = r_ext, r_cone, r_slack
         self.vals = np.concatenate(vals)
         r = np.concatenate(rows)
         c = np.concatenate(cols)
-        self.n_con = r_ext + m * N
+        self.n_con = r_slack + ns
         ids = np.arange(1, count + 1, dtype=np.float64)
-        Aid = sp.csc_matrix((ids, (r, c)), shape=(self.n_con, nx + nu))
+        Aid = sp.csc_matrix((ids, (r, c)), shape=(self.n_con, nx + nu + ns))
         Aid.sort_indices()
         # position p of the CSC data holds COO entry order[p]
         self.order = Aid.data.astype(np.int64) - 1
@@ -506,11 +535,17 @@ class _OsqpQP:
         self.idx_A = idx(slot_A)
         self.idx_B = idx(slot_B)
         self.idx_C = idx(slot_C).ravel() if m else np.zeros(0, dtype=np.int64)
+        self.idx_G = idx(slot_G) if ns else np.zeros((0, 0), dtype=np.int64)
         self.l = np.zeros(self.n_con)
         self.u = np.zeros(self.n_con)
         self.l[r_box:r_ext] = np.tile(-u_max, N)
         self.u[r_box:r_ext] = np.tile(u_max, N)
-        self.q = np.zeros(nx + nu)
+        self.l[r_cone:r_slack] = -_OSQP_INF
+        self.u[r_slack:] = _OSQP_INF
+        self.q = np.zeros(nx + nu + ns)
+        self.q[nx + nu :] = 0.5 * slack_weights[0]
+        self.slack: np.ndarray | None = None  # (N, nc) of the last accepted solution
+        self.xi_plan: np.ndarray | None = None  # (N, 3) predicted ξ_1 … ξ_N, last solution
         Aid.data = self.vals[self.order]
         self.solver = osqp.OSQP()
         # osqp ≥ 1.0 raises on invalid data; older versions return a non-zero exit code
@@ -534,9 +569,17 @@ class _OsqpQP:
         self._mat_dirty = False
         self._q_dirty = False
         # the shifted-warm-start index maps: z_k ← z_{k+1}, the last stage repeated
-        self._x_shift = np.concatenate([_shift_index(N, 6), nx + _shift_index(N, 3)])
+        self._x_shift = np.concatenate(
+            [_shift_index(N, 6), nx + _shift_index(N, 3), nx + nu + _shift_index(N, nc)]
+        )
         self._y_shift = np.concatenate(
-            [_shift_index(N, 6), r_box + _shift_index(N, 3), r_ext + _shift_index(N, m)]
+            [
+                _shift_index(N, 6),
+                r_box + _shift_index(N, 3),
+                r_ext + _shift_index(N, m),
+                r_cone + _shift_index(N, nc),
+                r_slack + _shift_index(N, nc),
+            ]
         )
         self._last: tuple[np.ndarray, np.ndarray] | None = None
 
@@ -546,6 +589,7 @@ class _OsqpQP:
         c0: np.ndarray,
         B0: np.ndarray | None,
         extra: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
+        cones: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> None:
         N, nx, vals = self.N, self.nx, self.vals
         if model is not self._model:
@@ -553,7 +597,7 @@ class _OsqpQP:
                 vals[self.idx_A] = -model.A[1:].reshape(N - 1, 36)
             vals[self.idx_B] = -model.B.reshape(N, 18)
             self.l[6:nx] = self.u[6:nx] = model.ct[1:].ravel()
-            self.q[nx:] = model.q_u
+            self.q[nx : nx + self.nu] = model.q_u
             self._model = model
             self._mat_dirty = self._q_dirty = True
             self._B0_set = False
@@ -572,8 +616,14 @@ class _OsqpQP:
                 self._C = C.copy()
                 self._mat_dirty = True
             # OSQP treats ±1e30 as infinite; it rejects larger magnitudes
-            self.l[nx + 3 * N :] = np.tile(np.maximum(lo, -_OSQP_INF), N)
-            self.u[nx + 3 * N :] = np.tile(np.minimum(hi, _OSQP_INF), N)
+            self.l[self.r_ext : self.r_cone] = np.tile(np.maximum(lo, -_OSQP_INF), N)
+            self.u[self.r_ext : self.r_cone] = np.tile(np.minimum(hi, _OSQP_INF), N)
+        if cones is not None:
+            # the linearisation moves every step: the rows change, so the KKT is refactorised
+            G, h = cones
+            vals[self.idx_G] = G.reshape(N, -1)
+            self.u[self.r_cone : self.r_slack] = h.ravel()
+            self._mat_dirty = True
 
     def _retry(self, info: Any) -> Any:
         """Polishing failed (its active-set guess from the loose ADMM iterate was wrong):
@@ -642,7 +692,11 @@ class _OsqpQP:
             self._last = None
             return status, None, int(info.iter), float(info.run_time)
         self._last = (x, y) if status in (1, 2) else None
-        u = x[self.nx :].reshape(self.N, 3)
+        nx, nu = self.nx, self.nu
+        u = x[nx : nx + nu].reshape(self.N, 3)
+        if self.ns:
+            self.slack = np.maximum(x[nx + nu :].reshape(self.N, self.nc), 0.0)
+            self.xi_plan = x[:nx].reshape(self.N, 6)[:, :3].copy()
         return status, u, int(info.iter), float(info.run_time)
 
     def _rejected(self, call: str, rc: int) -> tuple[int, None, int, float]:
@@ -685,10 +739,12 @@ class _CvxpyQP:
         m: int,
         settings: dict,
         u_max: np.ndarray,
+        nc: int = 0,
+        slack_weights: tuple[float, float] = (0.0, 0.0),
     ) -> None:
         import cvxpy as cp
 
-        self.N, self.m = N, m
+        self.N, self.m, self.nc = N, m, nc
         x = cp.Variable((N, 6), name="x")  # x_1 … x_N
         u = cp.Variable((N, 3), name="u")  # u_0 … u_{N−1}
         self.A = [cp.Parameter((6, 6), name=f"A{k}") for k in range(1, N)]
@@ -713,6 +769,17 @@ class _CvxpyQP:
             self.hi = cp.Parameter(m, name="hi")
             cons += [self.C @ u[k] >= self.lo for k in range(N)]
             cons += [self.C @ u[k] <= self.hi for k in range(N)]
+        self.slack: np.ndarray | None = None
+        self.xi_plan: np.ndarray | None = None
+        self.s = None
+        if nc:
+            # linearised cones: G_k ξ_{k+1} − s_k ≤ h_k, s ≥ 0, penalty ρ₁ Σs + ρ₂ Σs²
+            s = cp.Variable((N, nc), nonneg=True, name="s")
+            self.G = [cp.Parameter((nc, 3), name=f"G{k}") for k in range(N)]
+            self.h = cp.Parameter((N, nc), name="h")
+            cons += [self.G[k] @ x[k, :3] - s[k] <= self.h[k] for k in range(N)]
+            cost += slack_weights[0] * cp.sum(s) + slack_weights[1] * cp.sum_squares(s)
+            self.s, self.x = s, x
         self.u = u
         self.problem = cp.Problem(cp.Minimize(cost), cons)
         if not self.problem.is_dpp():  # pragma: no cover - a bug in this file
@@ -721,7 +788,7 @@ class _CvxpyQP:
         self.solver_name = self.settings.pop("solver", "CLARABEL")
         self.u_max.value = u_max
 
-    def set_data(self, model: _Model, c0, B0, extra) -> None:
+    def set_data(self, model: _Model, c0, B0, extra, cones=None) -> None:
         for k in range(1, self.N):
             self.A[k - 1].value = model.A[k]
         for k in range(self.N):
@@ -734,6 +801,11 @@ class _CvxpyQP:
         self.u_ref.value = model.u_ref
         if extra is not None:
             self.C.value, self.lo.value, self.hi.value = extra
+        if cones is not None:
+            G, h = cones
+            for k in range(self.N):
+                self.G[k].value = G[k]
+            self.h.value = h
 
     def warm_start_shifted(self) -> None:
         """Interior-point solver: no warm start."""
@@ -745,6 +817,9 @@ class _CvxpyQP:
         it = int(stats.num_iters) if stats is not None and stats.num_iters is not None else 0
         st = float(stats.solve_time) if stats is not None and stats.solve_time else 0.0
         u = None if self.u.value is None else np.array(self.u.value)
+        if self.nc and u is not None and self.s.value is not None:
+            self.slack = np.maximum(np.array(self.s.value), 0.0)
+            self.xi_plan = np.array(self.x.value)[:, :3]
         return status, u, it, st
 
 
@@ -763,6 +838,66 @@ def _check_int(v: object, name: str, minimum: int) -> int:
     if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < minimum:
         raise ValueError(f"{name}: must be an integer >= {minimum}, got {v!r}")
     return int(v)
+
+
+#: Slack (cosine units) above which a step counts as having relaxed a cone constraint: the
+#: OSQP primal tolerance (1e-3) — smaller slacks are solver round-off, not a relaxation.
+SLACK_TOLERANCE = 1e-3
+
+
+def _check_cones(cones: object, name: str, cls: type) -> tuple:
+    if isinstance(cones, (cls, str, bytes)) or not isinstance(cones, (Sequence, np.ndarray)):
+        raise ValueError(f"{name}: expected a sequence of {cls.__name__}, got {cones!r}")
+    out = tuple(cones)
+    for i, c in enumerate(out):
+        if not isinstance(c, cls):
+            raise ValueError(f"{name}: item {i} is not a {cls.__name__}: {c!r}")
+    return out
+
+
+def _cone_table(keep_out: tuple, keep_in: tuple, tau: float) -> tuple[np.ndarray, ...]:
+    """``(b (nc, 3), s (nc, 3), σ (nc,), h (nc,))``: every cone as ``σ bᵀRᵀs ≤ h`` with the
+    half-angle tightened by ``tau`` degrees (keep-out ``σ = +1``, ``h = cos(α + τ)``; keep-in
+    ``σ = −1``, ``h = −cos(β − τ)``)."""
+    cones = list(keep_out) + list(keep_in)
+    if not cones:
+        return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0)
+    b = np.array([c._b for c in cones])
+    s = np.array([c._s for c in cones])
+    sig = np.array([1.0] * len(keep_out) + [-1.0] * len(keep_in))
+    ang = np.array(
+        [min(c.half_angle_deg + tau, 179.999) for c in keep_out]
+        + [max(c.half_angle_deg - tau, 1e-3) for c in keep_in]
+    )
+    return b, s, sig, sig * np.cos(np.radians(ang))
+
+
+def _cone_rows(
+    R_ref: np.ndarray,
+    xi_bar: np.ndarray,
+    b: np.ndarray,
+    s: np.ndarray,
+    sig: np.ndarray,
+    h: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Cone constraints linearised in the predicted error ``ξ_k`` about ``ξ̄_k``.
+
+    With ``R_k = R_ref,k exp(ξ_k^)`` and ``ξ_k = ξ̄_k + δ``, ``exp((ξ̄ + δ)^) ≈ exp(ξ̄^)
+    exp((J_r(ξ̄) δ)^)``; with ``R̄ = R_ref exp(ξ̄^)`` and ``exp(η^)ᵀ ≈ I − η^``,
+
+        c(R) = bᵀRᵀs ≈ c̄ + ηᵀ (b × R̄ᵀs),   η = J_r(ξ̄) δ,
+
+    so ``σ c ≤ h`` becomes ``G ξ ≤ h − σ c̄ + G ξ̄`` with ``G = σ (J_r(ξ̄)ᵀ (b × R̄ᵀs))ᵀ``.
+    Returns ``G (N, nc, 3)`` and the right-hand side ``(N, nc)``.
+    """
+    Rbar = R_ref @ so3.exp(xi_bar)
+    Jr = so3.right_jacobian(xi_bar)
+    st = np.einsum("kji,cj->kci", Rbar, s)  # R̄_kᵀ s_c
+    cbar = np.einsum("ci,kci->kc", b, st)
+    grad = np.cross(b[None], st)  # ∂c/∂η (body-frame gradient, as in constrained.py)
+    G = sig[None, :, None] * np.einsum("kij,kci->kcj", Jr, grad)
+    rhs = h[None] - sig[None] * cbar + np.einsum("kcj,kj->kc", G, xi_bar)
+    return G, rhs
 
 
 class SO3MPC(AttitudeController):
@@ -795,6 +930,14 @@ class SO3MPC(AttitudeController):
             nonlinear prediction either way). Changes the QP matrix every step, so OSQP
             refactorises its KKT system every step (slower); the difference is second order
             (``δu`` × state error).
+        keep_out, keep_in: pointing cones (:class:`~liecontrol.control.constrained.KeepOutCone`,
+            :class:`~liecontrol.control.constrained.KeepInCone`), linearised about the predicted
+            trajectory and imposed on every stage with a slack (module docstring, *Pointing
+            cones*). Default: none (the QP is then exactly the unconstrained one).
+        slack_weight: exact-penalty weight of the cone slack, relative to ``λ_max(P)``
+            (linear and quadratic); > 0.
+        cone_tightening_deg: the cones' half-angles are tightened by this much in the QP
+            (keep-out ``α + τ``, keep-in ``β − τ``), in [0, 90).
 
     Batch handling: ``batched = True``; ``command`` loops over the ``B`` spacecraft internally
     (OSQP: one QP instance each, so every spacecraft keeps its own warm start; cvxpy: one
@@ -824,6 +967,10 @@ class SO3MPC(AttitudeController):
         solver_settings: dict | None = None,
         accept_inaccurate: bool = False,
         exact_stage0_jacobian: bool = False,
+        keep_out: Sequence[KeepOutCone] = (),
+        keep_in: Sequence[KeepInCone] = (),
+        slack_weight: float = 1.0,
+        cone_tightening_deg: float = 1.0,
     ) -> None:
         J = check_inertia_3x3(J, "J")
         self.J = J.copy()
@@ -866,9 +1013,25 @@ class SO3MPC(AttitudeController):
         base = dict(_OSQP_DEFAULTS if backend == "osqp" else _CVXPY_DEFAULTS)
         if backend == "cvxpy" and solver_settings and "solver" in solver_settings:
             base = {}  # the Clarabel tolerances below are not other solvers' keywords
+        if backend == "osqp" and (keep_out or keep_in):
+            # the cone rows change the KKT matrix every step, and ADMM on the re-linearised
+            # problem needs more iterations than the default cap while a cone is active
+            base["max_iter"] = _OSQP_CONE_MAX_ITER
         self.solver_settings = {**base, **(solver_settings or {})}
         self.accept_inaccurate = bool(accept_inaccurate)
         self.exact_stage0_jacobian = bool(exact_stage0_jacobian)
+        self.keep_out = _check_cones(keep_out, "keep_out", KeepOutCone)
+        self.keep_in = _check_cones(keep_in, "keep_in", KeepInCone)
+        self.slack_weight = check_positive_scalar(slack_weight, "slack_weight")
+        tau = as_scalar(cone_tightening_deg, "cone_tightening_deg")
+        if not 0.0 <= tau < 90.0:
+            raise ValueError(f"cone_tightening_deg: must be in [0, 90) degrees, got {tau}")
+        self.cone_tightening_deg = tau
+        self._cones = _cone_table(self.keep_out, self.keep_in, tau)
+        # exact-penalty weights in the cost's own scale: λ_max(P) is the cost of a unit
+        # terminal error, so the slack (in cosine units) costs slack_weight times that
+        lam = float(np.linalg.eigvalsh(self.P)[-1])
+        self._slack_weights = (self.slack_weight * lam, self.slack_weight * lam)
         # rest-model stages are constant: built once (regulation never recomputes them)
         self._rest = self._build_model(
             np.zeros((self.N + 1, 3)), np.broadcast_to(np.eye(3), (self.N, 3, 3))
@@ -885,6 +1048,9 @@ class SO3MPC(AttitudeController):
         self._fallback_count: np.ndarray = np.zeros(0, dtype=np.int64)
         self._t_last: list[float] = []
         self._t0 = 0.0
+        self._plans: list[np.ndarray | None] = []
+        self._slack_on: list[bool] = []
+        self._slack_max = np.zeros(0)
 
     def __repr__(self) -> str:
         return (
@@ -901,6 +1067,9 @@ class SO3MPC(AttitudeController):
         new._diag = {}
         new._fallback_count = np.zeros(0, dtype=np.int64)
         new._t_last = []
+        new._plans = []
+        new._slack_on = []
+        new._slack_max = np.zeros(0)
         new.fallback = copy.deepcopy(self.fallback, memo)
         return new
 
@@ -920,10 +1089,35 @@ class SO3MPC(AttitudeController):
         self._fallback_count = np.zeros(batch_size, dtype=np.int64)
         self._diag = {}
         self._t_last = [-np.inf] * batch_size
+        self._plans = [None] * batch_size
+        self._slack_on = [False] * batch_size
+        self._slack_max = np.zeros(batch_size)
 
     def _new_qp(self, m: int) -> Any:
         cls = _OsqpQP if self.backend == "osqp" else _CvxpyQP
-        return cls(self.N, self.Q, self.R, self.P, m, self.solver_settings, self.u_max)
+        nc = len(self._cones[0])
+        kw = {"nc": nc, "slack_weights": self._slack_weights} if nc else {}
+        return cls(self.N, self.Q, self.R, self.P, m, self.solver_settings, self.u_max, **kw)
+
+    def _cone_data(
+        self, b: int, R_d: np.ndarray, model: _Model, xi1: np.ndarray, shift: bool
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The cone rows of spacecraft ``b``'s QP: ``G (N, nc, 3)``, ``h (N, nc)`` (class
+        docstring), linearised about the last plan shifted by one stage (or, without one, about
+        the stage-0 prediction ``xi1`` held over the horizon)."""
+        N = self.N
+        plan = self._plans[b]
+        if plan is not None and shift:
+            xi_bar = plan[np.minimum(np.arange(N) + 1, N - 1)]
+        else:
+            xi_bar = np.broadcast_to(xi1, (N, 3))
+        # reference knots R_d,k+1 = R_d F_0 … F_k (the rest model's F are identities)
+        Rk = np.empty((N, 3, 3))
+        acc = R_d
+        for k in range(N):
+            acc = acc @ model.F[k]
+            Rk[k] = acc
+        return _cone_rows(Rk, xi_bar, *self._cones)
 
     def _build_model(self, ws: np.ndarray, F: np.ndarray) -> _Model:
         A, Bm, u_ref, c = _reference_model(self.J, self.dt, ws, F)  # valid by construction
@@ -1060,6 +1254,10 @@ class SO3MPC(AttitudeController):
             "xi": x0s[:, :3],
             "e_Omega": x0s[:, 3:],
         }
+        if self._cones[0].size:
+            smax = np.where(fb_on, 0.0, self._slack_max)
+            self._diag["cone_slack_max"] = smax
+            self._diag["cone_slack_used"] = smax > SLACK_TOLERANCE
         return out
 
     def _solve_one(self, t, b, R, w, R_d, w_d, dw_d, state):
@@ -1096,11 +1294,16 @@ class SO3MPC(AttitudeController):
             self._qps[b] = qp
         t_last = self._t_last[b]
         self._t_last[b] = t
+        consecutive = abs(t - t_last - self.dt) <= 1e-9 * self.dt
+        cones = None
+        if self._cones[0].size:
+            cones = self._cone_data(b, R_d, model, x1[:3], consecutive)
+            self._plans[b] = None  # set again below from an accepted solution
         try:
-            qp.set_data(model, c0, B0, extra)
+            qp.set_data(model, c0, B0, extra, cones)
             # receding horizon: one period later, the last plan shifted by a stage is the best
             # guess of the new one (primal and dual)
-            if abs(t - t_last - self.dt) <= 1e-9 * self.dt:
+            if consecutive:
                 qp.warm_start_shifted()
             status, u, iters, stime = qp.solve()
         except Exception as exc:  # solver errors must not stop the loop: fall back, log it
@@ -1109,11 +1312,32 @@ class SO3MPC(AttitudeController):
         ok = status == 1 or (status == 2 and self.accept_inaccurate)
         if not ok or u is None or not np.all(np.isfinite(u[0])):
             return None, status if status != 1 else -11, iters, stime
+        if cones is not None:
+            self._record_slack(t, b, qp)
         # the solver's tolerance may overshoot the box by ~eps: the limit is a hard one
         return np.clip(u[0], -self.u_max, self.u_max), status, iters, stime
 
+    def _record_slack(self, t: float, b: int, qp: Any) -> None:
+        """Keep the plan for the next linearisation; report the slack (log on its onset)."""
+        self._plans[b] = None if qp.xi_plan is None else qp.xi_plan.copy()
+        smax = 0.0 if qp.slack is None else float(qp.slack.max())
+        self._slack_max[b] = smax
+        used = smax > SLACK_TOLERANCE
+        if used and not self._slack_on[b]:
+            _log.warning(
+                "SO3MPC: cone constraints relaxed at t=%.6g for spacecraft %d (max slack %.3g "
+                "in cosine units): the linearised cones are infeasible over the horizon",
+                t,
+                b,
+                smax,
+            )
+        elif self._slack_on[b] and not used:
+            _log.info("SO3MPC: cone slack back to zero at t=%.6g for spacecraft %d", t, b)
+        self._slack_on[b] = used
+
     def diagnostics(self) -> dict[str, np.ndarray]:
-        """Last step's solver status, timing, iterations, fallback flags, error state."""
+        """Last step's solver status, timing, iterations, fallback flags, error state (and,
+        with cones, ``cone_slack_max``/``cone_slack_used``)."""
         return dict(self._diag)
 
 

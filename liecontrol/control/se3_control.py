@@ -44,9 +44,11 @@ there is no acceleration feed-forward)::
     u = −ad_ξᵀ I ξ  (if cancel_coriolis)  − w_g(g) − P − K_d ξ̃.
 
 The survey writes ``f = I⁻¹(…)``, which is dimensionally inconsistent with its eq. (6); the wrench
-is the bracket itself (*reconstructed*). Cancelling ad_ξᵀIξ (−ω × m v) presumes small body
-velocities (hovering, a non-orbiting frame): in orbit, v ≈ 7.5 km/s and that term is a huge
-fictitious force — use :class:`SE3TrackingController` there.
+is the bracket itself (*reconstructed*). The cancelled ad_ξᵀIξ has the force part −ω × m v: for
+a spacecraft riding a circular orbit with body rate ≈ n and v ≈ n r this is the centripetal force
+m n² r, equal and opposite to gravity, so keeping the cancellation (the default) is what lets the
+law hold a pose in an orbiting frame; without it the position spring must carry that force and
+the chaser settles ≈ n² r / ω_pos² away from the desired pose.
 
 Units: J [kg·m²], m [kg], K_R [N·m/rad], K_p [N/m], K_ω [N·m·s/rad], K_v [N·s/m]; wrench
 (τ [N·m], F [N]) in body axes.
@@ -377,7 +379,8 @@ class BulloMurrayPD(_PoseControllerBase):
         gravity: ``gravity(g) -> (B, 6)`` body gravity wrench to compensate, or ``None``.
         error: ``"log"`` (exponential coordinates log(g_d⁻¹g), default) or ``"split"`` (the
             survey's (K_ω log R̃, Rᵀ K_v (p − p_d)) form).
-        cancel_coriolis: subtract ad_ξᵀIξ as Lemma 3 does (only sensible for small v).
+        cancel_coriolis: subtract ad_ξᵀIξ as Lemma 3 does (module docstring: in orbit its force
+            part is the centripetal term, needed to hold an orbiting pose).
     """
 
     def __init__(
