@@ -46,6 +46,7 @@ file is written or read.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import math
@@ -252,10 +253,9 @@ def _versions() -> dict[str, str]:
         "numpy": np.__version__,
         "scipy": scipy.__version__,
     }
-    try:
+    # pyarrow is the writer; a provenance record without it is still complete
+    with contextlib.suppress(metadata.PackageNotFoundError):
         out["pyarrow"] = metadata.version("pyarrow")
-    except metadata.PackageNotFoundError:
-        pass
     return out
 
 
