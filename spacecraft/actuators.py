@@ -83,6 +83,14 @@ class Actuator(abc.ABC):
             raise ValueError(f"x_act: expected shape {(u.shape[0], self.n_states)}, got {x.shape}")
         return u, w, x, as_scalar(t, "t")
 
+    def _validated_command(self, u_cmd: object, omega: object, x_act: object, t: object) -> Any:
+        """:meth:`command` for actuators with a ``command_unchecked``: validate the arguments,
+        run the unchecked computation, and refuse a non-finite result (naming ``u_cmd``)."""
+        u, w, x, tt = self._check_command(u_cmd, omega, x_act, t)
+        with np.errstate(over="ignore", invalid="ignore"):
+            held = self.command_unchecked(u, w, x, tt)  # type: ignore[attr-defined]
+        return self._check_held(held, u)
+
     @staticmethod
     def _check_held(held: Any, u: np.ndarray) -> Any:
         """Raise (naming ``u_cmd``) if the hardware command computed from finite inputs is
@@ -147,8 +155,7 @@ class IdealTorqueActuator(Actuator):
 
     def command(self, u_cmd: np.ndarray, omega: np.ndarray, x_act: np.ndarray, t: float) -> Any:
         """Validated :meth:`command_unchecked` (see :meth:`Actuator.command`)."""
-        u, w, x, tt = self._check_command(u_cmd, omega, x_act, t)
-        return self._check_held(self.command_unchecked(u, w, x, tt), u)
+        return self._validated_command(u_cmd, omega, x_act, t)
 
     def command_unchecked(
         self, u_cmd: np.ndarray, omega: np.ndarray, x_act: np.ndarray, t: float
@@ -462,10 +469,7 @@ class SgcmgActuator(Actuator):
         self, u_cmd: np.ndarray, omega: np.ndarray, x_act: np.ndarray, t: float
     ) -> CmgCommand:
         """Validated :meth:`command_unchecked` (see :meth:`Actuator.command`)."""
-        u, w, x, tt = self._check_command(u_cmd, omega, x_act, t)
-        with np.errstate(over="ignore", invalid="ignore"):
-            held = self.command_unchecked(u, w, x, tt)
-        return self._check_held(held, u)
+        return self._validated_command(u_cmd, omega, x_act, t)
 
     def command_unchecked(
         self, u_cmd: np.ndarray, omega: np.ndarray, x_act: np.ndarray, t: float
@@ -836,10 +840,7 @@ class ReactionWheelAssembly(Actuator):
         self, u_cmd: np.ndarray, omega: np.ndarray, x_act: np.ndarray, t: float
     ) -> WheelCommand:
         """Validated :meth:`command_unchecked` (see :meth:`Actuator.command`)."""
-        u, w, x, tt = self._check_command(u_cmd, omega, x_act, t)
-        with np.errstate(over="ignore", invalid="ignore"):
-            held = self.command_unchecked(u, w, x, tt)
-        return self._check_held(held, u)
+        return self._validated_command(u_cmd, omega, x_act, t)
 
     def command_unchecked(
         self, u_cmd: np.ndarray, omega: np.ndarray, x_act: np.ndarray, t: float

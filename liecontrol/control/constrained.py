@@ -69,7 +69,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import as_array, as_scalar, check_inertia_3x3, check_rotation_matrix
+from .._validation import as_array, as_int, as_scalar, check_inertia_3x3, check_rotation_matrix
 from ..errors import _large_angle_error_unchecked
 from .base import (
     AttitudeController,
@@ -338,12 +338,9 @@ class ConstrainedGeometricPD(AttitudeController):
 
     def reset(self, t0: float, batch_size: int) -> None:
         """Start a run: the next ``command`` checks that every spacecraft starts admissible."""
-        if isinstance(batch_size, bool) or not isinstance(batch_size, (int, np.integer)):
-            raise ValueError(f"batch_size: expected a positive int, got {batch_size!r}")
-        if batch_size < 1:
-            raise ValueError(f"batch_size: must be >= 1, got {batch_size}")
+        batch = as_int(batch_size, "batch_size", minimum=1)
         as_scalar(t0, "t0")
-        self._batch = int(batch_size)
+        self._batch = batch
         self._first = True
         self._diag = {}
 
