@@ -30,7 +30,7 @@ def _numba() -> Any:
     except Exception as exc:  # ImportError, or a broken llvmlite on an unsupported platform
         warnings.warn(
             f"liecontrol: numba is unavailable ({exc.__class__.__name__}: {exc}); the per-step "
-            "kernels run as plain Python (same results, slower). pip install numba to compile them.",
+            "kernels run as plain Python (same results, slower); pip install numba to compile.",
             RuntimeWarning,
             stacklevel=3,
         )

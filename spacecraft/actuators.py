@@ -30,8 +30,10 @@ from typing import Any
 
 import numpy as np
 
+from liecontrol._jit import JIT_ENABLED
 from liecontrol._validation import as_array, as_scalar, check_positive
 
+from ._kernels import cmg_bus_torque_batch, sgcmg_command_batch
 from .rigid_body import _cross
 
 __all__ = [
@@ -126,13 +128,6 @@ class Actuator(abc.ABC):
         the logged gimbal angles) belong here: one vectorized call instead of one per step."""
         return {}
 
-    def float_stage(self, held: Any) -> Any:
-        """Optional single-spacecraft fast route: for a batch of one, a callable
-        ``stage(w0, w1, w2, x_act: list) -> ((τ0, τ1, τ2), x_act_dot)`` on Python floats giving
-        :meth:`body_torque` and :meth:`state_derivative` for the step's ``held`` command (the
-        same arithmetic), or ``None`` (default: the plant uses the array methods)."""
-        return None
-
 
 @dataclass(frozen=True)
 class IdealTorqueActuator(Actuator):
@@ -170,16 +165,6 @@ class IdealTorqueActuator(Actuator):
 
     def body_torque(self, omega: np.ndarray, x_act: np.ndarray, held: Any) -> np.ndarray:
         return held
-
-    def float_stage(self, held: Any) -> Any:
-        if np.shape(held) != (1, 3):
-            return None
-        tau = tuple(held[0].tolist())
-
-        def stage(w0: float, w1: float, w2: float, x_act: list) -> tuple:
-            return tau, []
-
-        return stage
 
     def log(self, x_act: np.ndarray, held: Any) -> dict[str, np.ndarray]:
         if self.max_torque is None:
@@ -317,14 +302,12 @@ class SgcmgActuator(Actuator):
         self._trig_cache: tuple | None = None
         # validated laws have an unchecked entry point; other callables get the keyword API
         self._steer = steering.steer if isinstance(steering, SteeringLaw) else None
-        # the float route only where the class that defines ``steer`` also defines
-        # ``steer_floats`` (a subclass overriding ``steer`` alone keeps the array route)
-        self._steer_floats = None
-        if isinstance(steering, SteeringLaw):
-            owner = next(k for k in type(steering).__mro__ if "steer" in k.__dict__)
-            if "steer_floats" in owner.__dict__:
-                self._steer_floats = steering.steer_floats
         self._fast = self._build_fast_path()
+        # the compiled command (spacecraft._kernels.sgcmg_command) for the steering laws that
+        # have a kernel, with the sin/cos-separable cluster model
+        from ._fused import steering_kernel
+
+        self._steer_kernel = None if self._fast is None else steering_kernel(steering)
         # pass only the keyword arguments the steering law accepts (stateless laws need none)
         try:
             params = inspect.signature(steering).parameters
@@ -353,6 +336,8 @@ class SgcmgActuator(Actuator):
         M = h0 * np.concatenate([S.T, C.T], axis=0)
         self._S0 = h0 * S  # A(δ) = h0 (S ∘ cos δ − C ∘ sin δ), column-wise
         self._C0 = h0 * C
+        self._S0c = np.ascontiguousarray(self._S0)
+        self._C0c = np.ascontiguousarray(self._C0)
         d = np.array([[0.3, -1.1, 2.0, 0.7]])
         dd = np.array([[0.2, 0.5, -0.4, 0.1]])
         h_ref, A_ref = cl.momentum_and_jacobian(d)
@@ -381,9 +366,6 @@ class SgcmgActuator(Actuator):
         self._M_rate = np.concatenate([M[:4], -M[4:]], axis=0)
         for a in (M, K, self._M_rate, self._S0, self._C0):
             a.setflags(write=False)
-        self._M_rows = tuple(map(tuple, M.tolist()))
-        self._S0_rows = self._S0.tolist()
-        self._C0_rows = self._C0.tolist()
         return M
 
     def _trig(self, delta: np.ndarray) -> tuple[np.ndarray, list]:
@@ -476,10 +458,8 @@ class SgcmgActuator(Actuator):
     ) -> CmgCommand:
         """:meth:`command` without validation (the simulator's per-step call)."""
         delta = x_act if self._tau is None else x_act[:, :4]
-        if self._fast is not None and delta.shape[0] == 1 and self._steer_floats is not None:
-            held = self._command_one(u_cmd, omega, delta, t)
-            if held is not None:
-                return held
+        if self._steer_kernel is not None and (JIT_ENABLED or delta.shape[0] == 1):
+            return self._command_kernel(u_cmd, omega, delta, t)
         if self._fast is None:
             h, A = self.cluster.momentum_and_jacobian(delta)
         elif delta.shape[0] == 1:
@@ -512,45 +492,24 @@ class SgcmgActuator(Actuator):
         delta_dot, saturated = self._saturate(delta_dot, self.rate_limit)
         return CmgCommand(delta_dot=delta_dot, saturated=saturated, h_dot_cmd=h_dot_cmd)
 
-    def _command_one(
+    def _command_kernel(
         self, u_cmd: np.ndarray, omega: np.ndarray, delta: np.ndarray, t: float
-    ) -> CmgCommand | None:
-        """:meth:`command` for one spacecraft on Python floats (~3× cheaper than on 1-element
-        arrays): the same formulas — h = Σᵢ h₀(sᵢ sin δᵢ + cᵢ cos δᵢ), A = S₀ cos δ − C₀ sin δ,
-        ḣ_cmd = −(ω × h + u_cmd), the law's :meth:`~spacecraft.steering.SteeringLaw.steer_floats`
-        and the uniform rate limit — equal to the array route to round-off (only the order of
-        the 8-term sums in h differs from the BLAS product). ``None`` when the law has no float
-        route for this input (the caller then runs the array route)."""
-        d = delta[0].tolist()
-        sn = [math.sin(v) for v in d]
-        cs = [math.cos(v) for v in d]
-        rows = self._M_rows
-        h0 = h1 = h2 = 0.0
-        for i in range(4):
-            s0, s1, s2 = rows[i]
-            c0, c1, c2 = rows[4 + i]
-            h0 += s0 * sn[i] + c0 * cs[i]
-            h1 += s1 * sn[i] + c1 * cs[i]
-            h2 += s2 * sn[i] + c2 * cs[i]
-        A = [
-            [sr[i] * cs[i] - cr[i] * sn[i] for i in range(4)]
-            for sr, cr in zip(self._S0_rows, self._C0_rows, strict=True)
-        ]
-        w0, w1, w2 = omega[0].tolist()
-        u0, u1, u2 = u_cmd[0].tolist()
-        hd = (-((w1 * h2 - w2 * h1) + u0), -((w2 * h0 - w0 * h2) + u1), -((w0 * h1 - w1 * h0) + u2))
-        dd = self._steer_floats(A, hd, d, float(t), self.cluster)
-        if dd is None:
-            return None
-        lim = self.rate_limit
-        peak = max(map(abs, dd))
-        flag = peak > lim
-        if flag:
-            scale = lim / peak
-            dd = [v * scale for v in dd]
-        return CmgCommand(
-            delta_dot=np.array([dd]), saturated=np.full((1,), flag), h_dot_cmd=np.array([hd])
-        )
+    ) -> CmgCommand:
+        """:meth:`command_unchecked` through the compiled kernel
+        (:func:`spacecraft._kernels.sgcmg_command`): h(δ) and A(δ), ḣ_cmd = −(ω × h + u_cmd),
+        the steering law and the uniform rate limit, one spacecraft at a time."""
+        B = delta.shape[0]
+        dd = np.empty((B, 4))
+        hd = np.empty((B, 3))
+        sat = np.empty(B, dtype=bool)
+        code, params = self._steer_kernel
+        sgcmg_command_batch(
+            self._S0c, self._C0c, code, params, self.rate_limit,
+            np.ascontiguousarray(u_cmd, dtype=np.float64),
+            np.ascontiguousarray(omega, dtype=np.float64),
+            np.ascontiguousarray(delta, dtype=np.float64), float(t), dd, hd, sat,
+        )  # fmt: skip
+        return CmgCommand(delta_dot=dd, saturated=sat, h_dot_cmd=hd)
 
     def state_derivative(self, x_act: np.ndarray, held: CmgCommand) -> np.ndarray:
         if self._tau is None:
@@ -565,56 +524,19 @@ class SgcmgActuator(Actuator):
     def body_torque(self, omega: np.ndarray, x_act: np.ndarray, held: CmgCommand) -> np.ndarray:
         rates = self._rates(x_act, held)
         delta = x_act if self._tau is None else x_act[:, :4]
-        if delta.shape == (1, 4) and self._fast is not None:
-            return self._body_torque_one(omega, delta, rates)
+        if self._fast is not None and (JIT_ENABLED or delta.shape[0] == 1):
+            out = np.empty(omega.shape)
+            cmg_bus_torque_batch(
+                self._S0c, self._C0c, np.ascontiguousarray(omega, dtype=np.float64),
+                np.ascontiguousarray(delta, dtype=np.float64),
+                np.ascontiguousarray(rates, dtype=np.float64), out,
+            )  # fmt: skip
+            return out
         h, h_dot = self._momentum_and_rate(delta, rates)
         tau = _cross(omega, h)
         tau += h_dot
         np.negative(tau, out=tau)
         return tau
-
-    def _body_torque_one(
-        self, omega: np.ndarray, x_act: np.ndarray, delta_dot: np.ndarray
-    ) -> np.ndarray:
-        """:meth:`body_torque` for one spacecraft on Python floats (~2× faster than numpy on
-        1-element arrays); same formula, checked against the batched path by the tests."""
-        return np.array(
-            [self._body_torque_floats(*omega[0].tolist(), x_act[0].tolist(), delta_dot[0].tolist())]
-        )
-
-    def float_stage(self, held: CmgCommand) -> Any:
-        """Float route of one spacecraft's integration stages (see
-        :meth:`Actuator.float_stage`): ideal servo with the fast (sin/cos-separable) cluster
-        model only, else ``None``."""
-        if self._tau is not None or self._fast is None or held.delta_dot.shape != (1, 4):
-            return None
-        dd = held.delta_dot[0].tolist()
-        torque = self._body_torque_floats
-
-        def stage(w0: float, w1: float, w2: float, x_act: list) -> tuple:
-            return torque(w0, w1, w2, x_act, dd), dd  # ideal servo: δ' = held δ̇
-
-        return stage
-
-    def _body_torque_floats(
-        self, w0: float, w1: float, w2: float, x_act: list, delta_dot: list
-    ) -> tuple[float, float, float]:
-        rows = self._M_rows
-        h0 = h1 = h2 = r0 = r1 = r2 = 0.0
-        for i, (d, dd) in enumerate(zip(x_act, delta_dot, strict=True)):
-            sn = math.sin(d)
-            cs = math.cos(d)
-            s0, s1, s2 = rows[i]  # h0 · h_i(π/2)
-            c0, c1, c2 = rows[4 + i]  # h0 · h_i(0)
-            h0 += s0 * sn + c0 * cs
-            h1 += s1 * sn + c1 * cs
-            h2 += s2 * sn + c2 * cs
-            a = cs * dd
-            b = sn * dd
-            r0 += s0 * a - c0 * b
-            r1 += s1 * a - c1 * b
-            r2 += s2 * a - c2 * b
-        return -(r0 + w1 * h2 - w2 * h1), -(r1 + w2 * h0 - w0 * h2), -(r2 + w0 * h1 - w1 * h0)
 
     def momentum(self, x_act: np.ndarray) -> np.ndarray:
         delta = x_act[..., :4]

@@ -28,8 +28,9 @@ from typing import Any
 
 import numpy as np
 
+from liecontrol._jit import JIT_ENABLED
 from liecontrol._validation import as_array, as_int, check_rotation_matrix
-from liecontrol.integrators.rk import rkmk4_step, rkmk4_step_floats, rkmk4_step_unchecked
+from liecontrol.integrators.rk import rkmk4_step, rkmk4_step_unchecked
 
 from .actuators import Actuator
 from .disturbances import DisturbanceSource
@@ -37,6 +38,13 @@ from .flexible import FlexibleModes
 from .rigid_body import RigidBody
 
 __all__ = ["PlantState", "Spacecraft"]
+
+
+def _held_array(held: Any) -> np.ndarray:
+    """The held command as the kernels take it: the torque ``(B, 3)`` of the ideal actuator,
+    the gimbal rates ``(B, 4)`` of the SGCMG cluster."""
+    a = held if isinstance(held, np.ndarray) else held.delta_dot
+    return np.ascontiguousarray(a, dtype=np.float64)
 
 
 def _reads_attitude(source: object) -> bool:
@@ -133,7 +141,7 @@ class Spacecraft:
     _Js_inv: np.ndarray | None = field(init=False, repr=False, default=None)
     _slices: tuple = field(init=False, repr=False, default=())
     _stage_attitude: bool = field(init=False, repr=False, compare=False, default=True)
-    _float_route: bool = field(init=False, repr=False, compare=False, default=False)
+    _kernel_plan: Any = field(init=False, repr=False, compare=False, default=None)
 
     def __post_init__(self) -> None:
         if not isinstance(self.body, RigidBody):
@@ -175,12 +183,10 @@ class Spacecraft:
             (self.disturbance is not None and _reads_attitude(self.disturbance))
             or self.momentum_management is not None,
         )
-        # one rigid spacecraft may run its RK stages on Python floats (:meth:`step_packed`)
-        object.__setattr__(
-            self,
-            "_float_route",
-            self.modes is None and self.body._J_rows is not None,
-        )
+        # the compiled RKMK4 step when every part has a kernel (:meth:`step_packed`)
+        from ._fused import plant_kernel
+
+        object.__setattr__(self, "_kernel_plan", plant_kernel(self))
 
     @property
     def n_act(self) -> int:
@@ -427,13 +433,10 @@ class Spacecraft:
         m = None
         if self.momentum_management is not None:
             m = self.held_dipole(t, R, x[:, self.act_slice])
-        if x.shape[0] == 1 and self._float_route:
-            stage = getattr(self.actuator, "float_stage", lambda held: None)(held)
-            if stage is not None:
-                R_next, x_next = rkmk4_step_floats(
-                    self._float_field(stage, m), t, R, x[0].tolist(), h, stage_attitude
-                )
-                return R_next, np.array([x_next])
+        kp = self._kernel_plan
+        if kp is not None and (JIT_ENABLED or x.shape[0] == 1):
+            # without numba the kernel runs as Python: only worth it for one spacecraft
+            return kp.step(t, R, x, _held_array(held), h)
         derivatives = self.derivatives
 
         def f(tt: float, RR: np.ndarray, xx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -458,30 +461,6 @@ class Spacecraft:
         if m is None:
             return {}
         return {"dipole": m, "magnetic_torque": self.momentum_management.torque(t, R, m)}
-
-    def _float_field(self, stage: Any, dipole: np.ndarray | None = None) -> Any:
-        """:meth:`derivatives` for one rigid spacecraft on Python floats (the RK stages of a
-        single run: ~3× cheaper than on 1-element arrays), given the actuator's
-        :meth:`~spacecraft.actuators.Actuator.float_stage`. Same arithmetic in the same order
-        (τ = u + T_d [+ m × B], then ω̇), so :meth:`step_packed` gives bitwise the array route's
-        result. ``dipole``: the held momentum-management dipole ``(1, 3)`` or ``None``."""
-        acc = self.body._angular_acceleration_floats
-        dist = self.disturbance
-        n = self.n_act
-        mm_torque = None if dipole is None else self.momentum_management.torque
-
-        def f(tt: float, RR: np.ndarray | None, xx: list) -> tuple:
-            w0, w1, w2 = xx[0], xx[1], xx[2]
-            (t0, t1, t2), xa_dot = stage(w0, w1, w2, xx[3 : 3 + n])
-            if dist is not None:
-                d0, d1, d2 = np.asarray(dist(tt, RR, np.array([[w0, w1, w2]]))).ravel().tolist()
-                t0, t1, t2 = t0 + d0, t1 + d1, t2 + d2
-            if mm_torque is not None:
-                d0, d1, d2 = np.asarray(mm_torque(tt, RR, dipole)).ravel().tolist()
-                t0, t1, t2 = t0 + d0, t1 + d1, t2 + d2
-            return (w0, w1, w2), [*acc(w0, w1, w2, t0, t1, t2), *xa_dot]
-
-        return f
 
     def step(self, state: PlantState, held: Any, t: float, h: float) -> PlantState:
         """Advance ``state`` from ``t`` to ``t + h`` with the actuator command ``held`` fixed

@@ -43,6 +43,7 @@ from liecontrol.charts import euler
 from liecontrol.control.base import AttitudeController, AttitudeReference, AttitudeState
 from liecontrol.lie import so3
 
+from ._fused import fused_supported, run_fused
 from .disturbances import SumOfDisturbances
 from .plant import PlantState, Spacecraft
 
@@ -673,6 +674,17 @@ def simulate(
     if not getattr(controller, "batched", True) and B > 1:
         ctrl = _PerSpacecraft(controller, B)
     ctrl.reset(t0, B)
+    # the whole loop in compiled code when plant and controller have kernels
+    # (spacecraft._fused); the Python loop below runs the same kernels one call at a time
+    fused = fused_supported(plant, ctrl, sensor_list, measurement, progress)
+    if fused is not None:
+        result = run_fused(
+            fused, plant, ctrl, reference, state.R, state.packed(), t0, n_steps, dt,
+            every_ctrl, log_every, control_period,
+        )  # fmt: skip
+        if result is not None:
+            return result
+        ctrl.reset(t0, B)  # a failing run is repeated below, which reports the failure
     for _, sensor, _ in sensor_list:
         if callable(getattr(sensor, "reset", None)):
             sensor.reset(B, rng)

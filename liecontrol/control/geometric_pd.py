@@ -24,6 +24,8 @@ import math
 
 import numpy as np
 
+from .._jit import JIT_ENABLED
+from .._kernels.geometric_pd import ERROR_CODES, geometric_pd_batch, geometric_pd_one
 from .._validation import (
     as_array,
     as_scalar,
@@ -36,7 +38,6 @@ from .._validation import (
     rotations_pass_fast,
 )
 from ..errors import _KERNELS, DEFAULT_G, _check_kind, check_error_weight
-from ..lie import so3
 from .base import AttitudeController, AttitudeReference, AttitudeState, finite_command
 
 __all__ = ["GeometricPD", "check_gain", "gains_from_bandwidth", "linear_error_slope"]
@@ -160,24 +161,24 @@ def _vectors_pass(x: object, shape: tuple[int, ...]) -> bool:
     return math.isfinite(sum(x.ravel().tolist()) if x.size <= 16 else float(x.sum()))
 
 
-def _mat_rows(K: float | np.ndarray) -> float | tuple[tuple[float, ...], ...]:
-    return K if isinstance(K, float) else tuple(map(tuple, K.tolist()))
-
-
-def _gain_one(K: float | tuple, x0: float, x1: float, x2: float) -> tuple[float, float, float]:
-    """``K x`` (``_apply_gain`` for one vector on floats)."""
+def _as_matrix(K: float | np.ndarray) -> np.ndarray:
+    """A gain as a contiguous 3×3 float64 matrix (a scalar k as k I)."""
     if isinstance(K, float):
-        return K * x0, K * x1, K * x2
-    (a, b, c), (d, e, f), (g, h, k) = K
-    return a * x0 + b * x1 + c * x2, d * x0 + e * x1 + f * x2, g * x0 + h * x1 + k * x2
+        return K * np.eye(3)
+    return np.ascontiguousarray(K, dtype=np.float64)
 
 
-def _half_sinc_one(theta: float) -> float:
-    """``errors._half_sinc`` on a float: sin(θ/2)/θ with its Taylor branch below 1e-3."""
-    if theta < 1e-3:
-        t2 = theta * theta
-        return 0.5 * (1.0 - t2 / 24.0 * (1.0 - t2 / 80.0))
-    return math.sin(0.5 * theta) / theta
+def _one(a: np.ndarray) -> np.ndarray:
+    """The single sample of a reference array given unbatched or with a batch axis of 1."""
+    a = np.asarray(a, dtype=np.float64)
+    if a.shape in ((1, 3, 3), (1, 3)):
+        a = a[0]
+    return np.ascontiguousarray(a)
+
+
+def _batch(a: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """A reference array broadcast to the batch ``shape`` (contiguous for the kernel)."""
+    return np.ascontiguousarray(np.broadcast_to(np.asarray(a, dtype=np.float64), shape))
 
 
 class GeometricPD(AttitudeController):
@@ -222,12 +223,14 @@ class GeometricPD(AttitudeController):
             else (DEFAULT_G if G is None else check_error_weight(G).copy())
         )
         self._kernel = _KERNELS[self.error]
-        # the same parameters as Python floats for the single-spacecraft route
-        self._J_rows = _mat_rows(self.J)
-        self._kR_rows = _mat_rows(self.k_R)
-        self._kW_rows = _mat_rows(self.k_Omega)
-        self._G_rows = None if self.G is None else _mat_rows(self.G)
-        self._trG = None if self.G is None else float(np.trace(self.G))
+        # the compiled kernel's arguments: every gain as a 3×3 matrix (scalar k as k I)
+        self._kargs = (
+            ERROR_CODES[self.error],
+            np.ascontiguousarray(self.J, dtype=np.float64),
+            _as_matrix(self.k_R),
+            _as_matrix(self.k_Omega),
+            _as_matrix(np.zeros((3, 3)) if self.G is None else self.G),
+        )
         self._t0: float | None = None
         self._batch: int | None = None
         self._diag: dict[str, np.ndarray] = {}
@@ -299,10 +302,8 @@ class GeometricPD(AttitudeController):
         if B != self._batch:
             raise ValueError(f"state: batch size {B} differs from reset(batch_size={self._batch})")
         R_d, w_d, dw_d = self._reference_arrays(reference, B)
-        if B == 1:
-            M = self._command_one(R, w, R_d, w_d, dw_d)
-            if M is not None:
-                return finite_command(M, w)
+        if B == 1 or JIT_ENABLED:
+            return finite_command(self._command_kernel(R, w, R_d, w_d, dw_d), w)
 
         # R̃ = R_dᵀR formed directly; R̃ᵀ = RᵀR_d, which maps desired-body vectors into the body
         # frame, is its view
@@ -339,74 +340,36 @@ class GeometricPD(AttitudeController):
         self._diag = {"Psi": Psi, "e_R": e_R, "e_Omega": e_W}
         return finite_command(M, w)
 
-    def _command_one(
+    def _command_kernel(
         self, R: np.ndarray, w: np.ndarray, R_d: np.ndarray, w_d: np.ndarray, dw_d: np.ndarray
-    ) -> np.ndarray | None:
-        """:meth:`command` for one spacecraft on Python floats — the same formulas (and, for the
-        log, the same branch structure as ``so3.log``) evaluated in the same order, so results
-        agree with the batched route to round-off (checked by the tests). ``None`` near θ = π,
-        where the batched route (``so3.log``'s symmetric-part axis) is used instead."""
-        r = R.ravel().tolist()
-        q = R_d.ravel().tolist()
-        # RtT = Rᵀ R_d (row i, column j: Σ_k R_ki R_d,kj)
-        T = [
-            [r[i] * q[j] + r[3 + i] * q[3 + j] + r[6 + i] * q[6 + j] for j in range(3)]
-            for i in range(3)
-        ]
-        if self.error == "trace":
-            G = self._G_rows
-            # (G Rt)_ij = Σ_m G_im Rt_mj with Rt_mj = T_jm
-            GR = [
-                [G[i][0] * T[j][0] + G[i][1] * T[j][1] + G[i][2] * T[j][2] for j in range(3)]
-                for i in range(3)
-            ]
-            Psi = self._trG - (GR[0][0] + GR[1][1] + GR[2][2])
-            e0 = 0.5 * (GR[2][1] - GR[1][2])
-            e1 = 0.5 * (GR[0][2] - GR[2][0])
-            e2 = 0.5 * (GR[1][0] - GR[0][1])
+    ) -> np.ndarray:
+        """:meth:`command` through the compiled kernel
+        (:func:`liecontrol._kernels.geometric_pd.geometric_pd_one`), one spacecraft at a time."""
+        B = R.shape[0]
+        M = np.empty((B, 3))
+        diag = np.empty((B, 7))
+        err, J, kR, kW, G = self._kargs
+        R = np.ascontiguousarray(R, dtype=np.float64)
+        w = np.ascontiguousarray(w, dtype=np.float64)
+        if B == 1:
+            geometric_pd_one(
+                err, J, kR, kW, G, R[0], w[0], _one(R_d), _one(w_d), _one(dw_d), M[0], diag[0]
+            )
         else:
-            # so3.log(R̃) on floats, R̃ = RtTᵀ given row by row; None near π (see the docstring)
-            (a, b, c), (d, e, f), (g, h, k) = T
-            phi = so3._log_floats(a, d, g, b, e, h, c, f, k)
-            if phi is None:
-                return None
-            p0, p1, p2 = phi
-            sq = p0 * p0 + p1 * p1 + p2 * p2
-            if self.error == "log":
-                Psi = 0.5 * sq
-                e0, e1, e2 = p0, p1, p2
-            else:
-                th = math.sqrt(sq)
-                if th < 0.5 * math.pi:
-                    sq4 = math.sin(0.25 * th)
-                    Psi = 4.0 * sq4 * sq4
-                else:
-                    Psi = 2.0 - 2.0 * math.cos(0.5 * th)
-                hs = _half_sinc_one(th)
-                e0, e1, e2 = hs * p0, hs * p1, hs * p2
-        wd = w_d.ravel().tolist()
-        dwd = dw_d.ravel().tolist()
-        wb = [T[i][0] * wd[0] + T[i][1] * wd[1] + T[i][2] * wd[2] for i in range(3)]
-        dwb = [T[i][0] * dwd[0] + T[i][1] * dwd[1] + T[i][2] * dwd[2] for i in range(3)]
-        x0, x1, x2 = w.ravel().tolist()
-        E0, E1, E2 = x0 - wb[0], x1 - wb[1], x2 - wb[2]
-        j0, j1, j2 = _gain_one(self._J_rows, x0, x1, x2)
-        # ω × Jω − J (ω × ω_d,body − ω̇_d,body)
-        c0 = x1 * wb[2] - x2 * wb[1] - dwb[0]
-        c1 = x2 * wb[0] - x0 * wb[2] - dwb[1]
-        c2 = x0 * wb[1] - x1 * wb[0] - dwb[2]
-        k0, k1, k2 = _gain_one(self._J_rows, c0, c1, c2)
-        f0 = (x1 * j2 - x2 * j1) - k0
-        f1 = (x2 * j0 - x0 * j2) - k1
-        f2 = (x0 * j1 - x1 * j0) - k2
-        a0, a1, a2 = _gain_one(self._kR_rows, e0, e1, e2)
-        b0, b1, b2 = _gain_one(self._kW_rows, E0, E1, E2)
-        self._diag = {
-            "Psi": np.array([Psi]),
-            "e_R": np.array([[e0, e1, e2]]),
-            "e_Omega": np.array([[E0, E1, E2]]),
-        }
-        return np.array([[f0 - a0 - b0, f1 - a1 - b1, f2 - a2 - b2]])
+            geometric_pd_batch(
+                err, J, kR, kW, G, R, w,
+                _batch(R_d, (B, 3, 3)), _batch(w_d, (B, 3)), _batch(dw_d, (B, 3)), M, diag,
+            )  # fmt: skip
+        self._set_diagnostics(diag)
+        return M
+
+    def _kernel_args(self) -> tuple:
+        """``(error code, J, K_R, K_Ω, G)`` of the compiled kernel (fused simulation loop)."""
+        return self._kargs
+
+    def _set_diagnostics(self, diag: np.ndarray) -> None:
+        """Diagnostics from the kernel's ``(B, 7)`` rows ``(Ψ, e_R, e_Ω)``."""
+        self._diag = {"Psi": diag[:, 0], "e_R": diag[:, 1:4], "e_Omega": diag[:, 4:7]}
 
     def diagnostics(self) -> dict[str, np.ndarray]:
         """Last ``Psi`` ``(B,)``, ``e_R`` ``(B, 3)``, ``e_Omega`` ``(B, 3)`` (empty before the
