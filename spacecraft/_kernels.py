@@ -350,3 +350,12 @@ def cmg_bus_torque_batch(
         out[b, 0], out[b, 1], out[b, 2] = cmg_bus_torque(
             S0, C0, w[b, 0], w[b, 1], w[b, 2], delta[b], delta_dot[b]
         )
+
+
+@njit
+def steer_batch(
+    kind: int, p: np.ndarray, t: float, A: np.ndarray, q: np.ndarray, out: np.ndarray
+) -> None:
+    """:func:`steer_regularised` over a batch ``A (N, 3, n)``, ``q (N, 3)`` → ``out (N, n)``."""
+    for b in range(A.shape[0]):
+        steer_regularised(kind, p, t, A[b], q[b, 0], q[b, 1], q[b, 2], out[b])

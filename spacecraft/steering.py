@@ -50,7 +50,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from liecontrol._jit import JIT_ENABLED
 from liecontrol._validation import as_array, as_scalar
+from spacecraft._kernels import steer_batch
 from spacecraft.sgcmg import SgcmgPyramid
 
 __all__ = [
@@ -219,108 +221,26 @@ def _apply_right_inverse(
     return out.reshape(batch + out.shape[1:])
 
 
-# ---------------------------------------------------------------------------- one spacecraft
-def _gram_one(rows: list[list[float]]) -> tuple[float, float, float, float, float, float]:
-    """Upper triangle of AAᵀ for one ``A`` given as its 3 rows of Python floats."""
-    r0, r1, r2 = rows
-    a = b = c = d = e = f = 0.0
-    for x, y, z in zip(r0, r1, r2, strict=True):
-        a += x * x
-        b += x * y
-        c += x * z
-        d += y * y
-        e += y * z
-        f += z * z
-    return a, b, c, d, e, f
+# ---------------------------------------------------------------------------- compiled route
+def _steer_kernel(law: SteeringLaw, A: np.ndarray, hdot_cmd: np.ndarray, t: float) -> np.ndarray:
+    """δ̇ of the pseudo-inverse / SR / GSR laws through their compiled kernel
+    (:func:`spacecraft._kernels.steer_regularised`), element by element over the batch."""
+    from ._fused import steering_kernel
 
-
-def _solve_one(
-    rows: list[list[float]],
-    g: tuple[float, float, float, float, float, float],
-    rhs: list[tuple[float, float, float]],
-    lam: float,
-    eps: float,
-    off: tuple[float, float, float] | None,
-) -> list[list[float]] | None:
-    """:func:`_apply_right_inverse` for one spacecraft on Python floats: ``Aᵀ(·)⁻¹ r`` for each
-    right-hand side ``r`` in ``rhs`` (a list of n-lists), or ``None`` if the cofactor determinant
-    is too small to trust (the caller then takes the LAPACK route). Same formula as the
-    closed-form batched route."""
-    a, b, c, d, e, f = g
-    tr3 = (a + d + f) / 3.0
-    reg = lam + eps * tr3
-    if not reg > 0.0:
-        reg = 1.0
-    a += reg
-    d += reg
-    f += reg
-    if off is not None:
-        b += lam * off[0]
-        c += lam * off[1]
-        e += lam * off[2]
-    c00, c01, c02 = d * f - e * e, c * e - b * f, b * e - c * d
-    c11, c12, c22 = a * f - c * c, b * c - a * e, a * d - b * b
-    det = a * c00 + b * c01 + c * c02
-    tr3 += reg
-    if not det >= _DET_REL_TRUST * tr3 * tr3 * tr3:
-        return None
-    inv = 1.0 / det
-    r0, r1, r2 = rows
-    out = []
-    for q0, q1, q2 in rhs:
-        x0 = (c00 * q0 + c01 * q1 + c02 * q2) * inv
-        x1 = (c01 * q0 + c11 * q1 + c12 * q2) * inv
-        x2 = (c02 * q0 + c12 * q1 + c22 * q2) * inv
-        out.append([u * x0 + v * x1 + w * x2 for u, v, w in zip(r0, r1, r2, strict=True)])
-    return out
-
-
-def _is_single(A: np.ndarray) -> bool:
-    """One spacecraft: ``A`` of shape ``(3, n)`` or ``(1, 3, n)`` (the float route applies)."""
-    return A.ndim == 2 or (A.ndim == 3 and A.shape[0] == 1)
-
-
-def _measure2_one(g: tuple[float, ...], n: int) -> tuple[float, float]:
-    """(m², s²) of :func:`_measure_and_scale` from the Gram entries of one ``A``."""
-    a, b, c, d, e, f = g
-    det = a * (d * f - e * e) + b * (c * e - b * f) + c * (b * e - c * d)
-    s2 = (a + d + f) / n
-    s2_safe = s2 if s2 > 0.0 else 1.0
-    return max(det, 0.0) / (s2_safe * s2_safe * s2_safe), s2
-
-
-def _steer_one(
-    A: np.ndarray,
-    h: np.ndarray,
-    lam_fn: object,
-    eps: float,
-    off: tuple[float, float, float] | None,
-) -> np.ndarray:
-    """Regularised right inverse applied to ``h`` for one spacecraft; ``lam_fn(m², s²) -> λ``
-    (in the units of AAᵀ). Falls back to LAPACK when Cramer's rule cannot be trusted."""
+    code, params = steering_kernel(law)
     n = A.shape[-1]
-    rows = A.reshape(3, n).tolist()
-    g = _gram_one(rows)
-    lam = lam_fn(*_measure2_one(g, n))
-    sol = _solve_one(rows, g, [tuple(h.reshape(3).tolist())], lam, eps, off)
-    if sol is None:
-        return _apply_right_inverse_small(A, h[..., None], lam, eps, off)[..., 0]
-    return np.array(sol[0]).reshape(A.shape[:-2] + (n,))
+    batch = A.shape[:-2]
+    A2 = np.ascontiguousarray(A.reshape((-1, 3, n)), dtype=np.float64)
+    q = np.ascontiguousarray(np.broadcast_to(hdot_cmd, batch + (3,)).reshape(-1, 3))
+    out = np.empty((A2.shape[0], n))
+    steer_batch(code, params, float(t), A2, q, out)
+    return out.reshape(batch + (n,))
 
 
-def _steer_rows(
-    rows: list[list[float]],
-    h: tuple[float, float, float],
-    lam_fn: object,
-    eps: float,
-    off: tuple[float, float, float] | None,
-) -> list[float] | None:
-    """:func:`_steer_one` with ``A`` given as its 3 rows and ḣ as 3 Python floats; ``None``
-    where :func:`_steer_one` would take the LAPACK route (the caller then uses ``steer``)."""
-    g = _gram_one(rows)
-    lam = lam_fn(*_measure2_one(g, len(rows[0])))
-    sol = _solve_one(rows, g, [h], lam, eps, off)
-    return None if sol is None else sol[0]
+def _use_kernel(law: SteeringLaw, A: np.ndarray) -> bool:
+    """The compiled route applies: a law of exactly this class (a subclass may override the
+    formula), and numba is on (or a single spacecraft, where the Python kernel still wins)."""
+    return type(law) in _KERNEL_LAWS and (JIT_ENABLED or A.ndim == 2 or A.shape[0] == 1)
 
 
 def _check_jacobian(A: object) -> np.ndarray:
@@ -562,19 +482,6 @@ class SteeringLaw(abc.ABC):
         """Unchecked entry point (hot path): ``A`` float64 ``(..., 3, n)``, ``hdot_cmd`` float64
         ``(..., 3)`` with the same batch shape, ``t`` a float; no validation."""
 
-    def steer_floats(
-        self,
-        rows: list[list[float]],
-        hdot_cmd: tuple[float, float, float],
-        delta: list[float] | None = None,
-        t: float = 0.0,
-        cluster: SgcmgPyramid | None = None,
-    ) -> list[float] | None:
-        """Optional single-spacecraft route on Python floats: ``A`` as its 3 rows (lists of n
-        floats), ``hdot_cmd`` 3 floats → the n gimbal rates :meth:`steer` would give (same
-        arithmetic), or ``None`` when this law or this input needs :meth:`steer` (default)."""
-        return None
-
 
 @dataclass(frozen=True)
 class PseudoInverse(SteeringLaw):
@@ -587,16 +494,9 @@ class PseudoInverse(SteeringLaw):
         object.__setattr__(self, "eps", _check_eps(self.eps))
 
     def steer(self, A, hdot_cmd, delta=None, t=0.0, cluster=None) -> np.ndarray:
-        if _is_single(A):
-            return _steer_one(A, hdot_cmd, _zero_lambda, self.eps, None)
+        if _use_kernel(self, A):
+            return _steer_kernel(self, A, hdot_cmd, t)
         return _apply_right_inverse(A, hdot_cmd[..., None], 0.0, self.eps)[..., 0]
-
-    def steer_floats(self, rows, hdot_cmd, delta=None, t=0.0, cluster=None):
-        return _steer_rows(rows, hdot_cmd, _zero_lambda, self.eps, None)
-
-
-def _zero_lambda(m2: float, s2: float) -> float:
-    return 0.0
 
 
 @dataclass(frozen=True)
@@ -645,19 +545,6 @@ class PseudoInverseNullMotion(SteeringLaw):
     def steer(self, A, hdot_cmd, delta=None, t=0.0, cluster=None) -> np.ndarray:
         cl = cluster if cluster is not None else self.cluster
         _, grad = cl._measure_and_gradient(delta)
-        if _is_single(A):
-            n = A.shape[-1]
-            rows = A.reshape(3, n).tolist()
-            gl = grad.reshape(n).tolist()
-            Ag = tuple(sum(x * y for x, y in zip(r, gl, strict=True)) for r in rows)
-            sol = _solve_one(
-                rows, _gram_one(rows), [tuple(hdot_cmd.reshape(3).tolist()), Ag], 0.0,
-                self.eps, None,
-            )  # fmt: skip
-            if sol is not None:
-                k = self.k
-                out = [p + k * (gi - q) for p, gi, q in zip(sol[0], gl, sol[1], strict=True)]
-                return np.array(out).reshape(A.shape[:-2] + (n,))
         # One solve for both right-hand sides: A⁺ḣ_cmd and A⁺(A ∇m).
         rhs = np.stack([hdot_cmd, (A * grad[..., None, :]).sum(-1)], axis=-1)
         x = _apply_right_inverse(A, rhs, 0.0, self.eps)
@@ -685,18 +572,12 @@ class SingularityRobust(SteeringLaw):
         for name in ("lambda0", "mu"):
             object.__setattr__(self, name, _check_float(getattr(self, name), name))
 
-    def _lam(self, m2: float, s2: float) -> float:
-        return self.lambda0 * math.exp(-self.mu * m2) * s2
-
     def steer(self, A, hdot_cmd, delta=None, t=0.0, cluster=None) -> np.ndarray:
-        if _is_single(A):
-            return _steer_one(A, hdot_cmd, self._lam, PINV_EPS, None)
+        if _use_kernel(self, A):
+            return _steer_kernel(self, A, hdot_cmd, t)
         m, s2, rows = _measure_scale_rows(A)
         lam = self.lambda0 * np.exp(-self.mu * m * m) * s2
         return _apply_right_inverse(A, hdot_cmd[..., None], lam, PINV_EPS, rows=rows)[..., 0]
-
-    def steer_floats(self, rows, hdot_cmd, delta=None, t=0.0, cluster=None):
-        return _steer_rows(rows, hdot_cmd, self._lam, PINV_EPS, None)
 
 
 @dataclass(frozen=True)
@@ -762,18 +643,174 @@ class GeneralizedSingularityRobust(SteeringLaw):
         e1, e2, e3 = self.dither(float(t))
         return np.eye(3) + _off_matrix((e3, e2, e1))
 
-    def _lam(self, m2: float, s2: float) -> float:
-        return self.lambda0 * math.exp(-self.mu * m2) * s2
-
     def steer(self, A, hdot_cmd, delta=None, t=0.0, cluster=None) -> np.ndarray:
+        if _use_kernel(self, A):
+            return _steer_kernel(self, A, hdot_cmd, t)
         e1, e2, e3 = self.dither(t)
         off = (e3, e2, e1)  # E01, E02, E12
-        if _is_single(A):
-            return _steer_one(A, hdot_cmd, self._lam, PINV_EPS, off)
         m, s2, rows = _measure_scale_rows(A)
         lam = self.lambda0 * np.exp(-self.mu * m * m) * s2
         return _apply_right_inverse(A, hdot_cmd[..., None], lam, PINV_EPS, off, rows)[..., 0]
 
-    def steer_floats(self, rows, hdot_cmd, delta=None, t=0.0, cluster=None):
-        e1, e2, e3 = self.dither(t)
-        return _steer_rows(rows, hdot_cmd, self._lam, PINV_EPS, (e3, e2, e1))
+
+#: the laws with a compiled kernel (spacecraft._fused.steering_kernel)
+_KERNEL_LAWS = (PseudoInverse, SingularityRobust, GeneralizedSingularityRobust)
+
+
+# ---------------------------------------------------------------------------- more laws
+# Laws for the singular-transit comparison (local gradient, singular-direction avoidance).
+# They use only the public functions above, so they are independent of the private solvers.
+__all__ += ["LocalGradient", "SingularDirectionAvoidance"]
+
+
+def _cluster_law_call(
+    law: SteeringLaw,
+    own: SgcmgPyramid | None,
+    A: object,
+    hdot_cmd: object,
+    delta: object,
+    t: object,
+    cluster: object,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, SgcmgPyramid]:
+    """Validate the call of a law that needs the gimbal angles and the cluster (as
+    :class:`PseudoInverseNullMotion` does): returns ``(A, hdot_cmd, delta, t, cluster)``."""
+    name = type(law).__name__
+    if cluster is not None and not isinstance(cluster, SgcmgPyramid):
+        raise ValueError(f"cluster: expected an SgcmgPyramid, got {type(cluster).__name__}")
+    cl = cluster if cluster is not None else own
+    if cl is None:
+        raise ValueError(f"cluster: {name} needs the SgcmgPyramid")
+    if own is not None and cluster is not None and cluster != own:
+        raise ValueError("cluster: differs from the law's own cluster")
+    if delta is None:
+        raise ValueError(f"delta: {name} needs the gimbal angles")
+    a, h = _check_inputs(A, hdot_cmd)
+    d = as_array(delta, "delta", (4,))
+    if d.shape != a.shape[:-2] + a.shape[-1:]:
+        raise ValueError(
+            f"delta: shape {np.shape(delta)} does not match A's {a.shape} (expected "
+            f"{a.shape[:-2] + a.shape[-1:]})"
+        )
+    return a, h, d, as_scalar(t, "t"), cl
+
+
+@dataclass(frozen=True)
+class LocalGradient(SteeringLaw):
+    """Local-gradient steering: pseudo-inverse plus null motion with step control::
+
+        δ̇ = A⁺ḣ_cmd + γ ν,   ν = (I − A⁺A) ∇_δ m,
+        γ = min( max(m* − m, 0) / (τ |ν|²),  ν_max / |ν| )   (γ = 0 if |ν| = 0),
+
+    with m = √det(ÂÂᵀ), Â = A/h₀, and ∇_δ m from
+    :meth:`SgcmgPyramid.singularity_measure_and_gradient`. This is the gradient method of the
+    steering-law literature (Kurokawa, "Survey of theory and steering laws of single-gimbal
+    control moment gyros", J. Guidance, Control, and Dynamics 30(5), 2007): the null term lies
+    in the null space of A (A(I − A⁺A) = 0, no torque) and, to first order, raises m at the rate
+    ṁ = γ |ν|² ≥ 0. The step control is our formulation of the gain choice the survey leaves
+    open: below the target m* the null motion asks for the climb rate ṁ = (m* − m)/τ, its
+    rate norm is capped at ν_max, and above m* there is no null motion at all (unlike the
+    constant-gain :class:`PseudoInverseNullMotion`, which always moves). So |γν| ≤ ν_max:
+    the law is as finite as the pseudo-inverse at every singularity (the null term fades with
+    ∇m there). Like every null-motion law it cannot leave an elliptic singularity (there the
+    null motion cannot keep h fixed), and it realises ḣ_cmd exactly wherever the pseudo-inverse
+    does.
+
+    Args:
+        m_target: m* > 0, the singularity measure the null motion climbs towards.
+        tau: τ > 0 [s], time constant of the climb.
+        null_rate_max: ν_max > 0 [rad/s], cap on the null-motion rate norm.
+        cluster: the :class:`SgcmgPyramid` (or pass it at each call).
+        eps: relative Tikhonov floor of the pseudo-inverse (see :func:`pseudo_inverse`).
+    """
+
+    m_target: float = 0.8
+    tau: float = 2.0
+    null_rate_max: float = 0.1
+    cluster: SgcmgPyramid | None = None
+    eps: float = PINV_EPS
+
+    def __post_init__(self) -> None:
+        for name in ("m_target", "tau", "null_rate_max"):
+            v = _check_float(getattr(self, name), name)
+            if v <= 0.0:
+                raise ValueError(f"{name}: must be > 0, got {v}")
+            object.__setattr__(self, name, v)
+        object.__setattr__(self, "eps", _check_eps(self.eps))
+        if self.cluster is not None and not isinstance(self.cluster, SgcmgPyramid):
+            raise ValueError(f"cluster: expected an SgcmgPyramid, got {type(self.cluster)}")
+
+    def __call__(self, A, hdot_cmd, delta=None, t=0.0, cluster=None) -> np.ndarray:
+        a, h, d, tt, cl = _cluster_law_call(self, self.cluster, A, hdot_cmd, delta, t, cluster)
+        return _finite_rates(self.steer(a, h, d, tt, cl), h)
+
+    def null_motion(
+        self, A: np.ndarray, delta: np.ndarray, cluster: SgcmgPyramid
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``(A⁺, γν)``: the pseudo-inverse ``(..., n, 3)`` and the step-controlled null
+        motion ``(..., n)`` [rad/s] at ``delta`` (unchecked arrays, as :meth:`steer`)."""
+        m, grad = cluster.singularity_measure_and_gradient(delta)
+        Ap = pseudo_inverse(A, self.eps)
+        Ag = (A * grad[..., None, :]).sum(-1)
+        nu = grad - (Ap * Ag[..., None, :]).sum(-1)
+        nu2 = (nu * nu).sum(-1)
+        ok = nu2 > 1e-24  # |ν| = 0: at a critical point of m on the fibre, nothing to climb
+        nu2s = np.where(ok, nu2, 1.0)
+        want = np.maximum(self.m_target - m, 0.0) / self.tau
+        gamma = np.where(ok, np.minimum(want / nu2s, self.null_rate_max / np.sqrt(nu2s)), 0.0)
+        return Ap, gamma[..., None] * nu
+
+    def steer(self, A, hdot_cmd, delta=None, t=0.0, cluster=None) -> np.ndarray:
+        cl = cluster if cluster is not None else self.cluster
+        Ap, null = self.null_motion(A, delta, cl)
+        return (Ap * hdot_cmd[..., None, :]).sum(-1) + null
+
+
+@dataclass(frozen=True)
+class SingularDirectionAvoidance(SteeringLaw):
+    """Singular-direction avoidance (Ford & Hall, "Singular direction avoidance steering for
+    control-moment gyros", J. Guidance, Control, and Dynamics 23(4), 2000)::
+
+        Â = A/s = Σᵢ σᵢ uᵢ vᵢᵀ (SVD, σ₁ ≥ σ₂ ≥ σ₃),
+        δ̇ = (1/s) [ Σ_{i<3} vᵢ uᵢᵀ/σᵢ + σ₃/(σ₃² + λ) v₃ u₃ᵀ ] ḣ_cmd,
+        λ = λ₀ (1 − σ₃/σ_t)² for σ₃ < σ_t, else 0,
+
+    with s = √(‖A‖²_F/n) (= h₀ for the pyramid). Only the smallest singular value is damped
+    (the SR inverse damps all three), so the torque error A δ̇ − ḣ_cmd =
+    −λ/(σ₃² + λ) u₃u₃ᵀḣ_cmd lies along the near-singular direction u₃ alone and the other two
+    axes are tracked exactly. Ford & Hall modify the smallest singular value in this way; the
+    schedule of λ is our choice (the one the comparison uses): it is exactly 0 for σ₃ ≥ σ_t,
+    so away from singularities the law *is* the pseudo-inverse, and λ₀ at σ₃ = 0 bounds the
+    rates by |δ̇| ≤ (1/σ₂ + 1/(2√λ₀)) |ḣ_cmd|/s. A relative floor ``PINV_EPS`` on σᵢ² keeps
+    every term finite, also with λ₀ = 0 (plain pseudo-inverse). As for SR, an exact
+    singularity whose direction u₃ is along ḣ_cmd is not escaped (δ̇ = 0 there).
+
+    Args:
+        lambda0: λ₀ ≥ 0 (dimensionless, Â is normalised).
+        sigma_t: σ_t > 0, the smallest normalised singular value below which λ is applied.
+    """
+
+    lambda0: float = 0.01
+    sigma_t: float = 0.3
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "lambda0", _check_float(self.lambda0, "lambda0"))
+        st = _check_float(self.sigma_t, "sigma_t")
+        if st <= 0.0:
+            raise ValueError(f"sigma_t: must be > 0, got {st}")
+        object.__setattr__(self, "sigma_t", st)
+
+    def damping(self, sigma3: np.ndarray | float) -> np.ndarray:
+        """λ(σ₃) = λ₀ (1 − σ₃/σ_t)² below σ_t, 0 above (``sigma3`` normalised, ≥ 0)."""
+        x = np.maximum(1.0 - np.asarray(sigma3, dtype=float) / self.sigma_t, 0.0)
+        return self.lambda0 * x * x
+
+    def steer(self, A, hdot_cmd, delta=None, t=0.0, cluster=None) -> np.ndarray:
+        n = A.shape[-1]
+        s2 = (A * A).sum(axis=(-2, -1)) / n
+        s = np.sqrt(np.where(s2 > 0.0, s2, 1.0))
+        U, S, Vt = np.linalg.svd(A / s[..., None, None], full_matrices=False)
+        lam = np.zeros_like(S)
+        lam[..., -1] = self.damping(S[..., -1])
+        gain = S / (S * S + lam + PINV_EPS)
+        coef = gain * (U * hdot_cmd[..., :, None]).sum(-2)  # (uᵢᵀḣ) σᵢ/(σᵢ² + λᵢ)
+        return (Vt * coef[..., :, None]).sum(-2) / s[..., None]

@@ -33,12 +33,12 @@ shapes/finiteness of what ``f`` returns.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
+from .._kernels.so3 import dexpinv_rkmk4, exp_into
 from .._validation import (
     as_array,
     check_positive_scalar,
@@ -50,7 +50,6 @@ __all__ = [
     "rk4_step_unchecked",
     "rkmk4_step",
     "rkmk4_step_unchecked",
-    "rkmk4_step_floats",
     "integrate",
     "Trajectory",
     "RKMK4Field",
@@ -116,39 +115,10 @@ def _dexpinv(theta: np.ndarray, omega: np.ndarray) -> np.ndarray:
 
 
 def _exp_f(w0: float, w1: float, w2: float) -> np.ndarray:
-    """:func:`_exp` for one rotation vector given as Python floats -> ``(3, 3)`` array.
-
-    A non-finite rotation vector (a diverging run) gives an all-NaN matrix, as the numpy path
-    does, instead of ``math.sin(inf)``'s "math domain error": the caller detects the NaN.
-    """
-    a2 = w0 * w0 + w1 * w1 + w2 * w2
-    if not a2 < math.inf:  # inf, or NaN (comparisons with NaN are False)
-        return np.full((3, 3), math.nan)
-    half = max(0.5 * math.sqrt(a2), _TINY)
-    q = math.sin(half) / half
-    a = q * math.cos(half)
-    b = 0.5 * q * q
-    c = 1.0 - b * a2
-    bx, by = b * w0, b * w1
-    bxy, bxz, byz = bx * w1, bx * w2, by * w2
-    ax, ay, az = a * w0, a * w1, a * w2
-    return np.array(
-        ((c + bx * w0, bxy - az, bxz + ay),
-         (bxy + az, c + by * w1, byz - ax),
-         (bxz - ay, byz + ax, c + b * w2 * w2))
-    )  # fmt: skip
-
-
-def _dexpinv_f(t0: float, t1: float, t2: float, w: list[float]) -> tuple[float, float, float]:
-    """:func:`_dexpinv` on Python floats."""
-    w0, w1, w2 = w
-    tw = (t0 * w0 + t1 * w1 + t2 * w2) / 12.0
-    c = 1.0 - (t0 * t0 + t1 * t1 + t2 * t2) / 12.0
-    return (
-        c * w0 + 0.5 * (t1 * w2 - t2 * w1) + t0 * tw,
-        c * w1 + 0.5 * (t2 * w0 - t0 * w2) + t1 * tw,
-        c * w2 + 0.5 * (t0 * w1 - t1 * w0) + t2 * tw,
-    )
+    """:func:`_exp` of one rotation vector given as floats (the compiled Rodrigues kernel)."""
+    out = np.empty((3, 3))
+    exp_into(w0, w1, w2, out)
+    return out
 
 
 def rk4_step_unchecked(f: RK4Field, t: float, y: np.ndarray, h: float) -> np.ndarray:
@@ -227,13 +197,13 @@ def _rkmk4_step_one(
     a0, a1, a2 = w1.ravel().tolist()
     u0, u1, u2 = h2 * a0, h2 * a1, h2 * a2
     w2, d2 = f(t + h2, R @ _exp_f(u0, u1, u2) if stage_attitude else None, x + h2 * d1)
-    b0, b1, b2 = _dexpinv_f(u0, u1, u2, w2.ravel().tolist())
+    b0, b1, b2 = dexpinv_rkmk4(u0, u1, u2, *w2.ravel().tolist())
     u0, u1, u2 = h2 * b0, h2 * b1, h2 * b2
     w3, d3 = f(t + h2, R @ _exp_f(u0, u1, u2) if stage_attitude else None, x + h2 * d2)
-    c0, c1, c2 = _dexpinv_f(u0, u1, u2, w3.ravel().tolist())
+    c0, c1, c2 = dexpinv_rkmk4(u0, u1, u2, *w3.ravel().tolist())
     u0, u1, u2 = h * c0, h * c1, h * c2
     w4, d4 = f(t + h, R @ _exp_f(u0, u1, u2) if stage_attitude else None, x + h * d3)
-    e0, e1, e2 = _dexpinv_f(u0, u1, u2, w4.ravel().tolist())
+    e0, e1, e2 = dexpinv_rkmk4(u0, u1, u2, *w4.ravel().tolist())
     h6 = h / 6.0
     dx = d2 + d3
     dx *= 2.0
@@ -246,62 +216,6 @@ def _rkmk4_step_one(
         h6 * (a2 + 2.0 * (b2 + c2) + e2),
     )
     return R_next, x + dx
-
-
-#: f(t, R, x) -> (omega, x_dot) on Python floats: x a list of n floats, omega 3 floats and
-#: x_dot n floats (sequences); R ``(1, 3, 3)`` or ``None`` (see ``stage_attitude``).
-RKMK4FloatField = Callable[[float, "np.ndarray | None", list], tuple[tuple[float, ...], list]]
-
-
-def rkmk4_step_floats(
-    f: RKMK4FloatField,
-    t: float,
-    R: np.ndarray,
-    x: list,
-    h: float,
-    stage_attitude: bool = True,
-) -> tuple[np.ndarray, list]:
-    """:func:`rkmk4_step_unchecked` for one body whose ℝⁿ state is a list of Python floats and
-    whose field returns floats: no numpy array is created in the stages (a single spacecraft's
-    plant costs more in array round trips than in arithmetic). Every operation is the one the
-    array route does, in the same order (``x + h/2·ẋ`` per element, ``dx = ((ẋ₂ + ẋ₃)·2 + ẋ₁ +
-    ẋ₄)·h/6``), so the result is bitwise the same. Returns ``(R_next (1, 3, 3), x_next list)``.
-    No validation (hot path of :meth:`spacecraft.plant.Spacecraft.step_packed`).
-    """
-    h2 = 0.5 * h
-    (a0, a1, a2), d1 = f(t, R, x)
-    u0, u1, u2 = h2 * a0, h2 * a1, h2 * a2
-    w2, d2 = f(
-        t + h2,
-        R @ _exp_f(u0, u1, u2) if stage_attitude else None,
-        [xi + h2 * di for xi, di in zip(x, d1, strict=True)],
-    )
-    b0, b1, b2 = _dexpinv_f(u0, u1, u2, w2)
-    u0, u1, u2 = h2 * b0, h2 * b1, h2 * b2
-    w3, d3 = f(
-        t + h2,
-        R @ _exp_f(u0, u1, u2) if stage_attitude else None,
-        [xi + h2 * di for xi, di in zip(x, d2, strict=True)],
-    )
-    c0, c1, c2 = _dexpinv_f(u0, u1, u2, w3)
-    u0, u1, u2 = h * c0, h * c1, h * c2
-    w4, d4 = f(
-        t + h,
-        R @ _exp_f(u0, u1, u2) if stage_attitude else None,
-        [xi + h * di for xi, di in zip(x, d3, strict=True)],
-    )
-    e0, e1, e2 = _dexpinv_f(u0, u1, u2, w4)
-    h6 = h / 6.0
-    x_next = [
-        xi + (((p2 + p3) * 2.0 + p1) + p4) * h6
-        for xi, p1, p2, p3, p4 in zip(x, d1, d2, d3, d4, strict=True)
-    ]
-    R_next = R @ _exp_f(
-        h6 * (a0 + 2.0 * (b0 + c0) + e0),
-        h6 * (a1 + 2.0 * (b1 + c1) + e1),
-        h6 * (a2 + 2.0 * (b2 + c2) + e2),
-    )
-    return R_next, x_next
 
 
 # ---------------------------------------------------------------------------------------------
