@@ -63,12 +63,15 @@ class PlantKernel:
         return R_out, x_out
 
 
-def steering_kernel(law: Any) -> tuple[int, np.ndarray] | None:
-    """``(code, params)`` of a steering law with a kernel, else ``None``."""
+def steering_kernel(law: Any, cluster: Any = None) -> tuple[int, np.ndarray] | None:
+    """``(code, params)`` of a steering law with a kernel, else ``None``. The null-motion law
+    needs the ``cluster`` (an :class:`~spacecraft.sgcmg.SgcmgPyramid`) it steers."""
+    from .sgcmg import MEASURE_FLOOR
     from .steering import (
         PINV_EPS,
         GeneralizedSingularityRobust,
         PseudoInverse,
+        PseudoInverseNullMotion,
         SingularityRobust,
     )
 
@@ -80,6 +83,10 @@ def steering_kernel(law: Any) -> tuple[int, np.ndarray] | None:
     if kind is GeneralizedSingularityRobust:
         p = [law.lambda0, law.mu, PINV_EPS, law.epsilon0, law.omega_eps, *law.phases]
         return K.STEER_GSR, np.array(p, dtype=np.float64)
+    if kind is PseudoInverseNullMotion and cluster is not None:
+        head = [law.k, law.eps, MEASURE_FLOOR, 0.0, 0.0, 0.0, 0.0, 0.0]
+        unit = np.concatenate([np.ravel(cluster._S), np.ravel(cluster._C)])
+        return K.STEER_PINV_NULL, np.concatenate([np.array(head), unit])
     return None
 
 
@@ -116,7 +123,7 @@ def plant_kernel(plant: Any) -> PlantKernel | None:
     elif type(act) is SgcmgActuator:
         if act.servo != "ideal" or act._fast is None:
             return None
-        s = steering_kernel(act.steering)
+        s = steering_kernel(act.steering, act.cluster)
         if s is None:
             return None
         code = K.ACT_SGCMG

@@ -26,6 +26,7 @@ ACT_SGCMG = 1
 STEER_PINV = 0
 STEER_SR = 1
 STEER_GSR = 2
+STEER_PINV_NULL = 3
 DIST_NONE = 0
 DIST_CONSTANT = 1
 DIST_CONSTANT_HARMONIC = 2
@@ -209,11 +210,81 @@ def steer_regularised(
 
 
 @njit
+def measure_gradient(Su: np.ndarray, Cu: np.ndarray, delta: np.ndarray, floor: float,
+                     grad: np.ndarray) -> float:  # fmt: skip
+    """Singularity measure m = √det(ÂÂᵀ) of the unit Jacobian Â and its gradient
+    ∂m/∂δᵢ = −âᵢᵀ adj(ÂÂᵀ) ĥᵢ / max(m, floor) (Jacobi's formula; ĥᵢ, âᵢ the unit momentum and
+    its derivative), ``Su``, ``Cu`` the unit momenta at δ = π/2 and 0."""
+    n = Su.shape[1]
+    hx = np.empty(n)
+    hy = np.empty(n)
+    hz = np.empty(n)
+    ax = np.empty(n)
+    ay = np.empty(n)
+    az = np.empty(n)
+    for i in range(n):
+        sn = math.sin(delta[i])
+        cs = math.cos(delta[i])
+        hx[i] = Su[0, i] * sn + Cu[0, i] * cs
+        hy[i] = Su[1, i] * sn + Cu[1, i] * cs
+        hz[i] = Su[2, i] * sn + Cu[2, i] * cs
+        ax[i] = Su[0, i] * cs - Cu[0, i] * sn
+        ay[i] = Su[1, i] * cs - Cu[1, i] * sn
+        az[i] = Su[2, i] * cs - Cu[2, i] * sn
+    a = b = c = d = e = f = 0.0
+    for i in range(n):
+        a += ax[i] * ax[i]
+        b += ax[i] * ay[i]
+        c += ax[i] * az[i]
+        d += ay[i] * ay[i]
+        e += ay[i] * az[i]
+        f += az[i] * az[i]
+    c00, c01, c02 = d * f - e * e, c * e - b * f, b * e - c * d
+    c11, c12, c22 = a * f - c * c, b * c - a * e, a * d - b * b
+    m = math.sqrt(max(a * c00 + b * c01 + c * c02, 0.0))
+    den = max(m, floor)
+    for i in range(n):
+        w0 = c00 * hx[i] + c01 * hy[i] + c02 * hz[i]
+        w1 = c01 * hx[i] + c11 * hy[i] + c12 * hz[i]
+        w2 = c02 * hx[i] + c12 * hy[i] + c22 * hz[i]
+        grad[i] = -(ax[i] * w0 + ay[i] * w1 + az[i] * w2) / den
+    return m
+
+
+@njit
+def steer_null_motion(
+    p: np.ndarray, A: np.ndarray, q0: float, q1: float, q2: float, Su: np.ndarray,
+    Cu: np.ndarray, delta: np.ndarray, out: np.ndarray,
+) -> None:  # fmt: skip
+    """Pseudo-inverse plus null motion (Wu, Huang, Wei & Guo):
+    δ̇ = A⁺ḣ + k (I − A⁺A) ∇_δ m, one solve for the two right-hand sides ḣ and A∇m.
+    ``p = (k, ε, floor of m)``."""
+    n = A.shape[1]
+    grad = np.empty(n)
+    measure_gradient(Su, Cu, delta, p[2], grad)
+    g0 = g1 = g2 = 0.0
+    for i in range(n):
+        g0 += A[0, i] * grad[i]
+        g1 += A[1, i] * grad[i]
+        g2 += A[2, i] * grad[i]
+    zero = np.zeros(8)
+    zero[2] = p[1]
+    x = np.empty(n)
+    y = np.empty(n)
+    steer_regularised(STEER_PINV, zero, 0.0, A, q0, q1, q2, x)
+    steer_regularised(STEER_PINV, zero, 0.0, A, g0, g1, g2, y)
+    k = p[0]
+    for i in range(n):
+        out[i] = x[i] + k * (grad[i] - y[i])
+
+
+@njit
 def sgcmg_command(
     S0: np.ndarray, C0: np.ndarray, steer: int, sp: np.ndarray, rate_limit: float,
     u: np.ndarray, w: np.ndarray, delta: np.ndarray, t: float,
     dd_out: np.ndarray, hd_out: np.ndarray,
 ) -> bool:  # fmt: skip
+    # the unit momenta (null-motion law) are S0/h0, C0/h0; passed pre-divided in sp[8:]
     """The SGCMG cluster's hardware command: ḣ_cmd = −(ω × h(δ) + u), δ̇ = steering(A(δ), ḣ_cmd),
     scaled down uniformly to the gimbal-rate limit. Returns whether it was scaled."""
     A = np.empty((3, S0.shape[1]))
@@ -225,7 +296,13 @@ def sgcmg_command(
     hd_out[0] = q0
     hd_out[1] = q1
     hd_out[2] = q2
-    steer_regularised(steer, sp, t, A, q0, q1, q2, dd_out)
+    if steer == STEER_PINV_NULL:
+        n = S0.shape[1]
+        Su = sp[8 : 8 + 3 * n].reshape((3, n))
+        Cu = sp[8 + 3 * n : 8 + 6 * n].reshape((3, n))
+        steer_null_motion(sp, A, q0, q1, q2, Su, Cu, delta, dd_out)
+    else:
+        steer_regularised(steer, sp, t, A, q0, q1, q2, dd_out)
     peak = 0.0
     for i in range(dd_out.shape[0]):
         peak = max(peak, abs(dd_out[i]))

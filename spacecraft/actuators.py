@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from liecontrol._jit import JIT_ENABLED
-from liecontrol._validation import as_array, as_scalar, check_positive
+from liecontrol._validation import as_array, as_scalar, check_nonnegative, check_positive
 
 from ._kernels import cmg_bus_torque_batch, sgcmg_command_batch
 from .rigid_body import _cross
@@ -307,7 +307,7 @@ class SgcmgActuator(Actuator):
         # have a kernel, with the sin/cos-separable cluster model
         from ._fused import steering_kernel
 
-        self._steer_kernel = None if self._fast is None else steering_kernel(steering)
+        self._steer_kernel = None if self._fast is None else steering_kernel(steering, cluster)
         # pass only the keyword arguments the steering law accepts (stateless laws need none)
         try:
             params = inspect.signature(steering).parameters
@@ -652,6 +652,24 @@ class ReactionWheelAssembly(Actuator):
     momentum is I_w Ωᵢ (Markley & Crassidis 2014, §3.3.5: J is then the spacecraft inertia
     without the wheels' axial inertia; the rate relative to the bus differs by aᵢ·ω, ≪ Ω).
 
+    Bearing friction (optional; Armstrong-Hélouvry, Dupont & Canudas de Wit, "A survey of
+    models, analysis tools and compensation methods for the control of machines with friction",
+    Automatica 30(7), 1994; for wheels Bialke, "High fidelity mathematical modeling of reaction
+    wheel performance", AAS 98-063, 1998) adds to each wheel's motor torque τᵢ::
+
+        τ_f(Ω) = −[τ_c + (τ_s − τ_c) exp(−(Ω/ω_s)²)] tanh(Ω/ε) − c_v Ω
+
+    (Coulomb τ_c, Stribeck breakaway τ_s ≥ τ_c at speeds below ω_s, viscous c_v). The sign
+    function of the Coulomb term is smoothed to tanh(Ω/ε) so that a wheel crossing zero speed
+    does not chatter in a fixed-step integrator (ε = ``friction_smoothing``, small against the
+    operating speeds). Friction acts between wheel and bus, so it enters ḣ and the bus torque
+    like the motor torque — total angular momentum is unchanged and the kinetic energy it
+    removes is ∫ −τ_f·Ω dt. It is not compensated: the controller sees it as a disturbance.
+    Ω is the absolute axial rate (see above); the bus-rate term aᵢ·ω is neglected in τ_f.
+
+    Torque quantisation (``torque_lsb`` q > 0): the motor drive delivers τ = q·round(τ/q)
+    (then clipped to ``max_torque``), the resolution of its torque command.
+
     Per step (ZOH of wheel torques): ḣ_cmd = −u_cmd − ω × h; minimum-norm distribution
     τ_cmd = A⁺ ḣ_cmd, A⁺ = Aᵀ(AAᵀ)⁻¹ (precomputed); per-wheel torque limit
     τ = clip(τ_cmd, ±max_torque) (flagged; clipping one wheel changes the torque direction,
@@ -667,10 +685,17 @@ class ReactionWheelAssembly(Actuator):
         max_torque: motor torque limit > 0 [N·m], scalar or ``(N,)``.
         max_speed: wheel speed limit > 0 [rad/s], scalar or ``(N,)``.
         initial_speeds: Ω(0) ``(N,)`` or ``(B, N)`` [rad/s], |Ω(0)| ≤ max_speed (default 0).
+        coulomb_friction: τ_c ≥ 0 [N·m], scalar or ``(N,)``.
+        viscous_friction: c_v ≥ 0 [N·m·s/rad], scalar or ``(N,)``.
+        stribeck_torque: breakaway torque τ_s ≥ τ_c [N·m] (0: no Stribeck term).
+        stribeck_speed: ω_s > 0 [rad/s] (needed when ``stribeck_torque`` > 0).
+        friction_smoothing: ε > 0 [rad/s] of the smoothed sign (default 0.01).
+        torque_lsb: q ≥ 0 [N·m], torque resolution of the motor drive (0: continuous).
 
-    Logged: ``wheel_speed``, ``wheel_torque`` (delivered τ at the step start),
+    Logged: ``wheel_speed``, ``wheel_torque`` (delivered motor τ at the step start),
     ``wheel_torque_cmd``, ``torque_saturated``, ``speed_saturated`` and ``saturated`` (either),
-    all ``(B, N)``; derived ``h`` ``(K, B, 3)``.
+    with friction also ``friction_torque`` (τ_f at the step start), all ``(B, N)``; derived
+    ``h`` ``(K, B, 3)``.
     """
 
     axes: np.ndarray
@@ -678,7 +703,15 @@ class ReactionWheelAssembly(Actuator):
     max_torque: float | np.ndarray = 0.2
     max_speed: float | np.ndarray = 600.0
     initial_speeds: object = None
+    coulomb_friction: float | np.ndarray = 0.0
+    viscous_friction: float | np.ndarray = 0.0
+    stribeck_torque: float | np.ndarray = 0.0
+    stribeck_speed: float | np.ndarray | None = None
+    friction_smoothing: float = 0.01
+    torque_lsb: float = 0.0
     n_states: int = field(default=0, init=False)
+    #: any friction term non-zero (checked once: _torque runs at every integration stage)
+    _friction_on: bool = field(default=False, init=False, repr=False)
     _pinv: np.ndarray = field(init=False, repr=False)
     _AI: np.ndarray = field(init=False, repr=False)
 
@@ -730,6 +763,66 @@ class ReactionWheelAssembly(Actuator):
             ("_AI", AI),
         ):
             object.__setattr__(self, name, v)
+        self._init_friction(n)
+
+    def _init_friction(self, n: int) -> None:
+        def per_wheel0(v: object, name: str) -> np.ndarray:
+            a = np.array(check_nonnegative(v, name), dtype=np.float64)
+            a = np.full(n, float(a)) if a.ndim == 0 else a
+            if a.shape != (n,):
+                raise ValueError(
+                    f"{name}: expected a scalar or shape ({n},) (per wheel), got {a.shape}"
+                )
+            a.setflags(write=False)
+            return a
+
+        tc = per_wheel0(self.coulomb_friction, "coulomb_friction")
+        cv = per_wheel0(self.viscous_friction, "viscous_friction")
+        ts = per_wheel0(self.stribeck_torque, "stribeck_torque")
+        ws = None
+        if np.any(ts > 0):
+            if np.any((ts > 0) & (ts < tc)):
+                raise ValueError(
+                    "stribeck_torque: the breakaway torque must be >= coulomb_friction where "
+                    f"it is set, got {ts.tolist()} < {tc.tolist()}"
+                )
+            if self.stribeck_speed is None:
+                raise ValueError("stribeck_speed: required (> 0 rad/s) with stribeck_torque")
+            ws = _per_wheel(self.stribeck_speed, "stribeck_speed", n)
+        elif self.stribeck_speed is not None:
+            ws = _per_wheel(self.stribeck_speed, "stribeck_speed", n)
+        eps = as_scalar(self.friction_smoothing, "friction_smoothing")
+        if not eps > 0.0:
+            raise ValueError(f"friction_smoothing: must be > 0, got {eps}")
+        lsb = float(check_nonnegative(as_scalar(self.torque_lsb, "torque_lsb"), "torque_lsb"))
+        for name, v in (
+            ("coulomb_friction", tc),
+            ("viscous_friction", cv),
+            ("stribeck_torque", ts),
+            ("stribeck_speed", ws),
+            ("friction_smoothing", eps),
+            ("torque_lsb", lsb),
+            ("_friction_on", bool(np.any(tc > 0) or np.any(cv > 0) or np.any(ts > 0))),
+        ):
+            object.__setattr__(self, name, v)
+
+    @property
+    def has_friction(self) -> bool:
+        """Whether any friction term is non-zero."""
+        return self._friction_on
+
+    def friction_torque(self, speed: object) -> np.ndarray:
+        """τ_f(Ω) ``(..., N)`` [N·m] of wheel speeds ``speed`` ``(..., N)`` [rad/s] (the law in
+        the class docstring; zero without friction)."""
+        w = as_array(speed, "speed", (self.n_states,))
+        return self._friction(w)
+
+    def _friction(self, w: np.ndarray) -> np.ndarray:
+        level = self.coulomb_friction
+        if self.stribeck_speed is not None and np.any(self.stribeck_torque > 0):
+            extra = np.where(self.stribeck_torque > 0, self.stribeck_torque - level, 0.0)
+            level = level + extra * np.exp(-((w / self.stribeck_speed) ** 2))
+        return -level * np.tanh(w / self.friction_smoothing) - self.viscous_friction * w
 
     @classmethod
     def orthogonal(cls, **kwargs: Any) -> ReactionWheelAssembly:
@@ -774,15 +867,22 @@ class ReactionWheelAssembly(Actuator):
         np.negative(h_dot_cmd, out=h_dot_cmd)
         tau_cmd = h_dot_cmd @ self._pinv.T
         tau = np.clip(tau_cmd, -self.max_torque, self.max_torque)
+        if self.torque_lsb > 0.0:
+            q = self.torque_lsb
+            tau = np.clip(np.round(tau / q) * q, -self.max_torque, self.max_torque)
         torque_sat = np.abs(tau_cmd) > self.max_torque
         speed_sat = self._speed_gate(x_act, tau)
         tau[speed_sat] = 0.0
         return WheelCommand(tau, tau_cmd, torque_sat, speed_sat, h_dot_cmd)
 
     def _torque(self, x_act: np.ndarray, held: WheelCommand) -> np.ndarray:
+        """Total torque on each wheel: gated motor torque + friction."""
         tau = held.torque
         gate = self._speed_gate(x_act, tau)
-        return np.where(gate, 0.0, tau) if gate.any() else tau
+        tau = np.where(gate, 0.0, tau) if gate.any() else tau
+        if self._friction_on:
+            tau = tau + self._friction(x_act)
+        return tau
 
     def state_derivative(self, x_act: np.ndarray, held: WheelCommand) -> np.ndarray:
         return self._torque(x_act, held) / self.wheel_inertia
@@ -798,7 +898,7 @@ class ReactionWheelAssembly(Actuator):
 
     def log(self, x_act: np.ndarray, held: WheelCommand) -> dict[str, np.ndarray]:
         """Wheel speeds, delivered and commanded torques and the limit flags, ``(B, N)``."""
-        return {
+        out = {
             "wheel_speed": x_act,
             "wheel_torque": held.torque,
             "wheel_torque_cmd": held.torque_cmd,
@@ -806,6 +906,9 @@ class ReactionWheelAssembly(Actuator):
             "speed_saturated": held.speed_saturated,
             "saturated": held.torque_saturated | held.speed_saturated,
         }
+        if self.has_friction:
+            out["friction_torque"] = self._friction(x_act)
+        return out
 
     def derived_log(self, log: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """``h`` (K, B, 3) [N·m·s] from the logged wheel speeds."""
