@@ -27,6 +27,7 @@ import numpy as np
 
 from liecontrol._jit import JIT_ENABLED, njit
 from liecontrol._kernels.geometric_pd import geometric_pd_one
+from liecontrol._kernels.mrp_pd import mrp_pd_one
 
 from . import _kernels as K
 
@@ -139,13 +140,25 @@ def plant_kernel(plant: Any) -> PlantKernel | None:
     return PlantKernel(code, J3, Ji3, S0, C0, dist[0], dist[1], clip, steer, sp, float(limit))
 
 
-def controller_kernel(controller: Any) -> tuple[int, tuple[np.ndarray, ...]] | None:
-    """``(error code, (J, K_R, K_Ω, G))`` of a controller with a kernel, else ``None``."""
+#: controller kinds of the fused loop
+CTRL_GEOMETRIC_PD = 0
+CTRL_MRP_PD = 1
+
+
+def controller_kernel(controller: Any) -> tuple | None:
+    """``(kind, code, threshold², J, gain 1, gain 2, G)`` of a controller with a kernel
+    (:class:`~liecontrol.control.GeometricPD`: error code, K_R, K_Ω, G;
+    :class:`~liecontrol.control.MrpPD`: feed-forward code, threshold², K, P), else ``None``."""
+    from liecontrol.control.chart_baselines import MrpPD
     from liecontrol.control.geometric_pd import GeometricPD
 
-    if type(controller) is not GeometricPD:
-        return None
-    return controller._kernel_args()
+    if type(controller) is GeometricPD:
+        err, J, kR, kW, G = controller._kernel_args()
+        return CTRL_GEOMETRIC_PD, err, 0.0, J, kR, kW, G
+    if type(controller) is MrpPD and controller._kernel_applies():
+        ff, thr2, J, K, P = controller._kernel_args()
+        return CTRL_MRP_PD, ff, thr2, J, K, P, np.zeros((3, 3))
+    return None
 
 
 @njit
@@ -155,7 +168,8 @@ def _fused_loop(
     act: int, J: np.ndarray, J_inv: np.ndarray, S0: np.ndarray, C0: np.ndarray,
     dist: int, dp: np.ndarray, clip_on: bool, clip: np.ndarray,
     steer: int, sp: np.ndarray, rate_limit: float,
-    err: int, cJ: np.ndarray, kR: np.ndarray, kW: np.ndarray, G: np.ndarray,
+    ckind: int, code: int, thr2: float, cJ: np.ndarray, k1: np.ndarray, k2: np.ndarray,
+    G: np.ndarray, p_prev: np.ndarray,
     ref_index: np.ndarray, ref_R: np.ndarray, ref_w: np.ndarray, ref_dw: np.ndarray,
     log_t: np.ndarray, log_R: np.ndarray, log_w: np.ndarray, log_Rd: np.ndarray,
     log_wd: np.ndarray, log_ucmd: np.ndarray, log_u: np.ndarray, log_dist: np.ndarray,
@@ -163,8 +177,10 @@ def _fused_loop(
 ) -> tuple[int, int, int]:  # fmt: skip
     """The closed loop of :func:`spacecraft.simulator.simulate` for ``B`` spacecraft: control at
     every ``every_ctrl``-th step (zero-order hold), the actuator's command, a log row every
-    ``log_every``-th step and at the end, one RKMK4 step. Returns ``(status, rows, k)``:
-    status 0 = done, 1 = state non-finite after step ``k``, 2 = non-finite torque at step k."""
+    ``log_every``-th step and at the end, one RKMK4 step. Returns ``(status, rows, switches)``:
+    status 0 = done, 1 = state non-finite, 2 = non-finite torque; the MRP shadow switches.
+    The MRP controller's continuity memory ``p_prev`` starts empty (first sample) and is left
+    holding its last σ."""
     B = R.shape[0]
     n = x.shape[1]
     n_held = 3 if act == K.ACT_IDEAL else n - 3
@@ -172,27 +188,37 @@ def _fused_loop(
     u_cmd = np.zeros((B, 3))
     held = np.zeros((B, n_held))
     hd = np.empty(3)
-    sat = np.zeros((B, max(n_held, 1)), dtype=np.bool_)
+    # saturation flags as logged: per axis (ideal actuator), one per spacecraft (SGCMG)
+    sat = np.zeros((B, 3 if act == K.ACT_IDEAL else 1), dtype=np.bool_)
     R_next = np.empty((B, 3, 3))
     x_next = np.empty((B, n))
+    work = np.empty(7 * n)
+    A = np.empty((3, max(n - 3, 1)))
     rows = 0
+    n_switch = 0
     for k in range(n_steps + 1):
         t = t0 + k * dt
         r = ref_index[k]
         if k % every_ctrl == 0:
             for b in range(B):
                 rb = b if ref_R.shape[1] > 1 else 0
-                geometric_pd_one(
-                    err, cJ, kR, kW, G, R[b], x[b, :3], ref_R[r, rb], ref_w[r, rb], ref_dw[r, rb],
-                    u_cmd[b], diag[b],
-                )  # fmt: skip
+                if ckind == CTRL_MRP_PD:
+                    n_switch += mrp_pd_one(
+                        code, thr2, cJ, k1, k2, R[b], x[b, :3], ref_R[r, rb], ref_w[r, rb],
+                        ref_dw[r, rb], k > 0, p_prev[b], u_cmd[b], diag[b],
+                    )  # fmt: skip
+                else:
+                    geometric_pd_one(
+                        code, cJ, k1, k2, G, R[b], x[b, :3], ref_R[r, rb], ref_w[r, rb],
+                        ref_dw[r, rb], u_cmd[b], diag[b],
+                    )  # fmt: skip
                 tot = u_cmd[b, 0] + u_cmd[b, 1] + u_cmd[b, 2]
                 if not np.isfinite(tot):
-                    return 2, rows, k
+                    return 2, rows, n_switch
         for b in range(B):
             if act == K.ACT_SGCMG:
                 sat[b, 0] = K.sgcmg_command(
-                    S0, C0, steer, sp, rate_limit, u_cmd[b], x[b, :3], x[b, 3:], t, held[b], hd
+                    S0, C0, steer, sp, rate_limit, u_cmd[b], x[b, :3], x[b, 3:], t, held[b], hd, A
                 )
             else:
                 for i in range(3):
@@ -237,7 +263,7 @@ def _fused_loop(
             kb = 0 if shared else b
             K.rkmk4_step(
                 act, J[kb], J_inv[kb], S0, C0, dist, dp, t, R[b], x[b], held[b], dt,
-                R_next[b], x_next[b],
+                R_next[b], x_next[b], work,
             )  # fmt: skip
         total = 0.0
         for b in range(B):
@@ -247,10 +273,10 @@ def _fused_loop(
                 for j in range(3):
                     total += R_next[b, i, j]
         if not np.isfinite(total):
-            return 1, rows, k
+            return 1, rows, n_switch
         R, R_next = R_next, R
         x, x_next = x_next, x
-    return 0, rows, n_steps
+    return 0, rows, n_switch
 
 
 def fused_supported(
@@ -336,10 +362,12 @@ def run_fused(
     reports the failure with its partial log)."""
     from .simulator import _Log
 
-    pk, (err, cJ, kR, kW, G) = plan
+    pk, (ckind, code, thr2, cJ, k1, k2, G) = plan
     B, n = x0.shape
     steps = np.arange(n_steps + 1)
     times = t0 + steps * dt
+    # log_every beyond the run logs only the first and last steps (and must not overflow int64)
+    log_every = min(log_every, n_steps + 1)
     needed = (steps % every_ctrl == 0) | (steps % log_every == 0)
     needed[-1] = True
     refs = _reference_samples(reference, times, needed, B)
@@ -355,12 +383,13 @@ def run_fused(
     diag = np.zeros((B, 7))
     log_diag = np.empty((Kr, B, 7))
     clip = pk.clip if pk.clip is not None else np.zeros(3)
-    status, rows, _ = _fused_loop(
+    p_prev = np.zeros((B, 3))
+    status, rows, n_switch = _fused_loop(
         n_steps, float(t0), float(dt), every_ctrl, log_every,
         np.array(R0, dtype=np.float64), np.array(x0, dtype=np.float64),
         pk.act, pk.J, pk.J_inv, pk.S0, pk.C0, pk.dist, pk.dist_params, pk.clip is not None,
         clip, pk.steer, pk.steer_params, pk.rate_limit,
-        err, cJ, kR, kW, G, index, ref_R, ref_w, ref_dw,
+        ckind, code, thr2, cJ, k1, k2, G, p_prev, index, ref_R, ref_w, ref_dw,
         log.t, log.R, log.omega, log.R_d, log.omega_d, log.u_cmd, log.u, log.disturbance,
         log_act, log_sat, log_diag, diag,
     )  # fmt: skip
@@ -374,8 +403,17 @@ def run_fused(
         d["actuator"]["saturated"] = log_sat[:, :, 0]
     elif pk.clip is not None:
         d["actuator"]["saturated"] = log_sat
-    d["controller"].update(
-        Psi=log_diag[:, :, 0], e_R=log_diag[:, :, 1:4], e_Omega=log_diag[:, :, 4:7]
-    )
-    controller._set_diagnostics(diag)
+    if ckind == CTRL_MRP_PD:
+        d["controller"].update(
+            chart_y=log_diag[:, :, 0:3],
+            chart_y_d=np.zeros((rows, B, 3)),
+            chart_switched=log_diag[:, :, 3] != 0.0,
+        )
+        controller.n_switches += n_switch
+        controller._set_kernel_state(diag, p_prev)
+    else:
+        d["controller"].update(
+            Psi=log_diag[:, :, 0], e_R=log_diag[:, :, 1:4], e_Omega=log_diag[:, :, 4:7]
+        )
+        controller._set_diagnostics(diag)
     return log.result(dt, control_period, plant)

@@ -19,7 +19,7 @@ import math
 import numpy as np
 
 from liecontrol._jit import njit
-from liecontrol._kernels.so3 import dexpinv_rkmk4, exp_into, matmul3_into
+from liecontrol._kernels.so3 import dexpinv_rkmk4, right_multiply_exp_into
 
 ACT_IDEAL = 0
 ACT_SGCMG = 1
@@ -110,6 +110,27 @@ def cmg_bus_torque(
 
 
 @njit
+def cmg_bus_torque_trig(
+    S0: np.ndarray, C0: np.ndarray, w0: float, w1: float, w2: float,
+    sn: np.ndarray, cs: np.ndarray, delta_dot: np.ndarray,
+) -> tuple[float, float, float]:  # fmt: skip
+    """:func:`cmg_bus_torque` from sin δ and cos δ already computed (same arithmetic)."""
+    h0 = h1 = h2 = r0 = r1 = r2 = 0.0
+    for i in range(S0.shape[1]):
+        s = sn[i]
+        c = cs[i]
+        h0 += S0[0, i] * s + C0[0, i] * c
+        h1 += S0[1, i] * s + C0[1, i] * c
+        h2 += S0[2, i] * s + C0[2, i] * c
+        a = c * delta_dot[i]
+        b = s * delta_dot[i]
+        r0 += S0[0, i] * a - C0[0, i] * b
+        r1 += S0[1, i] * a - C0[1, i] * b
+        r2 += S0[2, i] * a - C0[2, i] * b
+    return -(r0 + w1 * h2 - w2 * h1), -(r1 + w2 * h0 - w0 * h2), -(r2 + w0 * h1 - w1 * h0)
+
+
+@njit
 def _solve3_pivot(M: np.ndarray, r0: float, r1: float, r2: float) -> tuple[float, float, float]:
     """Solve the 3×3 system M x = r by Gaussian elimination with partial pivoting (the route for
     systems whose cofactor determinant is too small to trust)."""
@@ -136,16 +157,12 @@ def _solve3_pivot(M: np.ndarray, r0: float, r1: float, r2: float) -> tuple[float
 
 
 @njit
-def steer_regularised(
-    kind: int, p: np.ndarray, t: float, A: np.ndarray, q0: float, q1: float, q2: float,
-    out: np.ndarray,
-) -> None:  # fmt: skip
-    """δ̇ = Aᵀ(AAᵀ + λ s² E + ε tr(AAᵀ)/3 I)⁻¹ ḣ for the pseudo-inverse (λ = 0, E = I),
-    singularity-robust (λ = λ₀ e^{−μ m²}, E = I; Nakamura & Hanafusa 1986) and generalized
-    singularity-robust (E with the dither εᵢ = ε₀ sin(ω_ε t + φᵢ) off the diagonal; Wie 2005)
-    laws, m = √det(ÂÂᵀ) with Â = A/s, s² = ‖A‖²_F/n. ``p = (λ₀, μ, ε, ε₀, ω_ε, φ₁, φ₂, φ₃)``.
-    Cramer's rule on the symmetric 3×3, pivoted elimination where its determinant is too
-    small to trust."""
+def _regularised_multiplier(
+    A: np.ndarray, lam: float, eps: float, gsr: bool, e1: float, e2: float, e3: float,
+    q0: float, q1: float, q2: float,
+) -> tuple[float, float, float]:  # fmt: skip
+    """y = (AAᵀ + λ E + ε tr(AAᵀ)/3 I)⁻¹ q, E = I or the GSR dither matrix; Cramer's rule on the
+    symmetric 3×3, pivoted elimination where its determinant is too small to trust."""
     n = A.shape[1]
     a = b = c = d = e = f = 0.0
     for i in range(n):
@@ -158,25 +175,14 @@ def steer_regularised(
         d += y * y
         e += y * z
         f += z * z
-    lam = 0.0
-    if kind != STEER_PINV:
-        det0 = a * (d * f - e * e) + b * (c * e - b * f) + c * (b * e - c * d)
-        s2 = (a + d + f) / n
-        s2_safe = s2 if s2 > 0.0 else 1.0
-        m2 = max(det0, 0.0) / (s2_safe * s2_safe * s2_safe)
-        lam = p[0] * math.exp(-p[1] * m2) * s2
     tr3 = (a + d + f) / 3.0
-    reg = lam + p[2] * tr3
+    reg = lam + eps * tr3
     if not reg > 0.0:
         reg = 1.0
     a += reg
     d += reg
     f += reg
-    if kind == STEER_GSR:
-        w = p[4] * t
-        e1 = p[3] * math.sin(w + p[5])
-        e2 = p[3] * math.sin(w + p[6])
-        e3 = p[3] * math.sin(w + p[7])
+    if gsr:
         b += lam * e3
         c += lam * e2
         e += lam * e1
@@ -190,64 +196,101 @@ def steer_regularised(
     tr3 += reg
     if det >= _DET_REL_TRUST * tr3 * tr3 * tr3:
         inv = 1.0 / det
-        x0 = (c00 * q0 + c01 * q1 + c02 * q2) * inv
-        x1 = (c01 * q0 + c11 * q1 + c12 * q2) * inv
-        x2 = (c02 * q0 + c12 * q1 + c22 * q2) * inv
-    else:
-        Mr = np.empty((3, 3))
-        Mr[0, 0] = a
-        Mr[0, 1] = b
-        Mr[0, 2] = c
-        Mr[1, 0] = b
-        Mr[1, 1] = d
-        Mr[1, 2] = e
-        Mr[2, 0] = c
-        Mr[2, 1] = e
-        Mr[2, 2] = f
-        x0, x1, x2 = _solve3_pivot(Mr, q0, q1, q2)
-    for i in range(n):
-        out[i] = A[0, i] * x0 + A[1, i] * x1 + A[2, i] * x2
+        return (
+            (c00 * q0 + c01 * q1 + c02 * q2) * inv,
+            (c01 * q0 + c11 * q1 + c12 * q2) * inv,
+            (c02 * q0 + c12 * q1 + c22 * q2) * inv,
+        )
+    Mr = np.empty((3, 3))
+    Mr[0, 0] = a
+    Mr[0, 1] = b
+    Mr[0, 2] = c
+    Mr[1, 0] = b
+    Mr[1, 1] = d
+    Mr[1, 2] = e
+    Mr[2, 0] = c
+    Mr[2, 1] = e
+    Mr[2, 2] = f
+    return _solve3_pivot(Mr, q0, q1, q2)
 
 
 @njit
-def measure_gradient(Su: np.ndarray, Cu: np.ndarray, delta: np.ndarray, floor: float,
-                     grad: np.ndarray) -> float:  # fmt: skip
+def steer_regularised(
+    kind: int, p: np.ndarray, t: float, A: np.ndarray, q0: float, q1: float, q2: float,
+    out: np.ndarray,
+) -> None:  # fmt: skip
+    """δ̇ = Aᵀ(AAᵀ + λ s² E + ε tr(AAᵀ)/3 I)⁻¹ ḣ for the pseudo-inverse (λ = 0, E = I),
+    singularity-robust (λ = λ₀ e^{−μ m²}, E = I; Nakamura & Hanafusa 1986) and generalized
+    singularity-robust (E with the dither εᵢ = ε₀ sin(ω_ε t + φᵢ) off the diagonal; Wie 2005)
+    laws, m = √det(ÂÂᵀ) with Â = A/s, s² = ‖A‖²_F/n. ``p = (λ₀, μ, ε, ε₀, ω_ε, φ₁, φ₂, φ₃)``."""
+    n = A.shape[1]
+    lam = 0.0
+    if kind != STEER_PINV:
+        a = b = c = d = e = f = 0.0
+        for i in range(n):
+            x = A[0, i]
+            y = A[1, i]
+            z = A[2, i]
+            a += x * x
+            b += x * y
+            c += x * z
+            d += y * y
+            e += y * z
+            f += z * z
+        det0 = a * (d * f - e * e) + b * (c * e - b * f) + c * (b * e - c * d)
+        s2 = (a + d + f) / n
+        s2_safe = s2 if s2 > 0.0 else 1.0
+        m2 = max(det0, 0.0) / (s2_safe * s2_safe * s2_safe)
+        lam = p[0] * math.exp(-p[1] * m2) * s2
+    e1 = e2 = e3 = 0.0
+    if kind == STEER_GSR:
+        w = p[4] * t
+        e1 = p[3] * math.sin(w + p[5])
+        e2 = p[3] * math.sin(w + p[6])
+        e3 = p[3] * math.sin(w + p[7])
+    y0, y1, y2 = _regularised_multiplier(A, lam, p[2], kind == STEER_GSR, e1, e2, e3, q0, q1, q2)
+    for i in range(n):
+        out[i] = A[0, i] * y0 + A[1, i] * y1 + A[2, i] * y2
+
+
+@njit
+def measure_gradient(
+    Su: np.ndarray, Cu: np.ndarray, delta: np.ndarray, floor: float, grad: np.ndarray
+) -> float:
     """Singularity measure m = √det(ÂÂᵀ) of the unit Jacobian Â and its gradient
     ∂m/∂δᵢ = −âᵢᵀ adj(ÂÂᵀ) ĥᵢ / max(m, floor) (Jacobi's formula; ĥᵢ, âᵢ the unit momentum and
-    its derivative), ``Su``, ``Cu`` the unit momenta at δ = π/2 and 0."""
+    its derivative) into ``grad``; ``Su``, ``Cu`` the unit momenta at δ = π/2 and 0."""
     n = Su.shape[1]
-    hx = np.empty(n)
-    hy = np.empty(n)
-    hz = np.empty(n)
-    ax = np.empty(n)
-    ay = np.empty(n)
-    az = np.empty(n)
+    a = b = c = d = e = f = 0.0
     for i in range(n):
         sn = math.sin(delta[i])
         cs = math.cos(delta[i])
-        hx[i] = Su[0, i] * sn + Cu[0, i] * cs
-        hy[i] = Su[1, i] * sn + Cu[1, i] * cs
-        hz[i] = Su[2, i] * sn + Cu[2, i] * cs
-        ax[i] = Su[0, i] * cs - Cu[0, i] * sn
-        ay[i] = Su[1, i] * cs - Cu[1, i] * sn
-        az[i] = Su[2, i] * cs - Cu[2, i] * sn
-    a = b = c = d = e = f = 0.0
-    for i in range(n):
-        a += ax[i] * ax[i]
-        b += ax[i] * ay[i]
-        c += ax[i] * az[i]
-        d += ay[i] * ay[i]
-        e += ay[i] * az[i]
-        f += az[i] * az[i]
+        ax = Su[0, i] * cs - Cu[0, i] * sn
+        ay = Su[1, i] * cs - Cu[1, i] * sn
+        az = Su[2, i] * cs - Cu[2, i] * sn
+        a += ax * ax
+        b += ax * ay
+        c += ax * az
+        d += ay * ay
+        e += ay * az
+        f += az * az
     c00, c01, c02 = d * f - e * e, c * e - b * f, b * e - c * d
     c11, c12, c22 = a * f - c * c, b * c - a * e, a * d - b * b
     m = math.sqrt(max(a * c00 + b * c01 + c * c02, 0.0))
     den = max(m, floor)
     for i in range(n):
-        w0 = c00 * hx[i] + c01 * hy[i] + c02 * hz[i]
-        w1 = c01 * hx[i] + c11 * hy[i] + c12 * hz[i]
-        w2 = c02 * hx[i] + c12 * hy[i] + c22 * hz[i]
-        grad[i] = -(ax[i] * w0 + ay[i] * w1 + az[i] * w2) / den
+        sn = math.sin(delta[i])
+        cs = math.cos(delta[i])
+        hx = Su[0, i] * sn + Cu[0, i] * cs
+        hy = Su[1, i] * sn + Cu[1, i] * cs
+        hz = Su[2, i] * sn + Cu[2, i] * cs
+        ax = Su[0, i] * cs - Cu[0, i] * sn
+        ay = Su[1, i] * cs - Cu[1, i] * sn
+        az = Su[2, i] * cs - Cu[2, i] * sn
+        w0 = c00 * hx + c01 * hy + c02 * hz
+        w1 = c01 * hx + c11 * hy + c12 * hz
+        w2 = c02 * hx + c12 * hy + c22 * hz
+        grad[i] = -(ax * w0 + ay * w1 + az * w2) / den
     return m
 
 
@@ -257,37 +300,34 @@ def steer_null_motion(
     Cu: np.ndarray, delta: np.ndarray, out: np.ndarray,
 ) -> None:  # fmt: skip
     """Pseudo-inverse plus null motion (Wu, Huang, Wei & Guo):
-    δ̇ = A⁺ḣ + k (I − A⁺A) ∇_δ m, one solve for the two right-hand sides ḣ and A∇m.
-    ``p = (k, ε, floor of m)``."""
+    δ̇ = A⁺ḣ + k (I − A⁺A) ∇_δ m, with A⁺ = Aᵀ(AAᵀ + ε tr(AAᵀ)/3 I)⁻¹. ``p = (k, ε, floor of
+    m)``. ``out`` holds ∇m until the last loop."""
     n = A.shape[1]
-    grad = np.empty(n)
-    measure_gradient(Su, Cu, delta, p[2], grad)
+    measure_gradient(Su, Cu, delta, p[2], out)
     g0 = g1 = g2 = 0.0
     for i in range(n):
-        g0 += A[0, i] * grad[i]
-        g1 += A[1, i] * grad[i]
-        g2 += A[2, i] * grad[i]
-    zero = np.zeros(8)
-    zero[2] = p[1]
-    x = np.empty(n)
-    y = np.empty(n)
-    steer_regularised(STEER_PINV, zero, 0.0, A, q0, q1, q2, x)
-    steer_regularised(STEER_PINV, zero, 0.0, A, g0, g1, g2, y)
+        g0 += A[0, i] * out[i]
+        g1 += A[1, i] * out[i]
+        g2 += A[2, i] * out[i]
+    x0, x1, x2 = _regularised_multiplier(A, 0.0, p[1], False, 0.0, 0.0, 0.0, q0, q1, q2)
+    y0, y1, y2 = _regularised_multiplier(A, 0.0, p[1], False, 0.0, 0.0, 0.0, g0, g1, g2)
     k = p[0]
     for i in range(n):
-        out[i] = x[i] + k * (grad[i] - y[i])
+        pinv = A[0, i] * x0 + A[1, i] * x1 + A[2, i] * x2
+        proj = A[0, i] * y0 + A[1, i] * y1 + A[2, i] * y2
+        out[i] = pinv + k * (out[i] - proj)
 
 
 @njit
 def sgcmg_command(
     S0: np.ndarray, C0: np.ndarray, steer: int, sp: np.ndarray, rate_limit: float,
     u: np.ndarray, w: np.ndarray, delta: np.ndarray, t: float,
-    dd_out: np.ndarray, hd_out: np.ndarray,
+    dd_out: np.ndarray, hd_out: np.ndarray, A: np.ndarray,
 ) -> bool:  # fmt: skip
-    # the unit momenta (null-motion law) are S0/h0, C0/h0; passed pre-divided in sp[8:]
     """The SGCMG cluster's hardware command: ḣ_cmd = −(ω × h(δ) + u), δ̇ = steering(A(δ), ḣ_cmd),
-    scaled down uniformly to the gimbal-rate limit. Returns whether it was scaled."""
-    A = np.empty((3, S0.shape[1]))
+    scaled down uniformly to the gimbal-rate limit. Returns whether it was scaled. ``A (3, n)``
+    is scratch space for the Jacobian; the null-motion law's unit momenta follow its three
+    parameters in ``sp[8:]``."""
     h0, h1, h2 = cmg_momentum_jacobian(S0, C0, delta, A)
     w0, w1, w2 = w[0], w[1], w[2]
     q0 = -((w1 * h2 - w2 * h1) + u[0])
@@ -329,10 +369,20 @@ def actuator_torque(
 def _field(
     act: int, J: np.ndarray, Jinv: np.ndarray, S0: np.ndarray, C0: np.ndarray,
     dist: int, dp: np.ndarray, t: float, x: np.ndarray, held: np.ndarray, xdot: np.ndarray,
+    sn: np.ndarray, cs: np.ndarray, trig: bool,
 ) -> None:  # fmt: skip
-    """ẋ of the packed state x = (ω, x_act) for a held actuator command."""
+    """ẋ of the packed state x = (ω, x_act) for a held actuator command. SGCMG: ``sn``, ``cs``
+    hold sin and cos of the gimbal angles x[3:], computed here when ``trig`` is set (the RK
+    stages 2 and 3 share their angles: x + h/2 δ̇ with the same held δ̇)."""
     w0, w1, w2 = x[0], x[1], x[2]
-    t0, t1, t2 = actuator_torque(act, S0, C0, w0, w1, w2, x[3:], held)
+    if act == ACT_SGCMG:
+        if trig:
+            for i in range(held.shape[0]):
+                sn[i] = math.sin(x[3 + i])
+                cs[i] = math.cos(x[3 + i])
+        t0, t1, t2 = cmg_bus_torque_trig(S0, C0, w0, w1, w2, sn, cs, held)
+    else:
+        t0, t1, t2 = held[0], held[1], held[2]
     d0, d1, d2 = disturbance_at(dist, dp, t)
     a0, a1, a2 = rigid_acceleration(J, Jinv, w0, w1, w2, t0 + d0, t1 + d1, t2 + d2)
     xdot[0] = a0
@@ -347,46 +397,49 @@ def _field(
 def rkmk4_step(
     act: int, J: np.ndarray, Jinv: np.ndarray, S0: np.ndarray, C0: np.ndarray,
     dist: int, dp: np.ndarray, t: float, R: np.ndarray, x: np.ndarray, held: np.ndarray,
-    h: float, R_out: np.ndarray, x_out: np.ndarray,
+    h: float, R_out: np.ndarray, x_out: np.ndarray, work: np.ndarray,
 ) -> None:  # fmt: skip
     """One RKMK4 step of one rigid spacecraft on SO(3) × ℝⁿ (Munthe-Kaas 1998): the classical
     RK4 tableau on the chart θ with dexp⁻¹ truncated at fourth order; R_{k+1} = R exp(h/6 (K₁ +
-    2K₂ + 2K₃ + K₄)). The time-only disturbances do not read the stage attitudes."""
+    2K₂ + 2K₃ + K₄)). The time-only disturbances do not read the stage attitudes. ``work``
+    (≥ 7n) is scratch space."""
     n = x.shape[0]
     h2 = 0.5 * h
-    d1 = np.empty(n)
-    d2 = np.empty(n)
-    d3 = np.empty(n)
-    d4 = np.empty(n)
-    xs = np.empty(n)
-    _field(act, J, Jinv, S0, C0, dist, dp, t, x, held, d1)
+    d1 = work[0:n]
+    d2 = work[n : 2 * n]
+    d3 = work[2 * n : 3 * n]
+    d4 = work[3 * n : 4 * n]
+    xs = work[4 * n : 5 * n]
+    sn = work[5 * n : 6 * n]
+    cs = work[6 * n : 7 * n]
+    _field(act, J, Jinv, S0, C0, dist, dp, t, x, held, d1, sn, cs, True)
     a0, a1, a2 = x[0], x[1], x[2]
     u0, u1, u2 = h2 * a0, h2 * a1, h2 * a2
     for i in range(n):
         xs[i] = x[i] + h2 * d1[i]
-    _field(act, J, Jinv, S0, C0, dist, dp, t + h2, xs, held, d2)
+    _field(act, J, Jinv, S0, C0, dist, dp, t + h2, xs, held, d2, sn, cs, True)
     b0, b1, b2 = dexpinv_rkmk4(u0, u1, u2, xs[0], xs[1], xs[2])
     u0, u1, u2 = h2 * b0, h2 * b1, h2 * b2
     for i in range(n):
         xs[i] = x[i] + h2 * d2[i]
-    _field(act, J, Jinv, S0, C0, dist, dp, t + h2, xs, held, d3)
+    # stage 3 has stage 2's gimbal angles bitwise (ẋ_act = held δ̇ in both): reuse sin/cos
+    _field(act, J, Jinv, S0, C0, dist, dp, t + h2, xs, held, d3, sn, cs, False)
     c0, c1, c2 = dexpinv_rkmk4(u0, u1, u2, xs[0], xs[1], xs[2])
     u0, u1, u2 = h * c0, h * c1, h * c2
     for i in range(n):
         xs[i] = x[i] + h * d3[i]
-    _field(act, J, Jinv, S0, C0, dist, dp, t + h, xs, held, d4)
+    _field(act, J, Jinv, S0, C0, dist, dp, t + h, xs, held, d4, sn, cs, True)
     e0, e1, e2 = dexpinv_rkmk4(u0, u1, u2, xs[0], xs[1], xs[2])
     h6 = h / 6.0
     for i in range(n):
         x_out[i] = x[i] + (((d2[i] + d3[i]) * 2.0 + d1[i]) + d4[i]) * h6
-    E = np.empty((3, 3))
-    exp_into(
+    right_multiply_exp_into(
+        R,
         h6 * (a0 + 2.0 * (b0 + c0) + e0),
         h6 * (a1 + 2.0 * (b1 + c1) + e1),
         h6 * (a2 + 2.0 * (b2 + c2) + e2),
-        E,
+        R_out,
     )
-    matmul3_into(R, E, R_out)
 
 
 @njit
@@ -397,11 +450,13 @@ def rkmk4_step_batch(
 ) -> None:  # fmt: skip
     """:func:`rkmk4_step` over a batch (``J``, ``Jinv`` ``(1, 3, 3)`` shared or ``(B, 3, 3)``)."""
     shared = J.shape[0] == 1
+    work = np.empty(7 * x.shape[1])
     for b in range(R.shape[0]):
         k = 0 if shared else b
         rkmk4_step(
-            act, J[k], Jinv[k], S0, C0, dist, dp, t, R[b], x[b], held[b], h, R_out[b], x_out[b]
-        )
+            act, J[k], Jinv[k], S0, C0, dist, dp, t, R[b], x[b], held[b], h, R_out[b], x_out[b],
+            work,
+        )  # fmt: skip
 
 
 @njit
@@ -411,9 +466,10 @@ def sgcmg_command_batch(
     dd_out: np.ndarray, hd_out: np.ndarray, sat_out: np.ndarray,
 ) -> None:  # fmt: skip
     """:func:`sgcmg_command` over a batch."""
+    A = np.empty((3, S0.shape[1]))
     for b in range(u.shape[0]):
         sat_out[b] = sgcmg_command(
-            S0, C0, steer, sp, rate_limit, u[b], w[b], delta[b], t, dd_out[b], hd_out[b]
+            S0, C0, steer, sp, rate_limit, u[b], w[b], delta[b], t, dd_out[b], hd_out[b], A
         )
 
 

@@ -401,3 +401,31 @@ def test_kernels_never_see_unvalidated_input():
     with pytest.raises(ValueError, match="^A"):
         SingularityRobust()(np.full((3, 4), np.nan), np.zeros(3))
     assert K.ACT_SGCMG != K.ACT_IDEAL
+
+
+# ------------------------------------------------------------------------- MRP PD adapter
+@pytest.mark.parametrize("feedforward", ["gyroscopic", "reference", "none"])
+def test_mrp_pd_kernel_equals_the_adapter_route_through_shadow_switches(feedforward, monkeypatch):
+    """The compiled MrpPD (chart conversion + law) against the generic adapter route (a
+    subclass takes it), on runs that cross 180° so that the shadow set switches."""
+    from liecontrol.control import MrpPD
+
+    class AdapterRoute(MrpPD):
+        """A subclass: MrpPD's numpy adapter route."""
+
+    plant = Spacecraft(RigidBody(J), IdealTorqueActuator())
+    B = 3
+    R0 = so3.exp(np.array([[0.0, 0.0, 3.0], [0.0, 3.05, 0.0], [1.7, 1.7, 1.0]]))
+    w0 = np.array([[0.0, 0.0, 0.08], [0.0, 0.06, 0.0], [0.02, 0.02, 0.05]])
+    x0 = plant.initial_state(R0, w0)
+    ref = ConstantAttitude(np.eye(3))
+    args = (ref, x0, 120.0, 0.1)
+    fast = MrpPD(J, 40.0, 900.0, feedforward=feedforward)
+    slow = AdapterRoute(J, 40.0, 900.0, feedforward=feedforward)
+    a = simulate(plant, fast, *args, control_period=0.2)
+    b = simulate(plant, slow, *args, control_period=0.2)
+    assert slow.n_switches > 0 and fast.n_switches == slow.n_switches
+    _assert_same_result(a, b)
+    c = _python_loop(monkeypatch, plant, MrpPD(J, 40.0, 900.0, feedforward=feedforward),
+                     *args, control_period=0.2)  # fmt: skip
+    _assert_same_result(a, c)

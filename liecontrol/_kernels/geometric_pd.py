@@ -12,8 +12,8 @@ import math
 
 import numpy as np
 
-from .._jit import njit, prange
-from .so3 import log_of, matvec3
+from .._jit import njit
+from .so3 import log9, matvec3
 
 #: error-function codes of the kernel
 ERROR_CODES = {"large_angle": 0, "log": 1, "trace": 2}
@@ -45,23 +45,34 @@ def geometric_pd_one(
 ) -> None:
     """Torque ``M_out (3,)`` and diagnostics ``diag_out (7,) = (Ψ, e_R, e_Ω)`` of one spacecraft.
     ``J``, ``kR``, ``kW``, ``G`` are 3×3 (scalar gains as multiples of I)."""
-    T = np.empty((3, 3))  # Rᵀ R_d = R̃ᵀ
-    for i in range(3):
-        for j in range(3):
-            T[i, j] = R[0, i] * R_d[0, j] + R[1, i] * R_d[1, j] + R[2, i] * R_d[2, j]
+    # T = Rᵀ R_d = R̃ᵀ, entries tij (scalars: no allocation on the hot path)
+    t00 = R[0, 0] * R_d[0, 0] + R[1, 0] * R_d[1, 0] + R[2, 0] * R_d[2, 0]
+    t01 = R[0, 0] * R_d[0, 1] + R[1, 0] * R_d[1, 1] + R[2, 0] * R_d[2, 1]
+    t02 = R[0, 0] * R_d[0, 2] + R[1, 0] * R_d[1, 2] + R[2, 0] * R_d[2, 2]
+    t10 = R[0, 1] * R_d[0, 0] + R[1, 1] * R_d[1, 0] + R[2, 1] * R_d[2, 0]
+    t11 = R[0, 1] * R_d[0, 1] + R[1, 1] * R_d[1, 1] + R[2, 1] * R_d[2, 1]
+    t12 = R[0, 1] * R_d[0, 2] + R[1, 1] * R_d[1, 2] + R[2, 1] * R_d[2, 2]
+    t20 = R[0, 2] * R_d[0, 0] + R[1, 2] * R_d[1, 0] + R[2, 2] * R_d[2, 0]
+    t21 = R[0, 2] * R_d[0, 1] + R[1, 2] * R_d[1, 1] + R[2, 2] * R_d[2, 1]
+    t22 = R[0, 2] * R_d[0, 2] + R[1, 2] * R_d[1, 2] + R[2, 2] * R_d[2, 2]
     if error == 2:
-        # (G R̃)_ij = Σ_m G_im R̃_mj, R̃_mj = T_jm
-        GR = np.empty((3, 3))
-        for i in range(3):
-            for j in range(3):
-                GR[i, j] = G[i, 0] * T[j, 0] + G[i, 1] * T[j, 1] + G[i, 2] * T[j, 2]
-        psi = (G[0, 0] + G[1, 1] + G[2, 2]) - (GR[0, 0] + GR[1, 1] + GR[2, 2])
-        e0 = 0.5 * (GR[2, 1] - GR[1, 2])
-        e1 = 0.5 * (GR[0, 2] - GR[2, 0])
-        e2 = 0.5 * (GR[1, 0] - GR[0, 1])
+        # (G R̃)_ij = Σ_m G_im R̃_mj with R̃_mj = T_jm; only the diagonal and the skew part used
+        g00 = G[0, 0] * t00 + G[0, 1] * t01 + G[0, 2] * t02
+        g11 = G[1, 0] * t10 + G[1, 1] * t11 + G[1, 2] * t12
+        g22 = G[2, 0] * t20 + G[2, 1] * t21 + G[2, 2] * t22
+        g01 = G[0, 0] * t10 + G[0, 1] * t11 + G[0, 2] * t12
+        g02 = G[0, 0] * t20 + G[0, 1] * t21 + G[0, 2] * t22
+        g10 = G[1, 0] * t00 + G[1, 1] * t01 + G[1, 2] * t02
+        g12 = G[1, 0] * t20 + G[1, 1] * t21 + G[1, 2] * t22
+        g20 = G[2, 0] * t00 + G[2, 1] * t01 + G[2, 2] * t02
+        g21 = G[2, 0] * t10 + G[2, 1] * t11 + G[2, 2] * t12
+        psi = (G[0, 0] + G[1, 1] + G[2, 2]) - (g00 + g11 + g22)
+        e0 = 0.5 * (g21 - g12)
+        e1 = 0.5 * (g02 - g20)
+        e2 = 0.5 * (g10 - g01)
     else:
-        Rt = T.T.copy()
-        p0, p1, p2 = log_of(Rt)
+        # R̃ = Tᵀ: entry (i, j) is tji
+        p0, p1, p2 = log9(t00, t10, t20, t01, t11, t21, t02, t12, t22)
         sq = p0 * p0 + p1 * p1 + p2 * p2
         if error == 1:
             psi = 0.5 * sq
@@ -75,8 +86,14 @@ def geometric_pd_one(
                 psi = 2.0 - 2.0 * math.cos(0.5 * th)
             hs = half_sinc(th)
             e0, e1, e2 = hs * p0, hs * p1, hs * p2
-    wb0, wb1, wb2 = matvec3(T, w_d[0], w_d[1], w_d[2])
-    db0, db1, db2 = matvec3(T, dw_d[0], dw_d[1], dw_d[2])
+    a0, a1, a2 = w_d[0], w_d[1], w_d[2]
+    wb0 = t00 * a0 + t01 * a1 + t02 * a2
+    wb1 = t10 * a0 + t11 * a1 + t12 * a2
+    wb2 = t20 * a0 + t21 * a1 + t22 * a2
+    a0, a1, a2 = dw_d[0], dw_d[1], dw_d[2]
+    db0 = t00 * a0 + t01 * a1 + t02 * a2
+    db1 = t10 * a0 + t11 * a1 + t12 * a2
+    db2 = t20 * a0 + t21 * a1 + t22 * a2
     x0, x1, x2 = w[0], w[1], w[2]
     E0, E1, E2 = x0 - wb0, x1 - wb1, x2 - wb2
     j0, j1, j2 = matvec3(J, x0, x1, x2)
@@ -101,7 +118,7 @@ def geometric_pd_one(
     diag_out[6] = E2
 
 
-@njit(parallel=True)
+@njit
 def geometric_pd_batch(
     error: int,
     J: np.ndarray,
@@ -118,7 +135,7 @@ def geometric_pd_batch(
 ) -> None:
     """:func:`geometric_pd_one` over a batch: ``R (B, 3, 3)``, ``w (B, 3)``; the reference
     arrays are ``(B, ...)`` (one sample broadcast by the caller)."""
-    for b in prange(R.shape[0]):
+    for b in range(R.shape[0]):
         geometric_pd_one(
             error, J, kR, kW, G, R[b], w[b], R_d[b], w_d[b], dw_d[b], M_out[b], diag_out[b]
         )

@@ -9,23 +9,21 @@ import numpy as np
 
 from .._jit import njit
 
-#: θ/2 floor in exp: sin(x)/x is exactly 1 below it in float64
-_TINY = 1e-20
+#: θ/2 floor in exp (avoids 0/0 at θ = 0; sin(x)/x is exactly 1 for tiny x)
+_TINY = 1e-300
 #: below this cos θ, log takes the axis from the symmetric part (as liecontrol.lie.so3.log)
 LOG_SYMMETRIC_COS = -0.999
 
 
 @njit
-def exp_into(w0: float, w1: float, w2: float, out: np.ndarray) -> None:
-    """``out (3, 3) = exp(w^)``, Rodrigues in the half-angle form
+def exp9(w0: float, w1: float, w2: float) -> tuple[float, ...]:
+    """Entries (row-major) of exp(w^), Rodrigues in the half-angle form
     R = I + a w^ + b w^², a = sin θ/θ, b = (1 − cos θ)/θ² = ½ (sin(θ/2)/(θ/2))²,
-    accurate for every θ (no cancellation near 0). Non-finite w gives an all-NaN matrix."""
+    accurate for every θ (no cancellation near 0). Non-finite w gives NaN entries."""
     a2 = w0 * w0 + w1 * w1 + w2 * w2
     if not a2 < math.inf:
-        for i in range(3):
-            for j in range(3):
-                out[i, j] = math.nan
-        return
+        n = math.nan
+        return n, n, n, n, n, n, n, n, n
     half = max(0.5 * math.sqrt(a2), _TINY)
     q = math.sin(half) / half
     a = q * math.cos(half)
@@ -39,49 +37,68 @@ def exp_into(w0: float, w1: float, w2: float, out: np.ndarray) -> None:
     ax = a * w0
     ay = a * w1
     az = a * w2
-    out[0, 0] = c + bx * w0
-    out[0, 1] = bxy - az
-    out[0, 2] = bxz + ay
-    out[1, 0] = bxy + az
-    out[1, 1] = c + by * w1
-    out[1, 2] = byz - ax
-    out[2, 0] = bxz - ay
-    out[2, 1] = byz + ax
-    out[2, 2] = c + b * w2 * w2
+    return (
+        c + bx * w0, bxy - az, bxz + ay,
+        bxy + az, c + by * w1, byz - ax,
+        bxz - ay, byz + ax, c + b * w2 * w2,
+    )  # fmt: skip
+
+
+@njit
+def exp_into(w0: float, w1: float, w2: float, out: np.ndarray) -> None:
+    """``out (3, 3) = exp(w^)`` (:func:`exp9`)."""
+    e = exp9(w0, w1, w2)
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = e[3 * i + j]
+
+
+@njit
+def right_multiply_exp_into(
+    R: np.ndarray, w0: float, w1: float, w2: float, out: np.ndarray
+) -> None:
+    """``out = R exp(w^)`` (out must not alias R)."""
+    e = exp9(w0, w1, w2)
+    for i in range(3):
+        r0, r1, r2 = R[i, 0], R[i, 1], R[i, 2]
+        out[i, 0] = r0 * e[0] + r1 * e[3] + r2 * e[6]
+        out[i, 1] = r0 * e[1] + r1 * e[4] + r2 * e[7]
+        out[i, 2] = r0 * e[2] + r1 * e[5] + r2 * e[8]
 
 
 @njit
 def log_of(R: np.ndarray) -> tuple[float, float, float]:
-    """Rotation vector of one rotation ``R (3, 3)`` (θ ∈ [0, π]): θ/(2 sin θ) (R − Rᵀ)^∨ with
-    θ = atan2(sin θ, cos θ) for cos θ ≥ −0.999; nearer π the axis from the symmetric part,
+    """Rotation vector of one rotation ``R (3, 3)``; see :func:`log9`."""
+    return log9(R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2])
+
+
+@njit
+def log9(
+    m00: float, m01: float, m02: float, m10: float, m11: float, m12: float,
+    m20: float, m21: float, m22: float,
+) -> tuple[float, float, float]:  # fmt: skip
+    """Rotation vector (θ ∈ [0, π]) of the rotation with entries ``mij``: θ/(2 sin θ) (R − Rᵀ)^∨
+    with θ = atan2(sin θ, cos θ) for cos θ ≥ −0.999; nearer π the axis from the symmetric part,
     (R + Rᵀ)/2 − cos θ I = (1 − cos θ) n nᵀ (its column with the largest diagonal entry), the
     sign from (R − Rᵀ)^∨."""
-    v0 = R[2, 1] - R[1, 2]
-    v1 = R[0, 2] - R[2, 0]
-    v2 = R[1, 0] - R[0, 1]
+    v0 = m21 - m12
+    v1 = m02 - m20
+    v2 = m10 - m01
     s = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2) * 0.5
-    c = (R[0, 0] + R[1, 1] + R[2, 2] - 1.0) * 0.5
+    c = (m00 + m11 + m22 - 1.0) * 0.5
     theta = math.atan2(s, c)
     if c >= LOG_SYMMETRIC_COS:
         k = 0.5 if s == 0.0 else theta / (s + s)
         return v0 * k, v1 * k, v2 * k
-    d0 = R[0, 0] - c
-    d1 = R[1, 1] - c
-    d2 = R[2, 2] - c
-    k = 0
-    if d1 > d0:
-        k = 1
-    if d2 > (d1 if k == 1 else d0):
-        k = 2
-    c0 = 0.5 * (R[0, k] + R[k, 0])
-    c1 = 0.5 * (R[1, k] + R[k, 1])
-    c2 = 0.5 * (R[2, k] + R[k, 2])
-    if k == 0:
-        c0 = d0
-    elif k == 1:
-        c1 = d1
+    d0 = m00 - c
+    d1 = m11 - c
+    d2 = m22 - c
+    if d0 >= d1 and d0 >= d2:
+        c0, c1, c2 = d0, 0.5 * (m10 + m01), 0.5 * (m20 + m02)
+    elif d1 >= d2:
+        c0, c1, c2 = 0.5 * (m01 + m10), d1, 0.5 * (m21 + m12)
     else:
-        c2 = d2
+        c0, c1, c2 = 0.5 * (m02 + m20), 0.5 * (m12 + m21), d2
     norm = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
     sign = -1.0 if (c0 * v0 + c1 * v1 + c2 * v2) < 0.0 else 1.0
     f = sign * theta / norm

@@ -46,10 +46,25 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._kernels.mrp_pd import FEEDFORWARD_CODES, mrp_pd_batch
 from .._linalg import cross as _cross
-from .._validation import check_inertia_3x3
+from .._validation import (
+    as_array,
+    as_scalar,
+    check_inertia_3x3,
+    check_rotation_matrix,
+    rotations_pass_fast,
+)
 from .adapters import ChartState, MrpChartAdapter, QuaternionChartAdapter
-from .geometric_pd import _apply_gain, check_gain
+from .base import AttitudeReference, AttitudeState, check_state_batch, finite_command
+from .geometric_pd import (
+    GeometricPD,
+    _apply_gain,
+    _as_matrix,
+    _batch,
+    _vectors_pass,
+    check_gain,
+)
 
 __all__ = ["QuaternionPD", "MrpPD", "QuaternionPDLaw", "MrpPDLaw", "MRP_FEEDFORWARDS"]
 
@@ -190,3 +205,69 @@ class MrpPD(MrpChartAdapter):
         super().__init__(
             MrpPDLaw(J, K, P, feedforward=feedforward), base="reference", threshold=threshold
         )
+        law = self.law
+        # the compiled kernel's arguments (liecontrol._kernels.mrp_pd)
+        self._kargs = (
+            FEEDFORWARD_CODES[law.feedforward],
+            float(self.threshold) ** 2,
+            np.ascontiguousarray(law.J, dtype=np.float64),
+            _as_matrix(law.K),
+            _as_matrix(law.P),
+        )
+        self._checked_R_d = None
+
+    def _kernel_applies(self) -> bool:
+        """The compiled route: this law, the desired frame as base (not a subclass, nor a law
+        or base swapped in after construction)."""
+        return type(self) is MrpPD and type(self.law) is MrpPDLaw and self.base == "reference"
+
+    def command(self, t: float, state: AttitudeState, reference: AttitudeReference) -> np.ndarray:
+        """Body torque ``(B, 3)`` [N·m]: the chart conversion and the law in one compiled kernel
+        per spacecraft (same arithmetic as the adapter's numpy route, which subclasses use)."""
+        if not self._kernel_applies():
+            return super().command(t, state, reference)
+        if self._batch is None:
+            raise RuntimeError("MrpPD.command: call reset(t0, batch_size) first")
+        as_scalar(t, "t")
+        R, w = state.R, state.omega
+        # the simulator's own (validated) arrays pass the cheap checks; anything else is
+        # validated in full
+        if not (
+            isinstance(R, np.ndarray)
+            and R.ndim == 3
+            and _vectors_pass(w, (R.shape[0], 3))
+            and rotations_pass_fast(R)
+        ):
+            R = check_rotation_matrix(R, "R")
+            w = as_array(w, "omega", (3,))
+        B = check_state_batch(R, w, self._batch)
+        R_d, w_d, dw_d = GeometricPD._reference_arrays(self, reference, B)  # type: ignore[arg-type]
+        has_prev = self._p_prev is not None
+        p = self._p_prev if has_prev else np.zeros((B, 3))
+        p = np.ascontiguousarray(p, dtype=np.float64).copy()
+        u = np.empty((B, 3))
+        diag = np.empty((B, 7))
+        ff, thr2, J, K, P = self._kargs
+        self.n_switches += mrp_pd_batch(
+            ff, thr2, J, K, P, np.ascontiguousarray(R, dtype=np.float64),
+            np.ascontiguousarray(w, dtype=np.float64),
+            _batch(R_d, (B, 3, 3)), _batch(w_d, (B, 3)), _batch(dw_d, (B, 3)),
+            has_prev, p, u, diag,
+        )  # fmt: skip
+        self._set_kernel_state(diag, p)
+        return finite_command(u, w)
+
+    def _kernel_args(self) -> tuple:
+        """``(feed-forward code, threshold², J, K, P)`` of the compiled kernel."""
+        return self._kargs
+
+    def _set_kernel_state(self, diag: np.ndarray, p: np.ndarray) -> None:
+        """Chart memory and diagnostics from the kernel's σ ``p (B, 3)`` and ``(B, 7)`` rows."""
+        B = p.shape[0]
+        self._p_prev = p.copy()
+        self._pd_prev = np.zeros((B, 3))
+        self._diag = {
+            "chart_y": p.copy(),
+            "chart_y_d": np.zeros((B, 3)),
+            "chart_switched": diag[:, 3] != 0.0,
+        }
