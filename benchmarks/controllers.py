@@ -523,6 +523,38 @@ def _integral_pd(ctx: ControllerContext) -> Any:
     return IntegralPD(ctx.J, **tune_integral_pd(ctx.J, spec), integral_limit=INTEGRAL_LIMIT)
 
 
+#: Radius of the adaptive law's disturbance-coefficient ball [N·m]: 1.5× the norm of the
+#: constant + harmonic coefficients of the ADRC paper's disturbance (≈ 0.0995 N·m), which the
+#: ball must contain. The ball also caps the estimate's excursion during a slew (∫s dt there is
+#: ~ the slew angle), whose unwinding otherwise dominates the slew's settling: measured on the
+#: quick suite, 0.3 N·m left slew-90 at 0.24-0.39° after 600 s, 0.15 N·m settles it.
+ADAPTIVE_DISTURBANCE_BOUND = 0.15
+#: Disturbance pole of the adaptive law at −0.25 ω_n (the largest that keeps k_R > 0 at ζ = 0.9
+#: is ≈ 0.27): at −0.1 ω_n the estimate's slow unwinding left step-5 at 0.27° after 400 s.
+ADAPTIVE_INTEGRAL_RATIO = 0.25
+
+
+def _adaptive_so3(ctx: ControllerContext) -> Any:
+    """AdaptiveGeometricSO3 (large-angle error): inertia + constant/orbit-rate-harmonic
+    disturbance estimated online, disturbance pole at −ω_n/4."""
+    from liecontrol.control.adaptive import AdaptiveGeometricSO3
+    from liecontrol.control.tuning import tune_adaptive_so3
+    from spacecraft.disturbances import ConstantHarmonicTorque
+
+    spec, _ = tuned_spec(ctx)
+    # the known frequencies: the catalogue's harmonic disturbance at the orbit rate n and 2n
+    n = ConstantHarmonicTorque().n
+    kw = tune_adaptive_so3(
+        ctx.J,
+        spec,
+        disturbance_bound=ADAPTIVE_DISTURBANCE_BOUND,
+        frequencies=(n, 2.0 * n),
+        integral_ratio=ADAPTIVE_INTEGRAL_RATIO,
+        error="large_angle",
+    )
+    return AdaptiveGeometricSO3(ctx.J, **kw)
+
+
 def _prescribed_performance(ctx: ControllerContext) -> Any:
     """PrescribedPerformance: funnel ρ_∞ = 0.002, 3× the initial error, decaying at ζω_n/4."""
     from liecontrol.control.prescribed_performance import PrescribedPerformance
@@ -602,6 +634,40 @@ def _tsm(ctx: ControllerContext) -> Any:
     return TerminalSlidingModeSO3(ctx.J, **tune_euler_tsm(ctx.J, spec), base="reference")
 
 
+def _finite_time(fixed: bool) -> ControllerFactory:
+    def make(ctx: ControllerContext) -> Any:
+        from liecontrol.control.finite_time import FiniteTimeSO3, FixedTimeSO3
+        from liecontrol.control.tuning import tune_finite_time_so3
+
+        spec, _ = tuned_spec(ctx)
+        cls = FixedTimeSO3 if fixed else FiniteTimeSO3
+        return cls(ctx.J, **tune_finite_time_so3(ctx.J, spec, fixed_time=fixed))
+
+    make.__doc__ = (
+        f"{'FixedTimeSO3' if fixed else 'FiniteTimeSO3'}: nonsingular fast terminal sliding mode "
+        "on Lee's large-angle SO(3) error, small-angle poles at the spec"
+    )
+    return make
+
+
+#: Upper bound of the fault-tolerant law's disturbance-bound estimate β̂ [N·m]: the catalogue's
+#: constant + harmonic torque (≈ 0.1 N·m) plus the fault family's 1 mrad/s gimbal-rate bias
+#: (≈ 0.3 N·m on a 300 N·m·s rotor), with margin.
+FAULT_TOLERANT_BETA_MAX = 0.5
+
+
+def _fault_tolerant(ctx: ControllerContext) -> Any:
+    """AdaptiveFaultTolerantSO3: sliding law on the SO(3) log error with adaptive effectiveness
+    and disturbance bound; small-angle poles −1.15 ω_n, −ω_n/1.15."""
+    from liecontrol.control.fault_tolerant import AdaptiveFaultTolerantSO3, fault_tolerant_gains
+
+    spec, _ = tuned_spec(ctx)
+    kw = fault_tolerant_gains(
+        ctx.J, spec.omega_n, spec.sample_period, beta_max=FAULT_TOLERANT_BETA_MAX
+    )
+    return AdaptiveFaultTolerantSO3(ctx.J, **kw)
+
+
 def _payload_pid_ff(ctx: ControllerContext) -> Any:
     """SmallAnglePIDWithFeedforward (Wang, Chu, Zhang & Yuan): Euler PID + payload feed-forward.
 
@@ -670,6 +736,7 @@ def _register_builtins() -> None:
         quick=False,
     )
     register("prescribed-performance", _prescribed_performance, family="geometric")
+    register("adaptive-so3", _adaptive_so3, family="geometric", quick=False)
     register("mpc-osqp", _mpc, batched=False, family="mpc")
     register(
         "mpc-keep-out",
@@ -689,7 +756,12 @@ def _register_builtins() -> None:
             quick=mode == "continuous",
         )
     register("mrp-pd", _mrp_pd, family="chart")
+    # adaptive fault-tolerant sliding law on SO(3): full suite only
+    register("fault-tolerant-so3", _fault_tolerant, family="geometric", quick=False)
     register("euler-tsm", _tsm, family="chart")
+    # finite/fixed-time sliding mode on SO(3): full suite only (the quick suite stays as it is)
+    register("finite-time-so3", _finite_time(False), family="geometric", quick=False)
+    register("fixed-time-so3", _finite_time(True), family="geometric", quick=False)
     register(
         "payload-pid-ff",
         _payload_pid_ff,

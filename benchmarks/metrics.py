@@ -221,6 +221,7 @@ class Metrics:
     min_keep_in_margin_deg: np.ndarray
     peak_momentum_fraction: np.ndarray
     final_momentum_fraction: np.ndarray
+    stop_contact_time_s: np.ndarray
 
     @property
     def batch_size(self) -> int:
@@ -270,6 +271,7 @@ UNITS: dict[str, str] = {
     "min_keep_in_margin_deg": "deg",
     "peak_momentum_fraction": "-",
     "final_momentum_fraction": "-",
+    "stop_contact_time_s": "s",
 }
 
 #: Units of the quantities the runner adds to a run's metrics (SE(3) runs, timing).
@@ -318,6 +320,7 @@ DESCRIPTIONS: dict[str, str] = {
     "peak_momentum_fraction": "max over time of the stored momentum over the actuator's "
     "envelope in its direction (SGCMG: ‖h‖/σ(ĥ); wheels: max |Ω_i|/Ω_max)",
     "final_momentum_fraction": "the same at the last sample",
+    "stop_contact_time_s": "time with a gimbal at a gimbal-angle stop (full CMG model)",
     "controller_time_us": "mean wall time of one controller call per spacecraft",
     "sim_wall_time_s": "wall time of the simulation the run was batched in",
     "final_position_error_m": "SE(3): ‖p − p_d‖ at the last sample",
@@ -567,6 +570,7 @@ def compute_metrics(
         min_keep_in_margin_deg=margins["keep_in"],
         peak_momentum_fraction=np.asarray(peak_mfrac, dtype=np.float64),
         final_momentum_fraction=np.asarray(final_mfrac, dtype=np.float64),
+        stop_contact_time_s=_flag_time(t, _actuator_array(result, "stop_contact"), K, B),
     )
 
 
@@ -600,6 +604,7 @@ FLAGS: tuple[str, ...] = (
     "near-singular",
     "chattering",
     "constraint-violated",
+    "fault-injected",
     "exception",
 )
 #: Singularity measure below which a run is flagged ``near-singular``. m = √det(ÂÂᵀ) of the
@@ -665,8 +670,12 @@ def judge(
     ``command_reversals`` ≥ :data:`CHATTER_REVERSALS` (20)         chattering              degraded
     ``min_keep_out_margin_deg`` or ``min_keep_in_margin_deg`` < 0  constraint-violated     failed
     (NaN: the scenario has no such cone — not checked)
+    the scenario injects actuator faults (``scenario.faults``)      fault-injected          (none)
     none of the above                                              —                       success
     ============================================================  ======================  =========
+
+    ``fault-injected`` is informational: it marks a run that met a fault without changing
+    its verdict (a faulty run that still meets every rule is a ``success``).
 
     So ``success`` needs every error channel of the scenario within its tolerance, no
     divergence, no unwinding, and no actuator limit or near-singularity on the way.
@@ -726,6 +735,7 @@ def judge(
     if any(_num(metrics, k) < 0.0 for k in ("min_keep_out_margin_deg", "min_keep_in_margin_deg")):
         flags.append("constraint-violated")
         failed = True
+    info = ("fault-injected",) if getattr(scenario, "faults", ()) else ()  # informational
     if failed:
-        return "failed", tuple(flags)
-    return ("degraded" if flags else "success"), tuple(flags)
+        return "failed", tuple(flags) + info
+    return ("degraded" if flags else "success"), tuple(flags) + info

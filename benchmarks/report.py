@@ -469,6 +469,16 @@ def _front_cell(result: SuiteResult, scenario: Any, front: list[str], axis: int)
     return names
 
 
+def _fault_text(scenario: Any) -> str:
+    """``""``, or the scenario's actuator faults for a figure title (time-history panels also
+    draw each fault time as a red dashed line)."""
+    faults = getattr(scenario, "faults", ())
+    if not faults:
+        return ""
+    parts = [f"{f.kind} unit {f.unit} at {f.time:g} s" for f in faults]
+    return "\nfault: " + "; ".join(parts) + " (red dashed)"
+
+
 def write_pareto_figure(result: SuiteResult, scenario: Any, path: Path) -> Path | None:
     """Performance vs control effort and vs peak actuator use for ``scenario``: one marker per
     controller (its colour and shape), filled for ``success``, hollow for ``degraded``, hollow
@@ -572,7 +582,9 @@ def write_pareto_figure(result: SuiteResult, scenario: Any, path: Path) -> Path 
         loc="outside right center",
         fontsize=7,
     )
-    fig.suptitle(f"{scenario.name}: Pareto view (lower-left is better)", fontsize=10)
+    fig.suptitle(
+        f"{scenario.name}: Pareto view (lower-left is better){_fault_text(scenario)}", fontsize=10
+    )
     return save_png(fig, path)
 
 
@@ -955,12 +967,14 @@ def write_figures(result: SuiteResult, fig_dir: Path) -> dict[str, Path]:
             ax.set_ylabel(label, fontsize=8)
             ax.set_xlabel("t [s]", fontsize=8)
             ax.grid(True, alpha=0.3)
+            for f in getattr(s, "faults", ()):  # the fault times (red dashed)
+                ax.axvline(f.time, color="tab:red", ls="--", lw=0.9)
         for ax in axes.flat[len(panels) :]:
             ax.set_visible(False)
         handles, labels = axes[0, 0].get_legend_handles_labels()
         if handles:
             fig.legend(handles, labels, loc="outside right center", fontsize=7)
-        fig.suptitle(f"{s.name}: {s.description}", fontsize=10)
+        fig.suptitle(f"{s.name}: {s.description}{_fault_text(s)}", fontsize=10)
         out[s.name] = save_png(fig, fig_dir / f"{s.name}.png")
         pareto = write_pareto_figure(result, s, fig_dir / f"{s.name}-pareto.png")
         if pareto is not None:

@@ -300,14 +300,26 @@ def _check_controller_like(obj: Any, name: str) -> None:
 
 def build_steering(spec: SpacecraftSpec, cluster: Any) -> Any:
     """Steering law named by ``spec.steering``: ``"pinv-null-motion"`` (Wu, Huang, Wei & Guo),
-    ``"pinv"``, ``"sr"`` (singularity-robust)."""
-    from spacecraft.steering import PseudoInverse, PseudoInverseNullMotion, SingularityRobust
+    ``"pinv"``, ``"sr"`` (singularity-robust), ``"gsr"`` (generalized SR, Wie),
+    ``"local-gradient"`` (null motion with step control), ``"sda"`` (singular-direction
+    avoidance, Ford & Hall); each with its default parameters."""
+    from spacecraft.steering import (
+        GeneralizedSingularityRobust,
+        LocalGradient,
+        PseudoInverse,
+        PseudoInverseNullMotion,
+        SingularDirectionAvoidance,
+        SingularityRobust,
+    )
 
     _need(spec, SpacecraftSpec, "spec")
     laws = {
         "pinv-null-motion": lambda: PseudoInverseNullMotion(cluster=cluster),
         "pinv": PseudoInverse,
         "sr": SingularityRobust,
+        "gsr": GeneralizedSingularityRobust,
+        "local-gradient": lambda: LocalGradient(cluster=cluster),
+        "sda": SingularDirectionAvoidance,
     }
     try:
         return laws[spec.steering]()
@@ -344,6 +356,11 @@ def build_actuator(spec: SpacecraftSpec) -> Any:
             wheel_inertia=spec.wheel_inertia,
             max_torque=spec.wheel_max_torque,
             max_speed=spec.wheel_max_speed,
+            coulomb_friction=spec.wheel_coulomb_friction,
+            viscous_friction=spec.wheel_viscous_friction,
+            stribeck_torque=spec.wheel_stribeck_torque,
+            stribeck_speed=spec.wheel_stribeck_speed,
+            torque_lsb=spec.wheel_torque_lsb,
         )
     return IdealTorqueActuator(max_torque=spec.max_torque)
 
@@ -554,8 +571,15 @@ class FilteredAttitude:
         from liecontrol.estimation import GyroAttitudeModel
 
         sp = self.spec
+        noise = sp.attitude_noise_rad
+        if sp.cross_boresight_arcsec is not None or sp.boresight_arcsec is not None:
+            # boresight model: the filter's isotropic σ_z is the worst axis (the roll)
+            noise = max(
+                sp.arcsec_to_rad(sp.cross_boresight_arcsec) or 0.0,
+                sp.arcsec_to_rad(sp.boresight_arcsec) or 0.0,
+            )
         # the filter needs positive noise levels even for a noiseless sensor
-        sigma_z = max(sp.attitude_noise_rad, 1e-7)
+        sigma_z = max(noise, 1e-7)
         return GyroAttitudeModel(
             sigma_v=max(sp.gyro_noise_density, 1e-9),
             sigma_u=sp.gyro_bias_rw,
@@ -582,12 +606,12 @@ class FilteredAttitude:
             ]
         else:
             dt = float(t) - float(self._t_last)
-            # a star-tracker sample held over several control samples is used once
-            fresh = self._z_last is None or not np.array_equal(z, self._z_last)
+            # a star-tracker sample held over several control samples (or through an outage of
+            # that spacecraft's tracker) is used once
             for b, f in enumerate(self._filters):
                 if dt > 0.0:
                     f.predict(w_meas[b], dt)
-                if fresh:
+                if self._z_last is None or not np.array_equal(z[b], self._z_last[b]):
                     f.update(z[b])
         self._t_last = float(t)
         self._z_last = z
@@ -621,19 +645,38 @@ def build_sensors(spec: SensorSpec) -> tuple[dict[str, Any], Any, np.random.Gene
     :class:`~benchmarks.scenarios.SensorSpec`: a quaternion star tracker and a rate gyro both
     sampled every ``spec.period``; the hook is :class:`spacecraft.simulator.StarTrackerGyro`
     (raw measurements) or :class:`FilteredAttitude`; ``rng = default_rng(spec.seed)``."""
-    from spacecraft.sensors import RateGyro, StarTracker
+    from spacecraft.sensors import RateGyro, StarTracker, TimedSensor
     from spacecraft.simulator import StarTrackerGyro
 
     _need(spec, SensorSpec, "spec")
+    boresight_model = spec.cross_boresight_arcsec is not None or spec.boresight_arcsec is not None
+    tracker: Any = StarTracker(
+        noise_std=0.0 if boresight_model else spec.attitude_noise_rad,
+        output="quaternion",
+        period=spec.period,
+        boresight=np.array(spec.boresight),
+        cross_boresight_std=spec.arcsec_to_rad(spec.cross_boresight_arcsec),
+        boresight_std=spec.arcsec_to_rad(spec.boresight_arcsec),
+    )
+    if spec.star_tracker_latency > 0 or spec.star_tracker_outages or spec.outage_rate > 0:
+        tracker = TimedSensor(
+            tracker,
+            latency=spec.star_tracker_latency,
+            outages=spec.star_tracker_outages,
+            outage_rate=spec.outage_rate,
+            outage_duration=spec.outage_duration,
+        )
     sensors = {
-        "star_tracker": StarTracker(
-            noise_std=spec.attitude_noise_rad, output="quaternion", period=spec.period
-        ),
+        "star_tracker": tracker,
         "gyro": RateGyro(
             noise_density=spec.gyro_noise_density,
             bias_rw_std=spec.gyro_bias_rw,
             initial_bias=np.array(spec.gyro_bias),
             period=spec.period,
+            scale_factor=np.array(spec.gyro_scale_factor),
+            misalignment=np.array(spec.gyro_misalignment),
+            quantization=spec.gyro_quantization,
+            bandwidth=spec.gyro_bandwidth,
         ),
     }
     hook: Any = StarTrackerGyro() if spec.estimator == "none" else FilteredAttitude(spec)
@@ -892,6 +935,10 @@ def _simulate_attitude(
         None if mm is None else mm.build(sc0.orbit),
         orbit=None if sc0.orbit is None else sc0.orbit.circular_orbit(),
     )
+    if sc0.faults:  # one batch shares its faults (Scenario.batch_key)
+        from spacecraft.faults import with_faults
+
+        plant = with_faults(plant, sc0.faults)  # steering told the lost units only
     groups = _members(pairs, infos)
     order = [i for _, idx in groups for i in idx]
     members, refs, sizes = [], [], []
@@ -914,6 +961,8 @@ def _simulate_attitude(
     if sc0.sensors is not None:
         sensors, hook, rng = build_sensors(sc0.sensors)
         sense = {"sensors": sensors, "measurement": hook, "rng": rng}
+        if sc0.sensors.compute_delay > 0:
+            sense["compute_delay"] = sc0.sensors.compute_delay
     t_start = time.perf_counter()
     result = simulate(
         plant,

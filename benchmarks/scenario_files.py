@@ -30,6 +30,8 @@ apply to every scenario (a scenario's own keys win)::
 
     [scenario.spacecraft]     # optional; preset = "sgcmg-bus" (default) or "payload-bus",
     preset = "sgcmg-bus"      #   then any SpacecraftSpec field: inertia, actuator, h0, ...
+                              # wheels: wheel_coulomb_friction, wheel_viscous_friction,
+                              #   wheel_stribeck_torque/_speed, wheel_torque_lsb
 
     [scenario.uncertainty]
     inertia_scale = [1.2, 1.2, 0.8]   # true principal moments = nominal × scale
@@ -42,6 +44,13 @@ apply to every scenario (a scenario's own keys win)::
     [scenario.sensors]        # optional: the controller sees sensors (SensorSpec fields)
     attitude_noise_arcsec = 10.0
     estimator = "mekf"        # none | mekf | ukf
+    cross_boresight_arcsec = 2.0     # boresight model instead of attitude_noise_arcsec,
+    boresight_arcsec = 16.0          #   roll about `boresight` = [0, 0, 1] (body axes)
+    star_tracker_latency = 0.1       # [s], a multiple of dt
+    star_tracker_outages = [[100.0, 120.0]]   # [s]; random: outage_rate [1/s], outage_duration
+    gyro_scale_factor = 1e-4         # also gyro_misalignment [rad], gyro_quantization [rad/s],
+    gyro_bandwidth = 20.0            #   gyro_bandwidth [Hz]
+    compute_delay = 0.1              # [s] measurement → actuation, a multiple of dt
 
     [[scenario.keep_out]]            # repeatable: a pointing cone to stay out of
     body_axis = [0.0, 0.0, 1.0]      # boresight, body axes
@@ -57,6 +66,13 @@ apply to every scenario (a scenario's own keys win)::
     kind = "magnetorquer"            # or "none" (thruster unloading is not modelled)
     max_dipole = 200.0               # A·m² per rod
     gain = 0.001                     # k [1/s] of m = k (Δh × B)/‖B‖² (spacecraft.momentum)
+
+    [[scenario.fault]]               # repeatable: an actuator fault (spacecraft.faults)
+    kind = "cmg-gimbal-stuck"        # or wheel-failed | actuator-efficiency | actuator-bias
+    unit = 2                         # 0-based gimbal / wheel / body axis; must exist
+    time = 100.0                     # [s], within [0, duration]
+    # efficiency = 0.5               # actuator-efficiency only, in [0, 1]
+    # bias = 0.001                   # actuator-bias only: rad/s (CMG), N·m (wheel, ideal)
 
 Angles may be given in radians (``rotvec``, ``rate``) or degrees (``rotvec_deg``, ``angle_deg``,
 ``rate_deg_s``). Every error names the file and the offending key, e.g.
@@ -130,7 +146,9 @@ _TOP_KEYS = (
     "keep_in",
     "orbit",
     "momentum_management",
+    "fault",
 )
+_FAULT_KEYS = ("kind", "unit", "time", "efficiency", "bias")
 _CONE_KEYS = ("body_axis", "inertial_direction", "half_angle_deg")
 
 
@@ -368,12 +386,49 @@ def _scenario(table: Any, defaults: Mapping[str, Any], where: str) -> Scenario:
         if k in t:
             fields = tuple(f.name for f in dataclasses.fields(cls))
             kw[k] = _construct(cls, dict(_check_keys(t[k], fields, f"{where}.{k}")), f"{where}.{k}")
+    if "fault" in t:
+        kw["faults"] = _faults(t["fault"], kw, f"{where}.fault")
     ref_t = t.get("reference")
     n_given = isinstance(ref_t, Mapping) and "n" in ref_t
     if "orbit" in kw and "reference" in kw and kw["reference"].kind == "earth-pointing":
         if not n_given:  # the Earth-pointing rate follows from the orbit unless set
             kw["reference"] = dataclasses.replace(kw["reference"], n=kw["orbit"].n)
     return _construct(Scenario, kw, where)
+
+
+def _faults(t: Any, kw: Mapping[str, Any], where: str) -> tuple:
+    """``[[scenario.fault]]`` tables → faults, checked against the scenario's actuator (the unit
+    must exist) and duration (the time must lie in the run)."""
+    from spacecraft.faults import check_faults, make_fault
+
+    items = t if isinstance(t, list) else [t]
+    out = []
+    for i, f in enumerate(items):
+        w = f"{where}[{i}]"
+        f = _check_keys(f, _FAULT_KEYS, w)
+        for k in ("kind", "unit", "time"):
+            if k not in f:
+                raise _Bad(f"{w}.{k}", "missing")
+        if isinstance(f["unit"], bool) or not isinstance(f["unit"], int):
+            raise _Bad(f"{w}.unit", f"expected an integer, got {f['unit']!r}")
+        args = {k: f[k] for k in ("efficiency", "bias") if k in f}
+        for k, v in args.items():
+            _number(v, f"{w}.{k}")
+        try:
+            out.append(make_fault(f["kind"], f["unit"], _number(f["time"], f"{w}.time"), **args))
+        except ValueError as exc:
+            head, _, rest = str(exc).partition(":")
+            raise _Bad(f"{w}.{head.strip()}", rest.strip()) from None
+    defaults = {x.name: x for x in dataclasses.fields(Scenario)}
+    sp = kw.get("spacecraft", defaults["spacecraft"].default_factory())
+    duration = kw.get("duration", defaults["duration"].default)
+    pyramid = sp.actuator == "wheels" and sp.wheel_layout == "pyramid"
+    n = 4 if sp.actuator == "sgcmg" or pyramid else 3
+    try:
+        return check_faults(out, sp.actuator, n, duration, name="fault")
+    except ValueError as exc:
+        head, _, rest = str(exc).partition(":")
+        raise _Bad(f"{where}{head.strip()[len('fault'):]}", rest.strip()) from None
 
 
 def _cones(t: Any, cls: type, where: str) -> tuple:
@@ -486,7 +541,9 @@ def scenario_to_dict(scenario: Scenario) -> dict[str, Any]:
     out["position_tolerance_m"] = s.position_tolerance_m
     if s.sensors is not None:
         out["sensors"] = {
-            f.name: _plain(getattr(s.sensors, f.name)) for f in dataclasses.fields(SensorSpec)
+            f.name: _plain(getattr(s.sensors, f.name))
+            for f in dataclasses.fields(SensorSpec)
+            if getattr(s.sensors, f.name) is not None  # TOML has no null: unset keys are left out
         }
     if s.control_period is not None:
         out["control_period"] = s.control_period
@@ -507,6 +564,8 @@ def scenario_to_dict(scenario: Scenario) -> dict[str, Any]:
         out["momentum_management"] = {
             f.name: getattr(mm, f.name) for f in dataclasses.fields(MomentumManagementSpec)
         }
+    if s.faults:
+        out["fault"] = [f.as_dict() for f in s.faults]
     if s.proximity is not None:
         out["proximity"] = {
             f.name: _plain(getattr(s.proximity, f.name))

@@ -80,6 +80,7 @@ from liecontrol._validation import (
     check_rotation_matrix,
 )
 from liecontrol.control.constrained import KeepInCone, KeepOutCone, check_admissible
+from spacecraft.faults import ActuatorFault, check_faults
 from spacecraft.momentum import CrossProductDumping, Magnetorquers
 from spacecraft.orbit import CircularOrbit
 
@@ -159,7 +160,9 @@ WHEEL_LAYOUTS: tuple[str, ...] = ("orthogonal", "pyramid")
 #: Actuator kinds a :class:`SpacecraftSpec` can name (also the plant tags of attitude scenarios).
 ACTUATORS: tuple[str, ...] = ("sgcmg", "wheels", "ideal")
 #: Steering laws a :class:`SpacecraftSpec` can name (:func:`benchmarks.runner.build_steering`).
-STEERING_LAWS: tuple[str, ...] = ("pinv-null-motion", "pinv", "sr")
+STEERING_LAWS: tuple[str, ...] = (
+    "pinv-null-motion", "pinv", "sr", "gsr", "local-gradient", "sda"
+)
 
 
 def _label(x: object, name: str) -> str:
@@ -250,11 +253,17 @@ class SpacecraftSpec:
         delta0_deg: initial gimbal angles [deg] (default :data:`NULL_MOTION_EQUILIBRIUM_DEG`;
             Wu et al. starts from (45°, −45°, 45°, −45°), where its null motion reconfigures).
         steering: steering-law name understood by :func:`benchmarks.runner.build_steering`
-            (``"pinv-null-motion"`` = Wu et al.'s law, ``"pinv"``, ``"sr"``).
+            (``"pinv-null-motion"`` = Wu et al.'s law, ``"pinv"``, ``"sr"``, ``"gsr"``,
+            ``"local-gradient"``, ``"sda"``; see :data:`STEERING_LAWS`).
         wheel_inertia, wheel_max_torque, wheel_max_speed: reaction-wheel axial inertia
             [kg·m²], torque limit [N·m] and speed limit [rad/s] (per wheel).
         wheel_layout: ``"orthogonal"`` (three wheels) or ``"pyramid"`` (four, isotropic).
         max_torque: per-axis limit of the ideal actuator [N·m] (``None``: unlimited).
+        wheel_coulomb_friction, wheel_viscous_friction: wheel bearing friction τ_c [N·m] and
+            c_v [N·m·s/rad] (default 0: none; :class:`spacecraft.actuators.ReactionWheelAssembly`).
+        wheel_stribeck_torque, wheel_stribeck_speed: Stribeck breakaway torque τ_s ≥ τ_c [N·m]
+            (0: none) and its speed scale ω_s [rad/s].
+        wheel_torque_lsb: motor-drive torque resolution [N·m] (0: continuous).
     """
 
     name: str = "sgcmg-bus"
@@ -270,9 +279,15 @@ class SpacecraftSpec:
     wheel_max_speed: float = 600.0
     wheel_layout: str = "orthogonal"
     max_torque: float | None = None
+    wheel_coulomb_friction: float = 0.0
+    wheel_viscous_friction: float = 0.0
+    wheel_stribeck_torque: float = 0.0
+    wheel_stribeck_speed: float | None = None
+    wheel_torque_lsb: float = 0.0
 
     def __post_init__(self) -> None:
         _label(self.name, "name")
+        self._check_wheel_friction()
         if self.steering not in STEERING_LAWS:
             raise ValueError(
                 f"steering: unknown steering law {self.steering!r}; valid: "
@@ -309,6 +324,38 @@ class SpacecraftSpec:
         if d0.shape != (4,):
             raise ValueError(f"delta0_deg: expected shape (4,), got {d0.shape}")
         object.__setattr__(self, "delta0_deg", tuple(float(v) for v in d0))
+
+    def _check_wheel_friction(self) -> None:
+        """Scalars ≥ 0; the law's own checks (τ_s ≥ τ_c, ω_s given) re-keyed to the field."""
+        from spacecraft.actuators import ReactionWheelAssembly
+
+        for name in (
+            "wheel_coulomb_friction",
+            "wheel_viscous_friction",
+            "wheel_stribeck_torque",
+            "wheel_torque_lsb",
+        ):
+            v = as_scalar(getattr(self, name), name)
+            if not v >= 0.0:
+                raise ValueError(f"{name}: must be >= 0, got {v}")
+            object.__setattr__(self, name, v)
+        if self.wheel_stribeck_speed is not None:
+            object.__setattr__(
+                self,
+                "wheel_stribeck_speed",
+                check_positive_scalar(self.wheel_stribeck_speed, "wheel_stribeck_speed"),
+            )
+        try:
+            ReactionWheelAssembly.orthogonal(
+                coulomb_friction=self.wheel_coulomb_friction,
+                viscous_friction=self.wheel_viscous_friction,
+                stribeck_torque=self.wheel_stribeck_torque,
+                stribeck_speed=self.wheel_stribeck_speed,
+                torque_lsb=self.wheel_torque_lsb,
+            )
+        except ValueError as exc:
+            head, _, rest = str(exc).partition(":")
+            raise ValueError(f"wheel_{head}:{rest}") from None
 
     @property
     def J(self) -> np.ndarray:
@@ -556,6 +603,23 @@ class SensorSpec:
             (state: attitude and gyro bias) and fed the star tracker's roll/pitch/yaw.
         seed: seed of the noise generator. Every controller of a scenario gets the same noise
             sequence (sensor scenarios are simulated one controller at a time).
+        boresight: star-tracker line of sight, body axes (unit ``(3,)``).
+        cross_boresight_arcsec, boresight_arcsec: 1σ tilt of the line of sight and roll about it
+            [arcsec]; either one replaces ``attitude_noise_arcsec`` by the boresight model
+            (:class:`spacecraft.sensors.StarTracker`).
+        star_tracker_latency: age L of each star-tracker output [s] (a multiple of ``dt``).
+        star_tracker_outages: scheduled outages, ``[[start, end], ...]`` [s].
+        outage_rate, outage_duration: random outages, rate λ [1/s] and duration [s]
+            (:class:`spacecraft.sensors.TimedSensor`).
+        gyro_scale_factor: relative scale-factor error per axis (scalar or ``(3,)``, > −1).
+        gyro_misalignment: small rotation vector of the gyro axes [rad].
+        gyro_quantization: output LSB [rad/s] (0: none).
+        gyro_bandwidth: first-order low-pass bandwidth [Hz] (``None``: none).
+        compute_delay: time from measurement to actuation [s], a multiple of ``dt``
+            (``simulate(..., compute_delay=...)``).
+
+    The fields from ``boresight`` on are sensor and loop realism, off by default (see
+    ``docs/plant.md``, "Sensor and loop realism").
     """
 
     attitude_noise_arcsec: float = 10.0
@@ -565,6 +629,18 @@ class SensorSpec:
     period: float = 0.2
     estimator: str = "none"
     seed: int = 0
+    boresight: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    cross_boresight_arcsec: float | None = None
+    boresight_arcsec: float | None = None
+    star_tracker_latency: float = 0.0
+    star_tracker_outages: tuple[tuple[float, float], ...] = ()
+    outage_rate: float = 0.0
+    outage_duration: float | None = None
+    gyro_scale_factor: float | tuple[float, float, float] = 0.0
+    gyro_misalignment: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    gyro_quantization: float = 0.0
+    gyro_bandwidth: float | None = None
+    compute_delay: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("attitude_noise_arcsec", "gyro_noise_density", "gyro_bias_rw"):
@@ -579,10 +655,88 @@ class SensorSpec:
                 f"estimator: unknown estimator {self.estimator!r}; valid: {', '.join(ESTIMATORS)}"
             )
         object.__setattr__(self, "seed", as_int(self.seed, "seed", 0))
+        self._check_realism()
+
+    def _check_realism(self) -> None:
+        """Validate the realism keys by building the sensors they configure (messages name
+        the key)."""
+        from spacecraft.sensors import RateGyro, StarTracker, TimedSensor
+
+        b = _tuple3(self.boresight, "boresight")
+        if abs(math.hypot(*b) - 1.0) > 1e-9:
+            raise ValueError(f"boresight: expected a unit vector, got norm {math.hypot(*b):.6g}")
+        object.__setattr__(self, "boresight", b)
+        for name in ("cross_boresight_arcsec", "boresight_arcsec", "gyro_bandwidth",
+                     "outage_duration"):
+            v = getattr(self, name)
+            if v is not None:
+                v = as_scalar(v, name)
+                strict = name in ("gyro_bandwidth", "outage_duration")
+                if not (v > 0.0 if strict else v >= 0.0):
+                    raise ValueError(f"{name}: must be {'> 0' if strict else '>= 0'}, got {v}")
+                object.__setattr__(self, name, v)
+        for name in ("star_tracker_latency", "outage_rate", "gyro_quantization", "compute_delay"):
+            v = as_scalar(getattr(self, name), name)
+            if not v >= 0.0:
+                raise ValueError(f"{name}: must be >= 0, got {v}")
+            object.__setattr__(self, name, v)
+        sf = np.asarray(as_array(self.gyro_scale_factor, "gyro_scale_factor"))
+        if sf.shape not in ((), (3,)):
+            raise ValueError(f"gyro_scale_factor: expected a scalar or shape (3,), got {sf.shape}")
+        if np.any(sf <= -1.0):
+            raise ValueError(f"gyro_scale_factor: must be > -1, got {sf.min()}")
+        object.__setattr__(
+            self, "gyro_scale_factor", float(sf) if sf.ndim == 0 else tuple(sf.tolist())
+        )
+        object.__setattr__(
+            self, "gyro_misalignment", _tuple3(self.gyro_misalignment, "gyro_misalignment")
+        )
+        try:
+            pairs = tuple(
+                (as_scalar(a, "star_tracker_outages"), as_scalar(b_, "star_tracker_outages"))
+                for a, b_ in self.star_tracker_outages
+            )
+        except (TypeError, ValueError) as exc:
+            raise ValueError(
+                f"star_tracker_outages: expected [[start, end], ...] in seconds ({exc})"
+            ) from None
+        object.__setattr__(self, "star_tracker_outages", pairs)
+        # the sensor classes check what is left (start < end, the outage rate needing a
+        # duration, ...); their messages are re-keyed to this spec's field names
+        keys = {
+            "outages": "star_tracker_outages",
+            "latency": "star_tracker_latency",
+            "sensor.period": "period",
+            "outage_rate": "outage_rate",
+            "outage_duration": "outage_duration",
+        }
+        try:
+            TimedSensor(
+                StarTracker(period=self.period),
+                latency=self.star_tracker_latency,
+                outages=pairs,
+                outage_rate=self.outage_rate,
+                outage_duration=self.outage_duration,
+            )
+        except ValueError as exc:
+            head, _, rest = str(exc).partition(":")
+            raise ValueError(f"{keys.get(head, head)}:{rest}") from None
+        RateGyro(
+            period=self.period,
+            scale_factor=self.gyro_scale_factor,
+            misalignment=self.gyro_misalignment,
+            quantization=self.gyro_quantization,
+            bandwidth=self.gyro_bandwidth,
+        )  # consistency check only: every gyro key was validated above under its own name
 
     @property
     def attitude_noise_rad(self) -> float:
         return math.radians(self.attitude_noise_arcsec / 3600.0)
+
+    @staticmethod
+    def arcsec_to_rad(v: float | None) -> float | None:
+        """[arcsec] → [rad] (``None`` passes through)."""
+        return None if v is None else math.radians(v / 3600.0)
 
 
 @dataclass(frozen=True)
@@ -623,6 +777,12 @@ class Scenario:
             the orbit unless given).
         momentum_management: :class:`MomentumManagementSpec` or ``None`` (needs ``orbit`` and
             an actuator that stores momentum).
+        faults: actuator faults injected into the run (:mod:`spacecraft.faults`:
+            :class:`~spacecraft.faults.GimbalStuck`, ``WheelFailed``, ``EfficiencyLoss``,
+            ``ActuatorBias``); each unit must exist on this spacecraft's actuator and each time
+            lie in ``[0, duration]``. The runner wraps the actuator in
+            :class:`~spacecraft.faults.FaultyActuator` (steering told which units are lost) and
+            the verdict carries the flag ``fault-injected``.
 
     :func:`benchmarks.metrics.judge` turns a run's metrics into a verdict with these
     tolerances.
@@ -649,6 +809,7 @@ class Scenario:
     keep_in: tuple[KeepInCone, ...] = ()
     orbit: OrbitSpec | None = None
     momentum_management: MomentumManagementSpec | None = None
+    faults: tuple[ActuatorFault, ...] = ()
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name or any(c in self.name for c in "/\\ "):
@@ -729,6 +890,14 @@ class Scenario:
                     f"sensors: period {self.sensors.period} must be a positive integer multiple "
                     f"of dt={self.dt}"
                 )
+            for key in ("star_tracker_latency", "compute_delay"):  # 0 or whole steps
+                v = getattr(self.sensors, key)
+                r = v / self.dt
+                if abs(r - round(r)) > 1e-9 * max(r, 1.0):
+                    raise ValueError(
+                        f"sensors: {key} {v} must be a non-negative integer multiple of "
+                        f"dt={self.dt}"
+                    )
         for name, cls in (("keep_out", KeepOutCone), ("keep_in", KeepInCone)):
             cones = getattr(self, name)
             cones = (cones,) if isinstance(cones, cls) else cones
@@ -766,6 +935,16 @@ class Scenario:
         if isinstance(self.tags, str):
             raise ValueError("tags: expected a sequence of strings, got a single string")
         object.__setattr__(self, "tags", _str_tuple(self.tags, "tags"))
+        if self.faults:
+            if self.proximity is not None:
+                raise ValueError("faults: apply to attitude scenarios only")
+            sp = self.spacecraft
+            pyramid = sp.actuator == "wheels" and sp.wheel_layout == "pyramid"
+            n = 4 if sp.actuator == "sgcmg" or pyramid else 3
+            faults = check_faults(self.faults, sp.actuator, n, self.duration, "faults")
+            object.__setattr__(self, "faults", faults)
+        elif not isinstance(self.faults, tuple):
+            object.__setattr__(self, "faults", check_faults(self.faults, "ideal", 3))
 
     # ------------------------------------------------------------------ derived quantities
 
@@ -823,8 +1002,11 @@ class Scenario:
         return self.quaternion_sign * q
 
     def with_duration(self, duration: float) -> Scenario:
-        """The same scenario over another horizon (tests, quick looks)."""
-        return dataclasses.replace(self, duration=duration)
+        """The same scenario over another horizon (tests, quick looks). Faults timed after the
+        new end are left out (the shortened run ends before they strike)."""
+        d = check_positive_scalar(duration, "duration")
+        faults = tuple(f for f in self.faults if f.time <= d)
+        return dataclasses.replace(self, duration=duration, faults=faults)
 
     def batch_key(self) -> tuple:
         """Scenarios with equal keys can be simulated in one batch (same plant and time grid)."""
@@ -842,6 +1024,7 @@ class Scenario:
             self.keep_in,
             self.orbit,
             self.momentum_management,
+            self.faults,
         )
 
 
@@ -1062,6 +1245,21 @@ def _catalogue() -> tuple[Scenario, ...]:
             spacecraft=dataclasses.replace(SGCMG_SPACECRAFT, name="sgcmg-bus-h0-115", h0=115.0),
             tags=("manoeuvre", "singularity"),
         ),
+        # the same slew with each other steering law (the comparison family of docs/cmg.md)
+        *(
+            rest_to_rest(
+                120.0,
+                SINGULAR_TRANSIT_AXIS,
+                name=f"singular-transit-{law}",
+                description=f"singular-transit with the {law!r} steering law instead of Wu et "
+                "al.'s pseudo-inverse with null motion",
+                spacecraft=dataclasses.replace(
+                    SGCMG_SPACECRAFT, name=f"sgcmg-bus-h0-115-{law}", h0=115.0, steering=law
+                ),
+                tags=("manoeuvre", "singularity", "steering"),
+            )
+            for law in ("pinv", "sr", "gsr", "local-gradient", "sda")
+        ),
         Scenario(
             name="stabilisation-inertia-error",
             description="hold attitude against the constant + harmonic disturbance (Wu et al.) "
@@ -1248,3 +1446,7 @@ def unregister_scenario(name: str) -> None:
         if any(x.name == name for x in suite.scenarios):
             kept = tuple(x for x in suite.scenarios if x.name != name)
             SUITES[k] = dataclasses.replace(suite, scenarios=kept)
+
+
+# the actuator-fault family (full suite): registered by its own module
+from . import fault_scenarios as _fault_scenarios  # noqa: E402, F401

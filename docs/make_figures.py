@@ -14,6 +14,8 @@ under two minutes on one core) and is saved at 90 dpi. Names (and the page that 
 - ``lgvi_energy.png`` (integrators.md): energy drift of the LGVI vs RKMK4 and classical RK4.
 - ``error_functions.png`` (errors.md): Ψ and ‖e_R‖ against the rotation angle.
 - ``cmg_singularity_sweep.png`` (cmg.md): singularity measure over gimbal sweeps.
+- ``cmg_singular_transit.png`` (cmg.md): m and torque error of every steering law along the
+  singular-transit paths (``benchmarks.singular_transit``).
 - ``se3_docking.png`` (se3.md): SE(3) proximity approach, errors and trajectory.
 - ``lemmas_regions.png``, ``lemmas_lyapunov.png`` (survey_lemmas.md): the survey-lemmas reproduction
   (``geometric-survey-lemmas``, reduced sample count).
@@ -296,6 +298,15 @@ def cmg_singularity_sweep(out: pathlib.Path) -> pathlib.Path:
     return _save(fig, out, "cmg_singularity_sweep.png")
 
 
+def cmg_singular_transit(out: pathlib.Path) -> pathlib.Path:
+    """The cmg.md singular-transit comparison (benchmarks.singular_transit): m and torque error
+    along the elliptic and hyperbolic paths for every steering law."""
+    from benchmarks.singular_transit import plot_comparison, run_comparison
+
+    results, _ = run_comparison()
+    return plot_comparison(results, out, "cmg_singular_transit.png")
+
+
 def se3_docking(out: pathlib.Path) -> pathlib.Path:
     """The se3.md example: chaser from 150° / ~100 m to a docking pose 5 m behind a target in a
     circular orbit (SE3TrackingController, RKMK4 dt = 1 s)."""
@@ -354,6 +365,7 @@ FIGURES: dict[str, Callable[[pathlib.Path], object]] = {
     "lgvi_energy": lgvi_energy,
     "error_functions": error_functions,
     "cmg_singularity_sweep": cmg_singularity_sweep,
+    "cmg_singular_transit": cmg_singular_transit,
     "se3_docking": se3_docking,
     "survey_lemmas": survey_lemmas_figures,
 }

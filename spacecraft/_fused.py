@@ -64,6 +64,68 @@ class PlantKernel:
         return R_out, x_out
 
 
+@njit
+def _hold_steps(
+    n_sub: int, t: float, dt: float, R: np.ndarray, x: np.ndarray, u: np.ndarray,
+    act: int, J: np.ndarray, J_inv: np.ndarray, S0: np.ndarray, C0: np.ndarray,
+    dist: int, dp: np.ndarray, clip_on: bool, clip: np.ndarray,
+    steer: int, sp: np.ndarray, rate_limit: float, saturated: np.ndarray,
+) -> None:  # fmt: skip
+    """``n_sub`` steps of the batch under the torque command ``u (B, 3)`` held throughout (the
+    actuator's hardware command recomputed at every step, as the simulator does); ``R``, ``x``
+    advance in place and ``saturated[b]`` counts the steps whose command was limited."""
+    B, n = x.shape
+    shared = J.shape[0] == 1
+    held = np.empty(3 if act == K.ACT_IDEAL else n - 3)
+    hd = np.empty(3)
+    work = np.empty(7 * n)
+    A = np.empty((3, max(n - 3, 1)))
+    R_next = np.empty((3, 3))
+    x_next = np.empty(n)
+    for b in range(B):
+        kb = 0 if shared else b
+        for _ in range(n_sub):
+            if act == K.ACT_SGCMG:
+                if K.sgcmg_command(
+                    S0, C0, steer, sp, rate_limit, u[b], x[b, :3], x[b, 3:], t, held, hd, A
+                ):
+                    saturated[b] += 1.0
+            else:
+                limited = False
+                for i in range(3):
+                    v = u[b, i]
+                    if clip_on:
+                        v = min(max(v, -clip[i]), clip[i])
+                        limited = limited or abs(v) >= clip[i]
+                    held[i] = v
+                if limited:
+                    saturated[b] += 1.0
+            K.rkmk4_step(
+                act, J[kb], J_inv[kb], S0, C0, dist, dp, t, R[b], x[b], held, dt, R_next,
+                x_next, work,
+            )  # fmt: skip
+            R[b] = R_next
+            x[b] = x_next
+
+
+def hold_steps(
+    pk: PlantKernel, n_sub: int, t: float, dt: float, R: np.ndarray, x: np.ndarray,
+    u: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+    """``n_sub`` compiled steps of a plant with a :class:`PlantKernel` under a held torque
+    command; returns ``(R, x, steps with a limited command per spacecraft)``."""
+    R = np.array(R, dtype=np.float64)
+    x = np.array(x, dtype=np.float64)
+    sat = np.zeros(x.shape[0])
+    clip = pk.clip if pk.clip is not None else np.zeros(3)
+    _hold_steps(
+        int(n_sub), float(t), float(dt), R, x, np.ascontiguousarray(u, dtype=np.float64),
+        pk.act, pk.J, pk.J_inv, pk.S0, pk.C0, pk.dist, pk.dist_params, pk.clip is not None,
+        clip, pk.steer, pk.steer_params, pk.rate_limit, sat,
+    )  # fmt: skip
+    return R, x, sat
+
+
 def steering_kernel(law: Any, cluster: Any = None) -> tuple[int, np.ndarray] | None:
     """``(code, params)`` of a steering law with a kernel, else ``None``. The null-motion law
     needs the ``cluster`` (an :class:`~spacecraft.sgcmg.SgcmgPyramid`) it steers."""

@@ -787,7 +787,7 @@ class ReactionWheelAssembly(Actuator):
                     f"it is set, got {ts.tolist()} < {tc.tolist()}"
                 )
             if self.stribeck_speed is None:
-                raise ValueError("stribeck_speed: required (> 0 rad/s) with stribeck_torque")
+                raise ValueError("stribeck_torque: needs stribeck_speed (> 0 rad/s)")
             ws = _per_wheel(self.stribeck_speed, "stribeck_speed", n)
         elif self.stribeck_speed is not None:
             ws = _per_wheel(self.stribeck_speed, "stribeck_speed", n)

@@ -396,6 +396,18 @@ class Spacecraft:
         act = self.actuator
         modes = self.modes
         x_act = x[:, 3:] if modes is None else x[:, self._slices[0]]
+        coupled = getattr(act, "coupled_derivatives", None)
+        if coupled is not None:
+            # an actuator whose state accelerations couple with the bus's (the full CMG model,
+            # spacecraft.cmg_dynamics) returns (ω̇, ẋ_act) itself, given the external torque
+            if modes is not None:
+                raise ValueError("modes: not supported with an actuator coupled to the bus")
+            tau = np.zeros(omega.shape)
+            if self.disturbance is not None:
+                tau = tau + self.disturbance(t, R, omega)
+            if dipole is not None:
+                tau = tau + self.momentum_management.torque(t, R, dipole)
+            return omega, coupled(omega, x_act, held, tau, self.body.J)
         tau = act.body_torque(omega, x_act, held)
         if self.disturbance is not None:
             tau = tau + self.disturbance(t, R, omega)

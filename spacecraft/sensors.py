@@ -18,6 +18,9 @@ Models:
   b(t_{k+1}) = b(t_k) + σ_u √(t_{k+1} − t_k) N(0, I) (``bias_rw_std`` σ_u in rad/s^{3/2}), so
   std b(t) − b(0) = σ_u √t (Farrenkopf's model, sampled; Crassidis & Junkins, *Optimal
   Estimation of Dynamic Systems*, §7.2.1). The bias is state: :class:`GyroState`.
+  Optional scale-factor error, misalignment, first-order bandwidth and output quantisation.
+* :class:`StarTracker` also has a boresight noise model (tilt σ_c, roll σ_b); any sensor can be
+  wrapped in :class:`TimedSensor` for update latency and outages (held output, ``valid`` flag).
 * :class:`TwoVectorAttitude`: two reference directions r₁, r₂ (inertial; e.g. gravity/sun and
   the geomagnetic field, Wang et al. 2015 §1.2) are measured in body axes, b_i = exp(δ_i^) Rᵀ r_i
   (δ_i ~ N(0, σ_i² I)), and the attitude is solved with TRIAD (:func:`triad`), returned as Euler
@@ -31,13 +34,18 @@ reference pair (r), ``R = [t^r] [t^b]ᵀ`` (body → inertial); the first vector
 
 from __future__ import annotations
 
+import math
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from fractions import Fraction
+from typing import Any
 
 import numpy as np
 
 from liecontrol._validation import (
     as_array,
+    as_int,
     as_scalar,
     check_nonnegative,
     check_positive_scalar,
@@ -52,6 +60,7 @@ __all__ = [
     "GyroState",
     "RateGyro",
     "TwoVectorAttitude",
+    "TimedSensor",
 ]
 
 #: sin of the smallest angle between the two TRIAD directions that is accepted.
@@ -134,6 +143,23 @@ def triad(b1: object, b2: object, r1: object, r2: object) -> np.ndarray:
 class StarTracker:
     """Star tracker: true attitude × misalignment × small random rotation.
 
+    Noise δ (a rotation vector in the sensor axes, which are the body axes up to the mounting
+    ``misalignment``) is zero-mean Gaussian with one of two covariances:
+
+    * per body axis, Σ = diag(σ²) (``noise_std``), or
+    * a **boresight** model, Σ = σ_c² (I − b bᵀ) + σ_b² b bᵀ with b the unit ``boresight``:
+      σ_c (``cross_boresight_std``) for the two tilts of the line of sight and σ_b
+      (``boresight_std``) for the roll about it. A star tracker measures the line of sight
+      through the star centroids directly, but the roll only through the stars' spread across
+      the field of view, so σ_b > σ_c: Liebe ("Accuracy performance of star trackers — a
+      tutorial", IEEE Trans. Aerospace and Electronic Systems 38(2), 2002) gives
+      σ_b/σ_c ≈ 1/(0.3825·FOV[rad]), i.e. 6 to 10 for fields of view of 25° to 15°.
+      Sampled as δ = L z, z ~ N(0, I), with L = σ_c (I − b bᵀ) + σ_b b bᵀ the symmetric square
+      root of Σ (both terms are orthogonal projectors).
+
+    Update latency and outages (held output, ``valid`` flag) are added by wrapping the tracker
+    in a :class:`TimedSensor`.
+
     Args:
         noise_std: σ per body axis [rad], scalar or ``(3,)`` (≥ 0).
         output: ``"quaternion"`` ``(B, 4)`` scalar-first, ``"euler"`` ``(B, 3)`` (``seq``) or
@@ -142,6 +168,12 @@ class StarTracker:
         period: sample period [s] (> 0).
         misalignment: fixed mounting error as a rotation vector ``(3,)`` [rad] (Wang et al. 2016
             considers installation errors).
+        boresight: unit line of sight ``(3,)`` in sensor axes (default +z when a boresight
+            σ is given).
+        cross_boresight_std: σ_c of each tilt of the line of sight [rad] (≥ 0).
+        boresight_std: σ_b of the roll about the line of sight [rad] (≥ 0). Either of the two
+            selects the boresight model (the other defaults to 0); not together with
+            ``noise_std``.
     """
 
     noise_std: float | np.ndarray = 0.0
@@ -149,8 +181,13 @@ class StarTracker:
     seq: str = "ZYX"
     period: float = 0.25
     misalignment: np.ndarray | None = None
+    boresight: np.ndarray | None = None
+    cross_boresight_std: float | None = None
+    boresight_std: float | None = None
     #: exp(m^) computed once (None for m = 0, where the product is skipped: R I = R exactly)
     _mis_R: np.ndarray | None = field(init=False, repr=False, compare=False, default=None)
+    #: Lᵀ of the boresight model (None: the per-axis model)
+    _LT: np.ndarray | None = field(init=False, repr=False, compare=False, default=None)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "noise_std", _sigma3(self.noise_std, "noise_std"))
@@ -170,12 +207,52 @@ class StarTracker:
         if mis is not None:
             mis.setflags(write=False)
         object.__setattr__(self, "_mis_R", mis)
+        self._init_boresight()
+
+    def _init_boresight(self) -> None:
+        b = np.array([0.0, 0.0, 1.0]) if self.boresight is None else self.boresight
+        b = as_array(b, "boresight")
+        if b.shape != (3,):
+            raise ValueError(f"boresight: expected shape (3,), got {b.shape}")
+        nb = float(np.linalg.norm(b))
+        if abs(nb - 1.0) > 1e-9:
+            raise ValueError(f"boresight: expected a unit vector, got norm {nb:.6g}")
+        b = b / nb
+        b.setflags(write=False)
+        object.__setattr__(self, "boresight", b)
+        if self.cross_boresight_std is None and self.boresight_std is None:
+            return
+        sc = 0.0 if self.cross_boresight_std is None else self.cross_boresight_std
+        sb = 0.0 if self.boresight_std is None else self.boresight_std
+        sc = float(check_nonnegative(as_scalar(sc, "cross_boresight_std"), "cross_boresight_std"))
+        sb = float(check_nonnegative(as_scalar(sb, "boresight_std"), "boresight_std"))
+        if np.any(self.noise_std > 0):
+            raise ValueError(
+                "noise_std: give either noise_std (per body axis) or "
+                "cross_boresight_std/boresight_std (boresight model), not both"
+            )
+        P = np.outer(b, b)
+        L = sc * (np.eye(3) - P) + sb * P  # symmetric: L = Lᵀ
+        L.setflags(write=False)
+        object.__setattr__(self, "cross_boresight_std", sc)
+        object.__setattr__(self, "boresight_std", sb)
+        object.__setattr__(self, "_LT", L)
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """Covariance Σ ``(3, 3)`` of the noise rotation vector δ [rad²]."""
+        if self._LT is None:
+            return np.diag(self.noise_std**2)
+        return self._LT @ self._LT
 
     def measure_matrix(self, R: object, rng: np.random.Generator) -> np.ndarray:
         """Noisy attitude matrices ``(B, 3, 3)``: R exp(m^) exp(δ^)."""
         R = _batch_R(R)
         rng = _check_rng(rng)
-        delta = rng.standard_normal(R.shape[:-1]) * self.noise_std
+        if self._LT is None:
+            delta = rng.standard_normal(R.shape[:-1]) * self.noise_std
+        else:
+            delta = rng.standard_normal(R.shape[:-1]) @ self._LT
         # exp(m^) is computed once at construction; for m = 0 it is I exactly and R I = R
         # bitwise, so the product is skipped (so3.exp costs ~25 µs per call at B = 1)
         if self._mis_R is not None:
@@ -198,15 +275,49 @@ class StarTracker:
 
 @dataclass(frozen=True)
 class GyroState:
-    """Rate-gyro state: ``bias`` ``(B, 3)`` [rad/s] and the time of the last sample (``None``
-    before the first)."""
+    """Rate-gyro state: ``bias`` ``(B, 3)`` [rad/s], the time of the last sample (``None``
+    before the first) and the low-pass filter output ``filtered`` ``(B, 3)`` [rad/s] (``None``
+    before the first sample or without a ``bandwidth``)."""
 
     bias: np.ndarray
     t_last: float | None = None
+    filtered: np.ndarray | None = None
+
+
+def _misalignment_matrix(m: object) -> np.ndarray:
+    M = as_array(m, "misalignment")
+    if M.shape == (3,):
+        return so3.hat(M)  # a small rotation: (I + m^) ω ≈ exp(m^) ω
+    if M.shape != (3, 3):
+        raise ValueError(f"misalignment: expected shape (3,) or (3, 3), got {M.shape}")
+    if np.any(np.diag(M) != 0.0):
+        raise ValueError(
+            "misalignment: the diagonal must be zero (axis gains are scale_factor's), "
+            f"got {np.diag(M).tolist()}"
+        )
+    return M.copy()
 
 
 class RateGyro:
-    """Rate gyro with white noise and a bias random walk; batched over B.
+    """Rate gyro: scale factor, misalignment, bandwidth, bias random walk, white noise and
+    quantisation; batched over B.
+
+    Measurement at sample t_k (the standard error model of a strapdown gyro, e.g. Titterton &
+    Weston, *Strapdown Inertial Navigation Technology*, 2nd ed., IEE 2004, §8.2)::
+
+        ω_s = (I + S + M) ω                       S = diag(s) scale-factor error,
+                                                  M misalignment / non-orthogonality
+        y_k = α y_{k−1} + (1 − α) ω_s(t_k),       α = exp(−2π f_c (t_k − t_{k−1}))
+        ω_m = Q(y_k + b(t_k) + η_v),              Q(x) = q·round(x/q)  (LSB q)
+
+    The first-order low-pass (bandwidth f_c) is the exact discretisation of ẏ = 2π f_c (ω_s − y)
+    for ω_s held at its sampled value over each interval; it starts in steady state
+    (y₀ = ω_s(t₀)). Noise: η_v ~ N(0, σ_v²) white (σ_v = ``white_std``, or
+    ``noise_density``/√period for a density in rad/s/√Hz), bias random walk
+    b(t_{k+1}) = b(t_k) + σ_u √(t_{k+1} − t_k) N(0, I) (``bias_rw_std`` σ_u in rad/s^{3/2}), so
+    std b(t) − b(0) = σ_u √t (Farrenkopf's model, sampled; Crassidis & Junkins, *Optimal
+    Estimation of Dynamic Systems*, §7.2.1). Each term at its default (0 / ``None``) is skipped,
+    so the default gyro is exactly ω + b + η_v.
 
     Args:
         white_std: white-noise σ_v per sample [rad/s] (scalar or ``(3,)``), or
@@ -215,9 +326,15 @@ class RateGyro:
         initial_bias: ``(3,)`` or ``(B, 3)`` bias at the first sample [rad/s].
         initial_bias_std: σ of a random initial bias added to ``initial_bias`` at :meth:`reset`.
         period: sample period [s] (> 0).
+        scale_factor: relative scale-factor error s per axis (scalar or ``(3,)``, each > −1;
+            100 ppm = 1e-4).
+        misalignment: ``(3,)`` small rotation vector m (M = m^) or a ``(3, 3)`` matrix with
+            zero diagonal (general non-orthogonality of the sensing axes) [rad].
+        quantization: LSB q of the output per axis [rad/s] (scalar or ``(3,)``, ≥ 0; 0: none).
+        bandwidth: −3 dB bandwidth f_c of the first-order low-pass [Hz] (> 0), or ``None``.
 
-    Parameters are fixed at construction. The bias lives in a :class:`GyroState`: the pure
-    :meth:`step` maps (state, t, ω, rng) → (measurement, new state); :meth:`measure` (the
+    Parameters are fixed at construction. The bias and filter live in a :class:`GyroState`: the
+    pure :meth:`step` maps (state, t, ω, rng) → (measurement, new state); :meth:`measure` (the
     simulator's entry point) does the same on the state the object holds, created by
     :meth:`reset` (or on the first call, from ``initial_bias``).
     """
@@ -230,6 +347,10 @@ class RateGyro:
         initial_bias: object = 0.0,
         initial_bias_std: float | np.ndarray = 0.0,
         period: float = 0.25,
+        scale_factor: float | np.ndarray = 0.0,
+        misalignment: object = None,
+        quantization: float | np.ndarray = 0.0,
+        bandwidth: float | None = None,
     ) -> None:
         self.period = check_positive_scalar(period, "period")
         if white_std is not None and noise_density is not None:
@@ -244,14 +365,34 @@ class RateGyro:
             raise ValueError(f"initial_bias: expected shape (3,) or (B, 3), got {b0.shape}")
         self.initial_bias = b0.copy()
         self.initial_bias_std = _sigma3(initial_bias_std, "initial_bias_std")
+        sf = as_array(scale_factor, "scale_factor")
+        if sf.shape not in ((), (3,)):
+            raise ValueError(f"scale_factor: expected a scalar or shape (3,), got {sf.shape}")
+        if np.any(sf <= -1.0):
+            raise ValueError(f"scale_factor: must be > -1 (a gain 1 + s > 0), got {sf.min()}")
+        self.scale_factor = np.broadcast_to(sf, (3,)).copy()
+        self.misalignment = (
+            np.zeros((3, 3)) if misalignment is None else _misalignment_matrix(misalignment)
+        )
+        self.quantization = _sigma3(quantization, "quantization")
+        if bandwidth is not None:
+            bandwidth = check_positive_scalar(bandwidth, "bandwidth")
+        self.bandwidth: float | None = bandwidth
+        C = np.eye(3) + np.diag(self.scale_factor) + self.misalignment
+        #: (I + S + M)ᵀ, or None when it is I (the product is skipped: bitwise the old model)
+        self._CT: np.ndarray | None = None if np.array_equal(C, np.eye(3)) else C.T.copy()
         self.state: GyroState | None = None
+
+    @property
+    def time_constant(self) -> float | None:
+        """τ = 1/(2π f_c) of the low-pass [s] (``None`` without a bandwidth)."""
+        return None if self.bandwidth is None else 1.0 / (2.0 * np.pi * self.bandwidth)
 
     def initial_state(self, batch_size: int, rng: np.random.Generator | None = None) -> GyroState:
         """Fresh state: bias = ``initial_bias`` (+ N(0, initial_bias_std²) if that is > 0)."""
-        if int(batch_size) < 1:
-            raise ValueError(f"batch_size: must be >= 1, got {batch_size}")
+        batch_size = as_int(batch_size, "batch_size", 1)
         try:
-            b = np.broadcast_to(self.initial_bias, (int(batch_size), 3)).copy()
+            b = np.broadcast_to(self.initial_bias, (batch_size, 3)).copy()
         except ValueError:
             raise ValueError(
                 f"initial_bias: shape {self.initial_bias.shape} does not fit batch {batch_size}"
@@ -268,8 +409,8 @@ class RateGyro:
     def step(
         self, state: GyroState, t: float, omega: object, rng: np.random.Generator
     ) -> tuple[np.ndarray, GyroState]:
-        """Pure: advance the bias from ``state.t_last`` to ``t`` and measure ``omega``
-        ``(B, 3)``; returns (ω_m ``(B, 3)``, new state). ``t`` must not decrease."""
+        """Pure: advance the bias (and filter) from ``state.t_last`` to ``t`` and measure
+        ``omega`` ``(B, 3)``; returns (ω_m ``(B, 3)``, new state). ``t`` must not decrease."""
         rng = _check_rng(rng)
         omega = as_array(omega, "omega", (3,))
         if omega.ndim != 2 or omega.shape[0] != state.bias.shape[0]:
@@ -279,13 +420,26 @@ class RateGyro:
             )
         t = as_scalar(t, "t")
         bias = state.bias
+        dt = 0.0
         if state.t_last is not None:
             dt = t - state.t_last
             if dt < 0:
                 raise ValueError(f"t: {t} is before the previous sample {state.t_last}")
             bias = bias + rng.standard_normal(bias.shape) * (self.bias_rw_std * np.sqrt(dt))
-        meas = omega + bias + rng.standard_normal(omega.shape) * self.white_std
-        return meas, replace(state, bias=bias, t_last=t)
+        sensed = omega if self._CT is None else omega @ self._CT
+        filtered = None
+        if self.bandwidth is not None:
+            if state.filtered is None:
+                filtered = sensed.copy()  # the filter starts in steady state
+            else:
+                alpha = np.exp(-2.0 * np.pi * self.bandwidth * dt)
+                filtered = alpha * state.filtered + (1.0 - alpha) * sensed
+            sensed = filtered
+        meas = sensed + bias + rng.standard_normal(omega.shape) * self.white_std
+        q = self.quantization
+        if np.any(q > 0):
+            meas = np.where(q > 0, np.round(meas / np.where(q > 0, q, 1.0)) * q, meas)
+        return meas, replace(state, bias=bias, t_last=t, filtered=filtered)
 
     def measure(self, t: float, R: object, omega: object, rng: np.random.Generator) -> np.ndarray:
         """Measured body rate ``(B, 3)`` at sample time ``t``; advances the held state."""
@@ -383,3 +537,175 @@ class TwoVectorAttitude:
     def measure(self, t: float, R: object, omega: object, rng: np.random.Generator) -> np.ndarray:
         """Measurement at sample time ``t`` in the configured ``output`` form."""
         return _format(self.measure_matrix(t, R, rng), self.output, self.seq)
+
+
+def _as_fraction(x: float, name: str) -> Fraction:
+    """``x`` [s] as a fraction with a denominator ≤ 10⁹ (0.1 → 1/10); the exact grid on which
+    the simulator's relative tolerance (1e-9) of "a multiple of dt" also works."""
+    f = Fraction(x).limit_denominator(10**9)
+    if x > 0 and abs(float(f) - x) > 1e-9 * x:
+        raise ValueError(f"{name}: {x!r} s is not a ratio of integers up to 1e9")
+    return f
+
+
+def _frac_gcd(a: Fraction, b: Fraction) -> Fraction:
+    """Largest g with a/g and b/g integers (gcd of two positive rationals)."""
+    den = a.denominator * b.denominator // math.gcd(a.denominator, b.denominator)
+    return Fraction(math.gcd(int(a * den), int(b * den)), den)
+
+
+def _check_outages(outages: object) -> tuple[tuple[float, float], ...]:
+    try:
+        pairs = [tuple(p) for p in outages]  # type: ignore[union-attr]
+    except TypeError:
+        raise ValueError(
+            f"outages: expected a sequence of (start, end) pairs [s], got {outages!r}"
+        ) from None
+    out = []
+    for i, p in enumerate(pairs):
+        if len(p) != 2:
+            raise ValueError(f"outages: entry {i} must be a (start, end) pair, got {p!r}")
+        a = as_scalar(p[0], f"outages[{i}][0]")
+        b = as_scalar(p[1], f"outages[{i}][1]")
+        if not b > a:
+            raise ValueError(f"outages: entry {i} needs start < end, got ({a!r}, {b!r})")
+        out.append((a, b))
+    return tuple(out)
+
+
+def _time_tol(t: float) -> float:
+    """Tolerance of a comparison of simulation times (the simulator's relative 1e-9)."""
+    return 1e-9 * max(1.0, abs(t))
+
+
+class TimedSensor:
+    """Update latency and outages for any sensor (:class:`StarTracker`, :class:`RateGyro`,
+    :class:`TwoVectorAttitude` or one with the same ``measure``/``period`` interface).
+
+    **Latency** L: the output published at t_k = t₀ + k·P (P the wrapped sensor's ``period``)
+    is the wrapped sensor's measurement of the true state at t_k − L (image exposure and
+    on-board processing take time; a star tracker's quaternion is typically 50–200 ms old when
+    it reaches the controller). The wrapper remembers the true states it is shown, so it is
+    called on the finer grid g = gcd(P, L) — its own ``period`` is g, which the simulator
+    requires to be a multiple of its step, i.e. P and L must both be multiples of dt. Before
+    t₀ + L there is no delayed state yet: the output is the measurement of the state at t₀,
+    flagged invalid.
+
+    **Outages** (blinding by the Sun or Moon, loss of track): during an outage the previous
+    output is held and ``valid`` is ``False``. Scheduled ``outages`` are half-open intervals
+    [start, end) of simulation time (every spacecraft); random outages start at each
+    publication with probability 1 − exp(−λP) (a Poisson process of rate λ =
+    ``outage_rate`` sampled at the publications, independently per spacecraft) and last
+    ``outage_duration`` D. The random draws come from the ``rng`` passed to :meth:`measure`
+    (one uniform per spacecraft per publication, drawn only when λ > 0), so a seeded run is
+    reproducible. The wrapped sensor is still called during an outage (its internal state —
+    a gyro's bias — keeps evolving and the noise stream is the same with or without outages).
+
+    Args:
+        sensor: the sensor to wrap.
+        latency: L ≥ 0 [s].
+        outages: sequence of (start, end) pairs [s], start < end.
+        outage_rate: λ ≥ 0 [1/s].
+        outage_duration: D > 0 [s] (required when ``outage_rate`` > 0).
+
+    Attributes:
+        valid: ``(B,)`` bool of the last output (``None`` before the first call). The simulator
+            logs it as ``result.sensors[name + "_valid"]``.
+    """
+
+    def __init__(
+        self,
+        sensor: Any,
+        latency: float = 0.0,
+        outages: object = (),
+        outage_rate: float = 0.0,
+        outage_duration: float | None = None,
+    ) -> None:
+        if not callable(getattr(sensor, "measure", None)):
+            raise ValueError("sensor: has no measure(t, R, omega, rng) method")
+        update = check_positive_scalar(getattr(sensor, "period", None), "sensor.period")
+        self.sensor = sensor
+        self.latency = float(check_nonnegative(as_scalar(latency, "latency"), "latency"))
+        self.outages = _check_outages(outages)
+        self.outage_rate = float(
+            check_nonnegative(as_scalar(outage_rate, "outage_rate"), "outage_rate")
+        )
+        if outage_duration is not None:
+            outage_duration = check_positive_scalar(outage_duration, "outage_duration")
+        elif self.outage_rate > 0:
+            raise ValueError("outage_rate: needs outage_duration (> 0 s)")
+        self.outage_duration = outage_duration
+        self.update_period = update
+        fP = _as_fraction(update, "sensor.period")
+        if self.latency > 0:
+            g = _frac_gcd(fP, _as_fraction(self.latency, "latency"))
+        else:
+            g = fP
+        self.period = float(g)
+        self._every = int(fP / g)  # calls per publication
+        self._lag = int(_as_fraction(self.latency, "latency") / g) if self.latency > 0 else 0
+        if self._lag > 10**9:
+            raise ValueError(
+                f"latency: {self.latency!r} s is {self._lag} sensor calls of {float(g)!r} s, "
+                "more than the limit of 1e9"
+            )
+        self.valid: np.ndarray | None = None
+        self._reset_buffers()
+
+    def _reset_buffers(self) -> None:
+        self._calls = 0
+        self._history: deque[tuple[float, np.ndarray, np.ndarray | None]] = deque(
+            maxlen=self._lag + 1
+        )
+        self._held: np.ndarray | None = None
+        self._outage_end: np.ndarray | None = None
+        self.valid = None
+
+    def reset(self, batch_size: int = 1, rng: np.random.Generator | None = None) -> None:
+        """Forget the history, the held output and the outage state; reset the wrapped sensor
+        (if it has a ``reset``)."""
+        as_int(batch_size, "batch_size", 1)
+        self._reset_buffers()
+        if callable(getattr(self.sensor, "reset", None)):
+            self.sensor.reset(batch_size, rng)
+
+    def in_scheduled_outage(self, t: float) -> bool:
+        """Whether ``t`` falls in one of the scheduled ``outages``."""
+        t = as_scalar(t, "t")
+        e = _time_tol(t)  # t is k·dt in floating point: 2.0 may arrive as 1.9999999999999998
+        return any(a - e <= t < b - e for a, b in self.outages)
+
+    def measure(self, t: float, R: object, omega: object, rng: np.random.Generator) -> np.ndarray:
+        """Called every ``period`` (g) with the true state at ``t``; returns the held output,
+        refreshed at the publication times."""
+        t = as_scalar(t, "t")
+        rng = _check_rng(rng)
+        R = _batch_R(R)
+        w = None if omega is None else as_array(omega, "omega", (3,)).copy()
+        # copies: the simulator hands over its own arrays, which later steps replace
+        self._history.append((t, R.copy(), w))
+        k = self._calls
+        self._calls += 1
+        if k % self._every:
+            return self._held
+        B = R.shape[0]
+        fresh = k >= self._lag  # the state at t − L has been seen
+        # the deque keeps the last lag + 1 states: its oldest is the state at t − L once that
+        # has been seen, and the state at t₀ before
+        t_m, R_m, w_m = self._history[0]
+        if self._outage_end is None or self._outage_end.shape != (B,):
+            self._outage_end = np.full(B, -np.inf)
+        if self.outage_rate > 0:
+            p = -np.expm1(-self.outage_rate * self.update_period)
+            start = (self._outage_end <= t + _time_tol(t)) & (rng.random(B) < p)
+            self._outage_end = np.where(start, t + self.outage_duration, self._outage_end)
+        out_now = (self._outage_end > t + _time_tol(t)) | self.in_scheduled_outage(t)
+        y = np.asarray(self.sensor.measure(t_m, R_m, w_m, rng))
+        if self._held is None:
+            held = y.copy()  # nothing to hold yet: the first output stands (flagged if invalid)
+        else:
+            keep = out_now.reshape((B,) + (1,) * (y.ndim - 1))
+            held = np.where(keep, self._held, y)
+        self._held = held
+        self.valid = fresh & ~out_now
+        return held

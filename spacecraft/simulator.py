@@ -12,7 +12,8 @@ One step of length ``dt`` from ``t_k = t0 + k dt``:
    :class:`StarTrackerGyro`: attitude from the star tracker, rate from the gyro). Sensors
    sampled at ``t_k`` are seen by the controller at ``t_k`` (no extra latency);
 2. the actuator turns the held torque command into its hardware command (for the SGCMG cluster:
-   steering law + gimbal-rate limit), held over the step;
+   steering law + gimbal-rate limit), held over the step; with ``compute_delay`` τ the command
+   computed at t_k reaches this stage at t_k + τ (a FIFO of pending commands, zero before);
 3. the plant ``(R, ω, x_act)`` is advanced with RKMK4 (:meth:`spacecraft.plant.Spacecraft.step`);
 4. a non-finite state (or a non-finite torque command, or an arithmetic error inside the
    integration step — overflow, ``math`` domain error — chained as the cause) stops the run
@@ -31,6 +32,7 @@ import copy
 import math
 import re
 import warnings
+from collections import deque
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -587,6 +589,7 @@ def simulate(
     measurement: Callable[[float, Mapping[str, np.ndarray], AttitudeState], AttitudeState]
     | None = None,
     rng: np.random.Generator | None = None,
+    compute_delay: float = 0.0,
 ) -> SimulationResult:
     """Run the closed loop from ``t0`` to ``t_final`` with fixed step ``dt``.
 
@@ -617,6 +620,11 @@ def simulate(
             :class:`StarTrackerGyro`), called at each control sample; optional ``reset(t0, B)``
             and ``required() -> names``. Default: the controller sees the true state.
         rng: seeded ``numpy.random.Generator`` for the sensor noise (required with sensors).
+        compute_delay: τ ≥ 0 [s], a non-negative integer multiple of ``dt`` (relative tolerance
+            1e-9): the torque the controller computes at t_k reaches the actuator at t_k + τ
+            (on-board computation and bus transfer); zero torque is applied before the first
+            delayed command arrives. ``result.u_cmd`` logs the command applied from ``t`` on
+            (computed at ``t − τ``). Default 0: applied at once, as without the argument.
 
     Returns:
         :class:`SimulationResult`.
@@ -642,6 +650,15 @@ def simulate(
         raise ValueError(
             f"control_period: must be a positive integer multiple of dt = {dt!r}, "
             f"got {control_period!r} (ratio {ratio!r})"
+        )
+    compute_delay = as_scalar(compute_delay, "compute_delay")
+    delay_steps = round(compute_delay / dt)
+    if compute_delay < 0.0 or abs(compute_delay - delay_steps * dt) > _PERIOD_RTOL * max(
+        compute_delay, dt
+    ):
+        raise ValueError(
+            f"compute_delay: must be a non-negative integer multiple of dt = {dt!r}, "
+            f"got {compute_delay!r} (ratio {compute_delay / dt!r})"
         )
     log_every = as_int(log_every, "log_every", 1)
     sensor_list = _check_sensors(sensors, dt)
@@ -676,7 +693,9 @@ def simulate(
     ctrl.reset(t0, B)
     # the whole loop in compiled code when plant and controller have kernels
     # (spacecraft._fused); the Python loop below runs the same kernels one call at a time
-    fused = fused_supported(plant, ctrl, sensor_list, measurement, progress)
+    fused = fused_supported(
+        plant, ctrl, sensor_list, measurement, progress, compute_delay=compute_delay
+    )  # a compute delay runs in the Python loop below (its command queue)
     if fused is not None:
         result = run_fused(
             fused, plant, ctrl, reference, state.R, state.packed(), t0, n_steps, dt,
@@ -741,6 +760,9 @@ def simulate(
     R = state.R
     x = state.packed()
     u_cmd = np.zeros((B, 3))
+    # compute delay: commands wait in a FIFO of (first step applied, torque)
+    u_applied = u_cmd
+    pending: deque[tuple[int, np.ndarray]] = deque()
     step = plant.step_packed
     # the state is validated once above and checked finite after every step, so the built-in
     # actuators' unchecked command runs here (user actuators without one: their command)
@@ -751,6 +773,9 @@ def simulate(
             for name, sensor, every in sensor_list:
                 if k % every == 0:
                     outputs[name] = np.asarray(sensor.measure(t, R, x[:, :3], rng))
+                    valid = getattr(sensor, "valid", None)  # e.g. sensors.TimedSensor's flag
+                    if valid is not None:
+                        outputs[name + "_valid"] = np.array(valid, dtype=bool)
             if k % every_ctrl == 0:
                 omega = x[:, :3]
                 h = actuator.momentum(x[:, a_sl])
@@ -771,10 +796,18 @@ def simulate(
                         time=t,
                         result=log.result(dt, control_period, plant),
                     )
-            held = act_command(u_cmd, x[:, :3], x[:, a_sl], t)
+                if delay_steps:
+                    # a copy: a controller may reuse its output buffer at the next sample
+                    pending.append((k + delay_steps, u_cmd.copy()))
+            if delay_steps:
+                while pending and pending[0][0] <= k:
+                    u_applied = pending.popleft()[1]
+            else:
+                u_applied = u_cmd
+            held = act_command(u_applied, x[:, :3], x[:, a_sl], t)
             logged = k % log_every == 0 or k == n_steps
             if logged:
-                record(t, R, x, held, u_cmd)
+                record(t, R, x, held, u_applied)
             if k == n_steps:
                 break
             failure: BaseException | None = None
@@ -788,7 +821,7 @@ def simulate(
             # one reduction per array: a NaN/inf anywhere makes the sum non-finite
             if failure is not None or not (_finite(x_next) and _finite(R_next)):
                 if not logged:
-                    record(t, R, x, held, u_cmd)  # keep the last finite state
+                    record(t, R, x, held, u_applied)  # keep the last finite state
                 t_bad = t0 + (k + 1) * dt
                 why = "became non-finite" if failure is None else f"failed ({failure!r})"
                 raise SimulationDiverged(

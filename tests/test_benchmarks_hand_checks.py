@@ -68,6 +68,8 @@ def _log() -> tuple[Log, np.ndarray, np.ndarray]:
     torque_sat = np.zeros((K, 1, 4), dtype=bool)
     torque_sat[5:7, 0, 2] = True  # 0.2 s
     torque_sat[K - 1, 0, 0] = True
+    stop = np.zeros((K, 1, 4), dtype=bool)
+    stop[20:24, 0, 3] = True  # a gimbal at a stop for 4 samples → 0.4 s (full CMG model)
     h = (t / 10.0)[:, None] * np.array([3.0, 4.0, 12.0])  # ‖h‖ = 13 t/10 ...
     h[55] = [12.0, 0.0, 16.0]  # ... and one larger sample: ‖h‖ = 20 (largest component 16)
     log = Log(
@@ -85,6 +87,7 @@ def _log() -> tuple[Log, np.ndarray, np.ndarray]:
             "wheel_speed": wheel_speed,
             "speed_saturated": speed_sat,
             "torque_saturated": torque_sat,
+            "stop_contact": stop,
             "h": h[:, None],
         },
     )
@@ -150,6 +153,7 @@ def test_every_metric_against_a_hand_computation():
         # cones: 60° − 40° closest to the keep-out cone, 35° − 30° closest to leaving keep-in
         "min_keep_out_margin_deg": 20.0,
         "min_keep_in_margin_deg": 5.0,
+        "stop_contact_time_s": 0.4,
     }
     # the dict covers every field, so a new metric without a hand value fails here
     assert set(expected) == {f.name for f in dataclasses.fields(Metrics)}

@@ -450,9 +450,9 @@ def test_region_of_attraction_on_simulation():
 
 
 @pytest.mark.parametrize("kind", KINDS)
-def test_single_spacecraft_float_route_matches_batched_route(kind):
-    """The B = 1 float route evaluates the same formulas as the batched numpy route: results
-    agree to round-off, including tiny angles, θ → π (where it defers to so3.log) and θ = π."""
+def test_single_spacecraft_kernel_route_matches_batched_route(kind):
+    """One spacecraft at a time and the whole batch agree to round-off, including tiny angles,
+    θ → π and θ = π (the compiled kernel against the numpy route: tests/test_kernels.py)."""
     rng = np.random.default_rng(11)
     N = 60
     R, R_d = so3.random(rng, N), so3.random(rng, N)

@@ -167,8 +167,9 @@ def test_unchecked_steer_equals_validated_call(law):
 
 
 @pytest.mark.parametrize("law", ALL_LAWS, ids=ALL_IDS)
-def test_single_spacecraft_float_route_matches_batched_route(law):
-    """B = 1 runs Cramer's rule on Python floats; B = 2 the numpy route: same numbers."""
+def test_single_spacecraft_kernel_route_matches_batched_route(law):
+    """One spacecraft, a batch of two and an unbatched Jacobian give the same rates (the
+    compiled kernel's result against an explicit solve: tests/test_kernels.py)."""
     rng = np.random.default_rng(4)
     d = np.concatenate([rng.uniform(-4, 4, (30, 4)), np.deg2rad([[-80.0, 5.0, 85.0, -3.0]])])
     A = P.jacobian(d)
@@ -182,7 +183,7 @@ def test_single_spacecraft_float_route_matches_batched_route(law):
         np.testing.assert_array_equal(bare, one)
 
 
-def test_saturation_float_route_identical_to_numpy_route():
+def test_saturation_of_one_row_matches_the_batch():
     rng = np.random.default_rng(5)
     dd = rng.normal(scale=2.0, size=(50, 4))
     both, flags = _saturate_unchecked(dd, 1.0)

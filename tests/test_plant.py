@@ -462,10 +462,14 @@ def test_per_spacecraft_body_equals_one_body_per_spacecraft(seed, B):
         np.testing.assert_allclose(acc[s], one.angular_acceleration(w[s], tau[s]), rtol=1e-13)
         np.testing.assert_allclose(H[b], one.body_momentum(w[b], h[b]), rtol=1e-13, atol=1e-12)
         assert E[b] == pytest.approx(float(one.kinetic_energy(w[b])), rel=1e-13)
+        # componentwise relative error is meaningless for a component that cancels: scale by
+        # the vector
+        scale = float(np.abs(mom[b]).max())
         np.testing.assert_allclose(
-            mom[b], one.angular_acceleration_momentum(w[b], h[b], tau[b], -tau[b]), rtol=1e-12
-        )
-    # with a batch of one the single-spacecraft float route is taken, same numbers
+            mom[b], one.angular_acceleration_momentum(w[b], h[b], tau[b], -tau[b]),
+            rtol=1e-12, atol=1e-12 * scale,
+        )  # fmt: skip
+    # with a batch of one the single-spacecraft kernel route is taken, same numbers
     one = RigidBody(Js[:1])
     assert one._J1 is not None
     np.testing.assert_allclose(one.angular_acceleration(w[:1], tau[:1]), acc[:1], rtol=1e-14)

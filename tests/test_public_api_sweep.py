@@ -225,6 +225,17 @@ def _tuning_overrides() -> dict[str, dict[str, Callable[[], Any]]]:
         )
     }
     out[mod + "tune_small_angle_pid"] = {"spec": spec, "J": lambda: np.diag([1.0, 2.0, 3.0])}
+    out[mod + "tune_finite_time_so3"] = {
+        "spec": spec,
+        **{k: (lambda: 0.5) for k in ("r", "rho", "terminal_share")},
+        "eps": lambda: 0.05,
+        "layer_ratio": lambda: 0.05,
+    }
+    out[mod + "tune_adaptive_so3"] = {
+        "spec": spec,
+        "disturbance_bound": lambda: 0.3,
+        "frequencies": lambda: [0.0011, 0.0022],
+    }
     out[mod + "tune_mpc"] = {"spec": spec, "limits": lambda: ActuatorLimits(1.0)}
     out[mod + "required_actuation"] = {"spec": spec, "step_rotvec": lambda: np.array([0.1, 0, 0])}
     out[mod + "check_actuator"] = {
@@ -366,7 +377,241 @@ NONNEGATIVE = frozenset(
 FREE_TEXT = frozenset("name description suite notes family source where label title".split())
 
 #: per-callable example overrides: qualified name -> {parameter: factory}
+def _formation_overrides() -> dict[str, dict[str, Callable[[], Any]]]:
+    def cons():
+        return importlib.import_module("liecontrol.control.consensus")
+
+    def form():
+        return importlib.import_module("spacecraft.formation")
+
+    def stack(n):
+        return lambda: np.stack([R_EX, np.eye(3), R_EX.T][:n])
+
+    gains = {"J": lambda: np.diag([8.0, 10.0, 12.0]), "k_R": lambda: 1.0, "k_Omega": lambda: 2.0}
+    small = lambda: form().FormationScenario(  # noqa: E731
+        "x", "", "consensus", cons().CommunicationGraph.ring(3), 0.5
+    )
+    return {
+        "liecontrol.control.consensus.CommunicationGraph": {
+            "adjacency": lambda: np.ones((3, 3)) - np.eye(3)
+        },
+        "liecontrol.control.consensus.AttitudeConsensus": {
+            "graph": lambda: cons().CommunicationGraph.ring(3), **gains
+        },
+        "liecontrol.control.consensus.LeaderFollowerConsensus": {
+            "graph": lambda: cons().CommunicationGraph.tree([-1, 0, 0]), **gains
+        },
+        "liecontrol.control.consensus.PoseFormation": {
+            "graph": lambda: cons().CommunicationGraph.tree([-1, 0]),
+            "relative_poses": lambda: np.stack([np.eye(4)] * 2),
+            "tracking": lambda: _pose_pd(),
+        },
+        "liecontrol.control.consensus.consensus_error": {"R": stack(3)},
+        "liecontrol.control.consensus.pairwise_angles": {"R": stack(3)},
+        "spacecraft.formation.SpinReference": {
+            "R_0": lambda: R_EX.copy(), "omega_d": lambda: np.array([0.0, 0.0, 0.01])
+        },
+        "spacecraft.formation.FormationScenario": {
+            "name": lambda: "x",
+            "description": lambda: "",
+            "kind": lambda: "consensus",
+            "graph": lambda: cons().CommunicationGraph.ring(3),
+            "duration": lambda: 1.0,
+        },
+        "spacecraft.formation.formation_scenario": {"name": lambda: "consensus-ring-6"},
+        "spacecraft.formation.run_formation": {"scenario": small},
+        "spacecraft.formation.settling_time": {
+            "t": lambda: np.array([0.0, 1.0, 2.0]),
+            "err": lambda: np.array([3.0, 1.0, 0.1]),
+            "tolerance": lambda: 0.5,
+        },
+        "spacecraft.formation.formation_table": {
+            "results": lambda: [form().run_formation(small())]
+        },
+        "spacecraft.formation.measure_throughput": {
+            "n": lambda: 3, "steps": lambda: 2, "repeats": lambda: 2
+        },
+    }
+
+
+def _cmg_dynamics_overrides() -> dict[str, dict[str, Callable[[], Any]]]:
+    mod = "spacecraft.cmg_dynamics."
+
+    def inertias():
+        from spacecraft.cmg_dynamics import CmgInertias
+
+        return CmgInertias(0.2, 0.5, (1.0, 1.0, 1.5))
+
+    return {
+        mod + "CmgInertias": {"gimbal": lambda: (1.0, 1.0, 1.5)},
+        mod + "GimbalStops": {"lower": lambda: -1.0, "upper": lambda: 1.0},
+        mod + "VscmgActuator": {
+            "bus_inertia": lambda: np.diag([1500.0, 1200.0, 900.0]),
+            "inertias": inertias,
+        },
+        mod + "MiniCmgPreset": {
+            "h0": lambda: 0.0165,
+            "wheel_spin": lambda: 1.6e-5,
+            "wheel_transverse": lambda: 8.3e-6,
+            "gimbal": lambda: (1e-5, 1e-5, 1.2e-5),
+            "gimbal_rate_limit": lambda: 2.0,
+            "gimbal_torque_limit": lambda: 5e-3,
+            "beta": lambda: 0.955,
+        },
+    }
+
+
+def _fault_overrides() -> dict[str, dict[str, Callable[[], Any]]]:
+    """Examples for spacecraft.faults and liecontrol.control.fault_tolerant."""
+    mod = "spacecraft.faults."
+
+    def f():
+        return importlib.import_module("spacecraft.faults")
+
+    def cmg():
+        from spacecraft.actuators import SgcmgActuator
+
+        return SgcmgActuator()
+
+    def stuck():
+        return (f().GimbalStuck(1, 1.0),)
+
+    def law():
+        from spacecraft.steering import SingularityRobust
+
+        return SingularityRobust()
+
+    def plant():
+        from spacecraft.plant import Spacecraft
+        from spacecraft.rigid_body import RigidBody
+
+        return Spacecraft(RigidBody(np.diag([1000.0, 1200.0, 900.0])), cmg())
+
+    ft = "liecontrol.control.fault_tolerant."
+    return {
+        mod + "make_fault": {"kind": lambda: "cmg-gimbal-stuck", "unit": lambda: 1},
+        mod + "check_faults": {
+            "faults": stuck,
+            "actuator": lambda: "sgcmg",
+            "n_units": lambda: 4,
+            "duration": lambda: 10.0,
+        },
+        mod + "fault_units": {"faults": stuck, "n_units": lambda: 4},
+        mod + "FaultyActuator": {"inner": cmg, "faults": stuck},
+        mod + "ReconfiguredSteering": {"law": law, "faults": stuck, "reduced_law": law},
+        mod + "reduced_singularity_measure": {
+            "cluster": _cluster,
+            "delta": lambda: np.array([0.3, -0.8, 1.1, 0.2]),
+            "failed": lambda: (1,),
+        },
+        mod + "singular_fraction": {
+            "cluster": _cluster,
+            "failed": lambda: (1,),
+            "n_samples": lambda: 200,
+            "rng": lambda: np.random.default_rng(0),
+        },
+        mod + "Reconfigurability": {
+            "actuator": lambda: "sgcmg",
+            "n_units": lambda: 4,
+            "remaining": lambda: (0, 2, 3),
+            "rank": lambda: 3,
+            "three_axis": lambda: True,
+            "note": lambda: "3 of 4 gimbals remain",
+        },
+        mod + "reconfigurability": {"actuator": cmg, "faults": stuck},
+        mod + "with_faults": {"plant": plant, "faults": stuck},
+        ft + "AdaptiveFaultTolerantSO3": {"K": lambda: 50.0, "lam": lambda: 0.05},
+        ft + "fault_tolerant_gains": {"omega_n": lambda: 0.05, "sample_period": lambda: 0.2},
+        ft + "inverse_right_jacobian_apply": {
+            "x": lambda: np.array([0.3, -0.2, 0.1]),
+            "y": lambda: np.array([0.1, 0.2, -0.3]),
+        },
+    }
+
+
+def _finite_time_overrides() -> dict[str, dict[str, Callable[[], Any]]]:
+    def params(c3=0.1):
+        from liecontrol.control.finite_time import FiniteTimeParams
+
+        return FiniteTimeParams(
+            k1=0.1, k2=0.02, r=0.5, eps=0.05, c1=0.05, c2=0.01, rho=0.5, eps_s=0.005, c3=c3
+        )
+
+    mod = "liecontrol.control.finite_time."
+    powers = {"r": lambda: 0.5, "rho": lambda: 0.5, "eps": lambda: 0.05, "mu": lambda: 1.5}
+    return {
+        mod + "FiniteTimeParams": powers,
+        mod + "FiniteTimeSO3": powers,
+        mod + "FixedTimeSO3": powers,
+        mod + "terminal_gain": {"x": lambda: np.array([0.01, 0.5]), "p": lambda: 0.5, **powers},
+        **{
+            mod + fn: {"params": params, "theta0": lambda: 1.0, "tol": lambda: 0.01}
+            for fn in ("sliding_variable", "sliding_time")
+        },
+        mod + "angle_decay_rate": {"params": params, "theta": lambda: np.array([0.1, 3.0])},
+        # a finite-time law (c3 = 0): s0 = inf is refused there (allowed with c3 > 0)
+        **{
+            mod + fn: {
+                "params": lambda: params(c3=0.0),
+                "theta0": lambda: 1.0,
+                "tol": lambda: 0.01,
+                "s0": lambda: 0.5,
+                "s1": lambda: 0.01,
+            }
+            for fn in ("reaching_time", "convergence_time_bound")
+        },
+    }
+
+
 OVERRIDES: dict[str, dict[str, Callable[[], Any]]] = {
+    # adaptive geometric control: gains of the seed-000 bus at ω_n = 0.03 rad/s
+    "liecontrol.control.adaptive.AdaptiveGeometricSO3": {
+        "k_R": lambda: 7.3,
+        "k_s": lambda: 0.05 * J_EX,
+        "c": lambda: 0.009,
+        "gamma_theta": lambda: 1e7,
+        "gamma_phi": lambda: 7.0,
+        "frequencies": lambda: [0.0011, 0.0022],
+        "disturbance_bound": lambda: 0.3,
+    },
+    "liecontrol.control.adaptive.inertia_from_parameters": {
+        "theta": lambda: np.array([3.0, 2.0, 4.0, 0.1, -0.2, 0.3])
+    },
+    "liecontrol.control.adaptive.inertia_regressor": {"a": lambda: np.array([0.1, -0.2, 0.3])},
+    "liecontrol.control.adaptive.harmonic_regressor": {
+        "t": lambda: 10.0,
+        "frequencies": lambda: [0.1, 0.2],
+    },
+    "liecontrol.control.adaptive.disturbance_parameters": {
+        "constant": lambda: np.array([0.02, 0.08, 0.02]),
+        "sine": lambda: np.array([[0.02, 0.04, 0.02]]),
+    },
+    "liecontrol.control.adaptive.error_rate_matrix": {"R_tilde": lambda: R_EX.copy()},
+    # the singular-transit comparison: a 0.2 s path keeps each call in milliseconds
+    "benchmarks.singular_transit.singular_gimbal_angles": {
+        "cluster": lambda: _cluster(),
+        "u": lambda: np.array([0.3, -0.8, 0.5]),
+        "signs": lambda: (1.0, -1.0, 1.0, 1.0),
+    },
+    "benchmarks.singular_transit.classify_singularity": {
+        "cluster": lambda: _cluster(),
+        "delta": lambda: np.deg2rad([-90.0, 0.0, 90.0, 0.0]),
+    },
+    "benchmarks.singular_transit.TransitPath": {
+        "name": lambda: "short",
+        "delta0_deg": lambda: (60.0, -60.0, 60.0, -60.0),
+        "direction": lambda: (0.0, 0.0, 1.0),
+    },
+    "benchmarks.singular_transit.track_path": {
+        "law": lambda: __import__("spacecraft.steering").steering.PseudoInverse(),
+        "cluster": lambda: _cluster(),
+        "path": lambda: _short_transit_path(),
+        "dt": lambda: 0.05,
+    },
+    "benchmarks.singular_transit.transit_table": {
+        "results": lambda: [_short_transit_result()],
+        "kinds": lambda: {"short": "elliptic"},
+    },
     # 6×6 matrices acting on twists (the generic "M" example is 3×3)
     **{
         f"liecontrol.interop.twist_order.{fn}": {"M": lambda: _spd(6)}
@@ -386,6 +631,11 @@ OVERRIDES: dict[str, dict[str, Callable[[], Any]]] = {
         "actuator": lambda: __import__("spacecraft").IdealTorqueActuator(),
     },
     "spacecraft.rigid_body.perturbed_inertia": {"scale_std": lambda: 0.05},
+    # finite/fixed-time sliding mode on SO(3) (liecontrol.control.finite_time, issue 19)
+    **_finite_time_overrides(),
+    **_fault_overrides(),
+    # full CMG dynamics (spacecraft.cmg_dynamics, issue 14)
+    **_cmg_dynamics_overrides(),
     # pointing cones (liecontrol.control.constrained, issue 13)
     **{
         f"liecontrol.control.constrained.{cls}": {
@@ -461,6 +711,8 @@ OVERRIDES: dict[str, dict[str, Callable[[], Any]]] = {
     "spacecraft.payload.jitter_estimate": {"omega_n": lambda: 0.05, "zeta": lambda: 0.7},
     **_tuning_overrides(),
     "spacecraft.se3_plant.SE3Plant": {"J": lambda: np.diag([300.0, 400.0, 350.0])},
+    # formations (liecontrol.control.consensus, spacecraft.formation)
+    **_formation_overrides(),
     "spacecraft.se3_plant.DockingReference": {
         "target": lambda: __import__("spacecraft").OrbitingTarget(),
     },
@@ -482,6 +734,9 @@ OVERRIDES: dict[str, dict[str, Callable[[], Any]]] = {
     },
     "spacecraft.simulator.SimulationDiverged": {},
     "spacecraft.sensors.TwoVectorAttitude": {},
+    "spacecraft.sensors.TimedSensor": {
+        "sensor": lambda: __import__("spacecraft.sensors").sensors.StarTracker()
+    },
     "spacecraft.steering.saturate_gimbal_rates": {},
     "spacecraft.steering.singularity_robust_inverse": {"lam": lambda: 0.01},
     "spacecraft.mpc_constraints.steering_map": {
@@ -639,6 +894,21 @@ def _docking_xi0():
     return ref.offset_state(0.0, np.zeros((1, 3)), np.zeros((1, 3)))[1]
 
 
+def _short_transit_path() -> Any:
+    """A 0.2 s singular-transit path (benchmarks.singular_transit) for the sweep."""
+    from benchmarks.singular_transit import TransitPath
+
+    return TransitPath("short", (60.0, -60.0, 60.0, -60.0), (0.0, 0.0, 1.0), duration=0.2)
+
+
+def _short_transit_result() -> Any:
+    """One TransitResult of :func:`_short_transit_path` under the pseudo-inverse."""
+    from benchmarks.singular_transit import track_path
+    from spacecraft.steering import PseudoInverse
+
+    return track_path(PseudoInverse(), _cluster(), _short_transit_path(), 0.05)
+
+
 def _zero_policy(obs: np.ndarray) -> np.ndarray:
     """A policy ``obs -> action`` for the sweep (spacecraft.envs): the zero action."""
     return np.zeros((np.shape(obs)[0], 3))
@@ -661,6 +931,8 @@ METHODS: dict[str, dict[str, dict[str, Callable[[], Any]]]] = {
             "PseudoInverseNullMotion",
             "SingularityRobust",
             "GeneralizedSingularityRobust",
+            "LocalGradient",
+            "SingularDirectionAvoidance",
         )
     },
     "spacecraft.sgcmg.SgcmgPyramid": {
@@ -674,6 +946,21 @@ METHODS: dict[str, dict[str, dict[str, Callable[[], Any]]]] = {
             "omega": lambda: np.zeros((1, 3)),
             "x_act": lambda: np.array([[0.785, -0.785, 0.785, -0.785]]),
         }
+    },
+    "spacecraft.cmg_dynamics.VscmgActuator": {
+        "command": {
+            "u_cmd": lambda: np.array([[0.1, -0.2, 0.3]]),
+            "omega": lambda: np.zeros((1, 3)),
+            "x_act": lambda: __import__("spacecraft.cmg_dynamics")
+            .cmg_dynamics.VscmgActuator(
+                np.diag([1500.0, 1200.0, 900.0]),
+                __import__("spacecraft.cmg_dynamics").cmg_dynamics.CmgInertias(
+                    0.2, 0.5, (1.0, 1.0, 1.5)
+                ),
+            )
+            .initial_state(1),
+        },
+        "open_loop": {"gimbal_torque": lambda: np.array([[0.1, -0.1, 0.2, 0.0]])},
     },
     "spacecraft.actuators.ReactionWheelAssembly": {
         "command": {
@@ -693,6 +980,9 @@ METHODS: dict[str, dict[str, dict[str, Callable[[], Any]]]] = {
     "spacecraft.sensors.StarTracker": {
         "measure": {"R": lambda: R_EX[None].copy(), "omega": lambda: np.zeros((1, 3))}
     },
+    "spacecraft.sensors.TimedSensor": {
+        "measure": {"R": lambda: R_EX[None].copy(), "omega": lambda: np.zeros((1, 3))}
+    },
     "spacecraft.plant.Spacecraft": {
         "initial_state": {"R0": lambda: R_EX.copy()},
     },
@@ -704,7 +994,14 @@ METHODS: dict[str, dict[str, dict[str, Callable[[], Any]]]] = {
 
 #: callables not swept, with the reason
 NOT_SWEPT: dict[str, str] = {
+    "spacecraft.faults.Reconfigurability": "a result record built by reconfigurability "
+    "(which is swept)",
+    "spacecraft.faults.ActuatorFault": "the abstract base of the four fault kinds (it refuses "
+    "to be instantiated, tested in test_faults); the kinds themselves are swept",
     "benchmarks.cli.main": "the command line; its errors are tested in test_benchmarks_cli",
+    "spacecraft.formation.plot_formation": "writes a figure of a FormationResult (tested in "
+    "test_formation)",
+    "spacecraft.formation.FormationResult": "a result record built by run_formation",
     "benchmarks.runner.run_group": "an executor task payload built by run_suite, not user input",
     "benchmarks.montecarlo.run_chunk": "an executor task payload built by run_montecarlo",
     "benchmarks.montecarlo.run_montecarlo": "runs a Monte Carlo campaign (seconds per call); "
@@ -724,6 +1021,10 @@ NOT_SWEPT: dict[str, str] = {
     "arguments are validated by UnwindingConfig, which is swept",
     "benchmarks.perf_lie.run": "a timing run",
     "benchmarks.perf_lie.main": "a timing script entry point",
+    "benchmarks.singular_transit.main": "the command line (parses sys.argv; seconds per run)",
+    "benchmarks.singular_transit.run_comparison": "runs the whole comparison (seconds per call); "
+    "its laws argument is tested in test_steering_laws, the rest is swept via track_path",
+    "benchmarks.singular_transit.TransitResult": "a result record built by track_path",
     "benchmarks.perf_estimation.time_filters": "a timing run",
     "benchmarks.perf_estimation.main": "a timing script entry point",
     "benchmarks.executors.DaskExecutor": "needs a dask scheduler (tested in test_montecarlo)",
@@ -771,6 +1072,7 @@ NOT_SWEPT: dict[str, str] = {
         name: "a result record the library builds and returns (not an input)"
         for name in (
             "spacecraft.actuators.CmgCommand",
+            "spacecraft.cmg_dynamics.VscmgCommand",
             "spacecraft.actuators.WheelCommand",
             "spacecraft.sensors.GyroState",
             "spacecraft.simulator.SimulationResult",
@@ -794,10 +1096,22 @@ NOT_SWEPT_MODULES: dict[str, str] = {
     "benchmarks.reproductions": "paper reproductions: each export runs a whole reproduction "
     "(seconds to minutes per call); their options are tested in test_seed00x and the CLI tests",
     "benchmarks.perf_": "timing scripts (benchmarks.perf_*), not library API",
+    "benchmarks.finite_time_study": "a study script: every call runs minutes of closed-loop "
+    "simulation; its arguments are validated and tested in test_finite_time",
 }
 
 #: (qualified name, parameter, perturbation) that is legitimately accepted, with the reason
 ACCEPTED: dict[tuple[str, str, str], str] = {
+    ("liecontrol.control.adaptive.harmonic_regressor", "frequencies", "empty"): "no harmonic: "
+    "the constant-only model Φ = I₃",
+    ("liecontrol.control.adaptive.AdaptiveGeometricSO3", "frequencies", "empty"): "no harmonic: "
+    "a constant disturbance only",
+    ("liecontrol.control.tuning.tune_adaptive_so3", "frequencies", "empty"): "as "
+    "AdaptiveGeometricSO3",
+    **{
+        (f"spacecraft.faults.{fn}", "failed", "empty"): "no gimbal lost: the healthy cluster"
+        for fn in ("reduced_singularity_measure", "singular_fraction")
+    },
     ("liecontrol.charts.quaternion.slerp", "t", "empty"): "an empty batch of times gives an "
     "empty batch of quaternions",
     ("liecontrol.estimation.cholesky.tria", "A", "wrong_shape"): "triangularisation takes any "
@@ -821,6 +1135,8 @@ ACCEPTED: dict[tuple[str, str, str], str] = {
         "settles below the threshold"
         for p, pert in (("err", "huge"), ("threshold", "negative"), ("threshold", "zero"))
     },
+    ("spacecraft.formation.settling_time", "err", "huge"): "documented: NaN when the error "
+    "never settles below the tolerance",
     ("benchmarks.report.fmt", "x", "nan"): "formats a table cell: NaN is printed as 'n/a'",
     ("benchmarks.report.fmt", "x", "inf"): "formats a table cell: inf is printed as such",
     ("benchmarks.scenarios.rest_to_rest", "name", "wrong_type"): "'abc' is a valid name",
@@ -851,11 +1167,21 @@ ACCEPTED: dict[tuple[str, str, str], str] = {
         )
     },
     ("spacecraft.steering.jacobian_singularity_measure", "A", "wrong_shape"): "as pseudo_inverse",
+    ("liecontrol.control.finite_time.terminal_gain", "x", "wrong_shape"): "x: elementwise, "
+    "a 1-D array of any length",
+    ("liecontrol.control.finite_time.angle_decay_rate", "theta", "empty"): "theta: elementwise "
+    "h(θ), an empty array of angles gives an empty array of rates",
+    ("liecontrol.control.finite_time.angle_decay_rate", "theta", "wrong_shape"): "as empty",
     ("spacecraft.steering.singularity_robust_inverse", "A", "wrong_shape"): "as pseudo_inverse",
     ("spacecraft.steering.saturate_gimbal_rates", "delta_dot", "wrong_shape"): "(..., n), any n",
     **{
         (f"spacecraft.steering.{law}.__call__", p, pert): reason
-        for law in ("PseudoInverse", "SingularityRobust", "GeneralizedSingularityRobust")
+        for law in (
+            "PseudoInverse",
+            "SingularityRobust",
+            "GeneralizedSingularityRobust",
+            "SingularDirectionAvoidance",
+        )
         for p, pert, reason in (
             ("A", "wrong_shape", "A is (..., 3, n) for any number n of gimbals"),
         )
@@ -866,6 +1192,8 @@ ACCEPTED: dict[tuple[str, str, str], str] = {
         for law in ("SingularityRobust", "GeneralizedSingularityRobust")
         for p in ("lambda0", "mu")
     },
+    ("spacecraft.steering.SingularDirectionAvoidance", "lambda0", "zero"): "λ₀ = 0 is the "
+    "pseudo-inverse (finite through the relative floor): a valid law",
 }
 
 #: cases the sweep still finds and that are not fixed yet, with the reason. Keys are

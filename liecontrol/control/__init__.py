@@ -12,10 +12,18 @@ from .adapters import (
     QuaternionChartAdapter,
     RotatingFrame,
 )
+from .adaptive import AdaptiveGeometricSO3
 from .adrc import ADRCParams, MrpADRC, eso_gains_from_poles
 from .base import AttitudeController, AttitudeReference, AttitudeState
 from .chart_baselines import MrpPD, QuaternionPD
+from .consensus import (
+    AttitudeConsensus,
+    CommunicationGraph,
+    LeaderFollowerConsensus,
+    PoseFormation,
+)
 from .constrained import ConstrainedGeometricPD, KeepInCone, KeepOutCone
+from .finite_time import FiniteTimeSO3, FixedTimeSO3
 from .geometric_pd import GeometricPD, gains_from_bandwidth
 from .geometric_pid import IntegralPD, IntrinsicPID, integral_gain
 from .mpc import SO3MPC
@@ -49,6 +57,7 @@ __all__ = [
     "SO3MPC",
     "IntrinsicPID",
     "IntegralPD",
+    "AdaptiveGeometricSO3",
     "integral_gain",
     "PrescribedPerformance",
     "ppc_gains",
@@ -75,6 +84,8 @@ __all__ = [
     "pid_gains",
     "TerminalSlidingMode",
     "TerminalSlidingModeSO3",
+    "FiniteTimeSO3",
+    "FixedTimeSO3",
     "ClosedLoopSpec",
     "ActuatorLimits",
     "TuningInfeasible",
@@ -82,4 +93,8 @@ __all__ = [
     "ConstrainedGeometricPD",
     "KeepOutCone",
     "KeepInCone",
+    "CommunicationGraph",
+    "AttitudeConsensus",
+    "LeaderFollowerConsensus",
+    "PoseFormation",
 ]

@@ -43,7 +43,8 @@ Per family (sources in each function's docstring): geometric PD
 (:func:`tune_geometric_pd`), intrinsic PID and integral PD (:func:`tune_intrinsic_pid`,
 :func:`tune_integral_pd`), prescribed performance (:func:`tune_prescribed_performance`), MPC by
 LQR matching (:func:`tune_mpc`), MRP ADRC by Gao's bandwidth parameterisation
-(:func:`tune_mrp_adrc`), Euler terminal sliding mode (:func:`tune_euler_tsm`), quaternion and
+(:func:`tune_mrp_adrc`), Euler terminal sliding mode (:func:`tune_euler_tsm`), finite/fixed-time
+sliding mode on SO(3) (:func:`tune_finite_time_so3`), quaternion and
 MRP PD (:func:`tune_quaternion_pd`, :func:`tune_mrp_pd`), the small-angle Euler PID
 (:func:`tune_small_angle_pid`).
 """
@@ -78,6 +79,8 @@ __all__ = [
     "tune_geometric_pd",
     "tune_intrinsic_pid",
     "tune_integral_pd",
+    "tune_adaptive_so3",
+    "ADAPTIVE_INERTIA_RATE",
     "tune_prescribed_performance",
     "tune_mpc",
     "tune_mrp_adrc",
@@ -85,6 +88,7 @@ __all__ = [
     "tune_quaternion_pd",
     "tune_mrp_pd",
     "tune_small_angle_pid",
+    "tune_finite_time_so3",
     "measure_small_angle_response",
 ]
 
@@ -401,6 +405,83 @@ def tune_integral_pd(
     return {"k_R": k_R * J, "k_Omega": a2 * J, "k_I": k_I * J, "c": c, "error": "large_angle"}
 
 
+#: Default inertia adaptation gain ``γ_θ = ADAPTIVE_INERTIA_RATE · λ_max(J) / ω_n²`` of
+#: :func:`tune_adaptive_so3` (dimensionless; ~1 lets a slew of ~1 rad re-learn a sizeable fraction
+#: of ``J`` within one spec time constant).
+ADAPTIVE_INERTIA_RATE = 0.5
+
+
+def tune_adaptive_so3(
+    J: object,
+    spec: ClosedLoopSpec,
+    disturbance_bound: float,
+    frequencies: object = (),
+    integral_ratio: float = 0.1,
+    inertia_rate: float = ADAPTIVE_INERTIA_RATE,
+    inertia_bound: float = 0.5,
+    error: str = "trace",
+) -> dict[str, Any]:
+    """Keywords of :class:`~liecontrol.control.adaptive.AdaptiveGeometricSO3` (adaptive
+    geometric tracking after Sanyal, Fosbury, Chaturvedi & Bernstein, JGCD 32(4), 2009, and
+    Lee, IEEE TCST 21(5), 2013).
+
+    Linearised about ``R = R_d`` on the principal axis of largest inertia ``j = λ_max(J)``, with
+    ``K_s = κ J``, slope ``σ`` of the error (``e_R ≈ σ δθ``), ``u = cσ`` and the constant
+    disturbance estimate acting like an integral state, the loop is
+
+        p³ + (u + κ) p² + (κu + (σ k_R + γ_φ)/j) p + γ_φ u / j.
+
+    Matching ``(p² + 2ζω_n p + ω_n²)(p + q)``, ``q = integral_ratio · ω_n``:
+    ``κ = 2ζω_n + q − u``, ``γ_φ = j ω_n² q / u``, ``k_R = j(ω_n² + 2ζω_n q − κu − ω_n² q/u)/σ``;
+    ``u`` is chosen to maximise ``k_R`` (the Lyapunov decrease ``c k_R|e_R|²``), a root of
+    ``2u³ − (2ζω_n + q)u² + ω_n² q = 0``. Axes of smaller inertia are faster and stay stable
+    (scalar ``k_R`` and ``γ_φ``). The Lyapunov argument holds for any positive gains; this only
+    places the small-angle poles. ``γ_θ = inertia_rate · j / ω_n²``.
+
+    Raises :class:`TuningInfeasible` (``integral_ratio``) when no ``u`` gives ``k_R > 0``
+    (for ζ = 0.9: ``integral_ratio`` above ≈ 0.27).
+    """
+    from .adaptive import _check_frequencies
+    from .geometric_pd import linear_error_slope
+
+    J = check_inertia_3x3(J, "J")
+    spec = _check_spec(spec)
+    if isinstance(frequencies, (tuple, list)) and len(frequencies) == 0:
+        frequencies = np.zeros(0)
+    frequencies = tuple(_check_frequencies(frequencies).tolist())
+    r = _positive(integral_ratio, "integral_ratio")
+    rate = _positive(inertia_rate, "inertia_rate")
+    w, z = spec.omega_n, spec.zeta
+    sigma = linear_error_slope(error, None, "min")
+    j = float(np.linalg.eigvalsh(J)[-1])
+    q = r * w
+    # k_R(u)·σ/j = ω² + 2ζωq − (2ζω + q − u)u − ω²q/u, stationary where its u-derivative is 0
+    roots = np.roots([2.0, -(2.0 * z * w + q), 0.0, w * w * q])
+    cands = [x.real for x in roots if abs(x.imag) < 1e-12 and 0.0 < x.real < 2.0 * z * w + q]
+    best = None
+    for u in cands:
+        kR = j * (w * w + 2.0 * z * w * q - (2.0 * z * w + q - u) * u - w * w * q / u) / sigma
+        if best is None or kR > best[1]:
+            best = (u, kR)
+    if best is None or best[1] <= 0.0:
+        raise TuningInfeasible(
+            f"integral_ratio: {r:g} leaves no positive attitude gain k_R at zeta = {z:g}; "
+            "use a smaller ratio (slower disturbance estimation)"
+        )
+    u, k_R = best
+    return {
+        "k_R": k_R,
+        "k_s": (2.0 * z * w + q - u) * J,
+        "c": u / sigma,
+        "gamma_theta": rate * j / (w * w),
+        "gamma_phi": j * w * w * q / u,
+        "frequencies": frequencies,
+        "disturbance_bound": _positive(disturbance_bound, "disturbance_bound"),
+        "inertia_bound": _positive(inertia_bound, "inertia_bound"),
+        "error": error,
+    }
+
+
 def tune_prescribed_performance(
     J: object,
     spec: ClosedLoopSpec,
@@ -605,6 +686,80 @@ def tune_euler_tsm(
         "delta1": 0.0,
         "K": kap * d0,
     }
+
+
+def tune_finite_time_so3(
+    J: object,
+    spec: ClosedLoopSpec,
+    fixed_time: bool = False,
+    terminal_share: float = 0.5,
+    r: float = 0.5,
+    rho: float = 0.5,
+    eps: float = 0.05,
+    layer_ratio: float = 0.05,
+) -> dict[str, Any]:
+    """Keywords of :class:`~liecontrol.control.finite_time.FiniteTimeSO3` (or, with
+    ``fixed_time=True``, :class:`~liecontrol.control.finite_time.FixedTimeSO3`): the
+    nonsingular fast terminal sliding mode on SO(3) (Guo & Song, Chinese J. Aeronautics 27(2),
+    2014; Polyakov, IEEE TAC 57(8), 2012, for the fixed-time term).
+
+    Small-angle loop: inside the surface layer ``‖e_R‖ < ε`` and the reaching layer
+    ``‖s‖ < ε_s`` the law is linear, ``s ≈ δθ̇ + λδθ`` and ``ṡ = −κs`` with
+    ``λ = ½(k₁ + k₂a_r)``, ``κ = c₁ + c₂a_s``, ``a_p = (2 − p)ε^(p−1)``: poles ``−λ, −κ``, real,
+    so (as for :func:`tune_euler_tsm`) ``ζ ≥ 1`` is placed exactly
+    (``λ, κ = ω_n(ζ ∓ √(ζ² − 1))``) and ``ζ < 1`` gets the double pole ``−ω_n``. The inertia
+    cancels (the law commands ``J ė_Ω``). ``terminal_share`` of each pole comes from the
+    fractional term (``k₂a_r = 2λ·share``, ``c₂a_s = κ·share``), the rest from the linear one.
+    The reaching layer is ``ε_s = layer_ratio·h(π)`` with ``h(π) = k₁ + k₂`` the sliding
+    variable of a rest start at 180°. Fixed time: ``c₃ = κ·share / h(π)^(μ−1)`` (μ = 1.5), so
+    the ``‖s‖^μ`` term equals the fractional one's linear share at ``‖s‖ = h(π)`` and only
+    dominates for tumbling starts.
+
+    Beyond the layers the fractional gains are *smaller* than their small-angle values
+    (``x^(p−1) ≤ a_p``): with the same small-angle poles the finite-time law is slower than a
+    linear surface at large angles, and its advantage is the finite-time (not asymptotic)
+    arrival at the layer and, with ``c₃``, a settling bound for any initial rate.
+    """
+    check_inertia_3x3(J, "J")
+    spec = _check_spec(spec)
+    share = _positive(terminal_share, "terminal_share")
+    if share > 1.0:
+        raise ValueError(f"terminal_share: must be in (0, 1], got {share:g}")
+    for name, v in (("r", r), ("rho", rho), ("eps", eps), ("layer_ratio", layer_ratio)):
+        x = _positive(v, name)
+        if x >= 1.0:
+            raise ValueError(f"{name}: must be in (0, 1), got {x:g}")
+    if not isinstance(fixed_time, (bool, np.bool_)):
+        raise TypeError(f"fixed_time: expected a bool, got {type(fixed_time).__name__}")
+    w, z = spec.omega_n, spec.zeta
+    if z > 1.0:
+        q = math.sqrt(z * z - 1.0)
+        lam, kap = w * (z - q), w * (z + q)
+    else:
+        lam = kap = w
+    a_r = (2.0 - r) * eps ** (r - 1.0)
+    k2 = 2.0 * lam * share / a_r
+    k1 = 2.0 * lam * (1.0 - share)
+    h_pi = k1 + k2
+    eps_s = layer_ratio * h_pi
+    a_s = (2.0 - rho) * eps_s ** (rho - 1.0)
+    c2 = kap * share / a_s
+    c1 = kap * (1.0 - share)
+    out: dict[str, Any] = {
+        "k1": k1,
+        "k2": k2,
+        "c2": c2,
+        "r": r,
+        "eps": eps,
+        "c1": c1,
+        "rho": rho,
+        "eps_s": eps_s,
+    }
+    if fixed_time:
+        mu = 1.5
+        out["c3"] = kap * share / h_pi ** (mu - 1.0)
+        out["mu"] = mu
+    return out
 
 
 def tune_quaternion_pd(J: object, spec: ClosedLoopSpec) -> dict[str, Any]:

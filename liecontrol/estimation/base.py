@@ -47,12 +47,14 @@ from __future__ import annotations
 
 import abc
 import logging
+import math
 from typing import Any
 
 import numpy as np
 from scipy.stats import chi2
 
 from .._validation import _to_float_array, as_array, as_scalar, check_positive_scalar
+from . import _kernels as _k
 from .cholesky import NotPositiveDefiniteError, chol_solve, nearest_pd_sqrt, solve_lower
 from .unscented import cholesky_or_raise
 
@@ -161,6 +163,9 @@ class Filter(abc.ABC):
         self._innovation: np.ndarray | None = None
         self._innovation_cov: np.ndarray | None = None
         self._diag: dict[str, Any] = {}
+        # μ = 1 (no fading) shared by every step's diagnostics (read-only; the property copies)
+        self._no_fading = np.ones(k)
+        self._no_fading.flags.writeable = False
         self._reset_diag()
 
     # ------------------------------------------------------------------ public interface
@@ -206,7 +211,12 @@ class Filter(abc.ABC):
     def predict(self, u: object, dt: float) -> None:
         """Time update over ``dt`` with the input ``u`` (torque or gyro reading, shape (3,))."""
         dt = check_positive_scalar(dt, "dt")
-        uu = as_array(u, "u")
+        if type(u) is np.ndarray and u.shape == (3,) and u.dtype == np.float64:
+            uu = u  # the common case, checked on Python floats (numpy's checks cost µs here)
+            if not all(math.isfinite(c) for c in u.tolist()):
+                uu = as_array(u, "u")  # raises the usual message
+        else:
+            uu = as_array(u, "u")
         if uu.shape != (3,):
             raise ValueError(f"u: expected shape (3,), got {uu.shape}")
         self._reset_diag()
@@ -221,7 +231,7 @@ class Filter(abc.ABC):
             raise ValueError(f"z: expected shape ({m},), got {zz.shape}")
         self._diag["update_rejected"] = False
         self._diag["reason"] = ""
-        if not np.all(np.isfinite(zz)):
+        if not all(math.isfinite(c) for c in zz.tolist()):
             reason = f"z: non-finite measurement {zz.tolist()} rejected; prediction kept"
             logger.warning("%s: %s", self.name, reason)
             self._diag["update_rejected"] = True
@@ -277,7 +287,7 @@ class Filter(abc.ABC):
 
     def _reset_diag(self) -> None:
         self._diag = {
-            "fading": np.ones(self.cov_dim),
+            "fading": self._no_fading,
             "repaired": False,
             "update_rejected": False,
             "reason": "",
@@ -310,11 +320,13 @@ class Filter(abc.ABC):
                 f"positive-definite matrix ({type(exc).__name__}: {exc})"
             ) from exc
 
-    def _gate(self, nu: np.ndarray, Sz: np.ndarray) -> float:
+    def _gate(self, nu: np.ndarray, Sz: np.ndarray, nis: float | None = None) -> float:
         """NIS = |S_z⁻¹ ν|² and the χ² gate (raises :class:`_Gated` before the state changes);
-        after ``gate_max_consecutive`` rejections in a row the measurement passes (logged)."""
-        y = solve_lower(Sz, nu)
-        nis = float(y @ y)
+        after ``gate_max_consecutive`` rejections in a row the measurement passes (logged).
+        ``nis`` given: already computed by the caller (a fused kernel) from the same S_z, ν."""
+        if nis is None:
+            y = solve_lower(Sz, nu)
+            nis = float(y @ y)
         if not self._gate_done and nis > self.gate_threshold:
             if self._gated_run < self.gate_max_consecutive:
                 raise _Gated(nis)
@@ -326,10 +338,12 @@ class Filter(abc.ABC):
         self._gate_done = True
         return nis
 
-    def _record_innovation(self, nu: np.ndarray, Pzz: np.ndarray, Sz: np.ndarray | None) -> None:
+    def _record_innovation(
+        self, nu: np.ndarray, Pzz: np.ndarray, Sz: np.ndarray | None, nis: float | None = None
+    ) -> None:
         if Sz is None:
             Sz = np.linalg.cholesky(Pzz)
-        nis = self._gate(nu, Sz)
+        nis = self._gate(nu, Sz, nis)
         self._innovation = nu
         self._innovation_cov = Pzz
         self._diag["nis"] = nis
@@ -367,18 +381,20 @@ class Filter(abc.ABC):
             return self._P
 
     def _sqrt_or_repair(self, P: np.ndarray, name: str) -> np.ndarray:
-        try:
-            return np.linalg.cholesky(0.5 * (P + P.T))
-        except np.linalg.LinAlgError:
-            return self._repair(P, name, "Cholesky failed")
+        # Cholesky of ½(P + Pᵀ) in one compiled call (numpy's costs ~10 µs of overhead per
+        # 7×7 matrix); it fails exactly where LAPACK's potrf does (a pivot ≤ 0 or NaN)
+        L, ok = _k.cholesky_sym(np.ascontiguousarray(P, dtype=np.float64))
+        return L if ok else self._repair(P, name, "Cholesky failed")
 
     def _check_finite(self, where: str) -> None:
         cov = self._S if self.square_root else self._P
-        if not np.all(np.isfinite(cov)):
+        if _k.all_finite(cov.ravel(), self._x):
+            return  # the common case in one compiled call; the checks below name the culprit
+        if not np.isfinite(cov).all():
             raise NotPositiveDefiniteError(
                 f"P: non-finite covariance after {where} in {self.name} (the filter diverged)"
             )
-        if not np.all(np.isfinite(self._x)):
+        if not np.isfinite(self._x).all():
             raise NotPositiveDefiniteError(
                 f"x: non-finite state after {where} in {self.name} (the filter diverged)"
             )

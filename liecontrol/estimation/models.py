@@ -45,6 +45,7 @@ from .._validation import (
 from ..charts import quaternion as quat
 from ..integrators.rk import rk4_step_unchecked
 from ..lie import so3
+from . import _kernels as _k
 
 __all__ = [
     "GyrolessAttitudeModel",
@@ -156,6 +157,8 @@ class _EulerMeasurement:
 
     def h(self, x: np.ndarray) -> np.ndarray:
         """Euler angles (roll, pitch, yaw) of the attitude in x, (N, 7) -> (N, 3)."""
+        if x.ndim == 2 and x.dtype == np.float64:
+            return _k.rpy_from_q(x)  # the sigma-point batch: one compiled call
         return _rpy_from_q(x[..., :4])
 
     def z_residual(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -265,6 +268,12 @@ class GyrolessAttitudeModel(_EulerMeasurement):
         """One RK4 step of length dt with the torque u held, then q normalised (the paper's
         eq. (11))."""
         torque = np.asarray(u, dtype=np.float64)
+        if x.ndim == 2 and x.shape[1] == 7 and x.dtype == np.float64 and torque.shape == (3,):
+            # the filters' case (all sigma points, one torque): one compiled call, same arithmetic
+            y, ok = _k.gyroless_rk4(x, torque, float(dt), self.J, self._Jinv)
+            if not ok:
+                raise ValueError("x: quaternion part has zero or non-finite norm")
+            return y
         y = _rk4(lambda yy: self.rhs(yy, torque), x, dt)
         return self.normalize(y)
 

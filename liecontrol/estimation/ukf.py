@@ -21,7 +21,9 @@ from typing import Any
 
 import numpy as np
 
+from . import _kernels as _k
 from .base import DEFAULT_GATE_PROBABILITY, Filter, tri_solve_gain
+from .models import GyrolessAttitudeModel
 from .unscented import UTWeights, _sigma_points, ut_weights
 
 __all__ = ["UKF"]
@@ -53,6 +55,27 @@ class _AdditiveUT(Filter):
         )
         self.weights: UTWeights = ut_weights(int(model.n), alpha, beta, kappa)
         self._Pf = np.zeros((model.n, model.n))
+        # The gyroless model (exactly that class: a subclass may override f or h) has fused
+        # compiled kernels for the whole sigma-point pass; anything else goes through the
+        # model's batched f/h. Same arithmetic either way (tests: equal to 1e-12).
+        self._fused = type(model) is GyrolessAttitudeModel
+        if self._fused:
+            self._R = np.ascontiguousarray(model.R)
+            # the diagonal of Q(dt) / dt, exactly as the model builds it
+            self._qdiag = np.r_[np.full(4, model.sigma_q**2), np.full(3, model.sigma_w**2)]
+
+    def _predict_fused(self, S: np.ndarray, u: np.ndarray, dt: float) -> None:
+        """The time update on the gyroless model in one compiled call: x⁻, P_f = Σ Wᶜ (Y − x⁻)
+        (Y − x⁻)ᵀ (symmetrised) and P⁻ = P_f + Q(dt) (Q diagonal, not rebuilt each step)."""
+        m, w = self.model, self.weights
+        xm, Pf, P, ok = _k.ukf_predict_gyroless(
+            self._x, S, u, dt, m.J, m._Jinv, w.Wm, w.Wc, w.gamma, self._qdiag * dt
+        )
+        if not ok:
+            raise ValueError("x: quaternion part has zero or non-finite norm")
+        self._x = xm
+        self._Pf = Pf
+        self._P = P
 
     def _propagate(self, S: np.ndarray, u: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """Sigma points of (x, S S ᵀ) through f; returns (Y, normalised weighted mean)."""
@@ -85,6 +108,19 @@ class UKF(_AdditiveUT):
     name = "UKF"
 
     def _predict(self, u: np.ndarray, dt: float) -> None:
+        if self._fused:
+            m, w = self.model, self.weights
+            xm, Pf, P, status = _k.ukf_predict_gyroless_from_P(
+                self._x, self._P, u, dt, m.J, m._Jinv, w.Wm, w.Wc, w.gamma, self._qdiag * dt
+            )
+            if status == 0:
+                self._x, self._Pf, self._P = xm, Pf, P
+                return
+            if status == 2:
+                raise ValueError("x: quaternion part has zero or non-finite norm")
+            # P failed its Cholesky factorisation: the PD policy repairs it (or raises)
+            self._predict_fused(self._sqrt_or_repair(self._P, "P"), u, dt)
+            return
         S = self._sqrt_or_repair(self._P, "P")
         Y, xm = self._propagate(S, u, dt)
         dY = Y - xm
@@ -95,20 +131,58 @@ class UKF(_AdditiveUT):
 
     def _gain_update(self, P: np.ndarray, z: np.ndarray) -> None:
         """Standard UKF measurement update from prior (self._x, P)."""
+        if self._fused:
+            w = self.weights
+            # the χ² gate inside the kernel: it stops before the correction when the gate would
+            # reject (the same decision _record_innovation makes, which then raises _Gated)
+            active = not self._gate_done and self._gated_run < self.gate_max_consecutive
+            x, PP, Pn, Pzz, nu, nis, Sz, status = _k.ukf_update_correct(
+                self._x, P, z, w.Wm, w.Wc, w.gamma, self._R,
+                self.gate_threshold if active else np.inf,
+            )  # fmt: skip
+            if status in (0, 3, 4, 5):
+                self._record_innovation(nu, Pzz, Sz, nis)  # raises _Gated for status 3
+                if status == 4:
+                    raise ValueError("x: quaternion part has zero or non-finite norm")
+                self._x = x
+                if status == 0:
+                    self._P = PP
+                else:  # P⁺ lost positive-definiteness: the PD policy repairs it (or raises)
+                    S_new = self._sqrt_or_repair(Pn, "P")
+                    self._P = S_new @ S_new.T
+                return
+            # a Cholesky failed inside: the step-by-step route below repairs (or raises)
         S = self._sqrt_or_repair(P, "P")
-        _, _, zm, dX, dZ = self._measure(self._x, S)
-        Wc = self.weights.Wc[:, None]
-        Pzz = (dZ * Wc).T @ dZ + self.model.R
-        Pzz = 0.5 * (Pzz + Pzz.T)
-        Pxz = (dX * Wc).T @ dZ
+        if self._fused:
+            w = self.weights
+            zm, Pzz, Pxz = _k.ukf_measure_euler(self._x, S, w.Wm, w.Wc, w.gamma, self._R)
+        else:
+            _, _, zm, dX, dZ = self._measure(self._x, S)
+            Wc = self.weights.Wc[:, None]
+            Pzz = (dZ * Wc).T @ dZ + self.model.R
+            Pzz = 0.5 * (Pzz + Pzz.T)
+            Pxz = (dX * Wc).T @ dZ
         Sz = self._sqrt_or_repair(Pzz, "P_zz")
-        Pzz = Sz @ Sz.T
-        K = tri_solve_gain(Pxz, Sz)
-        nu = self.model.z_residual(z, zm)
-        self._record_innovation(nu, Pzz, Sz)
-        self._x = self.model.normalize((self._x + K @ nu)[None, :])[0]
-        Pn = P - K @ Pzz @ K.T
-        Pn = 0.5 * (Pn + Pn.T)
+        if self._fused:
+            Pzz, K, nu, nis = _k.ukf_gain(Sz, Pxz, z, zm)
+            self._record_innovation(nu, Pzz, Sz, nis)
+            x, Pn, ok = _k.ukf_correct(self._x, K, nu, P, Pzz)
+            if not ok:
+                raise ValueError("x: quaternion part has zero or non-finite norm")
+            self._x = x
+            # check now so that a loss of PD is handled where it happens
+            _, PP, ok = _k.cholesky_outer(Pn)
+            if ok:
+                self._P = PP
+                return
+        else:
+            nu = self.model.z_residual(z, zm)
+            Pzz = Sz @ Sz.T
+            K = tri_solve_gain(Pxz, Sz)
+            self._record_innovation(nu, Pzz, Sz)
+            self._x = self.model.normalize((self._x + K @ nu)[None, :])[0]
+            Pn = P - K @ Pzz @ K.T
+            Pn = 0.5 * (Pn + Pn.T)
         # check now so that a loss of PD is handled where it happens
         S_new = self._sqrt_or_repair(Pn, "P")
         self._P = S_new @ S_new.T

@@ -21,6 +21,8 @@ Atchuthan, *A micro Lie theory for state estimation in robotics* (2018), App. D.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .._linalg import cross as _cross
@@ -35,10 +37,12 @@ from .so3 import (
     _SMALL_JAC,
     ARRAY_ROTATION_ATOL,
     _axis_angle,
+    _axis_block,
     _batch,
     _jac_coeffs,
     _jac_inv_coeff,
-    _right_jacobian_inv,
+    _jac_inv_parts,
+    _unit_jac_coeffs_one,
 )
 
 __all__ = [
@@ -88,6 +92,9 @@ def _pose(g: object, name: str = "g") -> np.ndarray:
 
 
 _LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
+_F64 = np.dtype(np.float64)
+_F = np.ndarray | float  # a coefficient: a batch array or one Python float
+_Vec = tuple  # the three components of a vector (arrays or Python floats)
 
 
 def identity(batch_shape: tuple[int, ...] = ()) -> np.ndarray:
@@ -121,6 +128,12 @@ def translation(g: object) -> np.ndarray:
 
 def hat(xi: object) -> np.ndarray:
     """ξ = (ω, v) ↦ ξ^ = [[ω^, v], [0, 0]]; ``(..., 6) -> (..., 4, 4)``."""
+    if type(xi) is np.ndarray and xi.shape == (6,) and xi.dtype == _F64:
+        x, y, z, a, b, c = xi.tolist()
+        if math.isfinite(x + y + z + a + b + c):
+            return np.array(
+                ((0.0, -z, y, a), (z, 0.0, -x, b), (-y, x, 0.0, c), (0.0, 0.0, 0.0, 0.0))
+            )
     xi = _twist(xi)
     X = np.zeros(xi.shape[:-1] + (4, 4))
     X[..., :3, :3] = so3.hat(xi[..., :3])
@@ -153,6 +166,10 @@ def exp(xi: object) -> np.ndarray:
     V v = v + ((1 − cos θ)/θ²) ω × v + ((θ − sin θ)/θ³) ω × (ω × v) (Barfoot §7.1.9), Taylor
     branches near θ = 0 inside the coefficients. ``(..., 6) -> (..., 4, 4)``.
     """
+    if type(xi) is np.ndarray and xi.shape == (6,) and xi.dtype == _F64:
+        g1 = _exp_one(*xi.tolist())
+        if g1 is not None:
+            return g1
     xi = _twist(xi)
     w = xi[..., :3]
     v = xi[..., 3:]
@@ -167,6 +184,90 @@ def exp(xi: object) -> np.ndarray:
     g[..., :3, 3] = t
     g[..., 3, 3] = 1.0
     return g
+
+
+def _exp_one(x: float, y: float, z: float, v0: float, v1: float, v2: float) -> np.ndarray | None:
+    """:func:`exp` of one twist on Python floats (numpy's per-call overhead dominates for one
+    element): the same formulas as the batched path. ``None`` for a non-finite or very long ω
+    (the batched path handles or rejects it)."""
+    rows = so3._exp_rows(x, y, z)
+    if rows is None:
+        return None
+    theta = math.sqrt(x * x + y * y + z * z)
+    if theta > 0.0:
+        n0, n1, n2 = x / theta, y / theta, z / theta
+        h = math.sin(0.5 * theta)
+        b1 = 2.0 * h * h / theta
+    else:
+        n0 = n1 = n2 = b1 = 0.0
+    if theta < _SMALL_JAC:
+        t2 = theta * theta
+        c1 = t2 * (1.0 / 6.0 - t2 / 120.0 + t2 * t2 / 5040.0 - t2 * t2 * t2 / 362880.0)
+    else:
+        c1 = 1.0 - math.sin(theta) / theta
+    # n × v and n × (n × v)
+    a0, a1, a2 = n1 * v2 - n2 * v1, n2 * v0 - n0 * v2, n0 * v1 - n1 * v0
+    b0, b1_, b2 = n1 * a2 - n2 * a1, n2 * a0 - n0 * a2, n0 * a1 - n1 * a0
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = rows
+    return np.array(
+        (
+            (r00, r01, r02, v0 + b1 * a0 + c1 * b0),
+            (r10, r11, r12, v1 + b1 * a1 + c1 * b1_),
+            (r20, r21, r22, v2 + b1 * a2 + c1 * b2),
+            (0.0, 0.0, 0.0, 1.0),
+        )
+    )
+
+
+def _pose_rotation(g: object) -> tuple[float, ...] | None:
+    """The nine rotation entries (row-major) of one float64 ``(4, 4)`` ndarray that passes the
+    cheap pose check of the array layer (rotation block within ``so3.ARRAY_ROTATION_ATOL``,
+    finite translation, last row (0, 0, 0, 1) within the same tolerance), else ``None`` (the
+    caller takes the general path, which converts or raises the usual message)."""
+    if not (type(g) is np.ndarray and g.shape == (4, 4) and g.dtype == _F64):
+        return None
+    r00, r01, r02, p0, r10, r11, r12, p1, r20, r21, r22, p2, l0, l1, l2, l3 = g.ravel().tolist()
+    m = (r00, r01, r02, r10, r11, r12, r20, r21, r22)
+    tol = ARRAY_ROTATION_ATOL
+    # each comparison separately: a NaN makes its own comparison False
+    ok = (
+        so3._is_rotation9(*m)
+        and math.isfinite(p0 + p1 + p2)
+        and abs(l0) <= tol
+        and abs(l1) <= tol
+        and abs(l2) <= tol
+        and abs(l3 - 1.0) <= tol
+    )
+    return m if ok else None
+
+
+def _log_one(g: object) -> np.ndarray | None:
+    """:func:`log` of one float64 ``(4, 4)`` pose on Python floats, or ``None`` when ``g`` is not
+    such an array, fails the cheap pose check of the array layer, or has a rotation angle
+    near π (cos θ < −0.999): the general path then handles it or raises the usual message."""
+    if not (type(g) is np.ndarray and g.shape == (4, 4) and g.dtype == _F64):
+        return None
+    m = _pose_rotation(g)
+    if m is None:
+        return None
+    p0, p1, p2 = g[:3, 3].tolist()  # type: ignore[index]
+    w = so3._log_floats(*m)
+    if w is None:
+        return None
+    w0, w1, w2 = w
+    theta = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+    if theta < _SMALL_JAC:
+        t2 = theta * theta
+        d = 1.0 / 12.0 + t2 / 720.0 + t2 * t2 / 30240.0 + t2 * t2 * t2 / 1209600.0
+    else:
+        half = 0.5 * theta
+        d = 1.0 / (theta * theta) - math.cos(half) / (2.0 * theta * math.sin(half))
+    # w × p and w × (w × p)
+    a0, a1, a2 = w1 * p2 - w2 * p1, w2 * p0 - w0 * p2, w0 * p1 - w1 * p0
+    b0, b1, b2 = w1 * a2 - w2 * a1, w2 * a0 - w0 * a2, w0 * a1 - w1 * a0
+    return np.array(
+        (w0, w1, w2, p0 - 0.5 * a0 + d * b0, p1 - 0.5 * a1 + d * b1, p2 - 0.5 * a2 + d * b2)
+    )
 
 
 def _unit_jac_coeffs(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -187,7 +288,8 @@ def log(g: object) -> np.ndarray:
     J_l(ω)⁻¹ p = p − ½ ω × p + (1/θ² − cot(θ/2)/(2θ)) ω × (ω × p) (finite up to θ = π).
     ``(..., 4, 4) -> (..., 6)``.
     """
-    return log_unchecked(_pose(g, "g"))
+    out = _log_one(g)
+    return out if out is not None else log_unchecked(_pose(g, "g"))
 
 
 def log_unchecked(g: np.ndarray) -> np.ndarray:
@@ -200,6 +302,21 @@ def log_unchecked(g: np.ndarray) -> np.ndarray:
     wp = _cross(w, p)
     v = p - 0.5 * wp + d[..., None] * _cross(w, wp)
     return np.concatenate((w, v), axis=-1)
+
+
+def _q_series() -> tuple[tuple[float, float, float], ...]:
+    """The Taylor coefficients of :func:`_q_coeffs` (9 terms each), highest order first (the
+    order Horner's rule uses)."""
+    fact = np.cumprod(np.arange(1, 30, dtype=np.float64))  # fact[k-1] = k!
+    k = np.arange(9)
+    a1 = (-1.0) ** k / fact[2 * k + 2]
+    a2 = (-1.0) ** k / fact[2 * k + 3]
+    n = k + 2
+    a3 = (-1.0) ** n * (n - 1) / fact[2 * n]
+    return tuple(zip(a1[::-1].tolist(), a2[::-1].tolist(), a3[::-1].tolist(), strict=True))
+
+
+_Q_SERIES = _q_series()
 
 
 def _q_coeffs(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -215,66 +332,139 @@ def _q_coeffs(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     c2 = (t2 + 2.0 * co - 2.0) / (2.0 * t2 * t2)
     c3 = (2.0 * t - 3.0 * s + t * co) / (2.0 * t2 * t2 * t)
     if np.any(small):
-        x = theta * theta
-        fact = np.cumprod(np.arange(1, 30, dtype=np.float64))  # fact[k-1] = k!
-        k = np.arange(9)
-        a1 = (-1.0) ** k / fact[2 * k + 2]
-        a2 = (-1.0) ** k / fact[2 * k + 3]
-        n = k + 2
-        a3 = (-1.0) ** n * (n - 1) / fact[2 * n]
+        # the series only on the elements that use it (0-d input: the whole "batch")
+        sub = theta if theta.ndim == 0 else theta[small]
+        x = sub * sub
         s1 = np.zeros_like(x)
         s2 = np.zeros_like(x)
         s3 = np.zeros_like(x)
-        for i in range(8, -1, -1):  # Horner over the 9 series terms (not over the batch)
-            s1 = s1 * x + a1[i]
-            s2 = s2 * x + a2[i]
-            s3 = s3 * x + a3[i]
-        c1 = np.where(small, s1, c1)
-        c2 = np.where(small, s2, c2)
-        c3 = np.where(small, s3, c3)
+        for a1, a2, a3 in _Q_SERIES:  # Horner over the 9 series terms (not over the batch)
+            s1 = s1 * x + a1
+            s2 = s2 * x + a2
+            s3 = s3 * x + a3
+        if theta.ndim == 0:
+            return s1, s2, s3
+        c1[small] = s1
+        c2[small] = s2
+        c3[small] = s3
     return c1, c2, c3
+
+
+def _q_scaled_one(theta: float) -> tuple[float, float, float, float]:
+    """:func:`_q_scaled` of one angle on Python floats (same formulas and branches)."""
+    if theta > 1e50:
+        return 0.0, 1.0, 0.5, 0.0
+    t = theta
+    if t < _SMALL_Q:
+        x = t * t
+        c1 = c2 = c3 = 0.0
+        for a1, a2, a3 in _Q_SERIES:
+            c1 = c1 * x + a1
+            c2 = c2 * x + a2
+            c3 = c3 * x + a3
+    else:
+        s, co = math.sin(t), math.cos(t)
+        t2 = t * t
+        c1 = (t - s) / (t2 * t)
+        c2 = (t2 + 2.0 * co - 2.0) / (2.0 * t2 * t2)
+        c3 = (2.0 * t - 3.0 * s + t * co) / (2.0 * t2 * t2 * t)
+    return c1 * t, c1 * t * t, c2 * t * t, c3 * t * t * t
+
+
+def _q_scaled(theta: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Barfoot's Q coefficients times the powers of θ that keep them bounded for every θ:
+    (c₁θ, c₁θ², c₂θ², c₃θ³), with the θ → ∞ limits (0, 1, ½, 0) beyond θ = 1e50."""
+    t = np.minimum(theta, 1e50)  # the coefficients' argument; beyond it the limits apply
+    c1, c2, c3 = _q_coeffs(t)
+    c1a = c1 * t
+    c1 = c1 * t * t
+    c2 = c2 * t * t
+    c3 = c3 * t * t * t
+    big = theta > 1e50
+    if np.any(big):
+        c1a = np.where(big, 0.0, c1a)
+        c1 = np.where(big, 1.0, c1)
+        c2 = np.where(big, 0.5, c2)
+        c3 = np.where(big, 0.0, c3)
+    return c1a, c1, c2, c3
+
+
+def _lin_block(out: np.ndarray, n: _Vec, v: _Vec, kv: _F, kvn: _F, kp: _F, knn: _F, ki: _F) -> None:
+    """Write into ``out`` ``(..., 3, 3)`` the matrix (r)^ + kvn (v nᵀ + n vᵀ) + s (knn n nᵀ + ki I)
+    with r = kv v + kp s n, s = n·v; ``n``, ``v`` given as their three components and every
+    argument either ``(...)`` arrays or Python floats (one implementation for both routes).
+
+    Every 3×3 matrix that is linear in v and built from the unit axis n alone (an equivariant
+    map, like the Q block and −J⁻¹ Q J⁻¹) is a combination of v^, v nᵀ + n vᵀ, n (n × v)ᵀ −
+    (n × v) nᵀ = v^ − s n^, s n^, s n nᵀ and s I; the reductions use n^² = n nᵀ − I,
+    n^ v^ = v nᵀ − s I, v^ n^ = n vᵀ − s I and n^ v^ n^ = −s n^ (‖n‖ = 1). Entry by entry on
+    ``(...)`` arrays: no stacked 3×3 temporaries (they cost more than the arithmetic).
+    """
+    nn, vv = n, v
+    s = nn[0] * vv[0] + nn[1] * vv[1] + nn[2] * vv[2]
+    ks = kp * s
+    r = [kv * vv[i] + ks * nn[i] for i in range(3)]
+    a = [kvn * nn[i] for i in range(3)]
+    bs = knn * s
+    b = [bs * nn[i] for i in range(3)]
+    d = ki * s
+    for i in range(3):
+        for j in range(i, 3):
+            sym = vv[i] * a[j]
+            sym += vv[j] * a[i]
+            sym += nn[i] * b[j]
+            if i == j:
+                sym += d
+                out[..., i, i] = sym
+            else:
+                k = 3 - i - j
+                sign = 1.0 if (j - i) % 3 == 1 else -1.0  # (r)^_ij = −ε_ijk r_k
+                out[..., i, j] = sym - sign * r[k]
+                out[..., j, i] = sym + sign * r[k]
 
 
 def _q_left(w: np.ndarray, v: np.ndarray) -> np.ndarray:
     """The 3×3 Q block of the SE(3) left Jacobian (Barfoot eq. 7.86 with φ = ω, ρ = v).
 
-    Written with P = θ N (N = n^, n = ω/θ): the coefficients are multiplied by the matching powers
-    of θ (c₁θ, c₁θ², c₂θ², c₃θ³ are all bounded), so no product overflows for long ω.
+    Barfoot's form Q = ½V + c₁(PV + VP + PVP) + c₂(P²V + VP² − 3PVP) + c₃(PVP² + P²VP) (V = v^,
+    P = ω^) reduces, with n = ω/θ and the identities of :func:`_lin_block`, to the closed form
+
+        Q = −e v^ + c₁θ (v nᵀ + n vᵀ) + (c₁θ² − 2c₂θ²)(v^ − s n^) − 2c₃θ³ s n nᵀ − 2f s I,
+
+    e = c₁θ² − c₂θ² − ½, f = c₁θ − c₃θ³, s = n·v: no 3×3 products, and every coefficient is
+    bounded for every θ (so long ω cannot overflow).
     """
     theta, n = _axis_angle(w)
-    t = np.minimum(theta, 1e50)  # the coefficients' argument; beyond it the limits apply
-    c1, c2, c3 = _q_coeffs(t)
-    big = theta > 1e50
-    P = so3.hat(n)
-    c1a = c1 * t  # multiplies N V + V N (one factor of P)
-    c1 = c1 * t * t  # multiplies N V N
-    c2 = c2 * t * t
-    c3 = c3 * t * t * t
-    if np.any(big):
-        # θ → ∞ limits: c₁θ → 0, c₁θ² → 1, c₂θ² → ½, c₃θ³ → 0
-        c1a = np.where(big, 0.0, c1a)
-        c1 = np.where(big, 1.0, c1)
-        c2 = np.where(big, 0.5, c2)
-        c3 = np.where(big, 0.0, c3)
-    V = so3.hat(v)
-    PV = P @ V
-    VP = V @ P
-    PVP = PV @ P
-    PPV = P @ PV
-    VPP = VP @ P
-    PVPP = PVP @ P
-    PPVP = P @ PVP
-    c1a = c1a[..., None, None]
-    c1 = c1[..., None, None]
-    c2 = c2[..., None, None]
-    c3 = c3[..., None, None]
-    return (
-        0.5 * V
-        + c1a * (PV + VP)
-        + c1 * PVP
-        + c2 * (PPV + VPP - 3.0 * PVP)
-        + c3 * (PVPP + PPVP)
-    )
+    c1a, c1, c2, c3 = _q_scaled(theta)
+    Q = np.empty(np.broadcast_shapes(w.shape, v.shape)[:-1] + (3, 3))
+    _lin_block(Q, _comp(n), _comp(v), *_q_block_coeffs(c1a, c1, c2, c3))
+    return Q
+
+
+def _comp(a: np.ndarray) -> _Vec:
+    """The three components of a ``(..., 3)`` array, as ``(...)`` views."""
+    return a[..., 0], a[..., 1], a[..., 2]
+
+
+def _q_block_coeffs(c1a: _F, c1: _F, c2: _F, c3: _F) -> tuple[_F, ...]:
+    """The :func:`_lin_block` coefficients of Barfoot's Q (see :func:`_q_left`)."""
+    e = c1 - c2 - 0.5
+    knu = c1 - 2.0 * c2
+    return knu - e, c1a, -knu, -2.0 * c3, -2.0 * (c1a - c3)
+
+
+def _q_inv_block_coeffs(h: _F, d1: _F, c1a: _F, c1: _F, c2: _F, c3: _F) -> tuple[_F, ...]:
+    """The :func:`_lin_block` coefficients of −J⁻¹ Q J⁻¹ (see :func:`_left_jacobian_inv`)."""
+    e = c1 - c2 - 0.5
+    f = c1a - c3
+    a = 1.0 - d1
+    a2h2 = a * a - h * h
+    kv = e * a2h2 - 4.0 * a * f * h
+    kvn = h * (0.5 - c2) - a * c1a
+    ku = a * (c2 - 0.5) - h * c1a - kv
+    ki = 2.0 * f * a2h2 + 2.0 * a * e * h
+    knn = -2.0 * a * a * f + 2.0 * a * (c3 - e * h + f) + 2.0 * f * h * h + h * (2.0 * c2 - 1.0)
+    return kv - ku, kvn, ku, knn, ki
 
 
 def _blocks(A: np.ndarray, Q: np.ndarray) -> np.ndarray:
@@ -287,48 +477,124 @@ def _blocks(A: np.ndarray, Q: np.ndarray) -> np.ndarray:
     return J
 
 
+def _jacobian_6x6(shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A zero ``shape + (6, 6)`` array and views of its upper-left and lower-left blocks."""
+    J = np.zeros(shape + (6, 6))
+    return J, J[..., :3, :3], J[..., 3:, :3]
+
+
 def left_jacobian(xi: object) -> np.ndarray:
     """J_l(ξ) = [[J_l(ω), 0], [Q(ω, v), J_l(ω)]] (Barfoot eq. 7.85–7.86 reordered to (ω, v)),
-    with exp(ξ + δ) ≈ exp(J_l(ξ) δ) exp(ξ). ``(..., 6) -> (..., 6, 6)``."""
-    xi = _twist(xi)
+    with exp(ξ + δ) ≈ exp(J_l(ξ) δ) exp(ξ). ``(..., 6) -> (..., 6, 6)``.
+
+    Both blocks in closed form (see :func:`_q_left`); J_l(ω) = (1 − c) I + b n^ + c n nᵀ with
+    b = (1 − cos θ)/θ, c = 1 − sin θ/θ."""
+    J = _jacobian_one(xi, 1.0, False)
+    return J if J is not None else _left_jacobian(_twist(xi))
+
+
+def _left_jacobian(xi: np.ndarray) -> np.ndarray:
     w, v = xi[..., :3], xi[..., 3:]
-    return _blocks(so3.left_jacobian(w), _q_left(w, v))
+    theta, n = _axis_angle(w)
+    b1, c1 = _unit_jac_coeffs(theta)
+    J, A, B = _jacobian_6x6(xi.shape[:-1])
+    nc = _comp(n)
+    _axis_block(A, nc, 1.0 - c1, b1, c1)
+    J[..., 3:, 3:] = A
+    _lin_block(B, nc, _comp(v), *_q_block_coeffs(*_q_scaled(theta)))
+    return J
+
+
+def _jacobian_one(xi: object, sign: float, inverse: bool) -> np.ndarray | None:
+    """J_l(sign·ξ) (or its inverse) of one float64 ``(6,)`` twist on Python floats (the same
+    closed forms as the batched path); ``None`` for anything else, a non-finite or very long
+    twist, the singular set of the inverse or an overflow (the batched path handles or
+    raises)."""
+    if not (type(xi) is np.ndarray and xi.shape == (6,) and xi.dtype == _F64):
+        return None
+    x, y, z, v0, v1, v2 = xi.tolist()
+    if sign < 0.0:
+        x, y, z, v0, v1, v2 = -x, -y, -z, -v0, -v1, -v2
+    t2 = x * x + y * y + z * z
+    if not (t2 < 1e200 and math.isfinite(v0 + v1 + v2)):
+        return None
+    theta = math.sqrt(t2)
+    n = (x / theta, y / theta, z / theta) if theta > 0.0 else (0.0, 0.0, 0.0)
+    q = _q_scaled_one(theta)
+    J = np.zeros((6, 6))
+    A = J[:3, :3]
+    if inverse:
+        hd = so3._jac_inv_one(theta)
+        if hd is None:
+            return None
+        h, d1 = hd
+        _axis_block(A, n, 1.0 - d1, -h, d1)
+        _lin_block(J[3:, :3], n, (v0, v1, v2), *_q_inv_block_coeffs(h, d1, *q))
+        if not np.isfinite(J).all():
+            return None
+    else:
+        b1, c1 = _unit_jac_coeffs_one(theta)
+        _axis_block(A, n, 1.0 - c1, b1, c1)
+        _lin_block(J[3:, :3], n, (v0, v1, v2), *_q_block_coeffs(*q))
+    J[3:, 3:] = A
+    return J
 
 
 def right_jacobian(xi: object) -> np.ndarray:
     """J_r(ξ) = J_l(−ξ), with exp(ξ + δ) ≈ exp(ξ) exp(J_r(ξ) δ)."""
-    return left_jacobian(-_twist(xi))
+    J = _jacobian_one(xi, -1.0, False)
+    return J if J is not None else _left_jacobian(-_twist(xi))
 
 
 def left_jacobian_inv(xi: object) -> np.ndarray:
     """J_l(ξ)⁻¹ = [[J⁻¹, 0], [−J⁻¹ Q J⁻¹, J⁻¹]] with J = J_l(ω) (block-triangular inverse);
     raises ``ValueError`` at the singular set ‖ω‖ = 2πk (see
-    :func:`liecontrol.lie.so3.right_jacobian_inv`)."""
-    return _left_jacobian_inv(_twist(xi))
+    :func:`liecontrol.lie.so3.right_jacobian_inv`). Closed form, see :func:`_left_jacobian_inv`."""
+    J = _jacobian_one(xi, 1.0, True)
+    return J if J is not None else _left_jacobian_inv(_twist(xi))
 
 
 def _left_jacobian_inv(xi: np.ndarray) -> np.ndarray:
+    """J_l(ξ)⁻¹ in closed form. With h = θ/2, a = 1 − d₁ (d₁ = 1 − h cot h), J_l(ω)⁻¹ =
+    a I − h n^ + d₁ n nᵀ, and multiplying out B = −J⁻¹ Q J⁻¹ (Q as in :func:`_q_left`) and
+    reducing with the identities of :func:`_lin_block` gives
+
+        B = (k_v − k_u) v^ + k_vn (v nᵀ + n vᵀ) + k_u s n^ + s (k_nn n nᵀ + k_I I),
+        k_v = e (a² − h²) − 4 a f h,            k_vn = −a c₁θ + h (½ − c₂θ²),
+        k_u = −k_v + a (c₂θ² − ½) − h c₁θ,      k_I = 2 f (a² − h²) + 2 a e h,
+        k_nn = −2 a² f + 2 a (c₃θ³ − e h + f) + 2 f h² + h (2 c₂θ² − 1),
+
+    (e, f as in :func:`_q_left`); checked against the product −J⁻¹ Q J⁻¹ and finite
+    differences in the tests."""
     w, v = xi[..., :3], xi[..., 3:]
-    Ji = _right_jacobian_inv(-w, "xi")  # raises naming xi at ‖ω‖ = 2πk
+    # J_l(ω)⁻¹ = J_r(−ω)⁻¹ = I + h (−n)^ + d₁ n^²; raises naming xi at ‖ω‖ = 2πk
+    theta, nm, h, d1 = _jac_inv_parts(-w, "xi")
+    nc = _comp(-nm)
     with np.errstate(over="ignore", invalid="ignore"):  # checked just below
-        B = -(Ji @ _q_left(w, v) @ Ji)
-    if not np.all(np.isfinite(B)):
+        J, A, B = _jacobian_6x6(xi.shape[:-1])
+        _lin_block(B, nc, _comp(v), *_q_inv_block_coeffs(h, d1, *_q_scaled(theta)))
+    if not np.isfinite(J).all():  # (contiguous: cheaper than the strided block alone)
         # the entries grow like ‖ω‖²‖v‖: beyond float range the inverse is not representable
         raise ValueError(
             "xi: the SE(3) Jacobian inverse overflows float64 for this twist (its lower block "
             "grows like ‖ω‖²·‖v‖)"
         )
-    return _blocks(Ji, B)
+    _axis_block(A, nc, 1.0 - d1, -h, d1)
+    J[..., 3:, 3:] = A
+    return J
 
 
 def right_jacobian_inv(xi: object) -> np.ndarray:
     """J_r(ξ)⁻¹ = J_l(−ξ)⁻¹; raises ``ValueError`` at the singular set ‖ω‖ = 2πk as
     :func:`liecontrol.lie.so3.right_jacobian_inv` does (same threshold)."""
-    return _left_jacobian_inv(-_twist(xi))
+    J = _jacobian_one(xi, -1.0, True)
+    return J if J is not None else _left_jacobian_inv(-_twist(xi))
 
 
 def adjoint(g: object) -> np.ndarray:
     """Ad_g = [[R, 0], [p^ R, R]] (6×6, (ω, v) ordering): g exp(ξ^) g⁻¹ = exp((Ad_g ξ)^)."""
+    if _pose_rotation(g) is not None:
+        return adjoint_unchecked(g)  # type: ignore[arg-type]
     return adjoint_unchecked(_pose(g))
 
 
@@ -362,6 +628,8 @@ def coadjoint(g: object) -> np.ndarray:
 
 def compose(g1: object, g2: object) -> np.ndarray:
     """g₁ g₂ (batched, broadcasting)."""
+    if _pose_rotation(g1) is not None and _pose_rotation(g2) is not None:
+        return g1 @ g2  # type: ignore[operator]
     g1 = _pose(g1, "g1")
     g2 = _pose(g2, "g2")
     _batch(("g1", g1.shape[:-2]), ("g2", g2.shape[:-2]))
@@ -370,6 +638,8 @@ def compose(g1: object, g2: object) -> np.ndarray:
 
 def inverse(g: object) -> np.ndarray:
     """g⁻¹ = [[Rᵀ, −Rᵀ p], [0, 1]]."""
+    if _pose_rotation(g) is not None:
+        return inverse_unchecked(g)  # type: ignore[arg-type]
     return inverse_unchecked(_pose(g))
 
 
@@ -385,6 +655,8 @@ def inverse_unchecked(g: np.ndarray) -> np.ndarray:
 
 def act(g: object, x: object) -> np.ndarray:
     """g · x = R x + p for points ``(..., 3)``."""
+    if _pose_rotation(g) is not None and so3._one_vec(x):
+        return g[:3, :3] @ x + g[:3, 3]  # type: ignore[index, operator]
     g = _pose(g)
     x = as_array(x, "x", (3,))
     _batch(("g", g.shape[:-2]), ("x", x.shape[:-1]))

@@ -24,6 +24,8 @@ import math
 
 import numpy as np
 
+from .._kernels.so3 import exp9 as _exp9
+from .._kernels.so3 import log9 as _log9
 from .._validation import (
     _to_float_array,
     as_array,
@@ -58,6 +60,8 @@ __all__ = [
     "validate",
     "identity",
 ]
+
+_F64 = np.dtype(np.float64)
 
 # Below these angles the closed forms lose digits to cancellation; Taylor series take over.
 _SMALL_SINC = 1e-2
@@ -189,6 +193,9 @@ def identity(batch_shape: tuple[int, ...] = ()) -> np.ndarray:
 
 def hat(w: object) -> np.ndarray:
     """Skew matrix ω^ with ω^ v = ω × v; ``(..., 3) -> (..., 3, 3)``."""
+    if _one_vec(w):
+        x, y, z = w.tolist()  # type: ignore[attr-defined]
+        return np.array(((0.0, -z, y), (z, 0.0, -x), (-y, x, 0.0)))
     w = _vec(w, "w")
     W = np.zeros(w.shape + (3,))
     x, y, z = w[..., 0], w[..., 1], w[..., 2]
@@ -227,6 +234,10 @@ def exp(w: object) -> np.ndarray:
     SIMD ``tan`` instead of ``sin`` and ``cos`` (numpy's float64 sin/cos are ~8× slower than tan).
     Agrees with scipy's ``Rotation.from_rotvec`` to a few ulp (tests).
     """
+    if type(w) is np.ndarray and w.shape == (3,) and w.dtype == _F64:
+        rows = _exp_rows(*w.tolist())
+        if rows is not None:
+            return np.array(rows)
     w = _vec(w, "w")
     shape = w.shape[:-1]
     f = w.reshape(-1, 3)
@@ -287,6 +298,59 @@ def exp(w: object) -> np.ndarray:
     return R.reshape(shape + (3, 3))
 
 
+def _exp_rows(x: float, y: float, z: float) -> tuple[tuple[float, float, float], ...] | None:
+    """:func:`exp` of one rotation vector as its rows, through the compiled Rodrigues kernel
+    (:func:`liecontrol._kernels.so3.exp9`). ``None`` for a non-finite or very long vector
+    (‖w‖ > 1e100), which the batched path handles (and raises for)."""
+    if not x * x + y * y + z * z < 1e200:
+        return None
+    e = _exp9(x, y, z)
+    return ((e[0], e[1], e[2]), (e[3], e[4], e[5]), (e[6], e[7], e[8]))
+
+
+def _one_vec(w: object) -> bool:
+    """True iff ``w`` is one finite float64 ``(3,)`` ndarray (the single-element route; anything
+    else goes through the batched path, which converts or raises the usual message)."""
+    if not (type(w) is np.ndarray and w.shape == (3,) and w.dtype == _F64):
+        return False
+    x, y, z = w.tolist()
+    return math.isfinite(x) and math.isfinite(y) and math.isfinite(z)
+
+
+def _one_rot(R: object) -> bool:
+    """True iff ``R`` is one float64 ``(3, 3)`` ndarray passing the cheap rotation check of the
+    array layer (:func:`_is_rotation9`)."""
+    return _rotation_entries(R) is not None
+
+
+def _rotation_entries(R: object) -> list[float] | None:
+    """The nine entries of one float64 ``(3, 3)`` ndarray that passes the cheap rotation check of
+    the array layer (:func:`rotations_pass_fast` at :data:`ARRAY_ROTATION_ATOL`), else ``None``
+    (the caller then takes the general path, which converts or raises the usual message)."""
+    if not (type(R) is np.ndarray and R.shape == (3, 3) and R.dtype == _F64):
+        return None
+    m = R.ravel().tolist()
+    return m if _is_rotation9(*m) else None
+
+
+def _is_rotation9(
+    a: float, b: float, c: float, d: float, e: float, f: float, g: float, h: float, k: float
+) -> bool:
+    """The cheap rotation check of the array layer on the nine entries (row-major) of one
+    matrix: max |RᵀR − I| ≤ :data:`ARRAY_ROTATION_ATOL` and det R ≥ 0 (NaN/inf fail)."""
+    err = max(
+        abs(a * a + d * d + g * g - 1.0),
+        abs(b * b + e * e + h * h - 1.0),
+        abs(c * c + f * f + k * k - 1.0),
+        abs(a * b + d * e + g * h),
+        abs(a * c + d * f + g * k),
+        abs(b * c + e * f + h * k),
+    )
+    det = a * (e * k - f * h) - b * (d * k - f * g) + c * (d * h - e * g)
+    # NaN/inf make both comparisons False
+    return err <= ARRAY_ROTATION_ATOL and det >= 0.0
+
+
 def _angle_parts(R: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(v, sin θ, cos θ) with v = (R − Rᵀ)^∨ = 2 sin θ · axis."""
     v = np.stack(
@@ -344,6 +408,11 @@ def log(R: object) -> np.ndarray:
     from (R − Rᵀ)^∨: accurate to round-off up to and including θ = π. At exactly θ = π
     both ±π n are logarithms; the one returned is deterministic but arbitrary.
     """
+    m = _rotation_entries(R)
+    if m is not None:
+        p = _log_floats(*m)
+        if p is not None:
+            return np.array(p)
     return _log_angle_unchecked(_rot(R, "R"))[0]
 
 
@@ -394,20 +463,73 @@ def _log_floats(
     m10: float, m11: float, m12: float,
     m20: float, m21: float, m22: float,
 ) -> tuple[float, float, float] | None:  # fmt: skip
-    """:func:`log` of one **already validated** rotation given by its entries, on Python floats
-    (numpy's per-call overhead dominates for one matrix): the same operations in the same order
-    as :func:`_log_angle_unchecked` (results agree to round-off: only numpy's and libm's atan2
-    may differ, in the last bit). ``None`` where
-    cos θ < −0.999 (or NaN): there :func:`log` takes the axis from the symmetric part, which the
-    caller gets from :func:`log` itself."""
-    v0, v1, v2 = m21 - m12, m02 - m20, m10 - m01
-    s = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2) * 0.5  # sin θ
+    """:func:`log` of one **already validated** rotation given by its entries, through the
+    compiled kernel (:func:`liecontrol._kernels.so3.log9`, the same formula as the batched
+    route). ``None`` where cos θ < −0.999 (or NaN), where callers take :func:`log` itself."""
     c = (m00 + m11 + m22 - 1.0) * 0.5  # cos θ
     if not c >= _LOG_SYMMETRIC_COS:
         return None
-    # θ/(2 sin θ), its limit ½ at θ = 0 (exactly log's (θ + z)/(2(s + z)), z = [s = 0])
-    k = 0.5 if s == 0.0 else math.atan2(s, c) / (s + s)
-    return v0 * k, v1 * k, v2 * k
+    return _log9(m00, m01, m02, m10, m11, m12, m20, m21, m22)
+
+
+def _unit_jac_coeffs_one(theta: float) -> tuple[float, float]:
+    """(1 − cos θ)/θ and 1 − sin θ/θ (the unit-axis SO(3) Jacobian coefficients) of one angle
+    on Python floats (series below θ = 0.1, as the batched path)."""
+    h = math.sin(0.5 * theta)
+    b1 = 2.0 * h * h / theta if theta > 0.0 else 0.0
+    if theta < _SMALL_JAC:
+        t2 = theta * theta
+        c1 = t2 * (1.0 / 6.0 - t2 / 120.0 + t2 * t2 / 5040.0 - t2 * t2 * t2 / 362880.0)
+    else:
+        c1 = 1.0 - math.sin(theta) / theta
+    return b1, c1
+
+
+def _axis_block(
+    out: np.ndarray, n: tuple, c_i: np.ndarray | float, c_p: np.ndarray | float,
+    c_nn: np.ndarray | float,
+) -> None:
+    """Write c_i I + c_p n^ + c_nn n nᵀ into ``out`` ``(..., 3, 3)`` entry by entry (the SO(3)
+    Jacobians and their inverses have this form: J_l(ω) = I + b n^ + c n^², n^² = n nᵀ − I);
+    ``n`` as its three components, arrays or Python floats."""
+    nn = n
+    b = [c_nn * nn[i] for i in range(3)]
+    r = [c_p * nn[i] for i in range(3)]
+    for i in range(3):
+        out[..., i, i] = nn[i] * b[i] + c_i
+        for j in range(i + 1, 3):
+            sym = nn[i] * b[j]
+            k = 3 - i - j
+            sign = 1.0 if (j - i) % 3 == 1 else -1.0
+            out[..., i, j] = sym - sign * r[k]
+            out[..., j, i] = sym + sign * r[k]
+
+
+def _jac_one(w: object, sign: float, inverse: bool) -> np.ndarray | None:
+    """J_r(sign·ω) (or its inverse) of one float64 ``(3,)`` vector on Python floats, in the
+    form c_i I + c_p n^ + c_nn n nᵀ (n^² = n nᵀ − I); ``None`` for anything else, a
+    non-finite or very long vector, or the singular set of the inverse (the batched path
+    handles or raises)."""
+    if not (type(w) is np.ndarray and w.shape == (3,) and w.dtype == _F64):
+        return None
+    x, y, z = w.tolist()
+    t2 = x * x + y * y + z * z
+    if not t2 < 1e200:
+        return None
+    theta = math.sqrt(t2)
+    s = sign / theta if theta > 0.0 else 0.0
+    n = (x * s, y * s, z * s)
+    out = np.empty((3, 3))
+    if inverse:
+        hd = _jac_inv_one(theta)
+        if hd is None:
+            return None
+        h, d1 = hd
+        _axis_block(out, n, 1.0 - d1, h, d1)
+    else:
+        b1, c1 = _unit_jac_coeffs_one(theta)
+        _axis_block(out, n, 1.0 - c1, -b1, c1)
+    return out
 
 
 def _right_jacobian(w: np.ndarray) -> np.ndarray:
@@ -429,17 +551,30 @@ def right_jacobian(w: object) -> np.ndarray:
     Evaluated as I − ((1 − cos θ)/θ) n^ + (1 − sin θ/θ) n^² with n = ω/θ (series below θ = 0.1),
     so every term is bounded and no ω (even ‖ω‖ = 1e300) overflows.
     """
-    return _right_jacobian(_vec(w, "w"))
+    R = _jac_one(w, 1.0, False)
+    return R if R is not None else _right_jacobian(_vec(w, "w"))
 
 
 def left_jacobian(w: object) -> np.ndarray:
     """J_l(ω) = J_r(−ω) = I + ((1 − cos θ)/θ²) ω^ + ((θ − sin θ)/θ³) ω^²."""
-    return _right_jacobian(-_vec(w, "w"))
+    R = _jac_one(w, -1.0, False)
+    return R if R is not None else _right_jacobian(-_vec(w, "w"))
 
 
 def _right_jacobian_inv(w: np.ndarray, name: str) -> np.ndarray:
     """J_r⁻¹ of a validated ``(..., 3)`` array (see :func:`right_jacobian_inv`); ``name`` is the
     argument named in the error at the singular set."""
+    theta, n, h, d1 = _jac_inv_parts(w, name)
+    N = hat(n)
+    return np.eye(3) + h[..., None, None] * N + d1[..., None, None] * (N @ N)
+
+
+def _jac_inv_parts(
+    w: np.ndarray, name: str
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(θ, n, θ/2, 1 − (θ/2) cot(θ/2)) of a validated ``(..., 3)`` array: J_r(ω)⁻¹ =
+    I + (θ/2) n^ + d₁ n^² with d₁ the last entry (series below θ = 0.1). Raises ``ValueError``
+    naming ``name`` at the singular set θ = 2πk (see :func:`right_jacobian_inv`)."""
     theta, n = _axis_angle(w)
     h = 0.5 * theta
     sh = np.sin(h)
@@ -453,13 +588,33 @@ def _right_jacobian_inv(w: np.ndarray, name: str) -> np.ndarray:
             f"‖ω‖ = {th!r}, |sin(‖ω‖/2)| ≤ {JAC_INV_SINGULAR_SIN:.0e} (k = {k}). Reduce the "
             f"rotation vector to ‖ω‖ < 2π first (e.g. log(exp(ω)))"
         )
-    N = hat(n)
     safe_sh = np.where(big, sh, 1.0)
     # W² coefficient times θ²: 1 − (θ/2) cot(θ/2) (series θ² d(θ) below θ = 0.1)
-    t = np.minimum(theta, _SMALL_JAC)  # the series argument (huge θ would overflow θ²)
-    d_small = t * t * _jac_inv_coeff(t)
-    d1 = np.where(big, 1.0 - h * np.cos(h) / safe_sh, d_small)
-    return np.eye(3) + h[..., None, None] * N + d1[..., None, None] * (N @ N)
+    if theta.ndim == 0:
+        t = np.minimum(theta, _SMALL_JAC)  # the series argument (huge θ would overflow θ²)
+        d_small = t * t * _jac_inv_coeff(t)
+        return theta, n, h, np.where(big, 1.0 - h * np.cos(h) / safe_sh, d_small)
+    d1 = 1.0 - h * np.cos(h) / safe_sh
+    small = np.flatnonzero(~big.ravel())
+    if small.size:  # the series only where it is used (same formula as _jac_inv_coeff)
+        t = theta.ravel()[small]
+        t2 = t * t
+        series = 1.0 / 12.0 + t2 / 720.0 + t2 * t2 / 30240.0 + t2 * t2 * t2 / 1209600.0
+        d1.ravel()[small] = t * t * series
+    return theta, n, h, d1
+
+
+def _jac_inv_one(theta: float) -> tuple[float, float] | None:
+    """(θ/2, d₁) of :func:`_jac_inv_parts` for one angle on Python floats; ``None`` on the
+    singular set (the batched path raises there)."""
+    h = 0.5 * theta
+    if theta >= _SMALL_JAC:
+        sh = math.sin(h)
+        if abs(sh) <= JAC_INV_SINGULAR_SIN:
+            return None
+        return h, 1.0 - h * math.cos(h) / sh
+    t2 = theta * theta
+    return h, t2 * (1.0 / 12.0 + t2 / 720.0 + t2 * t2 / 30240.0 + t2 * t2 * t2 / 1209600.0)
 
 
 def right_jacobian_inv(w: object) -> np.ndarray:
@@ -472,13 +627,15 @@ def right_jacobian_inv(w: object) -> np.ndarray:
     ``ValueError``; outside, the result is the exact formula (``J_r(ω) J_r(ω)⁻¹ = I`` to round-off
     times that growth, e.g. ~1e-8 at the threshold).
     """
-    return _right_jacobian_inv(_vec(w, "w"), "w")
+    R = _jac_one(w, 1.0, True)
+    return R if R is not None else _right_jacobian_inv(_vec(w, "w"), "w")
 
 
 def left_jacobian_inv(w: object) -> np.ndarray:
     """J_l(ω)⁻¹ = J_r(−ω)⁻¹ = I − ½ ω^ + (1/θ² − cot(θ/2)/(2θ)) ω^²; raises at the singular set
     θ = 2πk as :func:`right_jacobian_inv` does."""
-    return _right_jacobian_inv(-_vec(w, "w"), "w")
+    R = _jac_one(w, -1.0, True)
+    return R if R is not None else _right_jacobian_inv(-_vec(w, "w"), "w")
 
 
 def adjoint(R: object) -> np.ndarray:
@@ -493,6 +650,8 @@ def ad(w: object) -> np.ndarray:
 
 def compose(R1: object, R2: object) -> np.ndarray:
     """R₁ R₂ (batched, broadcasting)."""
+    if _one_rot(R1) and _one_rot(R2):
+        return R1 @ R2  # type: ignore[operator]
     R1 = _rot(R1, "R1")
     R2 = _rot(R2, "R2")
     _batch(("R1", R1.shape[:-2]), ("R2", R2.shape[:-2]))
@@ -501,11 +660,15 @@ def compose(R1: object, R2: object) -> np.ndarray:
 
 def inverse(R: object) -> np.ndarray:
     """R⁻¹ = Rᵀ."""
+    if _one_rot(R):
+        return R.T.copy()  # type: ignore[attr-defined]
     return np.swapaxes(_rot(R, "R"), -1, -2).copy()
 
 
 def act(R: object, p: object) -> np.ndarray:
     """R p for points ``(..., 3)``."""
+    if _one_rot(R) and _one_vec(p):
+        return R @ p  # type: ignore[operator]
     R = _rot(R, "R")
     p = _vec(p, "p")
     _batch(("R", R.shape[:-2]), ("p", p.shape[:-1]))

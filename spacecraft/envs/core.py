@@ -31,11 +31,13 @@ from typing import Any
 
 import numpy as np
 
+from liecontrol._jit import JIT_ENABLED
 from liecontrol._validation import as_array
 from liecontrol.control.base import AttitudeReference, AttitudeState
 from liecontrol.control.geometric_pd import GeometricPD
 from liecontrol.control.tuning import ClosedLoopSpec, tune_geometric_pd
 from liecontrol.lie import so3
+from spacecraft._fused import hold_steps
 
 from ..actuators import ReactionWheelAssembly, SgcmgActuator
 from ..plant import Spacecraft
@@ -420,13 +422,21 @@ class AttitudeBatch:
         saturated = np.zeros(self.B)
         R, x = self.R, self.x
         a_sl = self.a_sl
-        for _ in range(cfg.substeps):
-            held = self._command(u, x[:, :3], x[:, a_sl], 0.0)
-            sat = np.asarray(self.actuator.log(x[:, a_sl], held).get("saturated", False))
-            saturated += np.broadcast_to(sat.reshape(self.B, -1).any(axis=1), (self.B,))
+        kp = self.plant._kernel_plan
+        if kp is not None and JIT_ENABLED and x.shape[1] == 3 + self.plant.n_act:
+            # the plant's compiled command + RKMK4 kernels, all substeps in one call (the
+            # same kernels the loop below calls one at a time)
             with np.errstate(over="ignore", invalid="ignore"):
-                R, x = self.plant.step_packed(0.0, R, x, held, cfg.dt)
-            self.clock += cfg.dt
+                R, x, saturated = hold_steps(kp, cfg.substeps, 0.0, cfg.dt, R, x, u)
+            self.clock += cfg.substeps * cfg.dt
+        else:
+            for _ in range(cfg.substeps):
+                held = self._command(u, x[:, :3], x[:, a_sl], 0.0)
+                sat = np.asarray(self.actuator.log(x[:, a_sl], held).get("saturated", False))
+                saturated += np.broadcast_to(sat.reshape(self.B, -1).any(axis=1), (self.B,))
+                with np.errstate(over="ignore", invalid="ignore"):
+                    R, x = self.plant.step_packed(0.0, R, x, held, cfg.dt)
+                self.clock += cfg.dt
         if not (np.all(np.isfinite(x)) and np.all(np.isfinite(R))):
             raise RuntimeError("state: the spacecraft state became non-finite")
         self.R, self.x = R, x

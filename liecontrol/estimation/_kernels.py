@@ -1,0 +1,458 @@
+"""Compiled scalar kernels of the estimation filters' hot path (numba through
+:func:`liecontrol._jit.njit`, plain Python without it).
+
+For a 7-state filter numpy's per-call overhead (~1 µs per operation on arrays of 15 × 7
+numbers) is most of the cost of a predict+update: the RK4 step of the gyroless model alone is
+~80 array operations. These kernels do the same arithmetic in one call each. They never
+validate: callers pass finite float64 arrays of the right shapes and check the returned flags.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .._jit import njit
+
+
+@njit
+def _rhs_into(
+    y: np.ndarray, torque: np.ndarray, J: np.ndarray, Jinv: np.ndarray, out: np.ndarray
+) -> None:
+    """ẋ = (½ q ⊗ (0, ω), J⁻¹(N − ω × Jω)) of one 7-state (the gyroless model's ``rhs``)."""
+    qw, qx, qy, qz = y[0], y[1], y[2], y[3]
+    wx, wy, wz = y[4], y[5], y[6]
+    out[0] = -0.5 * (qx * wx + qy * wy + qz * wz)
+    out[1] = 0.5 * (qw * wx + qy * wz - qz * wy)
+    out[2] = 0.5 * (qw * wy - qx * wz + qz * wx)
+    out[3] = 0.5 * (qw * wz + qx * wy - qy * wx)
+    j0 = J[0, 0] * wx + J[0, 1] * wy + J[0, 2] * wz
+    j1 = J[1, 0] * wx + J[1, 1] * wy + J[1, 2] * wz
+    j2 = J[2, 0] * wx + J[2, 1] * wy + J[2, 2] * wz
+    r0 = torque[0] - (wy * j2 - wz * j1)
+    r1 = torque[1] - (wz * j0 - wx * j2)
+    r2 = torque[2] - (wx * j1 - wy * j0)
+    out[4] = Jinv[0, 0] * r0 + Jinv[0, 1] * r1 + Jinv[0, 2] * r2
+    out[5] = Jinv[1, 0] * r0 + Jinv[1, 1] * r1 + Jinv[1, 2] * r2
+    out[6] = Jinv[2, 0] * r0 + Jinv[2, 1] * r1 + Jinv[2, 2] * r2
+
+
+@njit
+def gyroless_rk4(
+    X: np.ndarray, torque: np.ndarray, dt: float, J: np.ndarray, Jinv: np.ndarray
+) -> tuple[np.ndarray, bool]:
+    """One classical RK4 step of every row of ``X (N, 7)`` with the torque held, then the
+    quaternion normalised; returns (Y, ok) with ok False when a quaternion norm is < 1e-12 or
+    not finite (the model then raises its usual message)."""
+    N = X.shape[0]
+    Y = np.empty((N, 7))
+    k1 = np.empty(7)
+    k2 = np.empty(7)
+    k3 = np.empty(7)
+    k4 = np.empty(7)
+    tmp = np.empty(7)
+    h2 = 0.5 * dt
+    h6 = dt / 6.0
+    ok = True
+    for i in range(N):
+        y = X[i]
+        _rhs_into(y, torque, J, Jinv, k1)
+        for j in range(7):
+            tmp[j] = y[j] + h2 * k1[j]
+        _rhs_into(tmp, torque, J, Jinv, k2)
+        for j in range(7):
+            tmp[j] = y[j] + h2 * k2[j]
+        _rhs_into(tmp, torque, J, Jinv, k3)
+        for j in range(7):
+            tmp[j] = y[j] + dt * k3[j]
+        _rhs_into(tmp, torque, J, Jinv, k4)
+        for j in range(7):
+            Y[i, j] = y[j] + h6 * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j])
+        nrm = math.sqrt(Y[i, 0] ** 2 + Y[i, 1] ** 2 + Y[i, 2] ** 2 + Y[i, 3] ** 2)
+        if not (nrm >= 1e-12 and nrm < math.inf):
+            ok = False
+        else:
+            for j in range(4):
+                Y[i, j] /= nrm
+    return Y, ok
+
+
+@njit
+def rpy_from_q(X: np.ndarray) -> np.ndarray:
+    """Roll, pitch, yaw (ZYX) of the normalised quaternion part of every row of ``X (N, ≥4)``."""
+    N = X.shape[0]
+    Z = np.empty((N, 3))
+    for i in range(N):
+        nrm = math.sqrt(X[i, 0] ** 2 + X[i, 1] ** 2 + X[i, 2] ** 2 + X[i, 3] ** 2)
+        w = X[i, 0] / nrm
+        x = X[i, 1] / nrm
+        y = X[i, 2] / nrm
+        z = X[i, 3] / nrm
+        Z[i, 0] = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+        Z[i, 1] = math.asin(min(1.0, max(-1.0, 2.0 * (w * y - z * x))))
+        Z[i, 2] = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    return Z
+
+
+@njit
+def cholesky_sym(P: np.ndarray) -> tuple[np.ndarray, bool]:
+    """Lower Cholesky factor of ½(P + Pᵀ) (n × n); ok False when a pivot is not > 0 (or NaN),
+    where LAPACK's ``potrf`` (behind ``numpy.linalg.cholesky``) fails too."""
+    n = P.shape[0]
+    L = np.zeros((n, n))
+    for j in range(n):
+        s = P[j, j]
+        for k in range(j):
+            s -= L[j, k] * L[j, k]
+        if not s > 0.0:
+            return L, False
+        d = math.sqrt(s)
+        L[j, j] = d
+        for i in range(j + 1, n):
+            a = 0.5 * (P[i, j] + P[j, i])
+            for k in range(j):
+                a -= L[i, k] * L[j, k]
+            L[i, j] = a / d
+    return L, True
+
+
+@njit
+def solve_lower_into(L: np.ndarray, B: np.ndarray, transpose: bool) -> tuple[np.ndarray, bool]:
+    """(X, ok) with L X = B (or Lᵀ X = B) for lower-triangular ``L (n, n)`` and ``B (n, m)``;
+    ok False (X meaningless) when L has a zero diagonal entry."""
+    n = L.shape[0]
+    m = B.shape[1]
+    X = B.copy()
+    for i in range(n):
+        if L[i, i] == 0.0:
+            return X, False
+    if transpose:
+        for i in range(n - 1, -1, -1):
+            for c in range(m):
+                s = X[i, c]
+                for k in range(i + 1, n):
+                    s -= L[k, i] * X[k, c]
+                X[i, c] = s / L[i, i]
+    else:
+        for i in range(n):
+            for c in range(m):
+                s = X[i, c]
+                for k in range(i):
+                    s -= L[i, k] * X[k, c]
+                X[i, c] = s / L[i, i]
+    return X, True
+
+
+@njit
+def _wrap(a: float) -> float:
+    """a wrapped to (−π, π] as π − mod(π − a, 2π) (numpy's ``mod`` and Python's ``%`` agree:
+    fmod, then the divisor's sign)."""
+    return math.pi - (math.pi - a) % (2.0 * math.pi)
+
+
+@njit
+def _sigma_rows(x: np.ndarray, S: np.ndarray, gamma: float) -> np.ndarray:
+    """(2n+1, n) sigma points x, x + γ sⱼ, x − γ sⱼ (sⱼ the columns of S)."""
+    n = x.shape[0]
+    X = np.empty((2 * n + 1, n))
+    for k in range(n):
+        X[0, k] = x[k]
+    for j in range(n):
+        for k in range(n):
+            c = gamma * S[k, j]
+            X[1 + j, k] = x[k] + c
+            X[1 + n + j, k] = x[k] - c
+    return X
+
+
+@njit
+def ukf_predict_gyroless(
+    x: np.ndarray,
+    S: np.ndarray,
+    torque: np.ndarray,
+    dt: float,
+    J: np.ndarray,
+    Jinv: np.ndarray,
+    Wm: np.ndarray,
+    Wc: np.ndarray,
+    gamma: float,
+    qdiag: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
+    """The additive UKF's time update on the gyroless 7-state model, fused: sigma points of
+    (x, S Sᵀ), one RK4 step each (:func:`gyroless_rk4`), x⁻ = normalise(Σ Wᵐ Y),
+    P_f = sym(Σ Wᶜ (Y − x⁻)(Y − x⁻)ᵀ); returns (x⁻, P_f, P_f + diag(qdiag), ok), ok False when
+    a quaternion norm fails."""
+    X = _sigma_rows(x, S, gamma)
+    Y, ok = gyroless_rk4(X, torque, dt, J, Jinv)
+    N = Y.shape[0]
+    xm = np.zeros(7)
+    for i in range(N):
+        for k in range(7):
+            xm[k] += Wm[i] * Y[i, k]
+    nrm = math.sqrt(xm[0] ** 2 + xm[1] ** 2 + xm[2] ** 2 + xm[3] ** 2)
+    if not (nrm >= 1e-12 and nrm < math.inf):
+        ok = False
+    else:
+        for k in range(4):
+            xm[k] /= nrm
+    Pf = _weighted_outer_sym(Y, xm, Wc)
+    P = Pf.copy()
+    for k in range(7):
+        P[k, k] += qdiag[k]
+    return xm, Pf, P, ok
+
+
+@njit
+def _weighted_outer_sym(Y: np.ndarray, ym: np.ndarray, Wc: np.ndarray) -> np.ndarray:
+    """½(P + Pᵀ) with P = Σᵢ Wᶜᵢ (Yᵢ − ȳ)(Yᵢ − ȳ)ᵀ."""
+    N, n = Y.shape
+    D = np.empty((N, n))
+    for i in range(N):
+        for k in range(n):
+            D[i, k] = Y[i, k] - ym[k]
+    P = np.zeros((n, n))
+    for i in range(N):
+        w = Wc[i]
+        for a in range(n):
+            wa = w * D[i, a]
+            for b in range(n):
+                P[a, b] += wa * D[i, b]
+    for a in range(n):
+        for b in range(a + 1, n):
+            s = 0.5 * (P[a, b] + P[b, a])
+            P[a, b] = s
+            P[b, a] = s
+    return P
+
+
+@njit
+def ukf_measure_euler(
+    x: np.ndarray, S: np.ndarray, Wm: np.ndarray, Wc: np.ndarray, gamma: float, R: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The additive UKF's measurement statistics for the Euler-angle measurement, fused: sigma
+    points of (x, S Sᵀ), Z = rpy(q), ẑ = wrap(Z₀ + Σ Wᵐ wrap(Z − Z₀)), ΔZ = wrap(Z − ẑ),
+    P_zz = sym(Σ Wᶜ ΔZ ΔZᵀ + R), P_xz = Σ Wᶜ (X − x) ΔZᵀ. Returns (ẑ, P_zz, P_xz)."""
+    X = _sigma_rows(x, S, gamma)
+    Z = rpy_from_q(X)
+    N = X.shape[0]
+    n = x.shape[0]
+    zm = np.empty(3)
+    for k in range(3):
+        acc = 0.0
+        for i in range(N):
+            acc += Wm[i] * _wrap(Z[i, k] - Z[0, k])
+        zm[k] = _wrap(Z[0, k] + acc)
+    dZ = np.empty((N, 3))
+    for i in range(N):
+        for k in range(3):
+            dZ[i, k] = _wrap(Z[i, k] - zm[k])
+    Pzz = np.zeros((3, 3))
+    Pxz = np.zeros((n, 3))
+    for i in range(N):
+        w = Wc[i]
+        for a in range(3):
+            wa = w * dZ[i, a]
+            for b in range(3):
+                Pzz[a, b] += wa * dZ[i, b]
+        for a in range(n):
+            wa = w * (X[i, a] - x[a])
+            for b in range(3):
+                Pxz[a, b] += wa * dZ[i, b]
+    for a in range(3):
+        for b in range(3):
+            Pzz[a, b] += R[a, b]
+    for a in range(3):
+        for b in range(a + 1, 3):
+            s = 0.5 * (Pzz[a, b] + Pzz[b, a])
+            Pzz[a, b] = s
+            Pzz[b, a] = s
+    return zm, Pzz, Pxz
+
+
+@njit
+def ukf_gain(
+    Sz: np.ndarray, Pxz: np.ndarray, z: np.ndarray, zm: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """(P_zz, K, ν, NIS) with P_zz = S_z S_zᵀ, K = P_xz P_zz⁻¹ by two triangular solves
+    (Van der Merwe & Wan 2001, eq. 27), ν = wrap(z − ẑ) and NIS = |S_z⁻¹ ν|²; ``Sz``
+    lower-triangular with a positive diagonal."""
+    m = Sz.shape[0]
+    n = Pxz.shape[0]
+    nu = np.empty(m)
+    for k in range(m):
+        nu[k] = _wrap(z[k] - zm[k])
+    yv, _ = solve_lower_into(Sz, nu.reshape(m, 1), False)
+    nis = 0.0
+    for k in range(m):
+        nis += yv[k, 0] * yv[k, 0]
+    Pzz = Sz @ Sz.T
+    Y, _ = solve_lower_into(Sz, np.ascontiguousarray(Pxz.T), False)
+    X, _ = solve_lower_into(Sz, Y, True)
+    K = np.empty((n, m))
+    for a in range(n):
+        for b in range(m):
+            K[a, b] = X[b, a]
+    return Pzz, K, nu, nis
+
+
+@njit
+def cholesky_outer(P: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
+    """(L, L Lᵀ, ok): :func:`cholesky_sym` of P and the covariance rebuilt from it."""
+    L, ok = cholesky_sym(P)
+    return L, L @ L.T, ok
+
+
+@njit
+def ukf_correct(
+    x: np.ndarray, K: np.ndarray, nu: np.ndarray, P: np.ndarray, Pzz: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, bool]:
+    """(x⁺, P⁺, ok): x⁺ = x + K ν with its quaternion part normalised (ok False when that norm
+    is < 1e-12 or not finite) and P⁺ = sym(P − K P_zz Kᵀ)."""
+    n = x.shape[0]
+    xn = x + K @ nu
+    nrm = math.sqrt(xn[0] ** 2 + xn[1] ** 2 + xn[2] ** 2 + xn[3] ** 2)
+    ok = nrm >= 1e-12 and nrm < math.inf
+    if ok:
+        for k in range(4):
+            xn[k] /= nrm
+    Pn = P - K @ Pzz @ K.T
+    for a in range(n):
+        for b in range(a + 1, n):
+            s = 0.5 * (Pn[a, b] + Pn[b, a])
+            Pn[a, b] = s
+            Pn[b, a] = s
+    return xn, Pn, ok
+
+
+@njit
+def all_finite(a: np.ndarray, b: np.ndarray) -> bool:
+    """True iff every entry of the 1-D arrays ``a`` and ``b`` is finite."""
+    for v in a:
+        if not math.isfinite(v):
+            return False
+    for v in b:
+        if not math.isfinite(v):
+            return False
+    return True
+
+
+@njit
+def ukf_predict_gyroless_from_P(
+    x: np.ndarray,
+    P: np.ndarray,
+    torque: np.ndarray,
+    dt: float,
+    J: np.ndarray,
+    Jinv: np.ndarray,
+    Wm: np.ndarray,
+    Wc: np.ndarray,
+    gamma: float,
+    qdiag: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """:func:`cholesky_sym` of P then :func:`ukf_predict_gyroless` in one call; status 0 ok,
+    1 the Cholesky factorisation failed (nothing computed: the caller repairs P), 2 a
+    quaternion norm failed."""
+    S, ok = cholesky_sym(P)
+    if not ok:
+        return x, P, P, 1
+    xm, Pf, Pp, ok = ukf_predict_gyroless(x, S, torque, dt, J, Jinv, Wm, Wc, gamma, qdiag)
+    return xm, Pf, Pp, 0 if ok else 2
+
+
+@njit
+def ukf_update_euler(
+    x: np.ndarray,
+    P: np.ndarray,
+    z: np.ndarray,
+    Wm: np.ndarray,
+    Wc: np.ndarray,
+    gamma: float,
+    R: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, np.ndarray, int]:
+    """:func:`cholesky_sym` of P, :func:`ukf_measure_euler`, :func:`cholesky_sym` of P_zz and
+    :func:`ukf_gain` in one call: (P_zz, K, ν, NIS, S_z, status), status 0 ok, 1 the Cholesky
+    of P failed, 2 that of P_zz failed (the caller then takes the step-by-step route, which
+    repairs or raises)."""
+    S, ok = cholesky_sym(P)
+    if not ok:
+        return P, P, z, 0.0, P, 1
+    zm, Pzz, Pxz = ukf_measure_euler(x, S, Wm, Wc, gamma, R)
+    Sz, ok = cholesky_sym(Pzz)
+    if not ok:
+        return P, P, z, 0.0, P, 2
+    Pzz2, K, nu, nis = ukf_gain(Sz, Pxz, z, zm)
+    return Pzz2, K, nu, nis, Sz, 0
+
+
+@njit
+def ukf_correct_outer(
+    x: np.ndarray, K: np.ndarray, nu: np.ndarray, P: np.ndarray, Pzz: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """:func:`ukf_correct` then :func:`cholesky_outer` of the new covariance: (x⁺, L Lᵀ, P⁺,
+    status), status 0 ok, 1 the quaternion norm failed, 2 the Cholesky of P⁺ failed (the
+    caller repairs P⁺)."""
+    xn, Pn, ok = ukf_correct(x, K, nu, P, Pzz)
+    if not ok:
+        return xn, Pn, Pn, 1
+    L, ok = cholesky_sym(Pn)
+    if not ok:
+        return xn, Pn, Pn, 2
+    return xn, L @ L.T, Pn, 0
+
+
+@njit
+def cholupdate_lower(L: np.ndarray, V: np.ndarray, sg: float) -> tuple[np.ndarray, float]:
+    """Rank-1 updates (``sg`` = +1) or downdates (−1) of the lower factor ``L (n, n)`` by the
+    columns of ``V (n, k)`` in sequence (the unbatched loop of ``cholesky.cholupdate``, same
+    operations). Returns (L', worst): worst is +inf on success, else the first failing pivot
+    r² (≤ 0); the columns after a failure are not applied."""
+    n = L.shape[0]
+    Lo = L.copy()
+    worst = math.inf
+    for j in range(V.shape[1]):
+        x = V[:, j].copy()
+        for k in range(n):
+            lkk = Lo[k, k]
+            xk = x[k]
+            r2 = lkk * lkk + sg * xk * xk
+            if not r2 > 0.0:
+                if r2 < worst:  # Python's min(worst, r2): a NaN r² leaves worst unchanged
+                    worst = r2
+                break
+            r = math.sqrt(r2)
+            c = r / lkk
+            s = xk / lkk
+            Lo[k, k] = r
+            for i in range(k + 1, n):
+                li = (Lo[i, k] + sg * s * x[i]) / c
+                x[i] = c * x[i] - s * li
+                Lo[i, k] = li
+        if worst <= 0.0:
+            break
+    return Lo, worst
+
+
+@njit
+def ukf_update_correct(
+    x: np.ndarray,
+    P: np.ndarray,
+    z: np.ndarray,
+    Wm: np.ndarray,
+    Wc: np.ndarray,
+    gamma: float,
+    R: np.ndarray,
+    gate: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, float, np.ndarray, int]:
+    """The whole additive-UKF measurement update on the Euler-angle measurement:
+    :func:`ukf_update_euler`, then — unless NIS > ``gate`` — :func:`ukf_correct_outer`.
+    Returns (x⁺, P⁺ (= L Lᵀ), P⁺ before its Cholesky, P_zz, ν, NIS, S_z, status) with status
+    0 ok; 1 / 2 the Cholesky of P / P_zz failed (nothing computed); 3 gated (NIS > gate,
+    state untouched); 4 the quaternion norm failed; 5 the Cholesky of P⁺ failed."""
+    Pzz, K, nu, nis, Sz, status = ukf_update_euler(x, P, z, Wm, Wc, gamma, R)
+    if status != 0:
+        return x, P, P, Pzz, nu, nis, Sz, status
+    if nis > gate:
+        return x, P, P, Pzz, nu, nis, Sz, 3
+    xn, PP, Pn, st = ukf_correct_outer(x, K, nu, P, Pzz)
+    return xn, PP, Pn, Pzz, nu, nis, Sz, 0 if st == 0 else st + 3

@@ -1,0 +1,269 @@
+"""Compiled kernel of the full (variable-speed) CMG dynamics of :mod:`spacecraft.cmg_dynamics`:
+the coupled bus + gimbal + rotor accelerations of one spacecraft, with the torque-limited PI
+gimbal servo (conditional-integration anti-windup), the stop bumpers and the motor power — the
+one scalar implementation of the per-stage formulas. :meth:`spacecraft.cmg_dynamics.
+VscmgActuator._solve` stays as the batched numpy reference and the route for batches without a
+compiler; the tests hold the two to 1e-12.
+
+Equations (Schaub & Junkins, *Analytical Mechanics of Space Systems*, 4th ed., AIAA 2018,
+ch. 4, VSCMG section), per unit with spin axis ``s``, transverse axis ``t``, gimbal axis ``g``,
+``ω_s = sᵀω``, ``ω_t = tᵀω``, ``ω_g = gᵀω``::
+
+    [J_B + Σ (J_s s sᵀ + J_t t tᵀ + J_g g gᵀ)] ω̇ + Σ J_g g δ̈ + Σ I_Ws s Ω̇
+        = L − ω × H − Σ δ̇ [(J_s − J_t)(ω_t s + ω_s t) + I_Ws Ω t]
+    J_g (gᵀω̇ + δ̈) = u_g + f_δ,   f_δ = (J_s − J_t) ω_s ω_t + I_Ws Ω ω_t
+    I_Ws (sᵀω̇ + Ω̇) = u_s + f_Ω,   f_Ω = −I_Ws δ̇ ω_t
+
+With a torque servo ``u_g`` is known and δ̈ is eliminated (``J_g g gᵀ`` leaves the mass
+matrix, ``(u_g + u_stop + f_δ) g`` moves to the right-hand side); with the kinematic servo δ̈ is
+imposed and ``u_g`` follows. With a variable-speed rotor ``u_s`` is known and Ω̇ is eliminated
+likewise; at constant speed Ω̇ = 0 and ``u_s`` follows. What remains is one symmetric positive
+definite 3×3 system for ω̇, solved by its adjugate.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from liecontrol._jit import njit
+
+#: ``par`` layout of :func:`vscmg_derivatives_one`
+PAR_JS, PAR_JT, PAR_JG, PAR_IW, PAR_KP, PAR_KI, PAR_UMAX, PAR_LAG, PAR_KSTOP, PAR_CSTOP = range(10)
+#: rows of the ``details`` output ``(5, 4)``
+DET_GIMBAL_TORQUE, DET_SPIN_TORQUE, DET_SATURATED, DET_GIMBAL_POWER, DET_STOP_TORQUE = range(5)
+
+
+@njit
+def vscmg_derivatives_one(
+    kinematic: bool,
+    variable_speed: bool,
+    open_loop: bool,
+    has_stops: bool,
+    par: np.ndarray,
+    JB: np.ndarray,
+    S: np.ndarray,
+    C: np.ndarray,
+    G: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    w: np.ndarray,
+    xa: np.ndarray,
+    cmd: np.ndarray,
+    ff: np.ndarray,
+    us_in: np.ndarray,
+    tau: np.ndarray,
+    out: np.ndarray,
+    details: np.ndarray,
+) -> None:
+    """``(ω̇, ẋ_act)`` of one spacecraft into ``out (20,)`` = (ω̇, δ̇, δ̈, Ω̇, ż, Ẇ), and the
+    per-gimbal motor torque, spin torque, torque-saturation flag (1.0/0.0), gimbal power and stop
+    torque into ``details (5, 4)``.
+
+    ``par``: ``(J_s, J_t, J_g, I_Ws, K_p, K_i, u_max, τ, k_stop, c_stop)`` (``τ`` the kinematic
+    servo's time constant; servo/stop entries unused where they do not apply); ``JB (3, 3)`` the
+    bus inertia; ``S, C, G (3, 4)`` with ``s(δ) = S sin δ + C cos δ``, ``t(δ) = S cos δ −
+    C sin δ`` and ``g`` the gimbal axes; ``lower, upper (4,)`` the stops; ``w (3,)`` the body rate;
+    ``xa (17,)`` = (δ, δ̇, Ω, z, W); ``cmd, ff, us_in (4,)`` the held rate command, gimbal
+    feed-forward (or open-loop) torque and spin torque; ``tau (3,)`` the external torque."""
+    Js = par[PAR_JS]
+    Jt = par[PAR_JT]
+    Jg = par[PAR_JG]
+    Iw = par[PAR_IW]
+    kp = par[PAR_KP]
+    ki = par[PAR_KI]
+    umax = par[PAR_UMAX]
+    lag = par[PAR_LAG]
+    k_stop = par[PAR_KSTOP]
+    c_stop = par[PAR_CSTOP]
+    dJ = Js - Jt
+    # with a variable-speed rotor I_Ws s sᵀ leaves the mass matrix (Ω̇ eliminated)
+    a_s = Js - Iw if variable_speed else Js
+    w0 = w[0]
+    w1 = w[1]
+    w2 = w[2]
+    # mass matrix (symmetric: 6 entries) starting from J_B, and H starting from J_B ω
+    m00 = JB[0, 0]
+    m01 = JB[0, 1]
+    m02 = JB[0, 2]
+    m11 = JB[1, 1]
+    m12 = JB[1, 2]
+    m22 = JB[2, 2]
+    H0 = JB[0, 0] * w0 + JB[0, 1] * w1 + JB[0, 2] * w2
+    H1 = JB[1, 0] * w0 + JB[1, 1] * w1 + JB[1, 2] * w2
+    H2 = JB[2, 0] * w0 + JB[2, 1] * w1 + JB[2, 2] * w2
+    c0 = c1 = c2 = 0.0  # Σ δ̇ [(J_s − J_t) ω_t s + ((J_s − J_t) ω_s + I_Ws Ω) t]
+    r0 = r1 = r2 = 0.0  # the known generalized forces moved to the right-hand side
+    for i in range(4):
+        d = xa[i]
+        rate = xa[4 + i]
+        spin = xa[8 + i]
+        sn = math.sin(d)
+        cs = math.cos(d)
+        s0 = S[0, i] * sn + C[0, i] * cs
+        s1 = S[1, i] * sn + C[1, i] * cs
+        s2 = S[2, i] * sn + C[2, i] * cs
+        t0 = S[0, i] * cs - C[0, i] * sn
+        t1 = S[1, i] * cs - C[1, i] * sn
+        t2 = S[2, i] * cs - C[2, i] * sn
+        g0 = G[0, i]
+        g1 = G[1, i]
+        g2 = G[2, i]
+        ws = s0 * w0 + s1 * w1 + s2 * w2
+        wt = t0 * w0 + t1 * w1 + t2 * w2
+        wg = g0 * w0 + g1 * w1 + g2 * w2
+        a = Js * ws + Iw * spin
+        b = Jt * wt
+        e = Jg * (wg + rate)
+        H0 += a * s0 + b * t0 + e * g0
+        H1 += a * s1 + b * t1 + e * g1
+        H2 += a * s2 + b * t2 + e * g2
+        p = dJ * rate * wt
+        q = rate * (dJ * ws + Iw * spin)
+        c0 += p * s0 + q * t0
+        c1 += p * s1 + q * t1
+        c2 += p * s2 + q * t2
+        m00 += a_s * s0 * s0 + Jt * t0 * t0
+        m01 += a_s * s0 * s1 + Jt * t0 * t1
+        m02 += a_s * s0 * s2 + Jt * t0 * t2
+        m11 += a_s * s1 * s1 + Jt * t1 * t1
+        m12 += a_s * s1 * s2 + Jt * t1 * t2
+        m22 += a_s * s2 * s2 + Jt * t2 * t2
+        f_d = dJ * ws * wt + Iw * spin * wt
+        f_O = -Iw * rate * wt
+        u_g = 0.0
+        u_stop = 0.0
+        sat = False
+        z_dot = 0.0
+        if kinematic:
+            # δ̈ imposed by the first-order rate loop: J_g g gᵀ stays in the mass matrix
+            dd = (cmd[i] - rate) / lag
+            m00 += Jg * g0 * g0
+            m01 += Jg * g0 * g1
+            m02 += Jg * g0 * g2
+            m11 += Jg * g1 * g1
+            m12 += Jg * g1 * g2
+            m22 += Jg * g2 * g2
+            k = Jg * dd
+        else:
+            dd = 0.0
+            if open_loop:
+                raw = ff[i]
+                err = 0.0
+            else:
+                err = cmd[i] - rate
+                raw = kp * err + ki * xa[12 + i] + ff[i]
+            u_g = min(max(raw, -umax), umax)
+            sat = abs(raw) > umax
+            # conditional integration: z frozen while saturated and the error pushes further
+            if not (sat and err * raw > 0.0):
+                z_dot = err
+            if has_stops:
+                over = d - upper[i]
+                under = lower[i] - d
+                if over > 0.0:
+                    u_stop = -max(k_stop * over + c_stop * rate, 0.0)
+                elif under > 0.0:
+                    u_stop = max(k_stop * under - c_stop * rate, 0.0)
+            k = u_g + u_stop + f_d
+        r0 += k * g0
+        r1 += k * g1
+        r2 += k * g2
+        if variable_speed:
+            ks = us_in[i] + f_O
+            r0 += ks * s0
+            r1 += ks * s1
+            r2 += ks * s2
+        out[7 + i] = dd  # final for the kinematic servo; the torque servo's δ̈ follows below
+        out[15 + i] = z_dot
+        details[DET_GIMBAL_TORQUE, i] = u_g
+        details[DET_SATURATED, i] = 1.0 if sat else 0.0
+        details[DET_STOP_TORQUE, i] = u_stop
+    # right-hand side L − ω × H − c − r
+    b0 = tau[0] - (w1 * H2 - w2 * H1) - c0 - r0
+    b1 = tau[1] - (w2 * H0 - w0 * H2) - c1 - r1
+    b2 = tau[2] - (w0 * H1 - w1 * H0) - c2 - r2
+    # symmetric positive definite 3×3 (J_B plus positive semidefinite terms): adjugate solve
+    A00 = m11 * m22 - m12 * m12
+    A01 = m02 * m12 - m01 * m22
+    A02 = m01 * m12 - m02 * m11
+    A11 = m00 * m22 - m02 * m02
+    A12 = m01 * m02 - m00 * m12
+    A22 = m00 * m11 - m01 * m01
+    inv = 1.0 / (m00 * A00 + m01 * A01 + m02 * A02)
+    a0 = (A00 * b0 + A01 * b1 + A02 * b2) * inv
+    a1 = (A01 * b0 + A11 * b1 + A12 * b2) * inv
+    a2 = (A02 * b0 + A12 * b1 + A22 * b2) * inv
+    out[0] = a0
+    out[1] = a1
+    out[2] = a2
+    power = 0.0
+    for i in range(4):
+        # the axes again (four sines and cosines are cheaper than carrying scratch arrays)
+        d = xa[i]
+        rate = xa[4 + i]
+        spin = xa[8 + i]
+        sn = math.sin(d)
+        cs = math.cos(d)
+        s0 = S[0, i] * sn + C[0, i] * cs
+        s1 = S[1, i] * sn + C[1, i] * cs
+        s2 = S[2, i] * sn + C[2, i] * cs
+        t0 = S[0, i] * cs - C[0, i] * sn
+        t1 = S[1, i] * cs - C[1, i] * sn
+        t2 = S[2, i] * cs - C[2, i] * sn
+        ws = s0 * w0 + s1 * w1 + s2 * w2
+        wt = t0 * w0 + t1 * w1 + t2 * w2
+        f_d = dJ * ws * wt + Iw * spin * wt
+        f_O = -Iw * rate * wt
+        gw = G[0, i] * a0 + G[1, i] * a1 + G[2, i] * a2
+        sw = s0 * a0 + s1 * a1 + s2 * a2
+        u_stop = details[DET_STOP_TORQUE, i]
+        if kinematic:
+            u_g = Jg * (gw + out[7 + i]) - f_d
+        else:
+            u_g = details[DET_GIMBAL_TORQUE, i]
+            out[7 + i] = (u_g + u_stop + f_d) / Jg - gw
+        if variable_speed:
+            u_s = us_in[i]
+            out[11 + i] = (u_s + f_O) / Iw - sw
+        else:
+            u_s = Iw * sw - f_O
+            out[11 + i] = 0.0
+        out[3 + i] = rate
+        power += (u_g + u_stop) * rate + u_s * spin
+        details[DET_GIMBAL_TORQUE, i] = u_g
+        details[DET_SPIN_TORQUE, i] = u_s
+        details[DET_GIMBAL_POWER, i] = u_g * rate
+    out[19] = power
+
+
+@njit
+def vscmg_derivatives_batch(
+    kinematic: bool,
+    variable_speed: bool,
+    open_loop: bool,
+    has_stops: bool,
+    par: np.ndarray,
+    JB: np.ndarray,
+    S: np.ndarray,
+    C: np.ndarray,
+    G: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    w: np.ndarray,
+    xa: np.ndarray,
+    cmd: np.ndarray,
+    ff: np.ndarray,
+    us_in: np.ndarray,
+    tau: np.ndarray,
+    out: np.ndarray,
+    details: np.ndarray,
+) -> None:
+    """:func:`vscmg_derivatives_one` over a batch: ``w, tau (B, 3)``, ``xa (B, 17)``,
+    ``cmd, ff, us_in (B, 4)``, ``out (B, 20)``, ``details (B, 5, 4)``."""
+    for b in range(w.shape[0]):
+        vscmg_derivatives_one(
+            kinematic, variable_speed, open_loop, has_stops, par, JB, S, C, G, lower, upper,
+            w[b], xa[b], cmd[b], ff[b], us_in[b], tau[b], out[b], details[b],
+        )  # fmt: skip
