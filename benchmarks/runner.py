@@ -329,8 +329,12 @@ def build_steering(spec: SpacecraftSpec, cluster: Any) -> Any:
         ) from None
 
 
-def build_actuator(spec: SpacecraftSpec) -> Any:
-    """The actuator of ``spec.actuator``: SGCMG pyramid, orthogonal wheels or ideal torque."""
+def build_actuator(spec: SpacecraftSpec, bus_inertia: Any = None) -> Any:
+    """The actuator of ``spec.actuator``: SGCMG pyramid, orthogonal wheels or ideal torque.
+
+    With ``spec.cmg_model == "full"`` the SGCMG pyramid is a
+    :class:`spacecraft.cmg_dynamics.VscmgActuator` on ``bus_inertia`` (the plant body's inertia,
+    default ``spec.J``), with a torque-limited PI gimbal-rate servo."""
     from spacecraft.actuators import IdealTorqueActuator, ReactionWheelAssembly, SgcmgActuator
     from spacecraft.sgcmg import SgcmgPyramid
 
@@ -341,6 +345,27 @@ def build_actuator(spec: SpacecraftSpec) -> Any:
             beta=float(np.deg2rad(spec.beta_deg)),
             gimbal_rate_limit=spec.gimbal_rate_limit,
         )
+        if spec.cmg_model == "full":
+            from spacecraft.cmg_dynamics import CmgInertias, GimbalServo, VscmgActuator
+
+            J = spec.J if bus_inertia is None else check_inertia(bus_inertia, "bus_inertia")
+            return VscmgActuator(
+                J,
+                CmgInertias(
+                    spec.cmg_wheel_spin_inertia,
+                    spec.cmg_wheel_transverse_inertia,
+                    spec.cmg_gimbal_inertia,
+                ),
+                cluster=cluster,
+                steering=build_steering(spec, cluster),
+                servo=GimbalServo(
+                    bandwidth=spec.gimbal_servo_bandwidth,
+                    max_torque=spec.gimbal_torque_limit,
+                    damping=spec.gimbal_servo_damping,
+                    gyro_feedforward=spec.gimbal_gyro_feedforward,
+                ),
+                delta0=np.deg2rad(np.array(spec.delta0_deg)),
+            )
         return SgcmgActuator(
             cluster=cluster,
             steering=build_steering(spec, cluster),
@@ -499,7 +524,7 @@ def build_plant(
     J = spec.J if true_inertia is None else check_inertia(true_inertia, "true_inertia")
     return Spacecraft(
         body=RigidBody(J),
-        actuator=build_actuator(spec),
+        actuator=build_actuator(spec, J),
         disturbance=build_disturbance(tuple(disturbances), J, orbit=orbit),
         momentum_management=momentum_management,
     )

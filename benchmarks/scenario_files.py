@@ -32,6 +32,12 @@ apply to every scenario (a scenario's own keys win)::
     preset = "sgcmg-bus"      #   then any SpacecraftSpec field: inertia, actuator, h0, ...
                               # wheels: wheel_coulomb_friction, wheel_viscous_friction,
                               #   wheel_stribeck_torque/_speed, wheel_torque_lsb
+                              # sgcmg: cmg_model = "momentum" | "full"; full model keys
+                              #   cmg_wheel_spin_inertia, cmg_wheel_transverse_inertia,
+                              #   cmg_gimbal_inertia, gimbal_servo_bandwidth,
+                              #   gimbal_servo_damping, gimbal_torque_limit,
+                              #   gimbal_gyro_feedforward
+                              #   (preset "mini-cmg-3u": a 3U CubeSat with mini-CMGs)
 
     [scenario.uncertainty]
     inertia_scale = [1.2, 1.2, 0.8]   # true principal moments = nominal × scale
@@ -95,6 +101,7 @@ from scipy.spatial.transform import Rotation
 from liecontrol.control.constrained import KeepInCone, KeepOutCone
 
 from .scenarios import (
+    MINI_CMG_SPACECRAFT,
     PAYLOAD_SPACECRAFT,
     SGCMG_SPACECRAFT,
     DisturbanceSpec,
@@ -124,7 +131,11 @@ __all__ = [
     "scenario_to_dict",
 ]
 
-_PRESETS = {"sgcmg-bus": SGCMG_SPACECRAFT, "payload-bus": PAYLOAD_SPACECRAFT}
+_PRESETS = {
+    "sgcmg-bus": SGCMG_SPACECRAFT,
+    "payload-bus": PAYLOAD_SPACECRAFT,
+    "mini-cmg-3u": MINI_CMG_SPACECRAFT,
+}
 _TOP_KEYS = (
     "name",
     "description",
@@ -300,7 +311,7 @@ def _spacecraft(t: Any, where: str) -> SpacecraftSpec:
     base = _PRESETS[preset]
     try:
         return dataclasses.replace(base, **kw)
-    except ValueError as exc:
+    except (ValueError, TypeError) as exc:  # field checks name the field (flags: TypeError)
         head, _, rest = str(exc).partition(":")
         raise _Bad(f"{where}.{head.strip()}", rest.strip()) from None
 

@@ -73,6 +73,7 @@ from liecontrol._validation import (
     as_array,
     as_int,
     as_scalar,
+    check_bool,
     check_inertia,
     check_inertia_3x3,
     check_positive,
@@ -88,6 +89,9 @@ __all__ = [
     "SGCMG_BUS_INERTIA",
     "PAYLOAD_BUS_INERTIA",
     "ACTUATORS",
+    "CMG_MODELS",
+    "CUBESAT_3U_INERTIA",
+    "MINI_CMG_SPACECRAFT",
     "DISTURBANCES",
     "REFERENCE_KINDS",
     "SpacecraftSpec",
@@ -159,6 +163,8 @@ NULL_MOTION_EQUILIBRIUM_DEG: tuple[float, float, float, float] = (60.0, -60.0, 6
 WHEEL_LAYOUTS: tuple[str, ...] = ("orthogonal", "pyramid")
 #: Actuator kinds a :class:`SpacecraftSpec` can name (also the plant tags of attitude scenarios).
 ACTUATORS: tuple[str, ...] = ("sgcmg", "wheels", "ideal")
+#: SGCMG cluster models a :class:`SpacecraftSpec` can name (``cmg_model``).
+CMG_MODELS: tuple[str, ...] = ("momentum", "full")
 #: Steering laws a :class:`SpacecraftSpec` can name (:func:`benchmarks.runner.build_steering`).
 STEERING_LAWS: tuple[str, ...] = (
     "pinv-null-motion", "pinv", "sr", "gsr", "local-gradient", "sda"
@@ -264,6 +270,18 @@ class SpacecraftSpec:
         wheel_stribeck_torque, wheel_stribeck_speed: Stribeck breakaway torque τ_s ≥ τ_c [N·m]
             (0: none) and its speed scale ω_s [rad/s].
         wheel_torque_lsb: motor-drive torque resolution [N·m] (0: continuous).
+        cmg_model: SGCMG cluster model, ``"momentum"``
+            (:class:`spacecraft.actuators.SgcmgActuator`, the default and fast path) or
+            ``"full"`` (:class:`spacecraft.cmg_dynamics.VscmgActuator`: gimbal-frame and rotor
+            inertia, torque-limited gimbal-rate servo; the bus inertia ``J_B`` excludes the
+            CMGs and is the plant body's inertia).
+        cmg_wheel_spin_inertia, cmg_wheel_transverse_inertia: rotor inertia about its spin and a
+            transverse axis [kg·m²] (full model; ``h0 = I_Ws Ω₀`` fixes the rotor speed).
+        cmg_gimbal_inertia: gimbal-frame inertia about (spin, transverse, gimbal) [kg·m²].
+        gimbal_servo_bandwidth, gimbal_servo_damping: PI gimbal-rate servo ω_b [rad/s] and ζ.
+        gimbal_torque_limit: gimbal motor torque limit [N·m].
+        gimbal_gyro_feedforward: the servo adds the base-rate (gyroscopic) torque it can
+            compute from the body rate (:class:`spacecraft.cmg_dynamics.GimbalServo`).
     """
 
     name: str = "sgcmg-bus"
@@ -284,9 +302,21 @@ class SpacecraftSpec:
     wheel_stribeck_torque: float = 0.0
     wheel_stribeck_speed: float | None = None
     wheel_torque_lsb: float = 0.0
+    # full CMG model (cmg_model = "full"); defaults for the h0 = 300 N·m·s units of the
+    # sgcmg-bus: rotor spin inertia 0.5 kg·m² (Ω₀ = 600 rad/s ≈ 5700 rpm), a motor that covers
+    # the base-rate torque h0·|ω| up to |ω| ≈ 0.13 rad/s (assumed sizing, not a datasheet)
+    cmg_model: str = "momentum"
+    cmg_wheel_spin_inertia: float = 0.5
+    cmg_wheel_transverse_inertia: float = 0.3
+    cmg_gimbal_inertia: tuple[float, float, float] = (0.2, 0.2, 0.3)
+    gimbal_servo_bandwidth: float = 10.0
+    gimbal_servo_damping: float = 1.0
+    gimbal_torque_limit: float = 40.0
+    gimbal_gyro_feedforward: bool = False
 
     def __post_init__(self) -> None:
         _label(self.name, "name")
+        self._check_cmg_model()
         self._check_wheel_friction()
         if self.steering not in STEERING_LAWS:
             raise ValueError(
@@ -324,6 +354,36 @@ class SpacecraftSpec:
         if d0.shape != (4,):
             raise ValueError(f"delta0_deg: expected shape (4,), got {d0.shape}")
         object.__setattr__(self, "delta0_deg", tuple(float(v) for v in d0))
+
+    def _check_cmg_model(self) -> None:
+        """The full-model keys: a known model name, inertias and servo parameters > 0."""
+        if self.cmg_model not in CMG_MODELS:
+            raise ValueError(
+                f"cmg_model: unknown CMG model {self.cmg_model!r}; valid: {', '.join(CMG_MODELS)}"
+            )
+        for name in (
+            "cmg_wheel_spin_inertia",
+            "cmg_wheel_transverse_inertia",
+            "gimbal_servo_bandwidth",
+            "gimbal_servo_damping",
+            "gimbal_torque_limit",
+        ):
+            object.__setattr__(self, name, check_positive_scalar(getattr(self, name), name))
+        g = as_array(self.cmg_gimbal_inertia, "cmg_gimbal_inertia", (3,))
+        if g.shape != (3,):
+            raise ValueError(f"cmg_gimbal_inertia: expected shape (3,), got {g.shape}")
+        if not np.all(g > 0.0):
+            raise ValueError(f"cmg_gimbal_inertia: inertias must be > 0, got {g.tolist()}")
+        object.__setattr__(self, "cmg_gimbal_inertia", tuple(float(v) for v in g))
+        object.__setattr__(
+            self,
+            "gimbal_gyro_feedforward",
+            check_bool(self.gimbal_gyro_feedforward, "gimbal_gyro_feedforward"),
+        )
+        if self.cmg_model == "full" and self.actuator != "sgcmg":
+            raise ValueError(
+                f"cmg_model: the full CMG model needs actuator = 'sgcmg', got {self.actuator!r}"
+            )
 
     def _check_wheel_friction(self) -> None:
         """Scalars ≥ 0; the law's own checks (τ_s ≥ τ_c, ω_s given) re-keyed to the field."""
@@ -1078,6 +1138,39 @@ def rest_to_rest(
 
 
 SGCMG_SPACECRAFT = SpacecraftSpec()
+#: 3U CubeSat bus inertia [kg·m²]: a uniform 4.0 kg box of 10 × 10 × 34 cm (the 3U mass limit and
+#: envelope of the CubeSat Design Specification, Rev. 14, Cal Poly, 2020),
+#: I_xx = I_yy = m (a² + c²)/12, I_zz = m (2a²)/12, long axis z.
+CUBESAT_3U_INERTIA: tuple[tuple[float, float, float], ...] = (
+    (4.0 * (0.1**2 + 0.34**2) / 12.0, 0.0, 0.0),
+    (0.0, 4.0 * (0.1**2 + 0.34**2) / 12.0, 0.0),
+    (0.0, 0.0, 4.0 * (2 * 0.1**2) / 12.0),
+)
+
+
+def _mini_cmg_spacecraft() -> SpacecraftSpec:
+    from spacecraft.cmg_dynamics import MINI_CMG
+
+    return SpacecraftSpec(
+        name="mini-cmg-3u",
+        inertia=CUBESAT_3U_INERTIA,
+        h0=MINI_CMG.h0,
+        beta_deg=math.degrees(MINI_CMG.beta),
+        gimbal_rate_limit=MINI_CMG.gimbal_rate_limit,
+        cmg_model="full",
+        cmg_wheel_spin_inertia=MINI_CMG.wheel_spin,
+        cmg_wheel_transverse_inertia=MINI_CMG.wheel_transverse,
+        cmg_gimbal_inertia=MINI_CMG.gimbal,
+        gimbal_servo_bandwidth=30.0,
+        gimbal_torque_limit=MINI_CMG.gimbal_torque_limit,
+    )
+
+
+#: A 3U CubeSat (:data:`CUBESAT_3U_INERTIA`) with the mini-CMG pyramid
+#: :data:`spacecraft.cmg_dynamics.MINI_CMG` (h₀ ≈ 0.0165 N·m·s per unit, gimbal rate limit
+#: 2 rad/s, gimbal motor 5 mN·m, servo bandwidth 30 rad/s), full CMG model. The full model's
+#: gimbal loop is fast: run it with dt ≤ 0.01 s (:mod:`benchmarks.cmg_model_study`).
+MINI_CMG_SPACECRAFT = _mini_cmg_spacecraft()
 PAYLOAD_SPACECRAFT = SpacecraftSpec(
     name="payload-bus", inertia=PAYLOAD_BUS_INERTIA, actuator="wheels", wheel_max_torque=0.2
 )

@@ -26,8 +26,10 @@ from typing import Any
 import numpy as np
 
 from liecontrol._jit import JIT_ENABLED, njit
+from liecontrol._kernels.finite_time import finite_time_one
 from liecontrol._kernels.geometric_pd import geometric_pd_one
 from liecontrol._kernels.mrp_pd import mrp_pd_one
+from liecontrol._kernels.quaternion_pd import quaternion_pd_one
 
 from . import _kernels as K
 
@@ -205,21 +207,33 @@ def plant_kernel(plant: Any) -> PlantKernel | None:
 #: controller kinds of the fused loop
 CTRL_GEOMETRIC_PD = 0
 CTRL_MRP_PD = 1
+CTRL_FINITE_TIME = 2
+CTRL_QUATERNION_PD = 3
+#: width of the diagnostics rows the fused loop logs (the widest controller's)
+_DIAG_WIDTH = 11
 
 
 def controller_kernel(controller: Any) -> tuple | None:
     """``(kind, code, threshold², J, gain 1, gain 2, G)`` of a controller with a kernel
     (:class:`~liecontrol.control.GeometricPD`: error code, K_R, K_Ω, G;
     :class:`~liecontrol.control.MrpPD`: feed-forward code, threshold², K, P), else ``None``."""
-    from liecontrol.control.chart_baselines import MrpPD
+    from liecontrol.control.chart_baselines import MrpPD, QuaternionPD
+    from liecontrol.control.finite_time import FiniteTimeSO3, FixedTimeSO3
     from liecontrol.control.geometric_pd import GeometricPD
 
+    zero3, none = np.zeros((3, 3)), np.zeros(1)
     if type(controller) is GeometricPD:
         err, J, kR, kW, G = controller._kernel_args()
-        return CTRL_GEOMETRIC_PD, err, 0.0, J, kR, kW, G
+        return CTRL_GEOMETRIC_PD, err, 0.0, J, kR, kW, G, none
     if type(controller) is MrpPD and controller._kernel_applies():
         ff, thr2, J, K, P = controller._kernel_args()
-        return CTRL_MRP_PD, ff, thr2, J, K, P, np.zeros((3, 3))
+        return CTRL_MRP_PD, ff, thr2, J, K, P, zero3, none
+    if type(controller) is QuaternionPD and controller._kernel_applies():
+        mode, hyst, J, Kp, Kd = controller._kernel_args()
+        return CTRL_QUATERNION_PD, mode, hyst, J, Kp, Kd, zero3, none
+    if type(controller) in (FiniteTimeSO3, FixedTimeSO3):
+        J, prm = controller._kernel_args()
+        return CTRL_FINITE_TIME, 0, 0.0, J, zero3, zero3, zero3, prm
     return None
 
 
@@ -231,7 +245,7 @@ def _fused_loop(
     dist: int, dp: np.ndarray, clip_on: bool, clip: np.ndarray,
     steer: int, sp: np.ndarray, rate_limit: float,
     ckind: int, code: int, thr2: float, cJ: np.ndarray, k1: np.ndarray, k2: np.ndarray,
-    G: np.ndarray, p_prev: np.ndarray,
+    G: np.ndarray, cprm: np.ndarray, p_prev: np.ndarray,
     ref_index: np.ndarray, ref_R: np.ndarray, ref_w: np.ndarray, ref_dw: np.ndarray,
     log_t: np.ndarray, log_R: np.ndarray, log_w: np.ndarray, log_Rd: np.ndarray,
     log_wd: np.ndarray, log_ucmd: np.ndarray, log_u: np.ndarray, log_dist: np.ndarray,
@@ -264,7 +278,17 @@ def _fused_loop(
         if k % every_ctrl == 0:
             for b in range(B):
                 rb = b if ref_R.shape[1] > 1 else 0
-                if ckind == CTRL_MRP_PD:
+                if ckind == CTRL_FINITE_TIME:
+                    finite_time_one(
+                        cJ, cprm, R[b], x[b, :3], ref_R[r, rb], ref_w[r, rb], ref_dw[r, rb],
+                        u_cmd[b], diag[b],
+                    )  # fmt: skip
+                elif ckind == CTRL_QUATERNION_PD:
+                    quaternion_pd_one(
+                        code, thr2, cJ, k1, k2, R[b], x[b, :3], ref_R[r, rb], ref_w[r, rb],
+                        ref_dw[r, rb], p_prev[b], u_cmd[b], diag[b],
+                    )  # fmt: skip
+                elif ckind == CTRL_MRP_PD:
                     n_switch += mrp_pd_one(
                         code, thr2, cJ, k1, k2, R[b], x[b, :3], ref_R[r, rb], ref_w[r, rb],
                         ref_dw[r, rb], k > 0, p_prev[b], u_cmd[b], diag[b],
@@ -424,7 +448,7 @@ def run_fused(
     reports the failure with its partial log)."""
     from .simulator import _Log
 
-    pk, (ckind, code, thr2, cJ, k1, k2, G) = plan
+    pk, (ckind, code, thr2, cJ, k1, k2, G, cprm) = plan
     B, n = x0.shape
     steps = np.arange(n_steps + 1)
     times = t0 + steps * dt
@@ -442,16 +466,17 @@ def run_fused(
     log_act = np.empty((Kr, B, (n - 3) + n_held))
     n_sat = 3 if pk.act == K.ACT_IDEAL else 1
     log_sat = np.empty((Kr, B, n_sat), dtype=np.bool_)
-    diag = np.zeros((B, 7))
-    log_diag = np.empty((Kr, B, 7))
+    diag = np.zeros((B, _DIAG_WIDTH))
+    log_diag = np.empty((Kr, B, _DIAG_WIDTH))
     clip = pk.clip if pk.clip is not None else np.zeros(3)
-    p_prev = np.zeros((B, 3))
+    # chart memory: MRP σ (3) or the quaternion (4), starting from the controller's own hint
+    p_prev = controller._first_hint(B) if ckind == CTRL_QUATERNION_PD else np.zeros((B, 4))
     status, rows, n_switch = _fused_loop(
         n_steps, float(t0), float(dt), every_ctrl, log_every,
         np.array(R0, dtype=np.float64), np.array(x0, dtype=np.float64),
         pk.act, pk.J, pk.J_inv, pk.S0, pk.C0, pk.dist, pk.dist_params, pk.clip is not None,
         clip, pk.steer, pk.steer_params, pk.rate_limit,
-        ckind, code, thr2, cJ, k1, k2, G, p_prev, index, ref_R, ref_w, ref_dw,
+        ckind, code, thr2, cJ, k1, k2, G, cprm, p_prev, index, ref_R, ref_w, ref_dw,
         log.t, log.R, log.omega, log.R_d, log.omega_d, log.u_cmd, log.u, log.disturbance,
         log_act, log_sat, log_diag, diag,
     )  # fmt: skip
@@ -465,17 +490,30 @@ def run_fused(
         d["actuator"]["saturated"] = log_sat[:, :, 0]
     elif pk.clip is not None:
         d["actuator"]["saturated"] = log_sat
-    if ckind == CTRL_MRP_PD:
+    if ckind == CTRL_QUATERNION_PD:
+        d["controller"].update(
+            q_w=log_diag[:, :, 0], chart_y=log_diag[:, :, 0:4],
+            chart_y_d=np.broadcast_to([1.0, 0.0, 0.0, 0.0], (rows, B, 4)).copy(),
+            chart_switched=log_diag[:, :, 4] != 0.0,
+        )  # fmt: skip
+        controller._set_kernel_state(diag, p_prev)
+    elif ckind == CTRL_FINITE_TIME:
+        d["controller"].update(
+            Psi=log_diag[:, :, 0], theta=log_diag[:, :, 1], e_R=log_diag[:, :, 2:5],
+            e_Omega=log_diag[:, :, 5:8], s=log_diag[:, :, 8:11],
+        )  # fmt: skip
+        controller._diag = diag.copy()
+    elif ckind == CTRL_MRP_PD:
         d["controller"].update(
             chart_y=log_diag[:, :, 0:3],
             chart_y_d=np.zeros((rows, B, 3)),
             chart_switched=log_diag[:, :, 3] != 0.0,
         )
         controller.n_switches += n_switch
-        controller._set_kernel_state(diag, p_prev)
+        controller._set_kernel_state(diag, p_prev[:, :3].copy())
     else:
         d["controller"].update(
             Psi=log_diag[:, :, 0], e_R=log_diag[:, :, 1:4], e_Omega=log_diag[:, :, 4:7]
         )
-        controller._set_diagnostics(diag)
+        controller._set_diagnostics(diag[:, :7])
     return log.result(dt, control_period, plant)

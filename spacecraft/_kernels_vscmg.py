@@ -28,11 +28,16 @@ import math
 import numpy as np
 
 from liecontrol._jit import njit
+from liecontrol._kernels.so3 import dexpinv_rkmk4, right_multiply_exp_into
+
+from ._kernels import disturbance_at
 
 #: ``par`` layout of :func:`vscmg_derivatives_one`
 PAR_JS, PAR_JT, PAR_JG, PAR_IW, PAR_KP, PAR_KI, PAR_UMAX, PAR_LAG, PAR_KSTOP, PAR_CSTOP = range(10)
 #: rows of the ``details`` output ``(5, 4)``
 DET_GIMBAL_TORQUE, DET_SPIN_TORQUE, DET_SATURATED, DET_GIMBAL_POWER, DET_STOP_TORQUE = range(5)
+#: spacecraft per chunk of the stage-major RKMK4 step (its scratch stays in cache)
+_CHUNK = 32
 
 
 @njit
@@ -267,3 +272,186 @@ def vscmg_derivatives_batch(
             kinematic, variable_speed, open_loop, has_stops, par, JB, S, C, G, lower, upper,
             w[b], xa[b], cmd[b], ff[b], us_in[b], tau[b], out[b], details[b],
         )  # fmt: skip
+
+
+@njit
+def vscmg_command_inputs_one(
+    feedforward: bool,
+    par: np.ndarray,
+    S: np.ndarray,
+    C: np.ndarray,
+    G: np.ndarray,
+    w: np.ndarray,
+    xa: np.ndarray,
+    u_cmd: np.ndarray,
+    A_out: np.ndarray,
+    hdot_out: np.ndarray,
+    ff_out: np.ndarray,
+) -> None:
+    """What the steering law needs at a command sample, for one spacecraft: the torque Jacobian
+    ``A_out (3, 4)`` with columns ``I_Ws Ω t`` (``∂h/∂δ`` at the current rotor speeds), the
+    momentum-rate command ``hdot_out (3,) = −u_cmd − ω × h`` with ``h = Σ (J_g δ̇ g + I_Ws Ω s)``
+    the cluster momentum relative to the bus, and with ``feedforward`` the servo's gimbal torque
+    feed-forward ``ff_out (4,) = −[(J_s − J_t) ω_s ω_t + I_Ws Ω ω_t]`` (else zeros)."""
+    Js = par[PAR_JS]
+    Jt = par[PAR_JT]
+    Jg = par[PAR_JG]
+    Iw = par[PAR_IW]
+    w0 = w[0]
+    w1 = w[1]
+    w2 = w[2]
+    h0 = h1 = h2 = 0.0
+    for i in range(4):
+        rate = xa[4 + i]
+        spin = xa[8 + i]
+        sn = math.sin(xa[i])
+        cs = math.cos(xa[i])
+        s0 = S[0, i] * sn + C[0, i] * cs
+        s1 = S[1, i] * sn + C[1, i] * cs
+        s2 = S[2, i] * sn + C[2, i] * cs
+        t0 = S[0, i] * cs - C[0, i] * sn
+        t1 = S[1, i] * cs - C[1, i] * sn
+        t2 = S[2, i] * cs - C[2, i] * sn
+        hw = Iw * spin
+        e = Jg * rate
+        h0 += e * G[0, i] + hw * s0
+        h1 += e * G[1, i] + hw * s1
+        h2 += e * G[2, i] + hw * s2
+        A_out[0, i] = t0 * hw
+        A_out[1, i] = t1 * hw
+        A_out[2, i] = t2 * hw
+        if feedforward:
+            ws = s0 * w0 + s1 * w1 + s2 * w2
+            wt = t0 * w0 + t1 * w1 + t2 * w2
+            ff_out[i] = -((Js - Jt) * ws * wt + hw * wt)
+        else:
+            ff_out[i] = 0.0
+    hdot_out[0] = -(u_cmd[0] + (w1 * h2 - w2 * h1))
+    hdot_out[1] = -(u_cmd[1] + (w2 * h0 - w0 * h2))
+    hdot_out[2] = -(u_cmd[2] + (w0 * h1 - w1 * h0))
+
+
+@njit
+def vscmg_command_inputs_batch(
+    feedforward: bool,
+    par: np.ndarray,
+    S: np.ndarray,
+    C: np.ndarray,
+    G: np.ndarray,
+    w: np.ndarray,
+    xa: np.ndarray,
+    u_cmd: np.ndarray,
+    A_out: np.ndarray,
+    hdot_out: np.ndarray,
+    ff_out: np.ndarray,
+) -> None:
+    """:func:`vscmg_command_inputs_one` over a batch: ``A_out (B, 3, 4)``, the rest ``(B, ...)``."""
+    for b in range(w.shape[0]):
+        vscmg_command_inputs_one(
+            feedforward, par, S, C, G, w[b], xa[b], u_cmd[b], A_out[b], hdot_out[b], ff_out[b]
+        )
+
+
+@njit
+def _stage(
+    kinematic: bool, variable_speed: bool, open_loop: bool, has_stops: bool, par: np.ndarray,
+    JB: np.ndarray, S: np.ndarray, C: np.ndarray, G: np.ndarray, lower: np.ndarray,
+    upper: np.ndarray, dist: int, dp: np.ndarray, t: float, x: np.ndarray, cmd: np.ndarray,
+    ff: np.ndarray, us_in: np.ndarray, tau: np.ndarray, xdot: np.ndarray, details: np.ndarray,
+) -> None:  # fmt: skip
+    """ẋ of the packed state ``x = (ω, x_act)`` under the time-only external torque at ``t``."""
+    tau[0], tau[1], tau[2] = disturbance_at(dist, dp, t)
+    vscmg_derivatives_one(
+        kinematic, variable_speed, open_loop, has_stops, par, JB, S, C, G, lower, upper,
+        x[0:3], x[3:], cmd, ff, us_in, tau, xdot, details,
+    )  # fmt: skip
+
+
+@njit
+def vscmg_rkmk4_step_batch(
+    kinematic: bool, variable_speed: bool, open_loop: bool, has_stops: bool, par: np.ndarray,
+    JB: np.ndarray, S: np.ndarray, C: np.ndarray, G: np.ndarray, lower: np.ndarray,
+    upper: np.ndarray, dist: int, dp: np.ndarray, t: float, R: np.ndarray, x: np.ndarray,
+    cmd: np.ndarray, ff: np.ndarray, us_in: np.ndarray, h: float, R_out: np.ndarray,
+    x_out: np.ndarray,
+) -> None:  # fmt: skip
+    """One RKMK4 step (Munthe-Kaas 1998; the tableau of :func:`spacecraft._kernels.rkmk4_step`:
+    classical RK4 on the chart θ, dexp⁻¹ truncated at fourth order, R_{k+1} = R exp(h/6 (K₁ +
+    2K₂ + 2K₃ + K₄))) of a batch flying the full CMG cluster: ``R (B, 3, 3)``, ``x = (ω, x_act)
+    (B, 20)``, the held command ``cmd, ff, us_in (B, 4)``, a time-only disturbance ``(dist, dp)``
+    (codes of :mod:`spacecraft._kernels`).
+
+    Stage-major in chunks of :data:`_CHUNK` spacecraft: each RK stage is evaluated for the chunk
+    before the next, so the spacecraft are independent work inside a stage (a spacecraft-major
+    loop chains the four stages' latencies — sines, divisions — one spacecraft after the other),
+    while the chunk's scratch stays small and in cache."""
+    B, n = x.shape
+    cw = min(B, _CHUNK)
+    d = np.empty((4, cw, n))
+    xs = np.empty((cw, n))
+    k = np.empty((cw, 4, 3))  # the chart velocities K₁..K₄
+    tau = np.empty(3)
+    det = np.empty((5, 4))
+    for b0 in range(0, B, cw):
+        _rkmk4_chunk(
+            kinematic, variable_speed, open_loop, has_stops, par, JB, S, C, G, lower, upper,
+            dist, dp, t, R, x, cmd, ff, us_in, h, R_out, x_out,
+            b0, min(b0 + cw, B), d, xs, k, tau, det,
+        )  # fmt: skip
+
+
+@njit
+def _rkmk4_chunk(
+    kinematic: bool, variable_speed: bool, open_loop: bool, has_stops: bool, par: np.ndarray,
+    JB: np.ndarray, S: np.ndarray, C: np.ndarray, G: np.ndarray, lower: np.ndarray,
+    upper: np.ndarray, dist: int, dp: np.ndarray, t: float, R: np.ndarray, x: np.ndarray,
+    cmd: np.ndarray, ff: np.ndarray, us_in: np.ndarray, h: float, R_out: np.ndarray,
+    x_out: np.ndarray, b0: int, b1: int, d: np.ndarray, xs: np.ndarray, k: np.ndarray,
+    tau: np.ndarray, det: np.ndarray,
+) -> None:  # fmt: skip
+    """:func:`vscmg_rkmk4_step_batch` for spacecraft ``b0 … b1 − 1`` (scratch ``d (4, ·, n)``,
+    ``xs (·, n)``, ``k (·, 4, 3)`` indexed from 0)."""
+    n = x.shape[1]
+    h2 = 0.5 * h
+    # stage 1 at (t, x): K₁ = ω
+    for b in range(b0, b1):
+        c = b - b0
+        _stage(
+            kinematic, variable_speed, open_loop, has_stops, par, JB, S, C, G, lower, upper,
+            dist, dp, t, x[b], cmd[b], ff[b], us_in[b], tau, d[0, c], det,
+        )  # fmt: skip
+        for i in range(3):
+            k[c, 0, i] = x[b, i]
+        for i in range(n):
+            xs[c, i] = x[b, i] + h2 * d[0, c, i]
+    # stages 2–4: at θ = c h K_{j−1}, K_j = dexp⁻¹_θ(ω_j)
+    for j in range(1, 4):
+        tj = t + h if j == 3 else t + h2
+        cj = h if j == 3 else h2  # the chart step of this stage
+        cn = h if j == 2 else h2  # the state step to the next stage
+        for b in range(b0, b1):
+            c = b - b0
+            xb = xs[c]
+            _stage(
+                kinematic, variable_speed, open_loop, has_stops, par, JB, S, C, G, lower, upper,
+                dist, dp, tj, xb, cmd[b], ff[b], us_in[b], tau, d[j, c], det,
+            )  # fmt: skip
+            k[c, j, 0], k[c, j, 1], k[c, j, 2] = dexpinv_rkmk4(
+                cj * k[c, j - 1, 0], cj * k[c, j - 1, 1], cj * k[c, j - 1, 2], xb[0], xb[1], xb[2]
+            )
+            if j < 3:
+                for i in range(n):
+                    xs[c, i] = x[b, i] + cn * d[j, c, i]
+    h6 = h / 6.0
+    for b in range(b0, b1):
+        c = b - b0
+        for i in range(n):
+            sum_d = ((d[1, c, i] + d[2, c, i]) * 2.0 + d[0, c, i]) + d[3, c, i]
+            x_out[b, i] = x[b, i] + sum_d * h6
+        right_multiply_exp_into(
+            R[b],
+            h6 * (k[c, 0, 0] + 2.0 * (k[c, 1, 0] + k[c, 2, 0]) + k[c, 3, 0]),
+            h6 * (k[c, 0, 1] + 2.0 * (k[c, 1, 1] + k[c, 2, 1]) + k[c, 3, 1]),
+            h6 * (k[c, 0, 2] + 2.0 * (k[c, 1, 2] + k[c, 2, 2]) + k[c, 3, 2]),
+            R_out[b],
+        )

@@ -64,6 +64,7 @@ from __future__ import annotations
 
 import inspect
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -83,8 +84,11 @@ from ._kernels_vscmg import (
     DET_GIMBAL_TORQUE,
     DET_SATURATED,
     DET_SPIN_TORQUE,
+    vscmg_command_inputs_batch,
+    vscmg_command_inputs_one,
     vscmg_derivatives_batch,
     vscmg_derivatives_one,
+    vscmg_rkmk4_step_batch,
 )
 from .actuators import Actuator, FirstOrderServo
 from .rigid_body import _cross
@@ -520,11 +524,11 @@ class VscmgActuator(Actuator):
     ) -> VscmgCommand:
         """:meth:`command` without validation (the simulator's per-step call)."""
         delta, rate, spin, _ = self._split(x_act)
-        _s, tr = self._axes(delta)
-        A = tr * (self.inertias.wheel_spin * spin)[:, None, :]
-        h_dot_cmd = _cross(omega, self.momentum(x_act))
-        h_dot_cmd += u_cmd
-        np.negative(h_dot_cmd, out=h_dot_cmd)
+        feedforward = not self._kinematic and self.servo.gyro_feedforward
+        if JIT_ENABLED or x_act.shape[0] == 1:
+            A, h_dot_cmd, ff = self._command_inputs_kernel(u_cmd, omega, x_act, feedforward)
+        else:
+            A, h_dot_cmd, ff = self._command_inputs(u_cmd, omega, x_act, feedforward)
         if self._steer is not None:
             dd = self._steer(A, h_dot_cmd, delta, float(t), self.cluster)
         else:
@@ -538,9 +542,6 @@ class VscmgActuator(Actuator):
             dd, limited = self.stops.guard(dd, delta, rate, self._lag)
         else:
             limited = np.zeros(dd.shape, dtype=bool)
-        ff = np.zeros(dd.shape)
-        if not self._kinematic and self.servo.gyro_feedforward:
-            ff = -self._gyro_torque(omega, delta, spin)
         return VscmgCommand(
             delta_dot_cmd=dd,
             omega=np.array(omega, dtype=np.float64),
@@ -550,6 +551,40 @@ class VscmgActuator(Actuator):
             gimbal_torque_ff=ff,
             spin_torque=np.zeros(dd.shape),
         )
+
+    def _command_inputs(
+        self, u_cmd: np.ndarray, omega: np.ndarray, x_act: np.ndarray, feedforward: bool
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Steering Jacobian ``A`` ``(B, 3, 4)`` (columns ``I_Ws Ω t``), ``ḣ_cmd = −u_cmd −
+        ω × h`` ``(B, 3)`` and gimbal torque feed-forward ``(B, 4)`` (zeros without
+        ``feedforward``): the numpy reference of :meth:`_command_inputs_kernel`."""
+        delta, _rate, spin, _ = self._split(x_act)
+        _s, tr = self._axes(delta)
+        A = tr * (self.inertias.wheel_spin * spin)[:, None, :]
+        h_dot_cmd = _cross(omega, self.momentum(x_act))
+        h_dot_cmd += u_cmd
+        np.negative(h_dot_cmd, out=h_dot_cmd)
+        ff = -self._gyro_torque(omega, delta, spin) if feedforward else np.zeros(delta.shape)
+        return A, h_dot_cmd, ff
+
+    def _command_inputs_kernel(
+        self, u_cmd: np.ndarray, omega: np.ndarray, x_act: np.ndarray, feedforward: bool
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Steering Jacobian ``A`` ``(B, 3, 4)``, ``ḣ_cmd`` ``(B, 3)`` and gimbal torque
+        feed-forward ``(B, 4)`` through the compiled kernel
+        (:func:`spacecraft._kernels_vscmg.vscmg_command_inputs_one`)."""
+        _, _, _, par, _, S, C, G, _, _ = self._kargs
+        B = x_act.shape[0]
+        A = np.empty((B, 3, 4))
+        hdot = np.empty((B, 3))
+        ff = np.empty((B, 4))
+        if B == 1:
+            vscmg_command_inputs_one(
+                feedforward, par, S, C, G, omega[0], x_act[0], u_cmd[0], A[0], hdot[0], ff[0]
+            )
+        else:
+            vscmg_command_inputs_batch(feedforward, par, S, C, G, omega, x_act, u_cmd, A, hdot, ff)
+        return A, hdot, ff
 
     def open_loop(
         self, gimbal_torque: object, spin_torque: object | None = None, omega: object | None = None
@@ -736,12 +771,8 @@ class VscmgActuator(Actuator):
         out = np.empty((B, 3 + self.n_states))
         det = np.empty((B, 5, 4))
         ol = bool(held.open_loop)
-        f64 = np.float64
-        w, xa = omega.astype(f64, copy=False), x_act.astype(f64, copy=False)
-        cmd = held.delta_dot_cmd.astype(f64, copy=False)
-        ff = held.gimbal_torque_ff.astype(f64, copy=False)
-        us = held.spin_torque.astype(f64, copy=False)
-        tau = tau_ext.astype(f64, copy=False)
+        w, xa, tau = omega, x_act, tau_ext
+        cmd, ff, us = held.delta_dot_cmd, held.gimbal_torque_ff, held.spin_torque
         if B == 1:
             vscmg_derivatives_one(
                 kin, var, ol, has_stops, par, JB, S, C, G, lo, hi,
@@ -753,6 +784,40 @@ class VscmgActuator(Actuator):
                 w, xa, cmd, ff, us, tau, out, det,
             )  # fmt: skip
         return out, det
+
+    def _rkmk4_kernel(self, plant: Any) -> Callable[..., tuple[np.ndarray, np.ndarray]] | None:
+        """The compiled RKMK4 step of ``plant`` (a :class:`spacecraft.plant.Spacecraft` flying
+        this actuator) as ``step(t, R, x, held, h) -> (R, x)`` on packed states — the step of
+        :meth:`~spacecraft.plant.Spacecraft.step_packed`'s numpy route through
+        :func:`spacecraft._kernels_vscmg.vscmg_rkmk4_step` — or ``None`` when a part has no
+        kernel (structural modes, momentum management, a disturbance other than the time-only
+        ones of :mod:`spacecraft._kernels`, a body inertia that is not ``bus_inertia``)."""
+        from ._fused import _disturbance_kernel
+
+        if plant.actuator is not self or plant.modes is not None:
+            return None
+        if plant.momentum_management is not None:
+            return None
+        dk = _disturbance_kernel(plant.disturbance)
+        J = np.asarray(plant.body.J)
+        if dk is None or J.shape != (3, 3) or not np.array_equal(J, self.bus_inertia):
+            return None
+        dist, dp = dk
+        kin, var, has_stops, par, JB, S, C, G, lo, hi = self._kargs
+
+        def step(
+            t: float, R: np.ndarray, x: np.ndarray, held: VscmgCommand, h: float
+        ) -> tuple[np.ndarray, np.ndarray]:
+            R_out = np.empty(R.shape)
+            x_out = np.empty(x.shape)
+            vscmg_rkmk4_step_batch(
+                kin, var, bool(held.open_loop), has_stops, par, JB, S, C, G, lo, hi,
+                dist, dp, float(t), R, x, held.delta_dot_cmd, held.gimbal_torque_ff,
+                held.spin_torque, float(h), R_out, x_out,
+            )  # fmt: skip
+            return R_out, x_out
+
+        return step
 
     def state_derivative(self, x_act: np.ndarray, held: Any) -> np.ndarray:
         """Not defined without the body rate: the gimbal and rotor accelerations are coupled to

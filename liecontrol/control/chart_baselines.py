@@ -44,9 +44,12 @@ N·m·s/rad.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from .._kernels.mrp_pd import FEEDFORWARD_CODES, mrp_pd_batch
+from .._kernels.quaternion_pd import SIGN_CODES, quaternion_pd_batch
 from .._linalg import cross as _cross
 from .._validation import (
     as_array,
@@ -67,6 +70,35 @@ from .geometric_pd import (
 )
 
 __all__ = ["QuaternionPD", "MrpPD", "QuaternionPDLaw", "MrpPDLaw", "MRP_FEEDFORWARDS"]
+
+
+def _kernel_inputs(
+    ctrl: Any, t: object, state: AttitudeState, reference: AttitudeReference
+) -> tuple[np.ndarray, ...]:
+    """The validated, contiguous ``(R, ω, R_d, ω_d, ω̇_d)`` batch arrays of a chart adapter's
+    compiled route. The simulator's own (validated) arrays pass the cheap checks; anything else
+    is validated in full, with the adapter's messages."""
+    if ctrl._batch is None:
+        raise RuntimeError(f"{type(ctrl).__name__}.command: call reset(t0, batch_size) first")
+    as_scalar(t, "t")
+    R, w = state.R, state.omega
+    if not (
+        isinstance(R, np.ndarray)
+        and R.ndim == 3
+        and _vectors_pass(w, (R.shape[0], 3))
+        and rotations_pass_fast(R)
+    ):
+        R = check_rotation_matrix(R, "R")
+        w = as_array(w, "omega", (3,))
+    B = check_state_batch(R, w, ctrl._batch)
+    R_d, w_d, dw_d = GeometricPD._reference_arrays(ctrl, reference, B)
+    return (
+        np.ascontiguousarray(R, dtype=np.float64),
+        np.ascontiguousarray(w, dtype=np.float64),
+        _batch(R_d, (B, 3, 3)),
+        _batch(w_d, (B, 3)),
+        _batch(dw_d, (B, 3)),
+    )
 
 
 def _inertia(J: object) -> np.ndarray:
@@ -180,6 +212,64 @@ class QuaternionPD(QuaternionChartAdapter):
             hysteresis=hysteresis,
             q_hint=q_hint,
         )
+        law = self.law
+        # the compiled kernel's arguments (liecontrol._kernels.quaternion_pd)
+        self._kargs = (
+            SIGN_CODES[self.sign_mode],
+            float(self.hysteresis),
+            np.ascontiguousarray(law.J, dtype=np.float64),
+            _as_matrix(law.k_p),
+            _as_matrix(law.k_d),
+        )
+        self._checked_R_d = None
+
+    def _kernel_applies(self) -> bool:
+        """The compiled route: this law, the desired frame as base (not a subclass)."""
+        return (
+            type(self) is QuaternionPD
+            and type(self.law) is QuaternionPDLaw
+            and self.base == "reference"
+        )
+
+    def _first_hint(self, B: int) -> np.ndarray:
+        """``(B, 4)`` quaternions whose signs pick the first sample's (identity by default;
+        zeros in the switched mode, which takes w ≥ 0 and reports no flip at the first sample)."""
+        if self.sign_mode == "switched":
+            return np.zeros((B, 4))
+        if self.q_hint is None:
+            return np.tile([1.0, 0.0, 0.0, 0.0], (B, 1))
+        return np.array(np.broadcast_to(self.q_hint, (B, 4)), dtype=np.float64)  # own copy
+
+    def command(self, t: float, state: AttitudeState, reference: AttitudeReference) -> np.ndarray:
+        """Body torque ``(B, 3)`` [N·m]: the chart conversion, its sign handling and the law in
+        one compiled kernel per spacecraft (the adapter's numpy route for subclasses)."""
+        if not self._kernel_applies():
+            return super().command(t, state, reference)
+        R, w, R_d, w_d, dw_d = _kernel_inputs(self, t, state, reference)
+        B = R.shape[0]
+        q = self._first_hint(B) if self._q_prev is None else self._q_prev.copy()
+        u = np.empty((B, 3))
+        diag = np.empty((B, 11))
+        mode, hyst, J, Kp, Kd = self._kargs
+        quaternion_pd_batch(mode, hyst, J, Kp, Kd, R, w, R_d, w_d, dw_d, q, u, diag)
+        self._set_kernel_state(diag, q)
+        return finite_command(u, w)
+
+    def _kernel_args(self) -> tuple:
+        """``(sign-mode code, hysteresis, J, k_p, k_d)`` of the compiled kernel."""
+        return self._kargs
+
+    def _set_kernel_state(self, diag: np.ndarray, q: np.ndarray) -> None:
+        """Chart memory and diagnostics from the kernel's quaternions ``q (B, 4)`` and rows."""
+        B = q.shape[0]
+        self._q_prev = q.copy()
+        self._qd_prev = np.tile([1.0, 0.0, 0.0, 0.0], (B, 1))
+        self._diag = {
+            "q_w": q[:, 0].copy(),
+            "chart_y": q.copy(),
+            "chart_y_d": self._qd_prev.copy(),
+            "chart_switched": diag[:, 4] != 0.0,
+        }
 
 
 class MrpPD(MrpChartAdapter):
@@ -209,7 +299,8 @@ class MrpPD(MrpChartAdapter):
         # the compiled kernel's arguments (liecontrol._kernels.mrp_pd)
         self._kargs = (
             FEEDFORWARD_CODES[law.feedforward],
-            float(self.threshold) ** 2,
+            # |σ|² ≤ 1e300 always in practice: a huge threshold (never switch) stays finite
+            min(float(self.threshold), 1e150) ** 2,
             np.ascontiguousarray(law.J, dtype=np.float64),
             _as_matrix(law.K),
             _as_matrix(law.P),
@@ -226,34 +317,17 @@ class MrpPD(MrpChartAdapter):
         per spacecraft (same arithmetic as the adapter's numpy route, which subclasses use)."""
         if not self._kernel_applies():
             return super().command(t, state, reference)
-        if self._batch is None:
-            raise RuntimeError("MrpPD.command: call reset(t0, batch_size) first")
-        as_scalar(t, "t")
-        R, w = state.R, state.omega
-        # the simulator's own (validated) arrays pass the cheap checks; anything else is
-        # validated in full
-        if not (
-            isinstance(R, np.ndarray)
-            and R.ndim == 3
-            and _vectors_pass(w, (R.shape[0], 3))
-            and rotations_pass_fast(R)
-        ):
-            R = check_rotation_matrix(R, "R")
-            w = as_array(w, "omega", (3,))
-        B = check_state_batch(R, w, self._batch)
-        R_d, w_d, dw_d = GeometricPD._reference_arrays(self, reference, B)  # type: ignore[arg-type]
+        R, w, R_d, w_d, dw_d = _kernel_inputs(self, t, state, reference)
+        B = R.shape[0]
         has_prev = self._p_prev is not None
         p = self._p_prev if has_prev else np.zeros((B, 3))
         p = np.ascontiguousarray(p, dtype=np.float64).copy()
         u = np.empty((B, 3))
-        diag = np.empty((B, 7))
+        diag = np.empty((B, 11))
         ff, thr2, J, K, P = self._kargs
         self.n_switches += mrp_pd_batch(
-            ff, thr2, J, K, P, np.ascontiguousarray(R, dtype=np.float64),
-            np.ascontiguousarray(w, dtype=np.float64),
-            _batch(R_d, (B, 3, 3)), _batch(w_d, (B, 3)), _batch(dw_d, (B, 3)),
-            has_prev, p, u, diag,
-        )  # fmt: skip
+            ff, thr2, J, K, P, R, w, R_d, w_d, dw_d, has_prev, p, u, diag
+        )
         self._set_kernel_state(diag, p)
         return finite_command(u, w)
 

@@ -480,9 +480,11 @@ def _vec(x: object, name: str) -> np.ndarray:
 
 
 def _sample(a: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
-    """The one reference sample of ``a`` (given unbatched or with a batch axis of 1),
-    contiguous float64 for the kernel."""
-    return np.ascontiguousarray(np.asarray(a, dtype=np.float64).reshape(shape))
+    """The one reference sample of validated float64 ``a`` (given unbatched or with a batch
+    axis of 1), contiguous for the kernel (no copy in the common case)."""
+    if a.shape != shape:
+        a = a.reshape(shape)
+    return a if a.flags.c_contiguous else np.ascontiguousarray(a)
 
 
 def _stack(a: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
@@ -552,7 +554,7 @@ class FiniteTimeSO3(AttitudeController):
         self._kprm.setflags(write=False)
         self._kJ = np.ascontiguousarray(self.J)
         self._batch: int | None = None
-        self._diag: dict[str, np.ndarray] = {}
+        self._diag: dict[str, np.ndarray] | np.ndarray = {}
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.params!r})"
@@ -652,13 +654,7 @@ class FiniteTimeSO3(AttitudeController):
                 self._kJ, self._kprm, R, w,
                 _stack(R_d, (B, 3, 3)), _stack(w_d, (B, 3)), _stack(dw_d, (B, 3)), M, diag,
             )  # fmt: skip
-        self._diag = {
-            "Psi": diag[:, 0],
-            "theta": diag[:, 1],
-            "e_R": diag[:, 2:5],
-            "e_Omega": diag[:, 5:8],
-            "s": diag[:, 8:11],
-        }
+        self._diag = diag  # the rows; diagnostics() splits them (not worth it on every step)
         return M
 
     def _kernel_args(self) -> tuple[np.ndarray, np.ndarray]:
@@ -667,7 +663,16 @@ class FiniteTimeSO3(AttitudeController):
 
     def diagnostics(self) -> dict[str, np.ndarray]:
         """Last ``Psi``, ``theta`` ``(B,)`` and ``e_R``, ``e_Omega``, ``s`` ``(B, 3)``."""
-        return dict(self._diag)
+        d = self._diag
+        if isinstance(d, np.ndarray):  # the kernel's rows (Ψ, θ, e_R, e_Ω, s)
+            return {
+                "Psi": d[:, 0],
+                "theta": d[:, 1],
+                "e_R": d[:, 2:5],
+                "e_Omega": d[:, 5:8],
+                "s": d[:, 8:11],
+            }
+        return dict(d)
 
 
 class FixedTimeSO3(FiniteTimeSO3):
