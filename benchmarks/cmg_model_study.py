@@ -84,6 +84,7 @@ class StudyRow:
     peak_gimbal_torque_Nm: dict[str, float]
     peak_gimbal_power_W: dict[str, float]
     torque_saturation_time_s: dict[str, float]
+    flags: dict[str, tuple[str, ...]] = dataclasses.field(default_factory=dict)
 
     @property
     def changed(self) -> bool:
@@ -170,6 +171,7 @@ def run_study(
                 h = o.histories
                 r[m] = {
                     "verdict": o.verdict,
+                    "flags": o.flags,
                     "final": float(o.metrics.get("final_error_deg", float("nan"))),
                     "tau": _peak(h, "gimbal_torque"),
                     "pow": _peak(h, "gimbal_power"),
@@ -187,6 +189,7 @@ def run_study(
                 {m: per[m]["tau"] for m in per},
                 {m: per[m]["pow"] for m in per},
                 {m: per[m]["sat"] for m in per},
+                {m: per[m]["flags"] for m in per},
             )
         )
     return out
@@ -272,12 +275,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     with open(a.out / "cmg_model_verdicts.csv", "w", newline="", encoding="utf-8") as f:
         w = csv.writer(f)
         w.writerow(["spacecraft", "scenario", "controller", "model", "verdict", "final_error_deg",
-                    "peak_gimbal_torque_Nm", "peak_gimbal_power_W", "torque_saturation_time_s"])
+                    "peak_gimbal_torque_Nm", "peak_gimbal_power_W", "torque_saturation_time_s",
+                    "flags"])
         for r in rows:
             for m in r.verdicts:
                 w.writerow([r.spacecraft, r.scenario, r.controller, m, r.verdicts[m],
                             r.final_error_deg[m], r.peak_gimbal_torque_Nm[m],
-                            r.peak_gimbal_power_W[m], r.torque_saturation_time_s[m]])
+                            r.peak_gimbal_power_W[m], r.torque_saturation_time_s[m],
+                            " ".join(r.flags.get(m, ()))])
     print(_summary(rows))
     print()
     print(verdict_table(rows))

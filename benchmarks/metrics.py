@@ -722,7 +722,14 @@ def judge(
     sat = _num(metrics, "saturation_time_s")
     wheel_torque = _num(metrics, "torque_saturation_time_s")
     wheel_speed = _num(metrics, "wheel_speed_saturation_time_s")
-    if (wheel_torque > 0) if math.isfinite(wheel_torque) else (sat > 0):
+    # wheels: only a clipped torque (a speed limit is momentum saturation, below); the full CMG
+    # model logs its gimbal-motor torque limit too, but its gimbal-rate limit still counts
+    full_cmg = getattr(getattr(scenario, "spacecraft", None), "cmg_model", "") == "full"
+    if (
+        (wheel_torque > 0 or (full_cmg and sat > 0))
+        if math.isfinite(wheel_torque)
+        else (sat > 0)
+    ):
         flags.append("actuator-saturated")
     if wheel_speed > 0 or _num(metrics, "peak_momentum_fraction") >= MOMENTUM_SATURATED_FRACTION:
         flags.append("momentum-saturated")

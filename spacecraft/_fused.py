@@ -270,6 +270,8 @@ def _fused_loop(
     x_next = np.empty((B, n))
     work = np.empty(7 * n)
     A = np.empty((3, max(n - 3, 1)))
+    sn = np.empty(max(n - 3, 1))
+    cs = np.empty(max(n - 3, 1))
     rows = 0
     n_switch = 0
     for k in range(n_steps + 1):
@@ -325,7 +327,7 @@ def _fused_loop(
                         log_R[rows, b, i, j] = R[b, i, j]
                         log_Rd[rows, b, i, j] = ref_R[r, rb, i, j]
                 u0, u1, u2 = K.actuator_torque(
-                    act, S0, C0, x[b, 0], x[b, 1], x[b, 2], x[b, 3:], held[b]
+                    act, S0, C0, x[b, 0], x[b, 1], x[b, 2], x[b, 3:], held[b], sn, cs
                 )
                 log_u[rows, b, 0] = u0
                 log_u[rows, b, 1] = u1

@@ -89,24 +89,11 @@ def cmg_momentum_jacobian(
 
 
 @njit
-def cmg_bus_torque(
-    S0: np.ndarray, C0: np.ndarray, w0: float, w1: float, w2: float,
-    delta: np.ndarray, delta_dot: np.ndarray,
-) -> tuple[float, float, float]:  # fmt: skip
-    """Internal torque on the bus u = −A(δ) δ̇ − ω × h(δ)."""
-    h0 = h1 = h2 = r0 = r1 = r2 = 0.0
-    for i in range(S0.shape[1]):
-        sn = math.sin(delta[i])
-        cs = math.cos(delta[i])
-        h0 += S0[0, i] * sn + C0[0, i] * cs
-        h1 += S0[1, i] * sn + C0[1, i] * cs
-        h2 += S0[2, i] * sn + C0[2, i] * cs
-        a = cs * delta_dot[i]
-        b = sn * delta_dot[i]
-        r0 += S0[0, i] * a - C0[0, i] * b
-        r1 += S0[1, i] * a - C0[1, i] * b
-        r2 += S0[2, i] * a - C0[2, i] * b
-    return -(r0 + w1 * h2 - w2 * h1), -(r1 + w2 * h0 - w0 * h2), -(r2 + w0 * h1 - w1 * h0)
+def sincos_into(delta: np.ndarray, sn: np.ndarray, cs: np.ndarray) -> None:
+    """sin and cos of the gimbal angles into ``sn``, ``cs``."""
+    for i in range(delta.shape[0]):
+        sn[i] = math.sin(delta[i])
+        cs[i] = math.cos(delta[i])
 
 
 @njit
@@ -114,7 +101,9 @@ def cmg_bus_torque_trig(
     S0: np.ndarray, C0: np.ndarray, w0: float, w1: float, w2: float,
     sn: np.ndarray, cs: np.ndarray, delta_dot: np.ndarray,
 ) -> tuple[float, float, float]:  # fmt: skip
-    """:func:`cmg_bus_torque` from sin δ and cos δ already computed (same arithmetic)."""
+    """Internal torque of the SGCMG cluster on the bus, u = −A(δ) δ̇ − ω × h(δ), from sin δ and
+    cos δ (``sn``, ``cs``): h = Σᵢ (S0ᵢ sin δᵢ + C0ᵢ cos δᵢ),
+    A δ̇ = Σᵢ (S0ᵢ cos δᵢ − C0ᵢ sin δᵢ) δ̇ᵢ."""
     h0 = h1 = h2 = r0 = r1 = r2 = 0.0
     for i in range(S0.shape[1]):
         s = sn[i]
@@ -357,11 +346,13 @@ def sgcmg_command(
 @njit
 def actuator_torque(
     act: int, S0: np.ndarray, C0: np.ndarray, w0: float, w1: float, w2: float,
-    xa: np.ndarray, held: np.ndarray,
+    xa: np.ndarray, held: np.ndarray, sn: np.ndarray, cs: np.ndarray,
 ) -> tuple[float, float, float]:  # fmt: skip
-    """The internal torque the actuator exerts on the bus for the held command."""
+    """The internal torque the actuator exerts on the bus for the held command (``sn``, ``cs``:
+    scratch of the gimbal count)."""
     if act == ACT_SGCMG:
-        return cmg_bus_torque(S0, C0, w0, w1, w2, xa, held)
+        sincos_into(xa, sn, cs)
+        return cmg_bus_torque_trig(S0, C0, w0, w1, w2, sn, cs, held)
     return held[0], held[1], held[2]
 
 
@@ -377,9 +368,7 @@ def _field(
     w0, w1, w2 = x[0], x[1], x[2]
     if act == ACT_SGCMG:
         if trig:
-            for i in range(held.shape[0]):
-                sn[i] = math.sin(x[3 + i])
-                cs[i] = math.cos(x[3 + i])
+            sincos_into(x[3:], sn, cs)
         t0, t1, t2 = cmg_bus_torque_trig(S0, C0, w0, w1, w2, sn, cs, held)
     else:
         t0, t1, t2 = held[0], held[1], held[2]
@@ -478,10 +467,14 @@ def cmg_bus_torque_batch(
     S0: np.ndarray, C0: np.ndarray, w: np.ndarray, delta: np.ndarray, delta_dot: np.ndarray,
     out: np.ndarray,
 ) -> None:  # fmt: skip
-    """:func:`cmg_bus_torque` over a batch."""
+    """:func:`cmg_bus_torque_trig` over a batch."""
+    n = delta.shape[1]
+    sn = np.empty(n)
+    cs = np.empty(n)
     for b in range(w.shape[0]):
-        out[b, 0], out[b, 1], out[b, 2] = cmg_bus_torque(
-            S0, C0, w[b, 0], w[b, 1], w[b, 2], delta[b], delta_dot[b]
+        sincos_into(delta[b], sn, cs)
+        out[b, 0], out[b, 1], out[b, 2] = cmg_bus_torque_trig(
+            S0, C0, w[b, 0], w[b, 1], w[b, 2], sn, cs, delta_dot[b]
         )
 
 

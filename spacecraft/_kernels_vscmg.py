@@ -1,9 +1,15 @@
-"""Compiled kernel of the full (variable-speed) CMG dynamics of :mod:`spacecraft.cmg_dynamics`:
-the coupled bus + gimbal + rotor accelerations of one spacecraft, with the torque-limited PI
-gimbal servo (conditional-integration anti-windup), the stop bumpers and the motor power — the
-one scalar implementation of the per-stage formulas. :meth:`spacecraft.cmg_dynamics.
-VscmgActuator._solve` stays as the batched numpy reference and the route for batches without a
-compiler; the tests hold the two to 1e-12.
+"""Compiled kernels of the full (variable-speed) CMG dynamics of :mod:`spacecraft.cmg_dynamics`:
+
+- :func:`vscmg_derivatives_one`: the coupled bus + gimbal + rotor accelerations of one
+  spacecraft, with the torque-limited PI gimbal servo (conditional-integration anti-windup), the
+  stop bumpers and the motor power — the one scalar implementation of the per-stage formulas;
+- :func:`vscmg_command_inputs_one`: what the steering law needs at a command sample (torque
+  Jacobian, momentum-rate command, gyroscopic feed-forward);
+- :func:`vscmg_rkmk4_step_batch`: a whole RKMK4 step of the plant under a time-only disturbance.
+
+:meth:`spacecraft.cmg_dynamics.VscmgActuator._solve` and ``_command_inputs`` stay as the batched
+numpy reference and the route for batches without a compiler; the tests hold the kernels to them
+(1e-12) and the step to :func:`liecontrol.integrators.rk.rkmk4_step_unchecked`.
 
 Equations (Schaub & Junkins, *Analytical Mechanics of Space Systems*, 4th ed., AIAA 2018,
 ch. 4, VSCMG section), per unit with spin axis ``s``, transverse axis ``t``, gimbal axis ``g``,
@@ -32,12 +38,20 @@ from liecontrol._kernels.so3 import dexpinv_rkmk4, right_multiply_exp_into
 
 from ._kernels import disturbance_at
 
-#: ``par`` layout of :func:`vscmg_derivatives_one`
+#: ``par`` layout of :func:`vscmg_derivatives_one` (then the stops: lower ``par[_LO:_LO + 4]``,
+#: upper ``par[_HI:_HI + 4]``)
 PAR_JS, PAR_JT, PAR_JG, PAR_IW, PAR_KP, PAR_KI, PAR_UMAX, PAR_LAG, PAR_KSTOP, PAR_CSTOP = range(10)
+_LO = 10
+_HI = 14
+N_PAR = 18
+#: column offsets of the geometry ``M (3, 15) = [J_B | S | C | G]``
+_S = 3
+_C = 7
+_G = 11
+#: rows of the held command ``(3, 4)``: rate command, gimbal feed-forward torque, spin torque
+HELD_CMD, HELD_FF, HELD_SPIN = range(3)
 #: rows of the ``details`` output ``(5, 4)``
 DET_GIMBAL_TORQUE, DET_SPIN_TORQUE, DET_SATURATED, DET_GIMBAL_POWER, DET_STOP_TORQUE = range(5)
-#: spacecraft per chunk of the stage-major RKMK4 step (its scratch stays in cache)
-_CHUNK = 32
 
 
 @njit
@@ -47,17 +61,10 @@ def vscmg_derivatives_one(
     open_loop: bool,
     has_stops: bool,
     par: np.ndarray,
-    JB: np.ndarray,
-    S: np.ndarray,
-    C: np.ndarray,
-    G: np.ndarray,
-    lower: np.ndarray,
-    upper: np.ndarray,
+    M: np.ndarray,
     w: np.ndarray,
     xa: np.ndarray,
-    cmd: np.ndarray,
-    ff: np.ndarray,
-    us_in: np.ndarray,
+    held: np.ndarray,
     tau: np.ndarray,
     out: np.ndarray,
     details: np.ndarray,
@@ -66,12 +73,13 @@ def vscmg_derivatives_one(
     per-gimbal motor torque, spin torque, torque-saturation flag (1.0/0.0), gimbal power and stop
     torque into ``details (5, 4)``.
 
-    ``par``: ``(J_s, J_t, J_g, I_Ws, K_p, K_i, u_max, τ, k_stop, c_stop)`` (``τ`` the kinematic
-    servo's time constant; servo/stop entries unused where they do not apply); ``JB (3, 3)`` the
-    bus inertia; ``S, C, G (3, 4)`` with ``s(δ) = S sin δ + C cos δ``, ``t(δ) = S cos δ −
-    C sin δ`` and ``g`` the gimbal axes; ``lower, upper (4,)`` the stops; ``w (3,)`` the body rate;
-    ``xa (17,)`` = (δ, δ̇, Ω, z, W); ``cmd, ff, us_in (4,)`` the held rate command, gimbal
-    feed-forward (or open-loop) torque and spin torque; ``tau (3,)`` the external torque."""
+    ``par (18,)``: ``(J_s, J_t, J_g, I_Ws, K_p, K_i, u_max, τ, k_stop, c_stop)`` (``τ`` the
+    kinematic servo's time constant; servo/stop entries unused where they do not apply) and the
+    lower and upper stops (4 each); ``M (3, 15) = [J_B | S | C | G]``: the bus inertia, ``S, C``
+    with ``s(δ) = S sin δ + C cos δ``, ``t(δ) = S cos δ − C sin δ``, and the gimbal axes ``G``;
+    ``w (3,)`` the body rate; ``xa (17,)`` = (δ, δ̇, Ω, z, W); ``held (3, 4)`` the held rate
+    command, gimbal feed-forward (or open-loop) torque and spin torque; ``tau (3,)`` the external
+    torque. (Few array arguments on purpose: each costs call overhead in compiled code.)"""
     Js = par[PAR_JS]
     Jt = par[PAR_JT]
     Jg = par[PAR_JG]
@@ -89,15 +97,15 @@ def vscmg_derivatives_one(
     w1 = w[1]
     w2 = w[2]
     # mass matrix (symmetric: 6 entries) starting from J_B, and H starting from J_B ω
-    m00 = JB[0, 0]
-    m01 = JB[0, 1]
-    m02 = JB[0, 2]
-    m11 = JB[1, 1]
-    m12 = JB[1, 2]
-    m22 = JB[2, 2]
-    H0 = JB[0, 0] * w0 + JB[0, 1] * w1 + JB[0, 2] * w2
-    H1 = JB[1, 0] * w0 + JB[1, 1] * w1 + JB[1, 2] * w2
-    H2 = JB[2, 0] * w0 + JB[2, 1] * w1 + JB[2, 2] * w2
+    m00 = M[0, 0]
+    m01 = M[0, 1]
+    m02 = M[0, 2]
+    m11 = M[1, 1]
+    m12 = M[1, 2]
+    m22 = M[2, 2]
+    H0 = M[0, 0] * w0 + M[0, 1] * w1 + M[0, 2] * w2
+    H1 = M[1, 0] * w0 + M[1, 1] * w1 + M[1, 2] * w2
+    H2 = M[2, 0] * w0 + M[2, 1] * w1 + M[2, 2] * w2
     c0 = c1 = c2 = 0.0  # Σ δ̇ [(J_s − J_t) ω_t s + ((J_s − J_t) ω_s + I_Ws Ω) t]
     r0 = r1 = r2 = 0.0  # the known generalized forces moved to the right-hand side
     for i in range(4):
@@ -106,15 +114,15 @@ def vscmg_derivatives_one(
         spin = xa[8 + i]
         sn = math.sin(d)
         cs = math.cos(d)
-        s0 = S[0, i] * sn + C[0, i] * cs
-        s1 = S[1, i] * sn + C[1, i] * cs
-        s2 = S[2, i] * sn + C[2, i] * cs
-        t0 = S[0, i] * cs - C[0, i] * sn
-        t1 = S[1, i] * cs - C[1, i] * sn
-        t2 = S[2, i] * cs - C[2, i] * sn
-        g0 = G[0, i]
-        g1 = G[1, i]
-        g2 = G[2, i]
+        s0 = M[0, _S + i] * sn + M[0, _C + i] * cs
+        s1 = M[1, _S + i] * sn + M[1, _C + i] * cs
+        s2 = M[2, _S + i] * sn + M[2, _C + i] * cs
+        t0 = M[0, _S + i] * cs - M[0, _C + i] * sn
+        t1 = M[1, _S + i] * cs - M[1, _C + i] * sn
+        t2 = M[2, _S + i] * cs - M[2, _C + i] * sn
+        g0 = M[0, _G + i]
+        g1 = M[1, _G + i]
+        g2 = M[2, _G + i]
         ws = s0 * w0 + s1 * w1 + s2 * w2
         wt = t0 * w0 + t1 * w1 + t2 * w2
         wg = g0 * w0 + g1 * w1 + g2 * w2
@@ -143,7 +151,7 @@ def vscmg_derivatives_one(
         z_dot = 0.0
         if kinematic:
             # δ̈ imposed by the first-order rate loop: J_g g gᵀ stays in the mass matrix
-            dd = (cmd[i] - rate) / lag
+            dd = (held[HELD_CMD, i] - rate) / lag
             m00 += Jg * g0 * g0
             m01 += Jg * g0 * g1
             m02 += Jg * g0 * g2
@@ -154,19 +162,19 @@ def vscmg_derivatives_one(
         else:
             dd = 0.0
             if open_loop:
-                raw = ff[i]
+                raw = held[HELD_FF, i]
                 err = 0.0
             else:
-                err = cmd[i] - rate
-                raw = kp * err + ki * xa[12 + i] + ff[i]
+                err = held[HELD_CMD, i] - rate
+                raw = kp * err + ki * xa[12 + i] + held[HELD_FF, i]
             u_g = min(max(raw, -umax), umax)
             sat = abs(raw) > umax
             # conditional integration: z frozen while saturated and the error pushes further
             if not (sat and err * raw > 0.0):
                 z_dot = err
             if has_stops:
-                over = d - upper[i]
-                under = lower[i] - d
+                over = d - par[_HI + i]
+                under = par[_LO + i] - d
                 if over > 0.0:
                     u_stop = -max(k_stop * over + c_stop * rate, 0.0)
                 elif under > 0.0:
@@ -176,7 +184,7 @@ def vscmg_derivatives_one(
         r1 += k * g1
         r2 += k * g2
         if variable_speed:
-            ks = us_in[i] + f_O
+            ks = held[HELD_SPIN, i] + f_O
             r0 += ks * s0
             r1 += ks * s1
             r2 += ks * s2
@@ -211,17 +219,17 @@ def vscmg_derivatives_one(
         spin = xa[8 + i]
         sn = math.sin(d)
         cs = math.cos(d)
-        s0 = S[0, i] * sn + C[0, i] * cs
-        s1 = S[1, i] * sn + C[1, i] * cs
-        s2 = S[2, i] * sn + C[2, i] * cs
-        t0 = S[0, i] * cs - C[0, i] * sn
-        t1 = S[1, i] * cs - C[1, i] * sn
-        t2 = S[2, i] * cs - C[2, i] * sn
+        s0 = M[0, _S + i] * sn + M[0, _C + i] * cs
+        s1 = M[1, _S + i] * sn + M[1, _C + i] * cs
+        s2 = M[2, _S + i] * sn + M[2, _C + i] * cs
+        t0 = M[0, _S + i] * cs - M[0, _C + i] * sn
+        t1 = M[1, _S + i] * cs - M[1, _C + i] * sn
+        t2 = M[2, _S + i] * cs - M[2, _C + i] * sn
         ws = s0 * w0 + s1 * w1 + s2 * w2
         wt = t0 * w0 + t1 * w1 + t2 * w2
         f_d = dJ * ws * wt + Iw * spin * wt
         f_O = -Iw * rate * wt
-        gw = G[0, i] * a0 + G[1, i] * a1 + G[2, i] * a2
+        gw = M[0, _G + i] * a0 + M[1, _G + i] * a1 + M[2, _G + i] * a2
         sw = s0 * a0 + s1 * a1 + s2 * a2
         u_stop = details[DET_STOP_TORQUE, i]
         if kinematic:
@@ -230,7 +238,7 @@ def vscmg_derivatives_one(
             u_g = details[DET_GIMBAL_TORQUE, i]
             out[7 + i] = (u_g + u_stop + f_d) / Jg - gw
         if variable_speed:
-            u_s = us_in[i]
+            u_s = held[HELD_SPIN, i]
             out[11 + i] = (u_s + f_O) / Iw - sw
         else:
             u_s = Iw * sw - f_O
@@ -250,27 +258,20 @@ def vscmg_derivatives_batch(
     open_loop: bool,
     has_stops: bool,
     par: np.ndarray,
-    JB: np.ndarray,
-    S: np.ndarray,
-    C: np.ndarray,
-    G: np.ndarray,
-    lower: np.ndarray,
-    upper: np.ndarray,
+    M: np.ndarray,
     w: np.ndarray,
     xa: np.ndarray,
-    cmd: np.ndarray,
-    ff: np.ndarray,
-    us_in: np.ndarray,
+    held: np.ndarray,
     tau: np.ndarray,
     out: np.ndarray,
     details: np.ndarray,
 ) -> None:
     """:func:`vscmg_derivatives_one` over a batch: ``w, tau (B, 3)``, ``xa (B, 17)``,
-    ``cmd, ff, us_in (B, 4)``, ``out (B, 20)``, ``details (B, 5, 4)``."""
+    ``held (B, 3, 4)``, ``out (B, 20)``, ``details (B, 5, 4)``."""
     for b in range(w.shape[0]):
         vscmg_derivatives_one(
-            kinematic, variable_speed, open_loop, has_stops, par, JB, S, C, G, lower, upper,
-            w[b], xa[b], cmd[b], ff[b], us_in[b], tau[b], out[b], details[b],
+            kinematic, variable_speed, open_loop, has_stops, par, M,
+            w[b], xa[b], held[b], tau[b], out[b], details[b],
         )  # fmt: skip
 
 
@@ -278,9 +279,7 @@ def vscmg_derivatives_batch(
 def vscmg_command_inputs_one(
     feedforward: bool,
     par: np.ndarray,
-    S: np.ndarray,
-    C: np.ndarray,
-    G: np.ndarray,
+    M: np.ndarray,
     w: np.ndarray,
     xa: np.ndarray,
     u_cmd: np.ndarray,
@@ -292,7 +291,8 @@ def vscmg_command_inputs_one(
     ``A_out (3, 4)`` with columns ``I_Ws Ω t`` (``∂h/∂δ`` at the current rotor speeds), the
     momentum-rate command ``hdot_out (3,) = −u_cmd − ω × h`` with ``h = Σ (J_g δ̇ g + I_Ws Ω s)``
     the cluster momentum relative to the bus, and with ``feedforward`` the servo's gimbal torque
-    feed-forward ``ff_out (4,) = −[(J_s − J_t) ω_s ω_t + I_Ws Ω ω_t]`` (else zeros)."""
+    feed-forward ``ff_out (4,) = −[(J_s − J_t) ω_s ω_t + I_Ws Ω ω_t]`` (else zeros). ``par``,
+    ``M`` as for :func:`vscmg_derivatives_one`."""
     Js = par[PAR_JS]
     Jt = par[PAR_JT]
     Jg = par[PAR_JG]
@@ -306,17 +306,17 @@ def vscmg_command_inputs_one(
         spin = xa[8 + i]
         sn = math.sin(xa[i])
         cs = math.cos(xa[i])
-        s0 = S[0, i] * sn + C[0, i] * cs
-        s1 = S[1, i] * sn + C[1, i] * cs
-        s2 = S[2, i] * sn + C[2, i] * cs
-        t0 = S[0, i] * cs - C[0, i] * sn
-        t1 = S[1, i] * cs - C[1, i] * sn
-        t2 = S[2, i] * cs - C[2, i] * sn
+        s0 = M[0, _S + i] * sn + M[0, _C + i] * cs
+        s1 = M[1, _S + i] * sn + M[1, _C + i] * cs
+        s2 = M[2, _S + i] * sn + M[2, _C + i] * cs
+        t0 = M[0, _S + i] * cs - M[0, _C + i] * sn
+        t1 = M[1, _S + i] * cs - M[1, _C + i] * sn
+        t2 = M[2, _S + i] * cs - M[2, _C + i] * sn
         hw = Iw * spin
         e = Jg * rate
-        h0 += e * G[0, i] + hw * s0
-        h1 += e * G[1, i] + hw * s1
-        h2 += e * G[2, i] + hw * s2
+        h0 += e * M[0, _G + i] + hw * s0
+        h1 += e * M[1, _G + i] + hw * s1
+        h2 += e * M[2, _G + i] + hw * s2
         A_out[0, i] = t0 * hw
         A_out[1, i] = t1 * hw
         A_out[2, i] = t2 * hw
@@ -335,9 +335,7 @@ def vscmg_command_inputs_one(
 def vscmg_command_inputs_batch(
     feedforward: bool,
     par: np.ndarray,
-    S: np.ndarray,
-    C: np.ndarray,
-    G: np.ndarray,
+    M: np.ndarray,
     w: np.ndarray,
     xa: np.ndarray,
     u_cmd: np.ndarray,
@@ -348,110 +346,70 @@ def vscmg_command_inputs_batch(
     """:func:`vscmg_command_inputs_one` over a batch: ``A_out (B, 3, 4)``, the rest ``(B, ...)``."""
     for b in range(w.shape[0]):
         vscmg_command_inputs_one(
-            feedforward, par, S, C, G, w[b], xa[b], u_cmd[b], A_out[b], hdot_out[b], ff_out[b]
+            feedforward, par, M, w[b], xa[b], u_cmd[b], A_out[b], hdot_out[b], ff_out[b]
         )
-
-
-@njit
-def _stage(
-    kinematic: bool, variable_speed: bool, open_loop: bool, has_stops: bool, par: np.ndarray,
-    JB: np.ndarray, S: np.ndarray, C: np.ndarray, G: np.ndarray, lower: np.ndarray,
-    upper: np.ndarray, dist: int, dp: np.ndarray, t: float, x: np.ndarray, cmd: np.ndarray,
-    ff: np.ndarray, us_in: np.ndarray, tau: np.ndarray, xdot: np.ndarray, details: np.ndarray,
-) -> None:  # fmt: skip
-    """ẋ of the packed state ``x = (ω, x_act)`` under the time-only external torque at ``t``."""
-    tau[0], tau[1], tau[2] = disturbance_at(dist, dp, t)
-    vscmg_derivatives_one(
-        kinematic, variable_speed, open_loop, has_stops, par, JB, S, C, G, lower, upper,
-        x[0:3], x[3:], cmd, ff, us_in, tau, xdot, details,
-    )  # fmt: skip
 
 
 @njit
 def vscmg_rkmk4_step_batch(
     kinematic: bool, variable_speed: bool, open_loop: bool, has_stops: bool, par: np.ndarray,
-    JB: np.ndarray, S: np.ndarray, C: np.ndarray, G: np.ndarray, lower: np.ndarray,
-    upper: np.ndarray, dist: int, dp: np.ndarray, t: float, R: np.ndarray, x: np.ndarray,
-    cmd: np.ndarray, ff: np.ndarray, us_in: np.ndarray, h: float, R_out: np.ndarray,
-    x_out: np.ndarray,
+    M: np.ndarray, dist: int, dp: np.ndarray, t: float, R: np.ndarray, x: np.ndarray,
+    held: np.ndarray, h: float, R_out: np.ndarray, x_out: np.ndarray,
 ) -> None:  # fmt: skip
     """One RKMK4 step (Munthe-Kaas 1998; the tableau of :func:`spacecraft._kernels.rkmk4_step`:
     classical RK4 on the chart θ, dexp⁻¹ truncated at fourth order, R_{k+1} = R exp(h/6 (K₁ +
     2K₂ + 2K₃ + K₄))) of a batch flying the full CMG cluster: ``R (B, 3, 3)``, ``x = (ω, x_act)
-    (B, 20)``, the held command ``cmd, ff, us_in (B, 4)``, a time-only disturbance ``(dist, dp)``
-    (codes of :mod:`spacecraft._kernels`).
+    (B, 20)``, the held command ``held (B, 3, 4)``, a time-only disturbance ``(dist, dp)`` (codes
+    of :mod:`spacecraft._kernels`); ``par``, ``M`` as for :func:`vscmg_derivatives_one`.
 
-    Stage-major in chunks of :data:`_CHUNK` spacecraft: each RK stage is evaluated for the chunk
-    before the next, so the spacecraft are independent work inside a stage (a spacecraft-major
-    loop chains the four stages' latencies — sines, divisions — one spacecraft after the other),
-    while the chunk's scratch stays small and in cache."""
+    Stage-major: each RK stage is evaluated for the whole batch before the next, so the
+    spacecraft are independent work inside a stage (a spacecraft-major loop chains the four
+    stages' latencies — sines, divisions — one spacecraft after the other)."""
     B, n = x.shape
-    cw = min(B, _CHUNK)
-    d = np.empty((4, cw, n))
-    xs = np.empty((cw, n))
-    k = np.empty((cw, 4, 3))  # the chart velocities K₁..K₄
+    h2 = 0.5 * h
+    d = np.empty((4, B, n))
+    xs = np.empty((B, n))
+    k = np.empty((B, 4, 3))  # the chart velocities K₁..K₄
     tau = np.empty(3)
     det = np.empty((5, 4))
-    for b0 in range(0, B, cw):
-        _rkmk4_chunk(
-            kinematic, variable_speed, open_loop, has_stops, par, JB, S, C, G, lower, upper,
-            dist, dp, t, R, x, cmd, ff, us_in, h, R_out, x_out,
-            b0, min(b0 + cw, B), d, xs, k, tau, det,
-        )  # fmt: skip
-
-
-@njit
-def _rkmk4_chunk(
-    kinematic: bool, variable_speed: bool, open_loop: bool, has_stops: bool, par: np.ndarray,
-    JB: np.ndarray, S: np.ndarray, C: np.ndarray, G: np.ndarray, lower: np.ndarray,
-    upper: np.ndarray, dist: int, dp: np.ndarray, t: float, R: np.ndarray, x: np.ndarray,
-    cmd: np.ndarray, ff: np.ndarray, us_in: np.ndarray, h: float, R_out: np.ndarray,
-    x_out: np.ndarray, b0: int, b1: int, d: np.ndarray, xs: np.ndarray, k: np.ndarray,
-    tau: np.ndarray, det: np.ndarray,
-) -> None:  # fmt: skip
-    """:func:`vscmg_rkmk4_step_batch` for spacecraft ``b0 … b1 − 1`` (scratch ``d (4, ·, n)``,
-    ``xs (·, n)``, ``k (·, 4, 3)`` indexed from 0)."""
-    n = x.shape[1]
-    h2 = 0.5 * h
     # stage 1 at (t, x): K₁ = ω
-    for b in range(b0, b1):
-        c = b - b0
-        _stage(
-            kinematic, variable_speed, open_loop, has_stops, par, JB, S, C, G, lower, upper,
-            dist, dp, t, x[b], cmd[b], ff[b], us_in[b], tau, d[0, c], det,
+    tau[0], tau[1], tau[2] = disturbance_at(dist, dp, t)
+    for b in range(B):
+        xb = x[b]
+        vscmg_derivatives_one(
+            kinematic, variable_speed, open_loop, has_stops, par, M,
+            xb[0:3], xb[3:], held[b], tau, d[0, b], det,
         )  # fmt: skip
         for i in range(3):
-            k[c, 0, i] = x[b, i]
+            k[b, 0, i] = xb[i]
         for i in range(n):
-            xs[c, i] = x[b, i] + h2 * d[0, c, i]
+            xs[b, i] = xb[i] + h2 * d[0, b, i]
     # stages 2–4: at θ = c h K_{j−1}, K_j = dexp⁻¹_θ(ω_j)
     for j in range(1, 4):
-        tj = t + h if j == 3 else t + h2
-        cj = h if j == 3 else h2  # the chart step of this stage
+        cj = h if j == 3 else h2  # the chart step (and time offset) of this stage
         cn = h if j == 2 else h2  # the state step to the next stage
-        for b in range(b0, b1):
-            c = b - b0
-            xb = xs[c]
-            _stage(
-                kinematic, variable_speed, open_loop, has_stops, par, JB, S, C, G, lower, upper,
-                dist, dp, tj, xb, cmd[b], ff[b], us_in[b], tau, d[j, c], det,
+        tau[0], tau[1], tau[2] = disturbance_at(dist, dp, t + cj)
+        for b in range(B):
+            xb = xs[b]
+            vscmg_derivatives_one(
+                kinematic, variable_speed, open_loop, has_stops, par, M,
+                xb[0:3], xb[3:], held[b], tau, d[j, b], det,
             )  # fmt: skip
-            k[c, j, 0], k[c, j, 1], k[c, j, 2] = dexpinv_rkmk4(
-                cj * k[c, j - 1, 0], cj * k[c, j - 1, 1], cj * k[c, j - 1, 2], xb[0], xb[1], xb[2]
+            k[b, j, 0], k[b, j, 1], k[b, j, 2] = dexpinv_rkmk4(
+                cj * k[b, j - 1, 0], cj * k[b, j - 1, 1], cj * k[b, j - 1, 2], xb[0], xb[1], xb[2]
             )
             if j < 3:
                 for i in range(n):
-                    xs[c, i] = x[b, i] + cn * d[j, c, i]
+                    xs[b, i] = x[b, i] + cn * d[j, b, i]
     h6 = h / 6.0
-    for b in range(b0, b1):
-        c = b - b0
+    for b in range(B):
         for i in range(n):
-            sum_d = ((d[1, c, i] + d[2, c, i]) * 2.0 + d[0, c, i]) + d[3, c, i]
+            sum_d = ((d[1, b, i] + d[2, b, i]) * 2.0 + d[0, b, i]) + d[3, b, i]
             x_out[b, i] = x[b, i] + sum_d * h6
         right_multiply_exp_into(
             R[b],
-            h6 * (k[c, 0, 0] + 2.0 * (k[c, 1, 0] + k[c, 2, 0]) + k[c, 3, 0]),
-            h6 * (k[c, 0, 1] + 2.0 * (k[c, 1, 1] + k[c, 2, 1]) + k[c, 3, 1]),
-            h6 * (k[c, 0, 2] + 2.0 * (k[c, 1, 2] + k[c, 2, 2]) + k[c, 3, 2]),
+            h6 * (k[b, 0, 0] + 2.0 * (k[b, 1, 0] + k[b, 2, 0]) + k[b, 3, 0]),
+            h6 * (k[b, 0, 1] + 2.0 * (k[b, 1, 1] + k[b, 2, 1]) + k[b, 3, 1]),
+            h6 * (k[b, 0, 2] + 2.0 * (k[b, 1, 2] + k[b, 2, 2]) + k[b, 3, 2]),
             R_out[b],
         )

@@ -84,6 +84,7 @@ from ._kernels_vscmg import (
     DET_GIMBAL_TORQUE,
     DET_SATURATED,
     DET_SPIN_TORQUE,
+    N_PAR,
     vscmg_command_inputs_batch,
     vscmg_command_inputs_one,
     vscmg_derivatives_batch,
@@ -418,21 +419,16 @@ class VscmgActuator(Actuator):
             kp = 2.0 * servo.damping * servo.bandwidth * inertias.J_g
             ki = servo.bandwidth**2 * inertias.J_g
             umax = servo.max_torque
-        no_stops = stops is None
-        par = (inertias.J_s, inertias.J_t, inertias.J_g, inertias.wheel_spin, kp, ki, umax)
-        par += (self._lag, 0.0 if no_stops else stops.stiffness, 0.0 if no_stops else stops.damping)
-        self._kargs = (
-            self._kinematic,
-            self.variable_speed,
-            stops is not None,
-            np.array(par),
-            np.ascontiguousarray(J),
-            np.ascontiguousarray(self._S),
-            np.ascontiguousarray(self._C),
-            np.ascontiguousarray(self._G),
-            np.zeros(4) if no_stops else np.ascontiguousarray(stops.lower),
-            np.zeros(4) if no_stops else np.ascontiguousarray(stops.upper),
-        )
+        par = np.zeros(N_PAR)
+        I = inertias
+        par[:8] = (I.J_s, I.J_t, I.J_g, I.wheel_spin, kp, ki, umax, self._lag)
+        if stops is not None:
+            par[8:10] = (stops.stiffness, stops.damping)
+            par[10:14] = stops.lower
+            par[14:18] = stops.upper
+        geometry = np.concatenate([J, self._S, self._C, self._G], axis=1)  # [J_B | S | C | G]
+        self._kargs = (self._kinematic, self.variable_speed, stops is not None, par, geometry)
+        self._held_cache: tuple = (None, None)
         self._steer = steering.steer if isinstance(steering, SteeringLaw) else None
         try:
             params = inspect.signature(steering).parameters
@@ -573,17 +569,17 @@ class VscmgActuator(Actuator):
         """Steering Jacobian ``A`` ``(B, 3, 4)``, ``ḣ_cmd`` ``(B, 3)`` and gimbal torque
         feed-forward ``(B, 4)`` through the compiled kernel
         (:func:`spacecraft._kernels_vscmg.vscmg_command_inputs_one`)."""
-        _, _, _, par, _, S, C, G, _, _ = self._kargs
+        _, _, _, par, M = self._kargs
         B = x_act.shape[0]
         A = np.empty((B, 3, 4))
         hdot = np.empty((B, 3))
         ff = np.empty((B, 4))
         if B == 1:
             vscmg_command_inputs_one(
-                feedforward, par, S, C, G, omega[0], x_act[0], u_cmd[0], A[0], hdot[0], ff[0]
+                feedforward, par, M, omega[0], x_act[0], u_cmd[0], A[0], hdot[0], ff[0]
             )
         else:
-            vscmg_command_inputs_batch(feedforward, par, S, C, G, omega, x_act, u_cmd, A, hdot, ff)
+            vscmg_command_inputs_batch(feedforward, par, M, omega, x_act, u_cmd, A, hdot, ff)
         return A, hdot, ff
 
     def open_loop(
@@ -766,24 +762,31 @@ class VscmgActuator(Actuator):
         torque, spin torque, saturation flag, gimbal power, stop torque) through the compiled
         kernel :func:`spacecraft._kernels_vscmg.vscmg_derivatives_one` (the same equations as
         :meth:`_solve`, its numpy reference; tested equal to it)."""
-        kin, var, has_stops, par, JB, S, C, G, lo, hi = self._kargs
+        kin, var, has_stops, par, M = self._kargs
         B = omega.shape[0]
         out = np.empty((B, 3 + self.n_states))
         det = np.empty((B, 5, 4))
         ol = bool(held.open_loop)
-        w, xa, tau = omega, x_act, tau_ext
-        cmd, ff, us = held.delta_dot_cmd, held.gimbal_torque_ff, held.spin_torque
+        hp = self._held_packed(held)
         if B == 1:
             vscmg_derivatives_one(
-                kin, var, ol, has_stops, par, JB, S, C, G, lo, hi,
-                w[0], xa[0], cmd[0], ff[0], us[0], tau[0], out[0], det[0],
+                kin, var, ol, has_stops, par, M, omega[0], x_act[0], hp[0], tau_ext[0], out[0],
+                det[0],
             )  # fmt: skip
         else:
             vscmg_derivatives_batch(
-                kin, var, ol, has_stops, par, JB, S, C, G, lo, hi,
-                w, xa, cmd, ff, us, tau, out, det,
-            )  # fmt: skip
+                kin, var, ol, has_stops, par, M, omega, x_act, hp, tau_ext, out, det
+            )
         return out, det
+
+    def _held_packed(self, held: VscmgCommand) -> np.ndarray:
+        """The held command as the kernels take it, ``(B, 3, 4)`` = (rate command, gimbal
+        feed-forward torque, spin torque); cached for the four RK stages of a step."""
+        h, packed = self._held_cache
+        if h is not held:
+            packed = np.stack([held.delta_dot_cmd, held.gimbal_torque_ff, held.spin_torque], 1)
+            self._held_cache = (held, packed)
+        return packed
 
     def _rkmk4_kernel(self, plant: Any) -> Callable[..., tuple[np.ndarray, np.ndarray]] | None:
         """The compiled RKMK4 step of ``plant`` (a :class:`spacecraft.plant.Spacecraft` flying
@@ -803,7 +806,7 @@ class VscmgActuator(Actuator):
         if dk is None or J.shape != (3, 3) or not np.array_equal(J, self.bus_inertia):
             return None
         dist, dp = dk
-        kin, var, has_stops, par, JB, S, C, G, lo, hi = self._kargs
+        kin, var, has_stops, par, M = self._kargs
 
         def step(
             t: float, R: np.ndarray, x: np.ndarray, held: VscmgCommand, h: float
@@ -811,9 +814,8 @@ class VscmgActuator(Actuator):
             R_out = np.empty(R.shape)
             x_out = np.empty(x.shape)
             vscmg_rkmk4_step_batch(
-                kin, var, bool(held.open_loop), has_stops, par, JB, S, C, G, lo, hi,
-                dist, dp, float(t), R, x, held.delta_dot_cmd, held.gimbal_torque_ff,
-                held.spin_torque, float(h), R_out, x_out,
+                kin, var, bool(held.open_loop), has_stops, par, M, dist, dp, float(t), R, x,
+                self._held_packed(held), float(h), R_out, x_out,
             )  # fmt: skip
             return R_out, x_out
 

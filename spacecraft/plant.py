@@ -142,6 +142,7 @@ class Spacecraft:
     _slices: tuple = field(init=False, repr=False, default=())
     _stage_attitude: bool = field(init=False, repr=False, compare=False, default=True)
     _kernel_plan: Any = field(init=False, repr=False, compare=False, default=None)
+    _coupled_plan: Any = field(init=False, repr=False, compare=False, default=None)
 
     def __post_init__(self) -> None:
         if not isinstance(self.body, RigidBody):
@@ -187,6 +188,10 @@ class Spacecraft:
         from ._fused import plant_kernel
 
         object.__setattr__(self, "_kernel_plan", plant_kernel(self))
+        # a coupled actuator (full CMG dynamics) may bring its own compiled RKMK4 step
+        coupled_step = getattr(self.actuator, "_rkmk4_kernel", None)
+        if self._kernel_plan is None and coupled_step is not None:
+            object.__setattr__(self, "_coupled_plan", coupled_step(self))
 
     @property
     def n_act(self) -> int:
@@ -449,6 +454,9 @@ class Spacecraft:
         if kp is not None and (JIT_ENABLED or x.shape[0] == 1):
             # without numba the kernel runs as Python: only worth it for one spacecraft
             return kp.step(t, R, x, _held_array(held), h)
+        cp = self._coupled_plan
+        if cp is not None and (JIT_ENABLED or x.shape[0] == 1):
+            return cp(t, R, x, held, h)
         derivatives = self.derivatives
 
         def f(tt: float, RR: np.ndarray, xx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -1098,6 +1098,8 @@ NOT_SWEPT_MODULES: dict[str, str] = {
     "benchmarks.perf_": "timing scripts (benchmarks.perf_*), not library API",
     "benchmarks.finite_time_study": "a study script: every call runs minutes of closed-loop "
     "simulation; its arguments are validated and tested in test_finite_time",
+    "benchmarks.cmg_model_study": "a study script: run_study/main run minutes of closed-loop "
+    "simulation; study_scenarios' bad input is tested in test_cmg_model_option",
 }
 
 #: (qualified name, parameter, perturbation) that is legitimately accepted, with the reason

@@ -19,8 +19,13 @@ import math
 import numpy as np
 
 from .._jit import njit
-from .geometric_pd import half_sinc
-from .so3 import log9, matvec3
+from .attitude import (
+    body_from_desired,
+    desired_rates_in_body,
+    large_angle_error,
+    tracking_feedforward,
+)
+from .so3 import matvec3
 
 #: layout of the parameter vector the kernel reads (``FiniteTimeSO3._kernel_args``)
 PARAM_NAMES = (
@@ -61,35 +66,9 @@ def finite_time_one(
     k1, k2, r, eps = prm[0], prm[1], prm[2], prm[3]
     c1, c2, rho, eps_s, c3, mu = prm[4], prm[5], prm[6], prm[7], prm[8], prm[9]
     a_r, b_r, a_s, b_s = prm[10], prm[11], prm[12], prm[13]
-    # T = Rᵀ R_d = R̃ᵀ, entries tij
-    t00 = R[0, 0] * R_d[0, 0] + R[1, 0] * R_d[1, 0] + R[2, 0] * R_d[2, 0]
-    t01 = R[0, 0] * R_d[0, 1] + R[1, 0] * R_d[1, 1] + R[2, 0] * R_d[2, 1]
-    t02 = R[0, 0] * R_d[0, 2] + R[1, 0] * R_d[1, 2] + R[2, 0] * R_d[2, 2]
-    t10 = R[0, 1] * R_d[0, 0] + R[1, 1] * R_d[1, 0] + R[2, 1] * R_d[2, 0]
-    t11 = R[0, 1] * R_d[0, 1] + R[1, 1] * R_d[1, 1] + R[2, 1] * R_d[2, 1]
-    t12 = R[0, 1] * R_d[0, 2] + R[1, 1] * R_d[1, 2] + R[2, 1] * R_d[2, 2]
-    t20 = R[0, 2] * R_d[0, 0] + R[1, 2] * R_d[1, 0] + R[2, 2] * R_d[2, 0]
-    t21 = R[0, 2] * R_d[0, 1] + R[1, 2] * R_d[1, 1] + R[2, 2] * R_d[2, 1]
-    t22 = R[0, 2] * R_d[0, 2] + R[1, 2] * R_d[1, 2] + R[2, 2] * R_d[2, 2]
-    # large-angle error of R̃ = Tᵀ (entry (i, j) is tji): e_R = (sin(θ/2)/θ) log(R̃)^∨
-    p0, p1, p2 = log9(t00, t10, t20, t01, t11, t21, t02, t12, t22)
-    th = math.sqrt(p0 * p0 + p1 * p1 + p2 * p2)
-    if th < 0.5 * math.pi:
-        sq4 = math.sin(0.25 * th)
-        psi = 4.0 * sq4 * sq4  # 4 sin²(θ/4): no cancellation at small θ
-    else:
-        psi = 2.0 - 2.0 * math.cos(0.5 * th)
-    hs = half_sinc(th)
-    e0, e1, e2 = hs * p0, hs * p1, hs * p2
-    # desired rate and acceleration in the body frame
-    a0, a1, a2 = w_d[0], w_d[1], w_d[2]
-    wb0 = t00 * a0 + t01 * a1 + t02 * a2
-    wb1 = t10 * a0 + t11 * a1 + t12 * a2
-    wb2 = t20 * a0 + t21 * a1 + t22 * a2
-    a0, a1, a2 = dw_d[0], dw_d[1], dw_d[2]
-    db0 = t00 * a0 + t01 * a1 + t02 * a2
-    db1 = t10 * a0 + t11 * a1 + t12 * a2
-    db2 = t20 * a0 + t21 * a1 + t22 * a2
+    t = body_from_desired(R, R_d)
+    psi, th, e0, e1, e2 = large_angle_error(t)
+    wb0, wb1, wb2, db0, db1, db2 = desired_rates_in_body(t, w_d, dw_d)
     x0, x1, x2 = w[0], w[1], w[2]
     E0, E1, E2 = x0 - wb0, x1 - wb1, x2 - wb2
     # surface s = e_Ω + (k₁ + k₂ g_r(‖e_R‖)) e_R
@@ -114,15 +93,11 @@ def finite_time_one(
     v1 = -(gain * d1 + proj * e1) - ks * s1
     v2 = -(gain * d2 + proj * e2) - ks * s2
     # M = ω × Jω − J(ω × ω_d,body − ω̇_d,body) + J v
-    j0, j1, j2 = matvec3(J, x0, x1, x2)
-    c0 = (x1 * wb2 - x2 * wb1) - db0
-    c1_ = (x2 * wb0 - x0 * wb2) - db1
-    c2_ = (x0 * wb1 - x1 * wb0) - db2
-    k0, k1_, k2_ = matvec3(J, c0, c1_, c2_)
+    f0, f1, f2 = tracking_feedforward(J, x0, x1, x2, x0, x1, x2, wb0, wb1, wb2, db0, db1, db2)
     u0, u1, u2 = matvec3(J, v0, v1, v2)
-    M_out[0] = ((x1 * j2 - x2 * j1) - k0) + u0
-    M_out[1] = ((x2 * j0 - x0 * j2) - k1_) + u1
-    M_out[2] = ((x0 * j1 - x1 * j0) - k2_) + u2
+    M_out[0] = f0 + u0
+    M_out[1] = f1 + u1
+    M_out[2] = f2 + u2
     diag_out[0] = psi
     diag_out[1] = th
     diag_out[2] = e0

@@ -10,10 +10,17 @@ import math
 import numpy as np
 
 from .._jit import njit
+from .attitude import body_from_desired, desired_rates_in_body, tracking_feedforward
 from .so3 import matvec3
 
 #: feed-forward codes: ω × Jω + tracking terms, ω_r × Jω + tracking terms, none
 FEEDFORWARD_CODES = {"gyroscopic": 0, "reference": 1, "none": 2}
+
+
+@njit
+def error_quaternion(t: tuple) -> tuple[float, float, float, float]:
+    """The quaternion of the attitude error R̃, given T = R̃ᵀ (:func:`attitude.body_from_desired`)."""
+    return quaternion9(t[0], t[3], t[6], t[1], t[4], t[7], t[2], t[5], t[8])
 
 
 @njit
@@ -57,12 +64,8 @@ def mrp_pd_one(
     written to ``p_prev`` for the next call), ``diag_out[3]`` 1 if it was switched to its
     shadow at this sample. Continuity: with a previous σ, the one of {σ, shadow(σ)} nearer to
     it is kept, then switched to the shadow when |σ|² > ``threshold2``. Returns the switch."""
-    # R̃ = R_dᵀ R, entries rij
-    r = np.empty(9)
-    for i in range(3):
-        for j in range(3):
-            r[3 * i + j] = R_d[0, i] * R[0, j] + R_d[1, i] * R[1, j] + R_d[2, i] * R[2, j]
-    q0, q1, q2, q3 = quaternion9(r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8])
+    t = body_from_desired(R, R_d)
+    q0, q1, q2, q3 = error_quaternion(t)
     p0, p1, p2 = q1 / (1.0 + q0), q2 / (1.0 + q0), q3 / (1.0 + q0)
     if has_prev:
         n2 = p0 * p0 + p1 * p1 + p2 * p2
@@ -77,29 +80,17 @@ def mrp_pd_one(
     if has_prev and n2c > threshold2:
         p0, p1, p2 = -p0 / n2c, -p1 / n2c, -p2 / n2c
         switched = True
-    # ω_base = R̃ᵀ ω_d (R̃ᵀ: entry (i, j) is r[3j + i])
-    wb0 = r[0] * w_d[0] + r[3] * w_d[1] + r[6] * w_d[2]
-    wb1 = r[1] * w_d[0] + r[4] * w_d[1] + r[7] * w_d[2]
-    wb2 = r[2] * w_d[0] + r[5] * w_d[1] + r[8] * w_d[2]
-    db0 = r[0] * dw_d[0] + r[3] * dw_d[1] + r[6] * dw_d[2]
-    db1 = r[1] * dw_d[0] + r[4] * dw_d[1] + r[7] * dw_d[2]
-    db2 = r[2] * dw_d[0] + r[5] * dw_d[1] + r[8] * dw_d[2]
+    wb0, wb1, wb2, db0, db1, db2 = desired_rates_in_body(t, w_d, dw_d)
     x0, x1, x2 = w[0], w[1], w[2]
     e0, e1, e2 = x0 - wb0, x1 - wb1, x2 - wb2
     k0, k1, k2 = matvec3(K, p0, p1, p2)
     c0, c1, c2 = matvec3(P, e0, e1, e2)
     u0, u1, u2 = -k0 - c0, -k1 - c1, -k2 - c2
     if feedforward != 2:
-        j0, j1, j2 = matvec3(J, x0, x1, x2)
-        if feedforward == 0:
-            g0, g1, g2 = x1 * j2 - x2 * j1, x2 * j0 - x0 * j2, x0 * j1 - x1 * j0
-        else:
-            g0, g1, g2 = wb1 * j2 - wb2 * j1, wb2 * j0 - wb0 * j2, wb0 * j1 - wb1 * j0
-        t0 = x1 * wb2 - x2 * wb1 - db0
-        t1 = x2 * wb0 - x0 * wb2 - db1
-        t2 = x0 * wb1 - x1 * wb0 - db2
-        f0, f1, f2 = matvec3(J, t0, t1, t2)
-        u0, u1, u2 = u0 + (g0 - f0), u1 + (g1 - f1), u2 + (g2 - f2)
+        # gyroscopic: ω × Jω …; reference (Basilisk's default): ω_r × Jω …
+        v0, v1, v2 = (x0, x1, x2) if feedforward == 0 else (wb0, wb1, wb2)
+        f0, f1, f2 = tracking_feedforward(J, x0, x1, x2, v0, v1, v2, wb0, wb1, wb2, db0, db1, db2)
+        u0, u1, u2 = u0 + f0, u1 + f1, u2 + f2
     u_out[0] = u0
     u_out[1] = u1
     u_out[2] = u2

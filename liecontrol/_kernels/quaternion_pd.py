@@ -7,7 +7,8 @@ from __future__ import annotations
 import numpy as np
 
 from .._jit import njit
-from .mrp_pd import quaternion9
+from .attitude import body_from_desired, desired_rates_in_body, tracking_feedforward
+from .mrp_pd import error_quaternion
 from .so3 import matvec3
 
 #: sign-mode codes
@@ -25,11 +26,8 @@ def quaternion_pd_one(
     overwritten with this sample's. ``diag_out[:4]`` the quaternion used, ``diag_out[4]`` 1 if
     its sign was flipped at this sample (switched: against the previous one; hysteretic: w < −δ).
     Sign modes: 0 switched (w ≥ 0), 1 continuous, 2 hysteretic."""
-    r = np.empty(9)
-    for i in range(3):
-        for j in range(3):
-            r[3 * i + j] = R_d[0, i] * R[0, j] + R_d[1, i] * R[1, j] + R_d[2, i] * R[2, j]
-    q0, q1, q2, q3 = quaternion9(r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8])
+    t = body_from_desired(R, R_d)
+    q0, q1, q2, q3 = error_quaternion(t)
     dot = q0 * q_prev[0] + q1 * q_prev[1] + q2 * q_prev[2] + q3 * q_prev[3]
     flip = False
     if sign_mode == 0:
@@ -40,24 +38,15 @@ def quaternion_pd_one(
         if sign_mode == 2 and q0 < -hysteresis:
             q0, q1, q2, q3 = -q0, -q1, -q2, -q3
             flip = True
-    wb0 = r[0] * w_d[0] + r[3] * w_d[1] + r[6] * w_d[2]
-    wb1 = r[1] * w_d[0] + r[4] * w_d[1] + r[7] * w_d[2]
-    wb2 = r[2] * w_d[0] + r[5] * w_d[1] + r[8] * w_d[2]
-    db0 = r[0] * dw_d[0] + r[3] * dw_d[1] + r[6] * dw_d[2]
-    db1 = r[1] * dw_d[0] + r[4] * dw_d[1] + r[7] * dw_d[2]
-    db2 = r[2] * dw_d[0] + r[5] * dw_d[1] + r[8] * dw_d[2]
+    wb0, wb1, wb2, db0, db1, db2 = desired_rates_in_body(t, w_d, dw_d)
     x0, x1, x2 = w[0], w[1], w[2]
     e0, e1, e2 = x0 - wb0, x1 - wb1, x2 - wb2
     k0, k1, k2 = matvec3(Kp, q1, q2, q3)
     c0, c1, c2 = matvec3(Kd, e0, e1, e2)
-    j0, j1, j2 = matvec3(J, x0, x1, x2)
-    t0 = x1 * wb2 - x2 * wb1 - db0
-    t1 = x2 * wb0 - x0 * wb2 - db1
-    t2 = x0 * wb1 - x1 * wb0 - db2
-    f0, f1, f2 = matvec3(J, t0, t1, t2)
-    u_out[0] = (-k0 - c0) + ((x1 * j2 - x2 * j1) - f0)
-    u_out[1] = (-k1 - c1) + ((x2 * j0 - x0 * j2) - f1)
-    u_out[2] = (-k2 - c2) + ((x0 * j1 - x1 * j0) - f2)
+    f0, f1, f2 = tracking_feedforward(J, x0, x1, x2, x0, x1, x2, wb0, wb1, wb2, db0, db1, db2)
+    u_out[0] = (-k0 - c0) + f0
+    u_out[1] = (-k1 - c1) + f1
+    u_out[2] = (-k2 - c2) + f2
     q_prev[0] = q0
     q_prev[1] = q1
     q_prev[2] = q2
