@@ -146,15 +146,10 @@ def _solve3_pivot(M: np.ndarray, r0: float, r1: float, r2: float) -> tuple[float
 
 
 @njit
-def _regularised_multiplier(
-    A: np.ndarray, lam: float, eps: float, gsr: bool, e1: float, e2: float, e3: float,
-    q0: float, q1: float, q2: float,
-) -> tuple[float, float, float]:  # fmt: skip
-    """y = (AAᵀ + λ E + ε tr(AAᵀ)/3 I)⁻¹ q, E = I or the GSR dither matrix; Cramer's rule on the
-    symmetric 3×3, pivoted elimination where its determinant is too small to trust."""
-    n = A.shape[1]
+def gram(A: np.ndarray) -> tuple[float, float, float, float, float, float]:
+    """Upper triangle (M00, M01, M02, M11, M12, M22) of M = AAᵀ for ``A (3, n)``."""
     a = b = c = d = e = f = 0.0
-    for i in range(n):
+    for i in range(A.shape[1]):
         x = A[0, i]
         y = A[1, i]
         z = A[2, i]
@@ -164,6 +159,18 @@ def _regularised_multiplier(
         d += y * y
         e += y * z
         f += z * z
+    return a, b, c, d, e, f
+
+
+@njit
+def _regularised_multiplier(
+    g: tuple, lam: float, eps: float, gsr: bool, e1: float, e2: float, e3: float,
+    q0: float, q1: float, q2: float,
+) -> tuple[float, float, float]:  # fmt: skip
+    """y = (AAᵀ + λ E + ε tr(AAᵀ)/3 I)⁻¹ q given the Gram entries ``g`` of AAᵀ
+    (:func:`gram`), E = I or the GSR dither matrix; Cramer's rule on the symmetric 3×3,
+    pivoted elimination where its determinant is too small to trust."""
+    a, b, c, d, e, f = g
     tr3 = (a + d + f) / 3.0
     reg = lam + eps * tr3
     if not reg > 0.0:
@@ -213,19 +220,10 @@ def steer_regularised(
     singularity-robust (E with the dither εᵢ = ε₀ sin(ω_ε t + φᵢ) off the diagonal; Wie 2005)
     laws, m = √det(ÂÂᵀ) with Â = A/s, s² = ‖A‖²_F/n. ``p = (λ₀, μ, ε, ε₀, ω_ε, φ₁, φ₂, φ₃)``."""
     n = A.shape[1]
+    g = gram(A)
     lam = 0.0
     if kind != STEER_PINV:
-        a = b = c = d = e = f = 0.0
-        for i in range(n):
-            x = A[0, i]
-            y = A[1, i]
-            z = A[2, i]
-            a += x * x
-            b += x * y
-            c += x * z
-            d += y * y
-            e += y * z
-            f += z * z
+        a, b, c, d, e, f = g
         det0 = a * (d * f - e * e) + b * (c * e - b * f) + c * (b * e - c * d)
         s2 = (a + d + f) / n
         s2_safe = s2 if s2 > 0.0 else 1.0
@@ -237,7 +235,7 @@ def steer_regularised(
         e1 = p[3] * math.sin(w + p[5])
         e2 = p[3] * math.sin(w + p[6])
         e3 = p[3] * math.sin(w + p[7])
-    y0, y1, y2 = _regularised_multiplier(A, lam, p[2], kind == STEER_GSR, e1, e2, e3, q0, q1, q2)
+    y0, y1, y2 = _regularised_multiplier(g, lam, p[2], kind == STEER_GSR, e1, e2, e3, q0, q1, q2)
     for i in range(n):
         out[i] = A[0, i] * y0 + A[1, i] * y1 + A[2, i] * y2
 
@@ -298,8 +296,9 @@ def steer_null_motion(
         g0 += A[0, i] * out[i]
         g1 += A[1, i] * out[i]
         g2 += A[2, i] * out[i]
-    x0, x1, x2 = _regularised_multiplier(A, 0.0, p[1], False, 0.0, 0.0, 0.0, q0, q1, q2)
-    y0, y1, y2 = _regularised_multiplier(A, 0.0, p[1], False, 0.0, 0.0, 0.0, g0, g1, g2)
+    gm = gram(A)
+    x0, x1, x2 = _regularised_multiplier(gm, 0.0, p[1], False, 0.0, 0.0, 0.0, q0, q1, q2)
+    y0, y1, y2 = _regularised_multiplier(gm, 0.0, p[1], False, 0.0, 0.0, 0.0, g0, g1, g2)
     k = p[0]
     for i in range(n):
         pinv = A[0, i] * x0 + A[1, i] * x1 + A[2, i] * x2

@@ -169,3 +169,34 @@ def test_study_scenarios_and_table():
     assert "step-5" not in table
     assert "step-5" in verdict_table(rows, only_changed=False)
 
+
+
+def test_full_model_gimbal_rate_saturation_still_flags_the_actuator():
+    """The full model logs a gimbal-motor torque-saturation time (finite, like the wheels');
+    its gimbal-rate limit must still count as actuator saturation (on wheels the speed limit
+    is momentum saturation instead, unchanged)."""
+    from benchmarks.metrics import judge
+    from benchmarks.scenarios import SCENARIOS
+
+    m = {
+        "initial_error_deg": 90.0, "final_error_deg": 0.001, "steady_error_max_deg": 0.002,
+        "effort_Nms": 500.0, "unwound": False, "saturation_time_s": 12.0,
+        "min_singularity": 1.05, "command_reversals": 2.0, "torque_saturation_time_s": 0.0,
+        "wheel_speed_saturation_time_s": float("nan"),
+    }  # fmt: skip
+    att = SCENARIOS["slew-90"]
+    full = dataclasses.replace(
+        att, spacecraft=dataclasses.replace(att.spacecraft, cmg_model="full")
+    )
+    assert judge(full, m) == ("degraded", ("actuator-saturated",))
+    assert judge(full, {**m, "saturation_time_s": 0.0}) == ("success", ())
+    assert judge(full, {**m, "saturation_time_s": 0.0, "torque_saturation_time_s": 1.0})[0] == (
+        "degraded"
+    )
+    wheels = dataclasses.replace(
+        att, spacecraft=dataclasses.replace(att.spacecraft, actuator="wheels")
+    )
+    assert judge(wheels, m) == ("success", ())  # wheel speed time is not torque clipping
+    assert judge(att, {**m, "torque_saturation_time_s": float("nan")})[1] == (
+        "actuator-saturated",
+    )

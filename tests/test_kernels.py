@@ -414,7 +414,6 @@ def test_mrp_pd_kernel_equals_the_adapter_route_through_shadow_switches(feedforw
         """A subclass: MrpPD's numpy adapter route."""
 
     plant = Spacecraft(RigidBody(J), IdealTorqueActuator())
-    B = 3
     R0 = so3.exp(np.array([[0.0, 0.0, 3.0], [0.0, 3.05, 0.0], [1.7, 1.7, 1.0]]))
     w0 = np.array([[0.0, 0.0, 0.08], [0.0, 0.06, 0.0], [0.02, 0.02, 0.05]])
     x0 = plant.initial_state(R0, w0)

@@ -52,11 +52,8 @@ from .._kernels.mrp_pd import FEEDFORWARD_CODES, mrp_pd_batch
 from .._kernels.quaternion_pd import SIGN_CODES, quaternion_pd_batch
 from .._linalg import cross as _cross
 from .._validation import (
-    as_array,
     as_scalar,
     check_inertia_3x3,
-    check_rotation_matrix,
-    rotations_pass_fast,
 )
 from .adapters import ChartState, MrpChartAdapter, QuaternionChartAdapter
 from .base import AttitudeReference, AttitudeState, check_state_batch, finite_command
@@ -65,8 +62,8 @@ from .geometric_pd import (
     _apply_gain,
     _as_matrix,
     _batch,
-    _vectors_pass,
     check_gain,
+    validated_rotation_and_rate,
 )
 
 __all__ = ["QuaternionPD", "MrpPD", "QuaternionPDLaw", "MrpPDLaw", "MRP_FEEDFORWARDS"]
@@ -81,15 +78,7 @@ def _kernel_inputs(
     if ctrl._batch is None:
         raise RuntimeError(f"{type(ctrl).__name__}.command: call reset(t0, batch_size) first")
     as_scalar(t, "t")
-    R, w = state.R, state.omega
-    if not (
-        isinstance(R, np.ndarray)
-        and R.ndim == 3
-        and _vectors_pass(w, (R.shape[0], 3))
-        and rotations_pass_fast(R)
-    ):
-        R = check_rotation_matrix(R, "R")
-        w = as_array(w, "omega", (3,))
+    R, w = validated_rotation_and_rate(state)
     B = check_state_batch(R, w, ctrl._batch)
     R_d, w_d, dw_d = GeometricPD._reference_arrays(ctrl, reference, B)
     return (

@@ -161,6 +161,22 @@ def _vectors_pass(x: object, shape: tuple[int, ...]) -> bool:
     return math.isfinite(sum(x.ravel().tolist()) if x.size <= 16 else float(x.sum()))
 
 
+def validated_rotation_and_rate(state: AttitudeState) -> tuple[np.ndarray, np.ndarray]:
+    """``(R, ω)`` of a state, validated: the simulator's own arrays (finite float64
+    ``(B, 3, 3)`` rotations and ``(B, 3)`` rates) pass the cheap checks once per sample;
+    anything else is validated in full, with messages naming ``R`` or ``omega``."""
+    R, w = state.R, state.omega
+    if not (
+        isinstance(R, np.ndarray)
+        and R.ndim == 3
+        and _vectors_pass(w, (R.shape[0], 3))
+        and rotations_pass_fast(R)
+    ):
+        R = check_rotation_matrix(R, "R")
+        w = as_array(w, "omega", (3,))
+    return R, w
+
+
 def _as_matrix(K: float | np.ndarray) -> np.ndarray:
     """A gain as a contiguous 3×3 float64 matrix (a scalar k as k I)."""
     if isinstance(K, float):
@@ -285,15 +301,7 @@ class GeometricPD(AttitudeController):
         if self._batch is None:
             raise RuntimeError("GeometricPD.command: call reset(t0, batch_size) first")
         as_scalar(t, "t")  # unused by the law, but a NaN time is a caller's bug
-        R, w = state.R, state.omega
-        if not (
-            isinstance(R, np.ndarray)
-            and R.ndim == 3
-            and _vectors_pass(w, (R.shape[0], 3))
-            and rotations_pass_fast(R)
-        ):
-            R = check_rotation_matrix(R, "R")
-            w = as_array(w, "omega", (3,))
+        R, w = validated_rotation_and_rate(state)
         if R.ndim != 3 or w.shape != (R.shape[0], 3):
             raise ValueError(
                 f"state: expected R (B, 3, 3) and omega (B, 3), got {R.shape} and {w.shape}"
