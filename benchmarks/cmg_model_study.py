@@ -46,7 +46,15 @@ from liecontrol._validation import check_positive_scalar
 
 from .controllers import get_controller, quick_controllers
 from .runner import run_suite
-from .scenarios import MINI_CMG_SPACECRAFT, QUICK_SUITE, SGCMG_SPACECRAFT, Scenario, SpacecraftSpec
+from .scenarios import (
+    DISTURBANCES,
+    MINI_CMG_SPACECRAFT,
+    QUICK_SUITE,
+    SGCMG_SPACECRAFT,
+    DisturbanceSpec,
+    Scenario,
+    SpacecraftSpec,
+)
 
 __all__ = [
     "MODELS",
@@ -99,7 +107,9 @@ def study_scenarios(
     spacecraft: SpacecraftSpec, model: str, dt: float, duration_scale: float = 1.0
 ) -> list[Scenario]:
     """The quick suite's SGCMG attitude scenarios on ``spacecraft`` with the cluster ``model``
-    (a key of :data:`MODELS`), integration step ``dt`` [s] and durations × ``duration_scale``."""
+    (a key of :data:`MODELS`), integration step ``dt`` [s] and durations × ``duration_scale``.
+    Disturbances with a ``scale`` parameter (the constant-harmonic torque of Wu et al.) are
+    scaled by ``spacecraft.h0 / scenario h0`` (a 0.085 N·m disturbance would swamp mini-CMGs)."""
     if not isinstance(spacecraft, SpacecraftSpec):
         raise TypeError(f"spacecraft: expected a SpacecraftSpec, got {type(spacecraft).__name__}")
     if spacecraft.actuator != "sgcmg":
@@ -117,13 +127,27 @@ def study_scenarios(
         sc_sp = dataclasses.replace(sp, gimbal_rate_limit=min(
             sp.gimbal_rate_limit, s.spacecraft.gimbal_rate_limit
         ))
+        # a disturbance sized for the scenario's CMGs is scaled with the rotor momentum h₀, so it
+        # loads the study spacecraft's cluster as much (same disturbance/capacity ratio)
+        ratio = sp.h0 / s.spacecraft.h0
+        dist = tuple(
+            DisturbanceSpec(d.name, {**d.kwargs, "scale": d.kwargs.get("scale", 1.0) * ratio})
+            if ratio != 1.0 and "scale" in DISTURBANCES.get(d.name, ())
+            else d
+            for d in s.disturbances
+        )
         period = s.control_period or s.dt
         if not math.isclose(period / dt, round(period / dt), rel_tol=0.0, abs_tol=1e-9):
             raise ValueError(f"dt: must divide the control period {period} s, got {dt}")
         duration = round(s.duration * duration_scale / period) * period
         out.append(
             dataclasses.replace(
-                s, spacecraft=sc_sp, dt=dt, control_period=period, duration=max(duration, period)
+                s,
+                spacecraft=sc_sp,
+                disturbances=dist,
+                dt=dt,
+                control_period=period,
+                duration=max(duration, period),
             )
         )
     return out

@@ -82,6 +82,9 @@ def _hold_steps(
     hd = np.empty(3)
     work = np.empty(7 * n)
     A = np.empty((3, max(n - 3, 1)))
+    # the command's sin/cos of the gimbal angles land where the step's first stage reads them
+    sn = work[5 * n : 5 * n + max(n - 3, 1)]
+    cs = work[6 * n : 6 * n + max(n - 3, 1)]
     R_next = np.empty((3, 3))
     x_next = np.empty(n)
     for b in range(B):
@@ -89,8 +92,9 @@ def _hold_steps(
         for _ in range(n_sub):
             if act == K.ACT_SGCMG:
                 if K.sgcmg_command(
-                    S0, C0, steer, sp, rate_limit, u[b], x[b, :3], x[b, 3:], t, held, hd, A
-                ):
+                    S0, C0, steer, sp, rate_limit, u[b], x[b, :3], x[b, 3:], t, held, hd, A,
+                    sn, cs,
+                ):  # fmt: skip
                     saturated[b] += 1.0
             else:
                 limited = False
@@ -104,7 +108,7 @@ def _hold_steps(
                     saturated[b] += 1.0
             K.rkmk4_step(
                 act, J[kb], J_inv[kb], S0, C0, dist, dp, t, R[b], x[b], held, dt, R_next,
-                x_next, work,
+                x_next, work, act == K.ACT_SGCMG,
             )  # fmt: skip
             R[b] = R_next
             x[b] = x_next
@@ -270,8 +274,9 @@ def _fused_loop(
     x_next = np.empty((B, n))
     work = np.empty(7 * n)
     A = np.empty((3, max(n - 3, 1)))
-    sn = np.empty(max(n - 3, 1))
-    cs = np.empty(max(n - 3, 1))
+    scratch = np.empty(2 * max(n - 3, 1))
+    # sin/cos of every spacecraft's gimbal angles from its command, reused by its step
+    trig = np.empty((B, 2, max(n - 3, 1)))
     rows = 0
     n_switch = 0
     for k in range(n_steps + 1):
@@ -306,8 +311,9 @@ def _fused_loop(
         for b in range(B):
             if act == K.ACT_SGCMG:
                 sat[b, 0] = K.sgcmg_command(
-                    S0, C0, steer, sp, rate_limit, u_cmd[b], x[b, :3], x[b, 3:], t, held[b], hd, A
-                )
+                    S0, C0, steer, sp, rate_limit, u_cmd[b], x[b, :3], x[b, 3:], t, held[b], hd,
+                    A, trig[b, 0], trig[b, 1],
+                )  # fmt: skip
             else:
                 for i in range(3):
                     v = u_cmd[b, i]
@@ -327,7 +333,7 @@ def _fused_loop(
                         log_R[rows, b, i, j] = R[b, i, j]
                         log_Rd[rows, b, i, j] = ref_R[r, rb, i, j]
                 u0, u1, u2 = K.actuator_torque(
-                    act, S0, C0, x[b, 0], x[b, 1], x[b, 2], x[b, 3:], held[b], sn, cs
+                    act, S0, C0, x[b, 0], x[b, 1], x[b, 2], x[b], 3, held[b], scratch
                 )
                 log_u[rows, b, 0] = u0
                 log_u[rows, b, 1] = u1
@@ -349,9 +355,14 @@ def _fused_loop(
             break
         for b in range(B):
             kb = 0 if shared else b
+            ready = act == K.ACT_SGCMG
+            if ready:
+                for i in range(n - 3):
+                    work[5 * n + i] = trig[b, 0, i]
+                    work[6 * n + i] = trig[b, 1, i]
             K.rkmk4_step(
                 act, J[kb], J_inv[kb], S0, C0, dist, dp, t, R[b], x[b], held[b], dt,
-                R_next[b], x_next[b], work,
+                R_next[b], x_next[b], work, ready,
             )  # fmt: skip
         total = 0.0
         for b in range(B):

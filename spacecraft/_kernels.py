@@ -71,43 +71,52 @@ def rigid_acceleration(
 
 @njit
 def cmg_momentum_jacobian(
-    S0: np.ndarray, C0: np.ndarray, delta: np.ndarray, A_out: np.ndarray
+    S0: np.ndarray, C0: np.ndarray, delta: np.ndarray, A_out: np.ndarray, sn: np.ndarray,
+    cs: np.ndarray,
 ) -> tuple[float, float, float]:
     """Cluster momentum h(δ) = Σᵢ (S0ᵢ sin δᵢ + C0ᵢ cos δᵢ) and Jacobian A = S0 ∘ cos δ − C0 ∘ sin δ
-    (columns: h₀ times the unit momenta at δ = π/2 and δ = 0)."""
+    (columns: h₀ times the unit momenta at δ = π/2 and δ = 0); sin δ and cos δ are left in
+    ``sn``, ``cs`` (the integration step that follows reuses them)."""
     h0 = h1 = h2 = 0.0
     for i in range(S0.shape[1]):
-        sn = math.sin(delta[i])
-        cs = math.cos(delta[i])
-        h0 += S0[0, i] * sn + C0[0, i] * cs
-        h1 += S0[1, i] * sn + C0[1, i] * cs
-        h2 += S0[2, i] * sn + C0[2, i] * cs
-        A_out[0, i] = S0[0, i] * cs - C0[0, i] * sn
-        A_out[1, i] = S0[1, i] * cs - C0[1, i] * sn
-        A_out[2, i] = S0[2, i] * cs - C0[2, i] * sn
+        s = math.sin(delta[i])
+        c = math.cos(delta[i])
+        sn[i] = s
+        cs[i] = c
+        h0 += S0[0, i] * s + C0[0, i] * c
+        h1 += S0[1, i] * s + C0[1, i] * c
+        h2 += S0[2, i] * s + C0[2, i] * c
+        A_out[0, i] = S0[0, i] * c - C0[0, i] * s
+        A_out[1, i] = S0[1, i] * c - C0[1, i] * s
+        A_out[2, i] = S0[2, i] * c - C0[2, i] * s
     return h0, h1, h2
 
 
 @njit
-def sincos_into(delta: np.ndarray, sn: np.ndarray, cs: np.ndarray) -> None:
-    """sin and cos of the gimbal angles into ``sn``, ``cs``."""
-    for i in range(delta.shape[0]):
-        sn[i] = math.sin(delta[i])
-        cs[i] = math.cos(delta[i])
+def sincos_into(
+    x: np.ndarray, xo: int, m: int, trig: np.ndarray, so: int, co: int
+) -> None:
+    """sin and cos of the m gimbal angles ``x[xo:xo + m]`` into ``trig`` from offsets ``so``,
+    ``co``."""
+    for i in range(m):
+        v = x[xo + i]
+        trig[so + i] = math.sin(v)
+        trig[co + i] = math.cos(v)
 
 
 @njit
-def cmg_bus_torque_trig(
+def cmg_bus_torque_at(
     S0: np.ndarray, C0: np.ndarray, w0: float, w1: float, w2: float,
-    sn: np.ndarray, cs: np.ndarray, delta_dot: np.ndarray,
+    trig: np.ndarray, so: int, co: int, delta_dot: np.ndarray,
 ) -> tuple[float, float, float]:  # fmt: skip
     """Internal torque of the SGCMG cluster on the bus, u = −A(δ) δ̇ − ω × h(δ), from sin δ and
-    cos δ (``sn``, ``cs``): h = Σᵢ (S0ᵢ sin δᵢ + C0ᵢ cos δᵢ),
-    A δ̇ = Σᵢ (S0ᵢ cos δᵢ − C0ᵢ sin δᵢ) δ̇ᵢ."""
+    cos δ held in ``trig`` from offsets ``so`` and ``co``: h = Σᵢ (S0ᵢ sin δᵢ + C0ᵢ cos δᵢ),
+    A δ̇ = Σᵢ (S0ᵢ cos δᵢ − C0ᵢ sin δᵢ) δ̇ᵢ. (Offsets into one scratch array rather than
+    slices: a slice costs two reference-count updates in compiled code.)"""
     h0 = h1 = h2 = r0 = r1 = r2 = 0.0
     for i in range(S0.shape[1]):
-        s = sn[i]
-        c = cs[i]
+        s = trig[so + i]
+        c = trig[co + i]
         h0 += S0[0, i] * s + C0[0, i] * c
         h1 += S0[1, i] * s + C0[1, i] * c
         h2 += S0[2, i] * s + C0[2, i] * c
@@ -310,13 +319,13 @@ def steer_null_motion(
 def sgcmg_command(
     S0: np.ndarray, C0: np.ndarray, steer: int, sp: np.ndarray, rate_limit: float,
     u: np.ndarray, w: np.ndarray, delta: np.ndarray, t: float,
-    dd_out: np.ndarray, hd_out: np.ndarray, A: np.ndarray,
+    dd_out: np.ndarray, hd_out: np.ndarray, A: np.ndarray, sn: np.ndarray, cs: np.ndarray,
 ) -> bool:  # fmt: skip
     """The SGCMG cluster's hardware command: ḣ_cmd = −(ω × h(δ) + u), δ̇ = steering(A(δ), ḣ_cmd),
     scaled down uniformly to the gimbal-rate limit. Returns whether it was scaled. ``A (3, n)``
-    is scratch space for the Jacobian; the null-motion law's unit momenta follow its three
-    parameters in ``sp[8:]``."""
-    h0, h1, h2 = cmg_momentum_jacobian(S0, C0, delta, A)
+    is scratch space for the Jacobian, ``sn``, ``cs`` receive sin δ and cos δ; the null-motion
+    law's unit momenta follow its three parameters in ``sp[8:]``."""
+    h0, h1, h2 = cmg_momentum_jacobian(S0, C0, delta, A, sn, cs)
     w0, w1, w2 = w[0], w[1], w[2]
     q0 = -((w1 * h2 - w2 * h1) + u[0])
     q1 = -((w2 * h0 - w0 * h2) + u[1])
@@ -345,82 +354,82 @@ def sgcmg_command(
 @njit
 def actuator_torque(
     act: int, S0: np.ndarray, C0: np.ndarray, w0: float, w1: float, w2: float,
-    xa: np.ndarray, held: np.ndarray, sn: np.ndarray, cs: np.ndarray,
+    x: np.ndarray, xo: int, held: np.ndarray, trig: np.ndarray,
 ) -> tuple[float, float, float]:  # fmt: skip
-    """The internal torque the actuator exerts on the bus for the held command (``sn``, ``cs``:
-    scratch of the gimbal count)."""
+    """The internal torque the actuator exerts on the bus for the held command; the actuator
+    state is ``x[xo:]``, ``trig`` scratch of twice the gimbal count."""
     if act == ACT_SGCMG:
-        sincos_into(xa, sn, cs)
-        return cmg_bus_torque_trig(S0, C0, w0, w1, w2, sn, cs, held)
+        m = held.shape[0]
+        sincos_into(x, xo, m, trig, 0, m)
+        return cmg_bus_torque_at(S0, C0, w0, w1, w2, trig, 0, m, held)
     return held[0], held[1], held[2]
 
 
 @njit
 def _field(
     act: int, J: np.ndarray, Jinv: np.ndarray, S0: np.ndarray, C0: np.ndarray,
-    dist: int, dp: np.ndarray, t: float, x: np.ndarray, held: np.ndarray, xdot: np.ndarray,
-    sn: np.ndarray, cs: np.ndarray, trig: bool,
+    dist: int, dp: np.ndarray, t: float, x: np.ndarray, xo: int, held: np.ndarray,
+    work: np.ndarray, do: int, so: int, co: int, trig: bool,
 ) -> None:  # fmt: skip
-    """ẋ of the packed state x = (ω, x_act) for a held actuator command. SGCMG: ``sn``, ``cs``
-    hold sin and cos of the gimbal angles x[3:], computed here when ``trig`` is set (the RK
-    stages 2 and 3 share their angles: x + h/2 δ̇ with the same held δ̇)."""
-    w0, w1, w2 = x[0], x[1], x[2]
+    """ẋ of the packed state x = (ω, x_act) = ``x[xo:xo + n]`` for a held actuator command,
+    into ``work[do:do + n]``. SGCMG: ``work`` from ``so`` and ``co`` holds sin and cos of the
+    gimbal angles, computed here when ``trig`` is set (the RK stages 2 and 3 share their angles:
+    x + h/2 δ̇ with the same held δ̇)."""
+    w0, w1, w2 = x[xo], x[xo + 1], x[xo + 2]
     if act == ACT_SGCMG:
+        m = held.shape[0]
         if trig:
-            sincos_into(x[3:], sn, cs)
-        t0, t1, t2 = cmg_bus_torque_trig(S0, C0, w0, w1, w2, sn, cs, held)
+            sincos_into(x, xo + 3, m, work, so, co)
+        t0, t1, t2 = cmg_bus_torque_at(S0, C0, w0, w1, w2, work, so, co, held)
     else:
         t0, t1, t2 = held[0], held[1], held[2]
     d0, d1, d2 = disturbance_at(dist, dp, t)
     a0, a1, a2 = rigid_acceleration(J, Jinv, w0, w1, w2, t0 + d0, t1 + d1, t2 + d2)
-    xdot[0] = a0
-    xdot[1] = a1
-    xdot[2] = a2
+    work[do] = a0
+    work[do + 1] = a1
+    work[do + 2] = a2
     if act == ACT_SGCMG:
         for i in range(held.shape[0]):
-            xdot[3 + i] = held[i]
+            work[do + 3 + i] = held[i]
 
 
 @njit
 def rkmk4_step(
     act: int, J: np.ndarray, Jinv: np.ndarray, S0: np.ndarray, C0: np.ndarray,
     dist: int, dp: np.ndarray, t: float, R: np.ndarray, x: np.ndarray, held: np.ndarray,
-    h: float, R_out: np.ndarray, x_out: np.ndarray, work: np.ndarray,
+    h: float, R_out: np.ndarray, x_out: np.ndarray, work: np.ndarray, trig_ready: bool,
 ) -> None:  # fmt: skip
     """One RKMK4 step of one rigid spacecraft on SO(3) × ℝⁿ (Munthe-Kaas 1998): the classical
     RK4 tableau on the chart θ with dexp⁻¹ truncated at fourth order; R_{k+1} = R exp(h/6 (K₁ +
     2K₂ + 2K₃ + K₄)). The time-only disturbances do not read the stage attitudes. ``work``
-    (≥ 7n) is scratch space."""
+    (≥ 7n) is scratch space; with ``trig_ready`` its slots ``[5n, 5n + m)`` and
+    ``[6n, 6n + m)`` already hold sin and cos of the m gimbal angles x[3:] (the SGCMG command of
+    the same step computed them)."""
     n = x.shape[0]
     h2 = 0.5 * h
-    d1 = work[0:n]
-    d2 = work[n : 2 * n]
-    d3 = work[2 * n : 3 * n]
-    d4 = work[3 * n : 4 * n]
-    xs = work[4 * n : 5 * n]
-    sn = work[5 * n : 6 * n]
-    cs = work[6 * n : 7 * n]
-    _field(act, J, Jinv, S0, C0, dist, dp, t, x, held, d1, sn, cs, True)
+    # work: stage derivatives at 0, n, 2n, 3n; the stage state at 4n; sin, cos at 5n, 6n
+    o2, o3, o4, os_, so, co = n, 2 * n, 3 * n, 4 * n, 5 * n, 6 * n
+    _field(act, J, Jinv, S0, C0, dist, dp, t, x, 0, held, work, 0, so, co, not trig_ready)
     a0, a1, a2 = x[0], x[1], x[2]
     u0, u1, u2 = h2 * a0, h2 * a1, h2 * a2
     for i in range(n):
-        xs[i] = x[i] + h2 * d1[i]
-    _field(act, J, Jinv, S0, C0, dist, dp, t + h2, xs, held, d2, sn, cs, True)
-    b0, b1, b2 = dexpinv_rkmk4(u0, u1, u2, xs[0], xs[1], xs[2])
+        work[os_ + i] = x[i] + h2 * work[i]
+    _field(act, J, Jinv, S0, C0, dist, dp, t + h2, work, os_, held, work, o2, so, co, True)
+    b0, b1, b2 = dexpinv_rkmk4(u0, u1, u2, work[os_], work[os_ + 1], work[os_ + 2])
     u0, u1, u2 = h2 * b0, h2 * b1, h2 * b2
     for i in range(n):
-        xs[i] = x[i] + h2 * d2[i]
+        work[os_ + i] = x[i] + h2 * work[o2 + i]
     # stage 3 has stage 2's gimbal angles bitwise (ẋ_act = held δ̇ in both): reuse sin/cos
-    _field(act, J, Jinv, S0, C0, dist, dp, t + h2, xs, held, d3, sn, cs, False)
-    c0, c1, c2 = dexpinv_rkmk4(u0, u1, u2, xs[0], xs[1], xs[2])
+    _field(act, J, Jinv, S0, C0, dist, dp, t + h2, work, os_, held, work, o3, so, co, False)
+    c0, c1, c2 = dexpinv_rkmk4(u0, u1, u2, work[os_], work[os_ + 1], work[os_ + 2])
     u0, u1, u2 = h * c0, h * c1, h * c2
     for i in range(n):
-        xs[i] = x[i] + h * d3[i]
-    _field(act, J, Jinv, S0, C0, dist, dp, t + h, xs, held, d4, sn, cs, True)
-    e0, e1, e2 = dexpinv_rkmk4(u0, u1, u2, xs[0], xs[1], xs[2])
+        work[os_ + i] = x[i] + h * work[o3 + i]
+    _field(act, J, Jinv, S0, C0, dist, dp, t + h, work, os_, held, work, o4, so, co, True)
+    e0, e1, e2 = dexpinv_rkmk4(u0, u1, u2, work[os_], work[os_ + 1], work[os_ + 2])
     h6 = h / 6.0
     for i in range(n):
-        x_out[i] = x[i] + (((d2[i] + d3[i]) * 2.0 + d1[i]) + d4[i]) * h6
+        x_out[i] = x[i] + (((work[o2 + i] + work[o3 + i]) * 2.0 + work[i]) + work[o4 + i]) * h6
     right_multiply_exp_into(
         R,
         h6 * (a0 + 2.0 * (b0 + c0) + e0),
@@ -443,7 +452,7 @@ def rkmk4_step_batch(
         k = 0 if shared else b
         rkmk4_step(
             act, J[k], Jinv[k], S0, C0, dist, dp, t, R[b], x[b], held[b], h, R_out[b], x_out[b],
-            work,
+            work, False,
         )  # fmt: skip
 
 
@@ -455,10 +464,13 @@ def sgcmg_command_batch(
 ) -> None:  # fmt: skip
     """:func:`sgcmg_command` over a batch."""
     A = np.empty((3, S0.shape[1]))
+    sn = np.empty(S0.shape[1])
+    cs = np.empty(S0.shape[1])
     for b in range(u.shape[0]):
         sat_out[b] = sgcmg_command(
-            S0, C0, steer, sp, rate_limit, u[b], w[b], delta[b], t, dd_out[b], hd_out[b], A
-        )
+            S0, C0, steer, sp, rate_limit, u[b], w[b], delta[b], t, dd_out[b], hd_out[b], A, sn,
+            cs,
+        )  # fmt: skip
 
 
 @njit
@@ -466,14 +478,13 @@ def cmg_bus_torque_batch(
     S0: np.ndarray, C0: np.ndarray, w: np.ndarray, delta: np.ndarray, delta_dot: np.ndarray,
     out: np.ndarray,
 ) -> None:  # fmt: skip
-    """:func:`cmg_bus_torque_trig` over a batch."""
-    n = delta.shape[1]
-    sn = np.empty(n)
-    cs = np.empty(n)
+    """The cluster's bus torque (:func:`cmg_bus_torque_at`) over a batch."""
+    m = delta.shape[1]
+    trig = np.empty(2 * m)
     for b in range(w.shape[0]):
-        sincos_into(delta[b], sn, cs)
-        out[b, 0], out[b, 1], out[b, 2] = cmg_bus_torque_trig(
-            S0, C0, w[b, 0], w[b, 1], w[b, 2], sn, cs, delta_dot[b]
+        sincos_into(delta[b], 0, m, trig, 0, m)
+        out[b, 0], out[b, 1], out[b, 2] = cmg_bus_torque_at(
+            S0, C0, w[b, 0], w[b, 1], w[b, 2], trig, 0, m, delta_dot[b]
         )
 
 

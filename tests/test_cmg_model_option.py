@@ -149,6 +149,10 @@ def test_study_scenarios_and_table():
         assert s.spacecraft.cmg_model == "momentum" and s.dt == 0.05
     slow = next(s for s in scs if s.name == "fast-slew-rate-limited")
     assert slow.spacecraft.gimbal_rate_limit == 0.02  # the scenario's own limit is kept
+    stab = next(s for s in scs if s.name == "stabilisation")
+    assert stab.disturbances[0].kwargs["scale"] == pytest.approx(MINI_CMG.h0 / 300.0)
+    bus = study_scenarios(SGCMG_SPACECRAFT, "full", 0.1)
+    assert next(s for s in bus if s.name == "stabilisation").disturbances[0].kwargs == {}
     with pytest.raises(ValueError, match="^model: "):
         study_scenarios(MINI_CMG_SPACECRAFT, "exact", 0.05)
     with pytest.raises(ValueError, match="^dt: "):
