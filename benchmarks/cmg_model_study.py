@@ -21,7 +21,7 @@ Why the full model changes the delivered torque: the base-rate torque couples th
 bus. A gimbal turning at δ̇ puts h₀δ̇ on the bus; the bus rate it creates loads the gimbal motor
 with h₀ω_t, i.e. a spring of stiffness ≈ h₀²/J_B on the gimbal angle. Against a ramp of that
 spring a PI rate loop (K_i = ω_b² J_g) keeps a steady rate error ≈ (h₀²/J_B)/(ω_b² J_g) of the
-commanded rate — about 0.4 on the mini-CMG CubeSat and 0.1–0.2 on the large bus — so the
+commanded rate — about 0.4 on the mini-CMG CubeSat and 0.1–0.3 on the large bus — so the
 cluster delivers less torque than commanded; the feed-forward removes most of it.
 
 Writes ``DIR/cmg_model_verdicts.md`` (the verdict-change table, counts, peak gimbal torque and

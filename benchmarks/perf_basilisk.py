@@ -4,8 +4,11 @@
 Loops (rest-to-rest 90° slew, 600 s at dt = 0.1 s, controller at every step; liecontrol logs
 every step of a single run and every 600th of a batch, Basilisk records nothing):
 
-- liecontrol: the SGCMG bus (four-CMG pyramid, singularity-robust steering) under the
-  large-angle geometric PD, single run and a batch of ``--batch``; the ideal-torque plant under
+- liecontrol: the SGCMG bus (four-CMG pyramid, singularity-robust steering; the momentum
+  model) under the large-angle geometric PD, single run and a batch of ``--batch``; the same
+  pyramid with the full VSCMG dynamics (:class:`spacecraft.cmg_dynamics.VscmgActuator`, Basilisk's
+  rotor and gimbal inertias, a 5 rad/s gimbal servo: the like-for-like counterpart of Basilisk's
+  loop, whose effector integrates the same dynamics); the ideal-torque plant under
   the geometric PD, under the MRP PD adapter (:class:`liecontrol.control.MrpPD`, the same law
   as Basilisk's ``mrpFeedback``) and under the quaternion PD adapter;
 - Basilisk (``pip install bsk``, extra ``[crosscheck]``): a hub with four VSCMGs in the same
@@ -68,7 +71,15 @@ def liecontrol_loop(which: str, batch: int, t_final: float, dt: float) -> Callab
     )
 
     kR, kW = _gains()
-    if which.startswith("sgcmg"):
+    if which.startswith("vscmg"):
+        from spacecraft.cmg_dynamics import CmgInertias, GimbalServo, VscmgActuator
+
+        # the rotor and gimbal inertias of the Basilisk loop below, a 5 rad/s gimbal servo
+        act = VscmgActuator(
+            J_BUS, CmgInertias(0.5, 0.25, (0.1, 0.1, 0.1)), SgcmgPyramid(h0=H0),
+            SingularityRobust(), servo=GimbalServo(5.0, 50.0),
+        )  # fmt: skip
+    elif which.startswith("sgcmg"):
         act = SgcmgActuator(SgcmgPyramid(h0=H0), SingularityRobust())
     else:
         act = IdealTorqueActuator()
@@ -263,6 +274,7 @@ def main(argv: list[str] | None = None) -> None:
     ours = {
         "sgcmg + geometric PD": liecontrol_loop("sgcmg", 1, args.t_final, args.dt),
         "ideal + geometric PD": liecontrol_loop("ideal", 1, args.t_final, args.dt),
+        "full VSCMG model + geometric PD": liecontrol_loop("vscmg", 1, args.t_final, args.dt),
         "ideal + MrpPD adapter": liecontrol_loop("ideal-mrp-pd", 1, args.t_final, args.dt),
         "ideal + QuaternionPD adapter": liecontrol_loop(
             "ideal-quaternion-pd", 1, args.t_final, args.dt
@@ -292,6 +304,7 @@ def main(argv: list[str] | None = None) -> None:
     pairs = [
         ("sgcmg + geometric PD", "Basilisk 4-VSCMG + mrpFeedback", 2.0),
         ("ideal + geometric PD", "Basilisk ext. torque + mrpFeedback", 2.0),
+        ("full VSCMG model + geometric PD", "Basilisk 4-VSCMG + mrpFeedback", 1.0),
         (f"sgcmg + geometric PD, batch {args.batch}", "Basilisk 4-VSCMG + mrpFeedback", 50.0),
     ]
     print("\nratio (ours / reference, steps per second)            ratio   target")
