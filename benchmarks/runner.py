@@ -339,6 +339,7 @@ def build_actuator(spec: SpacecraftSpec, bus_inertia: Any = None) -> Any:
     from spacecraft.sgcmg import SgcmgPyramid
 
     _need(spec, SpacecraftSpec, "spec")
+    J_bus = spec.J if bus_inertia is None else check_inertia(bus_inertia, "bus_inertia")
     if spec.actuator == "sgcmg":
         cluster = SgcmgPyramid(
             h0=spec.h0,
@@ -348,9 +349,8 @@ def build_actuator(spec: SpacecraftSpec, bus_inertia: Any = None) -> Any:
         if spec.cmg_model == "full":
             from spacecraft.cmg_dynamics import CmgInertias, GimbalServo, VscmgActuator
 
-            J = spec.J if bus_inertia is None else check_inertia(bus_inertia, "bus_inertia")
             return VscmgActuator(
-                J,
+                J_bus,
                 CmgInertias(
                     spec.cmg_wheel_spin_inertia,
                     spec.cmg_wheel_transverse_inertia,

@@ -204,3 +204,18 @@ def test_full_model_gimbal_rate_saturation_still_flags_the_actuator():
     assert judge(att, {**m, "torque_saturation_time_s": float("nan")})[1] == (
         "actuator-saturated",
     )
+
+
+def test_study_script_writes_its_table(tmp_path, capsys):
+    from benchmarks.cmg_model_study import main
+
+    rc = main([
+        "--out", str(tmp_path), "--duration-scale", "0.02", "--spacecraft", "mini-cmg-3u",
+        "--models", "momentum", "full", "--controllers", "mrp-pd",
+    ])  # fmt: skip
+    assert rc == 0
+    md = (tmp_path / "cmg_model_verdicts.md").read_text(encoding="utf-8")
+    assert "| mini-cmg-3u | momentum | 5 |" in md and "| mini-cmg-3u | full | 5 |" in md
+    lines = (tmp_path / "cmg_model_verdicts.csv").read_text(encoding="utf-8").splitlines()
+    assert len(lines) == 1 + 5 * 2  # header + 5 scenarios × 2 models
+    assert "wall time" in capsys.readouterr().out
