@@ -506,7 +506,8 @@ def _geometric_keep_out(ctx: ControllerContext) -> Any:
 
 
 def _intrinsic_pid(ctx: ControllerContext) -> Any:
-    """IntrinsicPID (log error, Maithripala & Berg): spec pair + integral pole at −ω_n/5."""
+    """IntrinsicPID (log error, Maithripala & Berg): the closed-loop spec's pole pair + integral
+    pole at −ω_n/5."""
     from liecontrol.control.geometric_pid import IntrinsicPID
     from liecontrol.control.tuning import tune_intrinsic_pid
 
@@ -645,7 +646,7 @@ def _finite_time(fixed: bool) -> ControllerFactory:
 
     make.__doc__ = (
         f"{'FixedTimeSO3' if fixed else 'FiniteTimeSO3'}: nonsingular fast terminal sliding mode "
-        "on Lee's large-angle SO(3) error, small-angle poles at the spec"
+        "on Lee's large-angle SO(3) error, small-angle poles at the closed-loop spec (ω_n, ζ)"
     )
     return make
 
@@ -671,8 +672,8 @@ def _fault_tolerant(ctx: ControllerContext) -> Any:
 def _payload_pid_ff(ctx: ControllerContext) -> Any:
     """SmallAnglePIDWithFeedforward (Wang, Chu, Zhang & Yuan): Euler PID + payload feed-forward.
 
-    PID at the spec (diagonal inertia only), identified harmonic feed-forward at the payload rate
-    (90°/s), Δt_p = 0.1 s, Δt_c = 0.2 s, on from t = 0."""
+    PID at the closed-loop spec (diagonal inertia only), identified harmonic feed-forward at the
+    payload rate (90°/s), Δt_p = 0.1 s, Δt_c = 0.2 s, on from t = 0."""
     from liecontrol.control.payload_compensation import SmallAnglePIDWithFeedforward
     from liecontrol.control.tuning import tune_small_angle_pid
     from spacecraft.payload import PAYLOAD_SPIN_RATE
