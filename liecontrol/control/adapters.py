@@ -94,7 +94,13 @@ from ..charts import euler as _euler
 from ..charts import mrp as _mrp
 from ..charts import quaternion as _quat
 from ..exceptions import ChartSingularityError
-from .base import AttitudeController, AttitudeReference, AttitudeState, check_state_batch
+from .base import (
+    AttitudeController,
+    AttitudeReference,
+    AttitudeState,
+    check_state_batch,
+    validated_rotation_and_rate,
+)
 
 __all__ = [
     "ChartState",
@@ -639,8 +645,8 @@ class ChartAdapter(AttitudeController):
         if self._batch is None:
             raise RuntimeError(f"{type(self).__name__}.command: call reset(t0, batch_size) first")
         t = as_scalar(t, "t")  # first: nothing (chart memory) changes for a bad call
-        R = check_rotation_matrix(state.R, "R")
-        w = as_array(state.omega, "omega", (3,))
+        # the simulator's validated arrays pass the cheap checks; anything else in full
+        R, w = validated_rotation_and_rate(state)
         B = check_state_batch(R, w, self._batch)
         R_d = _as_batch(self._rotation(reference.R_d, "R_d"), B, (3, 3), "R_d")
         w_d = _as_batch(as_array(reference.omega_d, "omega_d"), B, (3,), "omega_d")

@@ -200,3 +200,30 @@ def check_state_batch(R: np.ndarray, omega: np.ndarray, batch_size: int) -> int:
     if B != batch_size:
         raise ValueError(f"state: batch size {B} differs from reset(batch_size={batch_size})")
     return B
+
+
+_F64 = np.dtype(np.float64)
+
+
+def _vectors_pass(x: object, shape: tuple[int, ...]) -> bool:
+    """A float64 ndarray of exactly ``shape`` with finite entries (one reduction)."""
+    if not (isinstance(x, np.ndarray) and x.dtype == _F64 and x.shape == shape):
+        return False
+    # a few entries: a Python sum is ~4× cheaper than a numpy reduction
+    return math.isfinite(sum(x.ravel().tolist()) if x.size <= 16 else float(x.sum()))
+
+
+def validated_rotation_and_rate(state: AttitudeState) -> tuple[np.ndarray, np.ndarray]:
+    """``(R, ω)`` of a state, validated: the simulator's own arrays (finite float64
+    ``(B, 3, 3)`` rotations and ``(B, 3)`` rates) pass the cheap checks once per sample;
+    anything else is validated in full, with messages naming ``R`` or ``omega``."""
+    R, w = state.R, state.omega
+    if not (
+        isinstance(R, np.ndarray)
+        and R.ndim == 3
+        and _vectors_pass(w, (R.shape[0], 3))
+        and rotations_pass_fast(R)
+    ):
+        R = check_rotation_matrix(R, "R")
+        w = as_array(w, "omega", (3,))
+    return R, w

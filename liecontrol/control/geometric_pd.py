@@ -38,7 +38,14 @@ from .._validation import (
     rotations_pass_fast,
 )
 from ..errors import _KERNELS, DEFAULT_G, _check_kind, check_error_weight
-from .base import AttitudeController, AttitudeReference, AttitudeState, finite_command
+from .base import (
+    AttitudeController,
+    AttitudeReference,
+    AttitudeState,
+    _vectors_pass,
+    finite_command,
+    validated_rotation_and_rate,
+)
 
 __all__ = ["GeometricPD", "check_gain", "gains_from_bandwidth", "linear_error_slope"]
 
@@ -149,33 +156,6 @@ def _apply_gain(K: float | np.ndarray, x: np.ndarray) -> np.ndarray:
 # it), but the common case — float64 arrays of the right shape that pass — is checked with a
 # few cheap operations; anything that fails them goes through the canonical validators, which
 # raise the usual messages (or convert, e.g. lists). One spacecraft runs on Python floats.
-
-_F64 = np.dtype(np.float64)
-
-
-def _vectors_pass(x: object, shape: tuple[int, ...]) -> bool:
-    """A float64 ndarray of exactly ``shape`` with finite entries (one reduction)."""
-    if not (isinstance(x, np.ndarray) and x.dtype == _F64 and x.shape == shape):
-        return False
-    # a few entries: a Python sum is ~4× cheaper than a numpy reduction
-    return math.isfinite(sum(x.ravel().tolist()) if x.size <= 16 else float(x.sum()))
-
-
-def validated_rotation_and_rate(state: AttitudeState) -> tuple[np.ndarray, np.ndarray]:
-    """``(R, ω)`` of a state, validated: the simulator's own arrays (finite float64
-    ``(B, 3, 3)`` rotations and ``(B, 3)`` rates) pass the cheap checks once per sample;
-    anything else is validated in full, with messages naming ``R`` or ``omega``."""
-    R, w = state.R, state.omega
-    if not (
-        isinstance(R, np.ndarray)
-        and R.ndim == 3
-        and _vectors_pass(w, (R.shape[0], 3))
-        and rotations_pass_fast(R)
-    ):
-        R = check_rotation_matrix(R, "R")
-        w = as_array(w, "omega", (3,))
-    return R, w
-
 
 def _as_matrix(K: float | np.ndarray) -> np.ndarray:
     """A gain as a contiguous 3×3 float64 matrix (a scalar k as k I)."""
