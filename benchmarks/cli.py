@@ -507,8 +507,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 summary = _verdict_summary(result.outcomes)
                 n_failed = result.n_failed
     print(
-        f"report: {path} ({summary}; {time.perf_counter() - t0:.1f} s, "
-        f"executor {executor.name})"
+        f"report: {path} ({summary}; total wall time {time.perf_counter() - t0:.1f} s "
+        f"including report and figures, executor {executor.name})"
     )
     # n_failed counts runs that raised (status "failed", verdict "error"), not failed verdicts
     return 0 if n_failed == 0 else 1

@@ -674,6 +674,10 @@ def judge(
     none of the above                                              —                       success
     ============================================================  ======================  =========
 
+    ``momentum-saturated`` means, per actuator: wheels — a wheel at its speed limit, or a peak
+    |Ω_i|/Ω_max ≥ 0.95; SGCMG — stored momentum ‖h‖ at ≥ 95 % of the cluster's momentum
+    envelope in its direction (``peak_momentum_fraction``, which the report tabulates).
+
     ``fault-injected`` is informational: it marks a run that met a fault without changing
     its verdict (a faulty run that still meets every rule is a ``success``).
 

@@ -34,6 +34,7 @@ import numpy as np
 from .metrics import (
     CHATTER_REVERSALS,
     DESCRIPTIONS,
+    MOMENTUM_SATURATED_FRACTION,
     NEAR_SINGULAR_M,
     RUN_UNITS,
     UNITS,
@@ -78,6 +79,9 @@ TABLE_METRICS: tuple[tuple[str, str], ...] = (
     ("peak_gimbal_rate_frac", "SGCMG: peak gimbal rate / limit [-]"),
     ("min_singularity", f"SGCMG: minimum singularity measure m [-] (< {NEAR_SINGULAR_M}: flagged)"),
     ("peak_momentum_Nms", "Peak stored actuator momentum ‖h‖ [N·m·s]"),
+    ("peak_momentum_fraction",
+     f"Peak momentum fraction (SGCMG: ‖h‖ / envelope along ĥ; wheels: max |Ω_i|/Ω_max; "
+     f"≥ {MOMENTUM_SATURATED_FRACTION}: momentum-saturated) [-]"),
     ("peak_wheel_speed_frac", "Wheels: peak wheel speed / speed limit [-]"),
     ("wheel_speed_saturation_time_s", "Wheels: time at the speed limit (momentum saturated) [s]"),
     ("torque_saturation_time_s", "Wheels: time with a wheel torque clipped [s]"),
@@ -100,6 +104,7 @@ METRIC_PLANTS: dict[str, frozenset[str]] = {
     "peak_gimbal_rate_frac": frozenset({"sgcmg"}),
     "min_singularity": frozenset({"sgcmg"}),
     "peak_momentum_Nms": frozenset({"sgcmg", "wheels"}),
+    "peak_momentum_fraction": frozenset({"sgcmg", "wheels"}),
     "peak_wheel_speed_frac": frozenset({"wheels"}),
     "wheel_speed_saturation_time_s": frozenset({"wheels"}),
     "torque_saturation_time_s": frozenset({"wheels"}),
@@ -198,11 +203,19 @@ def _fmt(x: Any) -> str:
     return f"{x:#.3g}"  # '#' keeps trailing zeros: 1.00, not 1
 
 
+#: Table cells that hold a settling time: a failed run shows its verdict there instead.
+SETTLING_KEYS = frozenset({"settling_time_s", "position_settling_time_s"})
+
+
 def _cell(o: RunOutcome, key: str) -> str:
     if o.status == "n/a":
         return NOT_APPLICABLE
     if o.status != "ok":
         return "FAILED"
+    if key in SETTLING_KEYS and o.verdict == "failed":
+        # the settling time of a failed run is a last entry into the band that the final-10 %
+        # window contradicts: show the verdict and where the error ended, as the summary does
+        return _summary_cell(o)
     v = o.metrics.get(key, float("nan"))
     if key == "settling_time_s" and isinstance(v, float) and math.isnan(v):
         return f"not settled ({_fmt(o.metrics.get('final_error_deg'))}° at end)"
@@ -619,13 +632,28 @@ VERDICT_RULES = (
     "(attitude; position on SE(3)) within its tolerance over the final 10 % of the run, no "
     "divergence, no unwinding, no actuator limit reached and no near-singular gimbal set; "
     "**degraded** — converged, but flagged `unwound`, `actuator-saturated` (any time with a "
-    "gimbal-rate, wheel-torque or torque-box limit active), `momentum-saturated` (a wheel at "
-    f"its speed limit), `near-singular` (SGCMG singularity measure m < {NEAR_SINGULAR_M}) or "
+    "gimbal-rate, wheel-torque or torque-box limit active), `momentum-saturated` (wheels: a "
+    "wheel at its speed limit, or peak |Ω_i|/Ω_max ≥ "
+    f"{MOMENTUM_SATURATED_FRACTION}; SGCMG: stored momentum ≥ "
+    f"{MOMENTUM_SATURATED_FRACTION:.0%} of the cluster's momentum envelope in its direction — "
+    "see the peak momentum fraction table), `near-singular` (SGCMG singularity measure m < "
+    f"{NEAR_SINGULAR_M}) or "
     f"`chattering` (≥ {CHATTER_REVERSALS} command reversals); **failed** — an error channel "
     "out of tolerance (`attitude-not-converged`, `position-not-converged`) or `diverged` (ends "
     "at least 30° farther from the target than it started, or a non-finite state); "
     "**error** — the run raised (its message is listed under Failures); "
     "**not-applicable** — the controller is not defined for that plant."
+)
+
+
+SETTLING_NOTE = (
+    "How to read this: the settling time t_s is the first time the attitude error enters the "
+    "scenario's tolerance band and stays inside it to the end of the run; the verdict looks "
+    "only at the final 10 % of the run (the maximum error there must be within the "
+    "tolerance). Both use the same band, so a run that enters it for good only inside the "
+    "final window (after 90 % of the run) has a last entry into the band and still fails: "
+    "it has not settled within the run. A failed run therefore never shows a settling time "
+    "— every settling-time cell of a failed run shows its verdict and final error instead."
 )
 
 
@@ -699,7 +727,8 @@ def write_report(result: SuiteResult, out_dir: Path, *, figures: bool = True) ->
         f"# Benchmark report — suite `{result.suite}`",
         "",
         f"Generated {time.strftime('%Y-%m-%d %H:%M:%S')} on Python {platform.python_version()}, "
-        f"numpy {np.__version__}; suite wall time {result.wall_time_s:.1f} s; "
+        f"numpy {np.__version__}; simulation wall time {result.wall_time_s:.1f} s (report "
+        "and figures not included); "
         f"{len(result.outcomes)} pairs: "
         + ", ".join(f"{n} {v}" for v, n in counts.items())
         + f"; executor: {result.executor}.",
@@ -734,6 +763,8 @@ def write_report(result: SuiteResult, out_dir: Path, *, figures: bool = True) ->
         "",
         "Verdict (flags); t_s: settling time to the attitude tolerance, θ_f: final attitude "
         "error when it does not settle, ‖Δp‖_f: final position error (SE(3)).",
+        "",
+        SETTLING_NOTE,
         "",
     ]
     lines += _table(result, _summary_cell)
@@ -1095,8 +1126,11 @@ def write_sweep_report(
                     row.append(f"{o.verdict}")
                     continue
                 perf, perf_label = performance(s, o.metrics)
+                if o.verdict == "failed" and _is_settling(s):
+                    perf = float("nan")  # a failed run has no settling time (as in the Pareto)
                 eff, eff_label = _effort(s, o.metrics)
-                row.append(f"{o.verdict}; {_fmt(perf)}; {_fmt(eff)}")
+                shown = "not settled" if math.isnan(perf) and _is_settling(s) else _fmt(perf)
+                row.append(f"{o.verdict}; {shown}; {_fmt(eff)}")
                 if math.isfinite(perf) and math.isfinite(eff):
                     xs.append(eff)
                     ys.append(perf)

@@ -723,6 +723,21 @@ class VscmgActuator(Actuator):
         )
         return out
 
+    def check_plant(self, body: Any) -> None:
+        """Raise ``ValueError`` naming ``bus_inertia`` unless the plant body's ``J`` is this
+        actuator's ``bus_inertia``: the coupled equations of motion take the bus inertia
+        ``J_B`` as the body's. :class:`spacecraft.plant.Spacecraft` calls this hook when it is
+        built, so a mismatch fails there and not at the first integration step."""
+        J = np.asarray(getattr(body, "J", None))
+        if J.shape != (3, 3) or not np.array_equal(J, self.bus_inertia):
+            raise ValueError(
+                "bus_inertia: differs from the plant body's J "
+                f"(bus_inertia diagonal {np.diag(self.bus_inertia).tolist()}, body.J of shape "
+                f"{J.shape}); build the actuator with bus_inertia=body.J (the inertia without "
+                "the gimbal frames and rotors; one shared (3, 3) inertia)"
+            )
+        self._checked_J = body.J
+
     def coupled_derivatives(
         self,
         omega: np.ndarray,

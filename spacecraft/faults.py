@@ -371,7 +371,10 @@ class FaultyActuator(Actuator):
 
     Args:
         inner: the healthy actuator.
-        faults: a fault or a sequence of :class:`ActuatorFault`.
+        faults: a fault or a sequence of :class:`ActuatorFault`. An empty sequence is allowed
+            and means "no faults" (as an empty ``faults`` list of a scenario): the healthy
+            actuator with the same log columns (``fault_active`` of width 0) — the baseline a
+            faulty run is compared against.
         reconfigure: reaction wheels only — after a wheel fault, redistribute the momentum-rate
             command over the healthy wheels (τ_r = A_r⁺ ḣ_cmd, then the same torque and speed
             limits). (CMG steering is reconfigured by the steering law:

@@ -122,7 +122,10 @@ class Spacecraft:
             inertias ``J`` ``(B, 3, 3)`` every state of this plant has batch size ``B``, and
             flexible ``modes`` are not supported).
         actuator: e.g. :class:`spacecraft.actuators.SgcmgActuator` or
-            :class:`spacecraft.actuators.IdealTorqueActuator`.
+            :class:`spacecraft.actuators.IdealTorqueActuator`. An actuator may define
+            ``check_plant(body)``, called here to reject a body it cannot drive (e.g.
+            :class:`spacecraft.cmg_dynamics.VscmgActuator` whose ``bus_inertia`` is not
+            ``body.J``).
         disturbance: a callable ``(t, R, omega) -> (B, 3)`` body torque [N·m], or ``None``.
         modes: :class:`spacecraft.flexible.FlexibleModes`, or ``None`` (rigid). Validated
             against ``body``: ``J − BᵀB`` must be positive definite.
@@ -160,6 +163,11 @@ class Spacecraft:
                 "momentum_management: must have methods dipole(t, R, h) and torque(t, R, m) "
                 f"(e.g. spacecraft.momentum.CrossProductDumping), got {type(mm).__name__}"
             )
+        # optional actuator hook: an actuator whose model constrains the body (the full CMG
+        # model takes body.J as its bus inertia) rejects a mismatch here, not at step 1
+        check_plant = getattr(self.actuator, "check_plant", None)
+        if callable(check_plant):
+            check_plant(self.body)
         if self.modes is not None:
             if not isinstance(self.modes, FlexibleModes):
                 raise ValueError(

@@ -566,6 +566,16 @@ def _check_sensors(
         ratio = period / dt
         every = round(ratio)
         if every < 1 or abs(ratio - every) > _PERIOD_RTOL * ratio:
+            latency = getattr(sensor, "latency", None)
+            update = getattr(sensor, "update_period", None)
+            if isinstance(latency, float) and latency > 0 and isinstance(update, float):
+                # a TimedSensor is called every gcd(update period, latency): name what the user
+                # set, not that internal grid
+                raise ValueError(
+                    f"sensors: {name!r} latency {latency!r} and period {update!r} must both be "
+                    f"integer multiples of dt = {dt!r} (the sensor is sampled every "
+                    f"gcd(period, latency) = {period!r} s, ratio {ratio!r} to dt)"
+                )
             raise ValueError(
                 f"sensors: {name!r} period {period!r} is not a positive integer multiple of "
                 f"dt = {dt!r} (ratio {ratio!r})"
@@ -625,6 +635,7 @@ def simulate(
             (on-board computation and bus transfer); zero torque is applied before the first
             delayed command arrives. ``result.u_cmd`` logs the command applied from ``t`` on
             (computed at ``t − τ``). Default 0: applied at once, as without the argument.
+            A delay not shorter than the run (no command would arrive) is rejected.
 
     Returns:
         :class:`SimulationResult`.
@@ -659,6 +670,14 @@ def simulate(
         raise ValueError(
             f"compute_delay: must be a non-negative integer multiple of dt = {dt!r}, "
             f"got {compute_delay!r} (ratio {compute_delay / dt!r})"
+        )
+    if delay_steps >= n_steps:
+        # like a t_final shorter than one step: a run in which no command ever reaches the
+        # actuator is an input mistake, not a meaningful open-loop run
+        raise ValueError(
+            f"compute_delay: must be shorter than the run, got {compute_delay!r} s for "
+            f"{n_steps} step(s) of dt = {dt!r} from t0 = {t0!r} (no command would reach the "
+            "actuator)"
         )
     log_every = as_int(log_every, "log_every", 1)
     sensor_list = _check_sensors(sensors, dt)

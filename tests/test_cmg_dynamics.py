@@ -359,12 +359,18 @@ def test_bad_input_names_the_argument():
     act = VscmgActuator(J_BUS, INERTIAS, servo=FirstOrderServo(0.1))
     with pytest.raises(ValueError, match="^gimbal_torque"):
         act.open_loop(np.zeros((1, 4)))
-    # the plant's body inertia must be the actuator's bus inertia
-    plant = Spacecraft(RigidBody(2 * J_BUS), act)
+    # the plant's body inertia must be the actuator's bus inertia: rejected when the plant is
+    # built (the actuator's check_plant hook), not at the first step
+    with pytest.raises(ValueError, match="^bus_inertia"):
+        Spacecraft(RigidBody(2 * J_BUS), act)
+    with pytest.raises(ValueError, match="^bus_inertia"):
+        Spacecraft(RigidBody(np.stack([J_BUS, J_BUS])), act)
+    plant = Spacecraft(RigidBody(J_BUS.copy()), act)  # equal values, another array: accepted
     st = plant.initial_state(np.eye(3))
     held = act.command(np.zeros((1, 3)), st.omega, st.x_act, 0.0)
+    # the coupled-dynamics hook still checks the inertia it is handed
     with pytest.raises(ValueError, match="^bus_inertia"):
-        plant.step(st, held, 0.0, 0.1)
+        act.coupled_derivatives(st.omega, st.x_act, held, np.zeros((1, 3)), 2 * J_BUS)
     with pytest.raises(TypeError, match="^x_act"):
         act.state_derivative(st.x_act, held)
 

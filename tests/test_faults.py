@@ -100,6 +100,8 @@ def test_healthy_wrapper_matches_the_bare_actuator():
     # compiled one: equal to round-off
     bare = _run(_cmg())
     wrapped = _run(FaultyActuator(_cmg(), []))
+    # an empty fault list is documented as "no faults": accepted, no fault columns
+    assert wrapped.actuator["fault_active"].shape == (len(wrapped.t), 1, 0)
     np.testing.assert_allclose(wrapped.omega, bare.omega, rtol=0, atol=1e-12)
     np.testing.assert_allclose(wrapped.R, bare.R, rtol=0, atol=1e-12)
 

@@ -158,6 +158,12 @@ def test_catalogue_scenarios(tmp_path) -> None:
     assert tree.member_error[-1].max() < 1e-5
     table = formation_table(results)
     assert "consensus-split-6" in table and "never" in table
+    # settling times depend on the tolerance: the table shows it, and the delayed and predicted
+    # trees (compared side by side) use the same one
+    assert "| tolerance |" in table.splitlines()[0] and "| 0.001 rad |" in table
+    delayed = formation_scenario("leader-follower-tree-10-delay")
+    predicted = formation_scenario("leader-follower-tree-10-predict")
+    assert delayed.tolerance == predicted.tolerance
     out = plot_formation(ring, tmp_path / "ring.png")
     assert out.stat().st_size > 1000
     with pytest.raises(ValueError, match="^name: unknown formation scenario"):

@@ -105,3 +105,35 @@ def test_spread_line_names_outliers():
     assert "median settling time 10.5 s" in text
     assert "`intrinsic-pid` 1.90×" in text and "integral mode" in text
     assert "`a`" not in text.split("Outside")[1]
+
+
+def test_settling_table_cells_of_a_failed_run_show_the_verdict():
+    # a failed run that entered the band for good inside the final window (t_s = 549 s of a
+    # 600 s run, 0.105° max over the final 10 %): every settling-time cell shows the verdict
+    m = {"settling_time_s": 548.79, "final_error_deg": 0.09, "steady_error_max_deg": 0.105,
+         "final_position_error_m": 0.5, "position_settling_time_s": 300.0}  # fmt: skip
+    failed = _o(verdict="failed", flags=("attitude-not-converged",), metrics=m)
+    for key in ("settling_time_s", "position_settling_time_s"):
+        cell = _cell(failed, key)
+        assert cell.startswith("**failed** (attitude-not-converged)")
+        assert "549" not in cell and "300" not in cell and "t_s" not in cell
+        assert "θ_f = 0.0900°" in cell and "0.105°" in cell
+    # a converged run keeps its number, and other metrics of a failed run are unchanged
+    ok = _o(verdict="degraded", flags=("actuator-saturated",), metrics=m)
+    assert _cell(ok, "settling_time_s") == "549"
+    assert _cell(ok, "position_settling_time_s") == "300"
+    assert _cell(failed, "steady_error_max_deg") == "0.105"
+
+
+def test_report_legend_says_what_momentum_saturated_means_per_actuator():
+    from benchmarks.metrics import MOMENTUM_SATURATED_FRACTION
+    from benchmarks.report import METRIC_PLANTS, SETTLING_NOTE, TABLE_METRICS, VERDICT_RULES
+
+    legend = VERDICT_RULES.split("`momentum-saturated`")[1].split("`near-singular`")[0]
+    assert "wheels:" in legend and "speed limit" in legend
+    assert "SGCMG:" in legend and "momentum envelope" in legend
+    assert f"{MOMENTUM_SATURATED_FRACTION:.0%}" in legend
+    # the quantity behind the flag is a table on both actuator plants
+    assert "peak_momentum_fraction" in dict(TABLE_METRICS)
+    assert METRIC_PLANTS["peak_momentum_fraction"] == frozenset({"sgcmg", "wheels"})
+    assert "final 10 %" in SETTLING_NOTE and "stays" in SETTLING_NOTE

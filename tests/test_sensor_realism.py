@@ -172,6 +172,13 @@ def test_timed_sensor_bad_input_named():
             plant, _OpenLoop(lambda t: np.zeros(3)), ConstantAttitude(np.eye(3)), s0, 1.0, 0.1,
             sensors={"st": TimedSensor(st, latency=0.05)}, rng=np.random.default_rng(0),
         )  # fmt: skip
+    # latency 0.15 with period 0.2: the sensor's internal grid is gcd = 0.05 s, which the user
+    # never set; the message names the latency and the period instead
+    with pytest.raises(ValueError, match=r"^sensors: 'st' latency 0\.15 and period 0\.2 "):
+        simulate(
+            plant, _OpenLoop(lambda t: np.zeros(3)), ConstantAttitude(np.eye(3)), s0, 1.0, 0.1,
+            sensors={"st": TimedSensor(st, latency=0.15)}, rng=np.random.default_rng(0),
+        )  # fmt: skip
 
 
 # ---------------------------------------------------------------------------- gyro
@@ -430,6 +437,20 @@ def test_bad_compute_delay_named(bad):
     with pytest.raises(TypeError, match="^compute_delay:"):
         simulate(plant, _OpenLoop(_u), ConstantAttitude(np.eye(3)), s0, 1.0, 0.1,
                  compute_delay=True)  # fmt: skip
+
+
+@pytest.mark.parametrize("delay", [1.0, 1.5])
+def test_compute_delay_not_shorter_than_the_run_is_rejected(delay):
+    # 10 steps of 0.1 s: a delay of 1.0 s or more means no command ever reaches the actuator
+    plant = Spacecraft(RigidBody(J), IdealTorqueActuator())
+    s0 = plant.initial_state(np.eye(3)[None])
+    with pytest.raises(ValueError, match="^compute_delay: must be shorter than the run"):
+        simulate(plant, _OpenLoop(_u), ConstantAttitude(np.eye(3)), s0, 1.0, 0.1,
+                 compute_delay=delay)  # fmt: skip
+    # one step shorter is a valid run: the last step applies the first command
+    r = simulate(plant, _OpenLoop(_u), ConstantAttitude(np.eye(3)), s0, 1.0, 0.1,
+                 compute_delay=0.9)  # fmt: skip
+    assert np.all(r.u_cmd[:-2] == 0.0) and np.any(r.u_cmd[-2] != 0.0)
 
 
 # ---------------------------------------------------------------------------- scenario files

@@ -308,6 +308,10 @@ def test_new_scenarios_build_and_run(tmp_path):
     md = write_report(res, tmp_path, figures=False).read_text(encoding="utf-8")
     assert "settled in" not in md and "**failed** (attitude-not-converged)" in md
     assert "θ ≤ 0.5°" in md  # the noisy scenario's tolerance is printed
+    # the header says what its wall time measures; the momentum flag's quantity is tabulated
+    assert "simulation wall time" in md and "(report and figures not included)" in md
+    frac = md.split("### Peak momentum fraction")[1].split("###")[0]
+    assert "fast-slew-rate-limited" in frac and "wheels-pyramid-slew-30" in frac
     # gimbal tables leave the wheel scenarios out and vice versa
     gimbal = md.split("### SGCMG: peak gimbal rate [rad/s]")[1].split("###")[0]
     assert "wheels-pyramid" not in gimbal and "step-5" in gimbal
