@@ -121,14 +121,6 @@ def dexpinv_rkmk4(
 
 
 @njit
-def matmul3_into(A: np.ndarray, B: np.ndarray, out: np.ndarray) -> None:
-    """``out = A B`` for 3×3 (out must not alias A or B)."""
-    for i in range(3):
-        for j in range(3):
-            out[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j]
-
-
-@njit
 def matvec3(A: np.ndarray, x0: float, x1: float, x2: float) -> tuple[float, float, float]:
     """``A x`` for a 3×3 ``A``."""
     return (
