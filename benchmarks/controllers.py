@@ -506,8 +506,7 @@ def _geometric_keep_out(ctx: ControllerContext) -> Any:
 
 
 def _intrinsic_pid(ctx: ControllerContext) -> Any:
-    """IntrinsicPID (log error, Maithripala & Berg): the closed-loop spec's pole pair + integral
-    pole at −ω_n/5."""
+    """IntrinsicPID (log error, Maithripala & Berg): (ω_n, ζ) poles + integral pole at −ω_n/5."""
     from liecontrol.control.geometric_pid import IntrinsicPID
     from liecontrol.control.tuning import tune_intrinsic_pid
 
@@ -627,7 +626,7 @@ def _mrp_pd(ctx: ControllerContext) -> Any:
 
 
 def _tsm(ctx: ControllerContext) -> Any:
-    """TerminalSlidingModeSO3 (Liu, Tang & Yu), ZYX Euler chart: T = spec settling, poles −ω_n."""
+    """TerminalSlidingModeSO3 (Liu, Tang & Yu), ZYX Euler: T = the 2 % settling time, poles −ω_n."""
     from liecontrol.control.terminal_sliding_mode import TerminalSlidingModeSO3
     from liecontrol.control.tuning import tune_euler_tsm
 
