@@ -58,11 +58,11 @@ from .._validation import (
 from .adapters import ChartState, MrpChartAdapter, QuaternionChartAdapter
 from .base import AttitudeReference, AttitudeState, check_state_batch, finite_command
 from .geometric_pd import (
-    GeometricPD,
     _apply_gain,
     _as_matrix,
     _batch,
     check_gain,
+    validated_reference,
     validated_rotation_and_rate,
 )
 
@@ -80,7 +80,7 @@ def _kernel_inputs(
     as_scalar(t, "t")
     R, w = validated_rotation_and_rate(state)
     B = check_state_batch(R, w, ctrl._batch)
-    R_d, w_d, dw_d = GeometricPD._reference_arrays(ctrl, reference, B)
+    R_d, w_d, dw_d = validated_reference(ctrl, reference, B)
     return (
         np.ascontiguousarray(R, dtype=np.float64),
         np.ascontiguousarray(w, dtype=np.float64),

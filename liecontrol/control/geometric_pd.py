@@ -21,6 +21,7 @@ Units: ``J`` [kg·m²], ``k_R`` [N·m per unit of e_R], ``k_Omega`` [N·m·s/rad
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -157,6 +158,36 @@ def _apply_gain(K: float | np.ndarray, x: np.ndarray) -> np.ndarray:
 # few cheap operations; anything that fails them goes through the canonical validators, which
 # raise the usual messages (or convert, e.g. lists). One spacecraft runs on Python floats.
 
+def validated_reference(
+    holder: Any, reference: AttitudeReference, B: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(R_d, ω_d, ω̇_d)`` of a reference sample, validated for a batch of ``B``; ``holder``
+    (a controller) caches, in ``_checked_R_d``, a read-only ``R_d`` it has already checked."""
+    R_d = reference.R_d
+    # a read-only array owning its data (e.g. ConstantAttitude's R_d) cannot change between
+    # steps, so once validated it is not re-checked on this hot path
+    if not (isinstance(R_d, np.ndarray) and R_d is holder._checked_R_d):
+        # rotations_pass_fast checks the dtype and the (3, 3) tail itself
+        if not (
+            isinstance(R_d, np.ndarray) and R_d.ndim in (2, 3) and rotations_pass_fast(R_d)
+        ):
+            R_d = check_rotation_matrix(R_d, "R_d")
+        if not R_d.flags.writeable and R_d.base is None:
+            holder._checked_R_d = R_d
+    w_d = reference.omega_d
+    if not _vectors_pass(w_d, np.shape(w_d)[:-1] + (3,)):
+        w_d = as_array(w_d, "omega_d", (3,))
+    dw_d = reference.omega_dot_d
+    if not _vectors_pass(dw_d, np.shape(dw_d)[:-1] + (3,)):
+        dw_d = as_array(dw_d, "omega_dot_d", (3,))
+    for name, a, nd in (("R_d", R_d, 2), ("omega_d", w_d, 1), ("omega_dot_d", dw_d, 1)):
+        if a.ndim == nd + 1 and a.shape[0] != B:
+            raise ValueError(f"{name}: batch size {a.shape[0]} does not match state's {B}")
+        if a.ndim > nd + 1:
+            raise ValueError(f"{name}: expected one sample or a (B, ...) batch, got {a.shape}")
+    return R_d, w_d, dw_d
+
+
 def _as_matrix(K: float | np.ndarray) -> np.ndarray:
     """A gain as a contiguous 3×3 float64 matrix (a scalar k as k I)."""
     if isinstance(K, float):
@@ -249,33 +280,6 @@ class GeometricPD(AttitudeController):
         self._batch = int(batch_size)
         self._diag = {}
 
-    def _reference_arrays(
-        self, reference: AttitudeReference, B: int
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        R_d = reference.R_d
-        # a read-only array owning its data (e.g. ConstantAttitude's R_d) cannot change between
-        # steps, so once validated it is not re-checked on this hot path
-        if not (isinstance(R_d, np.ndarray) and R_d is self._checked_R_d):
-            # rotations_pass_fast checks the dtype and the (3, 3) tail itself
-            if not (
-                isinstance(R_d, np.ndarray) and R_d.ndim in (2, 3) and rotations_pass_fast(R_d)
-            ):
-                R_d = check_rotation_matrix(R_d, "R_d")
-            if not R_d.flags.writeable and R_d.base is None:
-                self._checked_R_d = R_d
-        w_d = reference.omega_d
-        if not _vectors_pass(w_d, np.shape(w_d)[:-1] + (3,)):
-            w_d = as_array(w_d, "omega_d", (3,))
-        dw_d = reference.omega_dot_d
-        if not _vectors_pass(dw_d, np.shape(dw_d)[:-1] + (3,)):
-            dw_d = as_array(dw_d, "omega_dot_d", (3,))
-        for name, a, nd in (("R_d", R_d, 2), ("omega_d", w_d, 1), ("omega_dot_d", dw_d, 1)):
-            if a.ndim == nd + 1 and a.shape[0] != B:
-                raise ValueError(f"{name}: batch size {a.shape[0]} does not match state's {B}")
-            if a.ndim > nd + 1:
-                raise ValueError(f"{name}: expected one sample or a (B, ...) batch, got {a.shape}")
-        return R_d, w_d, dw_d
-
     def command(self, t: float, state: AttitudeState, reference: AttitudeReference) -> np.ndarray:
         """Body torque ``(B, 3)`` [N·m] for ``state`` (``R (B,3,3)``, ``omega (B,3)``)."""
         if self._batch is None:
@@ -289,7 +293,7 @@ class GeometricPD(AttitudeController):
         B = R.shape[0]
         if B != self._batch:
             raise ValueError(f"state: batch size {B} differs from reset(batch_size={self._batch})")
-        R_d, w_d, dw_d = self._reference_arrays(reference, B)
+        R_d, w_d, dw_d = validated_reference(self, reference, B)
         if B == 1 or JIT_ENABLED:
             return finite_command(self._command_kernel(R, w, R_d, w_d, dw_d), w)
 
