@@ -9,6 +9,7 @@
         [--no-progress] [--no-figures] [--sweep-bandwidth W1,W2,...]
         [--plugin MODULE_OR_FILE.py ...]
     python -m benchmarks run --list          # suites, scenarios, controllers, reproductions
+    python -m benchmarks list [--plugin ...] # the same listing
     python -m benchmarks throughput [--controller NAME] [--batch 1,256] [--steps N]
     python -m benchmarks reproduce NAME --out DIR [--quick] [--plugin ...]
     python -m benchmarks reproduce --list    # each paper reproduction with its citation
@@ -17,7 +18,8 @@
 invoked.) ``run`` ends with one line counting the verdicts (e.g. ``57 runs + 21 not-applicable:
 32 success, 8 degraded, 17 failed, 0 error``). It exits 0 when every run completed — a
 ``failed`` verdict (the controller missed the scenario's tolerance) is a finding, not a crash —
-1 when some run raised (verdict ``error``; it is in the report with its error), 2 for bad
+1 when some run raised (verdict ``error``; it is in the report with its error; the rule:
+:data:`EXIT_STATUS_RULE`), 2 for bad
 arguments (unknown names are listed with the valid ones; a malformed scenario
 file names the offending key; an unreachable dask scheduler is reported before anything runs; a
 selection in which no controller applies to any scenario says why). ``--plugin`` (repeatable)
@@ -45,6 +47,9 @@ import time
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from types import ModuleType
+
+#: Members per cell of ``run`` (``--members``): see docs/benchmarks.md for what N buys.
+DEFAULT_MEMBERS = 8
 
 __all__ = [
     "main",
@@ -112,6 +117,16 @@ def load_plugins(specs: Sequence[str]) -> list[ModuleType]:
     return modules
 
 
+#: The exit-status rule of ``run``, word for word in ``--help`` and docs/benchmarks.md (a test
+#: checks both): the verdicts ``failed`` (did not converge) and ``error`` (the run raised) are
+#: two different words, and only ``error`` changes the exit status.
+EXIT_STATUS_RULE = (
+    "0 when every run completed, whatever its verdict (a 'failed' verdict — the controller "
+    "missed the scenario's tolerance — is a finding, not a crash); 1 when at least one run "
+    "raised (verdict 'error', listed with its message in the report); 2 for bad arguments; "
+    "130 when a Monte Carlo run is interrupted (its finished chunks are kept for --resume)."
+)
+
 #: The console script installed by ``pip install`` (``[project.scripts]`` in pyproject.toml).
 CONSOLE_SCRIPT = "liecontrol-bench"
 
@@ -139,18 +154,14 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog=program_name() if prog is None else prog,
         description="liecontrol benchmark suite: scenarios × controllers → metrics and report.",
-        epilog="exit status of run: 0 when every run completed (a 'failed' verdict — the "
-        "controller missed the scenario's tolerance — is a finding, not a crash), 1 when some "
-        "run raised (verdict 'error', kept in the report), 2 for bad arguments.",
+        epilog="exit status of run: " + EXIT_STATUS_RULE,
     )
     sub = p.add_subparsers(dest="command", required=True)
 
     r = sub.add_parser(
         "run",
         help="run a suite and write a report folder",
-        description="Run a suite and write a report folder. Exit status: 0 when every run "
-        "completed (a 'failed' verdict is a finding, not a crash), 1 when some run raised "
-        "(verdict 'error'), 2 for bad arguments.",
+        description="Run a suite and write a report folder. Exit status: " + EXIT_STATUS_RULE,
     )
     r.add_argument("--suite", default=None, help="quick (default), full, unwinding, montecarlo")
     r.add_argument("--out", type=Path, default=Path("report"), help="report folder")
@@ -202,8 +213,43 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
         help="run the selection once per closed-loop natural frequency ω_n [rad/s] (every "
         "controller re-tuned to it) and write sweep.md with each controller's front over ω_n",
     )
+    r.add_argument(
+        "--members",
+        type=int,
+        default=None,
+        metavar="N",
+        help="dispersed members per (scenario, controller) cell; member 0 is the nominal run "
+        f"(default {DEFAULT_MEMBERS}; 1: the single nominal run)",
+    )
+    r.add_argument(
+        "--dispersion-seed",
+        type=int,
+        default=0,
+        metavar="S",
+        help="seed of the members' draws (benchmarks.dispersion)",
+    )
+    r.add_argument(
+        "--no-sensitivity",
+        action="store_true",
+        help="skip the re-runs at ω_n × 0.9 and × 1.1 that show which cell verdicts sit on a "
+        "knife edge",
+    )
     r.add_argument("--list", action="store_true", help="list suites, scenarios and controllers")
     r.add_argument(
+        "--plugin",
+        action="append",
+        default=[],
+        metavar="MODULE_OR_FILE.py",
+        help="import user code that registers controllers/scenarios first (repeatable)",
+    )
+
+    ls = sub.add_parser(
+        "list",
+        help="list suites, scenarios, controllers and reproductions (same as run --list)",
+        description="List suites, scenarios, controllers and reproductions (the same listing as "
+        "run --list).",
+    )
+    ls.add_argument(
         "--plugin",
         action="append",
         default=[],
@@ -330,6 +376,79 @@ def _verdict_summary(outcomes: Iterable) -> str:
     return f"{head}: {', '.join(parts)}"
 
 
+#: Cold-cache compile time of the quick suite's kernels, shown in the "compiling kernels"
+#: message: measured with ``liecontrol-bench run --suite quick`` and an empty numba cache on
+#: a shared 2-core development machine (docs/benchmarks.md, "Run time").
+COLD_COMPILE_S = 20
+
+#: The warm-up says "compiling kernels" when it is still busy after this long [s] (loading
+#: cached machine code for the quick suite takes well under this).
+COMPILE_NOTICE_AFTER_S = 3.0
+
+
+def _warm_up(scenarios: Sequence, controllers: Sequence[str] | None, announce: bool) -> float:
+    """Compile — or load from numba's disk cache — the per-step kernels the selection uses,
+    in this process and before the progress bar starts: one run of a few control periods per
+    kind of scenario (plant, actuator, estimator, faults) with every selected controller.
+    When this takes longer than :data:`COMPILE_NOTICE_AFTER_S` (numba is compiling: the
+    first run, or the first after an upgrade) it says so on stderr instead of leaving the bar
+    at 0. The forked workers of the ``process`` executor inherit the compiled code, so they
+    do not compile it again each. Returns the seconds spent; any failure is left to the real
+    run to report."""
+    import threading
+
+    from liecontrol._jit import JIT_ENABLED
+
+    if not JIT_ENABLED:
+        return 0.0
+    from .executors import make_executor
+    from .runner import run_suite
+
+    kinds: dict[tuple, object] = {}
+    for s in scenarios:
+        sp = getattr(s, "spacecraft", None)
+        sensors = getattr(s, "sensors", None)
+        key = (s.plant, getattr(sp, "actuator", None), getattr(sp, "steering", None),
+               getattr(sensors, "estimator", None), bool(getattr(s, "faults", ())))  # fmt: skip
+        kinds.setdefault(key, s)
+    short = []
+    for s in kinds.values():
+        try:
+            step = s.control_period or s.dt
+            short.append(s.with_duration(min(s.duration, 3 * step)))
+        except (ValueError, AttributeError, TypeError):
+            continue
+    if not short:
+        return 0.0
+    said: list[bool] = []
+
+    def notice() -> None:
+        said.append(True)
+        print(
+            f"compiling kernels (first run only, ≈{COLD_COMPILE_S} s on 2 cores; cached "
+            "for later runs) …",
+            file=sys.stderr,
+            flush=True,
+        )
+
+    timer = threading.Timer(COMPILE_NOTICE_AFTER_S, notice)
+    timer.daemon = True
+    if announce:
+        timer.start()
+    t0 = time.perf_counter()
+    try:
+        with make_executor("serial") as ex:
+            run_suite(short, controllers, suite="warm-up", executor=ex, progress=False)
+    except Exception:  # noqa: BLE001, S110 - the real run reports any problem with its context
+        pass
+    finally:
+        timer.cancel()
+    spent = time.perf_counter() - t0
+    if said:
+        print(f"kernels ready after {spent:.0f} s", file=sys.stderr, flush=True)
+    return spent
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
     from .controllers import get_controller, quick_controllers
     from .executors import ExecutorUnavailable, make_executor
@@ -391,6 +510,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
     figures = not args.no_figures
     progress = not args.no_progress
     keep = bool(getattr(args, "histories", False))
+    members = DEFAULT_MEMBERS if args.members is None else args.members
+    if members < 1:
+        return _error(f"members: expected an integer >= 1, got {members}")
+    if args.dispersion_seed < 0:
+        return _error(f"dispersion-seed: expected an integer >= 0, got {args.dispersion_seed}")
     if keep:  # checked before anything runs
         from .results_file import require_pyarrow
 
@@ -415,10 +539,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
             res = unwinding.run_unwinding(controllers, cfg, executor=executor, progress=progress)
             path = unwinding.write_unwinding_report(res, args.out, figures=figures)
             counts = _count(r.verdict for r in res.records)
-            # the unwinding table's own verdicts; its "failed" means the run raised
+            # the unwinding table's own verdicts; "error" means the run raised, as in the suite
             summary = _runs(len(res.records)) + ": " + ", ".join(
-                f"{counts.get(v, 0)} {v}" + (" (raised)" if v == "failed" else "")
-                for v in unwinding.VERDICTS
+                f"{counts.get(v, 0)} {v}" for v in unwinding.VERDICTS
             )
             n_failed = res.n_failed
         elif suite_name == "montecarlo":
@@ -479,14 +602,16 @@ def _cmd_run(args: argparse.Namespace) -> int:
                     rules = {w: GainRule(omega_n=w) for w in ws}
                 except ValueError as exc:
                     return _error(f"sweep-bandwidth: {args.sweep_bandwidth!r}: {exc}")
+                _warm_up(scenarios, controllers, progress)
                 sweep = {}
                 for w, rule in rules.items():
                     sweep[w] = run_suite(
                         scenarios, controllers, suite=f"{suite_name} (ω_n = {w:g} rad/s)",
                         executor=executor, progress=progress, gain_rule=rule,
-                        keep_histories=keep,
+                        keep_histories=keep, members=members, dispersion_seed=args.dispersion_seed,
                     )  # fmt: skip
-                    sub = write_report(sweep[w], args.out / f"omega_n-{w:g}", figures=figures)
+                    sub = write_report(sweep[w], args.out / f"omega_n-{w:g}", figures=figures,
+                                       progress=progress)
                     if keep:
                         from .results_file import write_histories_with_report
 
@@ -495,11 +620,17 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 summary = _verdict_summary(o for r in sweep.values() for o in r.outcomes)
                 n_failed = sum(r.n_failed for r in sweep.values())
             else:
+                _warm_up(scenarios, controllers, progress)
                 result = run_suite(
                     scenarios, controllers, suite=suite_name, executor=executor,
-                    progress=progress, keep_histories=keep,
+                    progress=progress, keep_histories=keep, members=members,
+                    dispersion_seed=args.dispersion_seed,
                 )  # fmt: skip
-                path = write_report(result, args.out, figures=figures)
+                if not args.no_sensitivity:
+                    from .runner import bandwidth_sensitivity
+
+                    result = bandwidth_sensitivity(result, executor=executor, progress=progress)
+                path = write_report(result, args.out, figures=figures, progress=progress)
                 if keep:
                     from .results_file import write_histories_with_report
 
@@ -570,6 +701,9 @@ def _dispatch(args: argparse.Namespace) -> int:
             return _error(str(exc))
     if args.command == "run":
         return _cmd_run(args)
+    if args.command == "list":
+        _print_listing()
+        return 0
     if args.command == "throughput":
         return _cmd_throughput(args)
     return _cmd_reproduce(args)

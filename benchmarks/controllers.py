@@ -489,7 +489,15 @@ def geometric_pd_factory(error: str) -> ControllerFactory:
         spec, _ = tuned_spec(ctx)
         return GeometricPD(ctx.J, **tune_geometric_pd(ctx.J, spec, error=error))
 
-    make.__doc__ = f"GeometricPD(error={error!r}): K_R = ω_n²J/s, K_Ω = 2ζω_nJ"
+    slope = {
+        "log": "s = 1 (e_R ≈ δθ)",
+        "large_angle": "s = ½ (e_R = sin(θ/2)·axis ≈ ½δθ)",
+        "trace": "s = 0.95, the smallest slope of e_R ≈ ½(tr G·I − G)δθ, G = diag(0.9, 1, 1.1)",
+    }.get(error, "s = the error function's small-angle slope")
+    extra = " · √(s_max/s_min)" if error == "trace" else ""
+    make.__doc__ = (
+        f"GeometricPD(error={error!r}): K_R = ω_n²J/s, K_Ω = 2ζω_nJ{extra}, where {slope}"
+    )
     return make
 
 

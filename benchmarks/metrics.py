@@ -16,18 +16,32 @@ time, ``T = t_f − t₀``; integrals are trapezoidal over the logged samples):
 - **steady-state error**: max and RMS (``√(∫θ²dt / window)``) of ``θ`` over the final
   ``steady_fraction`` (10 %) of the run, ``t ≥ t_f − 0.1 T``;
 - **peak / RMS rate**: ``max ‖e_Ω‖`` and ``√(∫‖e_Ω‖²dt / T)``;
-- **overshoot**: with ``â₀`` the initial error axis (``log(E(t₀))^∨ = θ₀ â₀``), the largest
-  excursion past the target along that axis, ``max(0, −min_t ⟨log(E(t))^∨, â₀⟩)`` [deg] and in
-  percent of ``θ₀``; NaN when ``θ₀`` is below ``min_geodesic_deg`` (no manoeuvre);
+- **overshoot**: with ``â₀`` the approach axis — the initial error axis
+  (``log(E(t₀))^∨ = θ₀ â₀``), or, for a run that crossed the antipode (**unwound**, below), the
+  error axis at the first sample after its last crossing (it then approaches the target from
+  the other side) — the largest excursion past the target along that axis from then on,
+  ``max(0, −min_{t ≥ t_s} ⟨log(E(t))^∨, â₀⟩)`` [deg] and in percent of ``θ₀``; NaN when ``θ₀``
+  is below ``min_geodesic_deg`` (no manoeuvre);
 - **control effort**: ``∫‖u‖dt`` [N·m·s] and ``∫‖u‖²dt`` [N²·m²·s] of the torque delivered on the
   body;
 - **peak gimbal rate**: ``max_{t,i} |δ̇_i|``; **minimum singularity measure** ``min_t m``;
   **time in gimbal-rate saturation**: ``Σ_k sat_k (t_{k+1} − t_k)`` (left rectangle: a flagged
   sample counts until the next sample);
 - **unwinding ratio**: path angle ``∫‖e_Ω‖dt`` over the initial geodesic angle
-  ``θ₀``. The path angle is the length of the error trajectory ``E(t)`` on SO(3), so a controller
-  taking the short way has ratio ≈ 1 − θ_f/θ₀ ≤ 1 (plus any overshoot); ratio ≥ 1.5 means the
-  controller has **unwound**. NaN when ``θ₀ < min_geodesic_deg``.
+  ``θ₀``. The path angle is the length of the error trajectory ``E(t)`` on SO(3): a controller
+  taking the short way has ratio ≈ 1 − θ_f/θ₀ ≤ 1 plus twice any overshoot, and a detour (around
+  a keep-out cone) lengthens it too, so the ratio is a cost, not the unwinding test. NaN when
+  ``θ₀ < min_geodesic_deg``.
+- **unwound**: the error trajectory crossed the cut locus θ = π — the rotation went the long
+  way round. Detected on consecutive samples whose error rotation vectors
+  ``r_k = log(E_k)^∨`` both have ``θ > π/2`` and point into opposite half-spaces
+  (``⟨r_k, r_{k+1}⟩ < 0``: the rotation vector jumped across the antipode). Overshoot (``r``
+  passes through 0, where θ is small) and a detour that stays below π are not unwinding.
+- **RPE / PDE** (ECSS-E-ST-60-10C, :mod:`benchmarks.requirements`): over the final 10 % of the
+  run cut into consecutive windows of ``rpe_window_s`` (default 10 s), ``rpe_deg`` =
+  ``max_j max_{t∈j} ‖r(t) − r̄_j‖`` and ``pde_deg`` = ``max_j ‖r̄_{j+1} − r̄_j‖`` with ``r̄_j`` the
+  mean error vector of window ``j``; NaN when ``rpe_window_s`` is ``None`` (PDE also with fewer
+  than two windows). APE is ``steady_error_max_deg``.
 
 - **command reversals** (chattering indicator, :mod:`benchmarks.unwinding`): the number of
   consecutive logged commands with ``u_cmd,k · u_cmd,k−1 < 0`` while both have a norm of at least
@@ -64,7 +78,13 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from liecontrol._validation import as_array, as_scalar, check_positive, check_positive_scalar
+from liecontrol._validation import (
+    as_array,
+    as_scalar,
+    check_positive,
+    check_positive_scalar,
+    check_rotation_matrix,
+)
 from liecontrol.control.constrained import cone_margins_deg
 
 __all__ = [
@@ -76,6 +96,7 @@ __all__ = [
     "FLAGS",
     "NEAR_SINGULAR_M",
     "CHATTER_REVERSALS",
+    "OVERSHOOT_FLAG_PCT",
     "MOMENTUM_SATURATED_FRACTION",
     "DIVERGENCE_MARGIN_DEG",
     "judge",
@@ -97,13 +118,20 @@ def _vee_skew(M: np.ndarray) -> np.ndarray:
     )
 
 
+#: Tolerance on max |RᵀR − I| of the attitudes given to :func:`error_angle` and
+#: :func:`rate_error` (looser than a single input's: a long simulation accumulates round-off).
+HISTORY_ROTATION_ATOL = 1e-6
+
+
 def error_angle(R: np.ndarray, R_d: np.ndarray) -> np.ndarray:
     """Geodesic angle [rad] of ``E = R_dᵀR``, shape ``R.shape[:-2]``.
 
     ``θ = atan2(½‖(E − Eᵀ)^∨‖, ½(tr E − 1))``: accurate at 0 and at π (unlike ``arccos``).
     """
-    R = as_array(R, "R", (3, 3))
-    R_d = as_array(R_d, "R_d", (3, 3))
+    # rotations within HISTORY_ROTATION_ATOL: a reflection, a zero or a random matrix would
+    # give a plausible-looking angle
+    R = check_rotation_matrix(R, "R", HISTORY_ROTATION_ATOL)
+    R_d = check_rotation_matrix(R_d, "R_d", HISTORY_ROTATION_ATOL)
     _broadcast("R_d", R_d.shape[:-2], "R", R.shape[:-2])
     E = np.swapaxes(R_d, -1, -2) @ R
     s = 0.5 * np.linalg.norm(_vee_skew(E), axis=-1)
@@ -115,9 +143,9 @@ def rate_error(
     R: np.ndarray, omega: np.ndarray, R_d: np.ndarray, omega_d: np.ndarray
 ) -> np.ndarray:
     """Body rate error ``e_Ω = ω − RᵀR_d ω_d``, shape ``omega.shape``."""
-    R = as_array(R, "R", (3, 3))
+    R = check_rotation_matrix(R, "R", HISTORY_ROTATION_ATOL)  # rotations, as in error_angle
     omega = as_array(omega, "omega", (3,))
-    R_d = as_array(R_d, "R_d", (3, 3))
+    R_d = check_rotation_matrix(R_d, "R_d", HISTORY_ROTATION_ATOL)
     omega_d = as_array(omega_d, "omega_d", (3,))
     _broadcast("omega", omega.shape[:-1], "R", R.shape[:-2])
     _broadcast("R_d", R_d.shape[:-2], "R", R.shape[:-2])
@@ -147,6 +175,11 @@ def trapezoid(y: np.ndarray, t: np.ndarray) -> np.ndarray:
         raise ValueError(f"t: expected shape ({y.shape[0]},) to match y, got {t.shape}")
     if y.shape[0] < 2:
         return np.zeros(y.shape[1:])
+    if np.any(np.diff(t) < 0.0):  # a decreasing t would turn the integral's sign
+        k = int(np.argmax(np.diff(t) < 0.0))
+        raise ValueError(
+            f"t: must be non-decreasing, got t[{k + 1}] = {t[k + 1]} < t[{k}] = {t[k]}"
+        )
     dt = np.diff(t).reshape((-1,) + (1,) * (y.ndim - 1))
     return np.sum(0.5 * (y[1:] + y[:-1]) * dt, axis=0)
 
@@ -216,6 +249,8 @@ class Metrics:
     path_angle_deg: np.ndarray
     unwinding_ratio: np.ndarray
     unwound: np.ndarray
+    rpe_deg: np.ndarray
+    pde_deg: np.ndarray
     command_reversals: np.ndarray
     min_keep_out_margin_deg: np.ndarray
     min_keep_in_margin_deg: np.ndarray
@@ -266,6 +301,8 @@ UNITS: dict[str, str] = {
     "path_angle_deg": "deg",
     "unwinding_ratio": "-",
     "unwound": "bool",
+    "rpe_deg": "deg",
+    "pde_deg": "deg",
     "command_reversals": "-",
     "min_keep_out_margin_deg": "deg",
     "min_keep_in_margin_deg": "deg",
@@ -283,6 +320,9 @@ RUN_UNITS: dict[str, str] = {
     "position_settling_time_s": "s",
     "peak_force_N": "N",
     "force_effort_Ns": "N·s",
+    "delta_v_m_s": "m/s",
+    "max_range_ratio": "-",
+    "force_saturation_time_s": "s",
 }
 
 #: One-line meaning of each field (for reports).
@@ -310,8 +350,11 @@ DESCRIPTIONS: dict[str, str] = {
     "peak_momentum_Nms": "max over time of the stored actuator momentum ‖h‖",
     "peak_torque_Nm": "max over time of ‖u‖, the torque delivered on the body",
     "path_angle_deg": "∫‖ω − RᵀR_dω_d‖dt (length of the error path on SO(3))",
-    "unwinding_ratio": "path angle / initial geodesic angle (≥ 1.5: unwound)",
-    "unwound": "unwinding ratio ≥ 1.5",
+    "unwinding_ratio": "path angle / initial geodesic angle (a cost: overshoot and detours "
+    "lengthen the path too)",
+    "unwound": "the error path crossed θ = π (the rotation went the long way round)",
+    "rpe_deg": "ECSS relative performance error over the final 10 %: max ‖e − ē_window‖",
+    "pde_deg": "ECSS performance drift error: max ‖ē_{j+1} − ē_j‖ between windows",
     "command_reversals": "consecutive commands with u_k·u_{k−1} < 0 (both ≥ 5 % of the peak)",
     "min_keep_out_margin_deg": "smallest angle to a keep-out cone boundary over the run "
     "(< 0: violated; NaN: the scenario has no keep-out cone)",
@@ -328,6 +371,9 @@ DESCRIPTIONS: dict[str, str] = {
     "position_settling_time_s": "SE(3): first time after which ‖p − p_d‖ stays below tolerance",
     "peak_force_N": "SE(3): max ‖F‖ over the run",
     "force_effort_Ns": "SE(3): ∫‖F‖dt, the force delivered on the chaser",
+    "delta_v_m_s": "SE(3): ΔV = ∫‖F‖/m dt, the velocity change the thrusters deliver",
+    "max_range_ratio": "SE(3): max ‖p − p_d‖ over the run / ‖p₀ − p_d‖ (range excursion)",
+    "force_saturation_time_s": "SE(3): time with a force component at the thrust limit",
 }
 
 
@@ -352,7 +398,6 @@ def compute_metrics(
     *,
     settle_threshold_deg: float = 0.1,
     steady_fraction: float = 0.1,
-    unwinding_threshold: float = 1.5,
     min_geodesic_deg: float = 1.0,
     reversal_floor: float = 0.05,
     gimbal_rate_limit: float | None = None,
@@ -360,6 +405,7 @@ def compute_metrics(
     keep_out: Any = (),
     keep_in: Any = (),
     momentum_actuator: Any = None,
+    rpe_window_s: float | None = None,
 ) -> Metrics:
     """Compute the benchmark metrics of every spacecraft of a simulation log.
 
@@ -370,7 +416,6 @@ def compute_metrics(
             ``saturated (K,B)`` or per gimbal ``(K,B,n)``).
         settle_threshold_deg: settling threshold on θ [deg] (default 0.1°).
         steady_fraction: final fraction of the run used for the steady-state error.
-        unwinding_threshold: unwinding ratio from which a run counts as unwound.
         min_geodesic_deg: initial error below which overshoot/unwinding are not defined (NaN).
         reversal_floor: fraction of the peak command norm below which a command does not count
             for ``command_reversals``.
@@ -390,6 +435,8 @@ def compute_metrics(
             ``final_momentum_fraction`` (:func:`spacecraft.momentum.momentum_fraction` of the
             logged gimbal angles ``delta`` or wheel speeds ``wheel_speed``); NaN when ``None``
             or the actuator stores no momentum.
+        rpe_window_s: the RPE/PDE window [s] (``None``: ``rpe_deg``/``pde_deg`` are NaN); it
+            must fit in the final ``steady_fraction`` of the run.
 
     Returns:
         :class:`Metrics` with ``(B,)`` arrays.
@@ -404,7 +451,6 @@ def compute_metrics(
     steady_fraction = check_positive_scalar(steady_fraction, "steady_fraction")
     if steady_fraction > 1.0:
         raise ValueError(f"steady_fraction: must be in (0, 1], got {steady_fraction}")
-    unwinding_threshold = check_positive_scalar(unwinding_threshold, "unwinding_threshold")
     min_geodesic_deg = check_positive_scalar(min_geodesic_deg, "min_geodesic_deg")
     reversal_floor = check_positive_scalar(reversal_floor, "reversal_floor")
     if reversal_floor > 1.0:
@@ -459,8 +505,15 @@ def compute_metrics(
     E = np.swapaxes(R_d, -1, -2) @ R
     rv = Rotation.from_matrix(E.reshape(-1, 3, 3)).as_rotvec().reshape(K, B, 3)
     defined = theta0 >= np.deg2rad(min_geodesic_deg)
-    axis0 = rv[0] / np.where(defined, np.linalg.norm(rv[0], axis=-1), 1.0)[:, None]
+    # the approach axis: the initial error axis, or after the last crossing of the antipode
+    # (an unwinding run approaches from the other side) the error axis just after it
+    start = _after_last_crossing(rv)
+    cols = np.arange(B)
+    r_s = rv[start, cols]
+    n_s = np.linalg.norm(r_s, axis=-1)
+    axis0 = r_s / np.where(defined & (n_s > 0), n_s, 1.0)[:, None]
     along = np.einsum("kbi,bi->kb", rv, axis0)
+    along = np.where(np.arange(K)[:, None] >= start[None, :], along, np.inf)
     overshoot = np.maximum(0.0, -along.min(axis=0))
     overshoot_deg = np.where(defined, overshoot * RAD2DEG, np.nan)
     overshoot_pct = np.where(defined, 100.0 * overshoot / np.where(defined, theta0, 1.0), np.nan)
@@ -510,7 +563,15 @@ def compute_metrics(
 
     path = trapezoid(rate, t)
     ratio = np.where(defined, path / np.where(defined, theta0, 1.0), np.nan)
-    unwound = np.where(defined, ratio >= unwinding_threshold, False)
+    unwound = crossed_antipode(rv)
+    if rpe_window_s is not None:
+        from .requirements import pointing_errors
+
+        win = check_positive_scalar(rpe_window_s, "rpe_window_s")
+        rpe, pde = pointing_errors(t, rv, win, float(t_steady))
+        rpe_deg, pde_deg = rpe * RAD2DEG, pde * RAD2DEG
+    else:
+        rpe_deg = pde_deg = np.full(B, np.nan)
 
     peak_mfrac = final_mfrac = np.full(B, np.nan)
     from spacecraft.actuators import ReactionWheelAssembly, SgcmgActuator
@@ -565,6 +626,8 @@ def compute_metrics(
         path_angle_deg=path * RAD2DEG,
         unwinding_ratio=ratio,
         unwound=np.asarray(unwound, dtype=bool),
+        rpe_deg=np.asarray(rpe_deg, dtype=np.float64),
+        pde_deg=np.asarray(pde_deg, dtype=np.float64),
         command_reversals=reversals,
         min_keep_out_margin_deg=margins["keep_out"],
         min_keep_in_margin_deg=margins["keep_in"],
@@ -572,6 +635,34 @@ def compute_metrics(
         final_momentum_fraction=np.asarray(final_mfrac, dtype=np.float64),
         stop_contact_time_s=_flag_time(t, _actuator_array(result, "stop_contact"), K, B),
     )
+
+
+def _antipode_jumps(rv: np.ndarray) -> np.ndarray:
+    """``(K−1, B)``: sample ``k → k+1`` jumps across the cut locus θ = π."""
+    big = np.linalg.norm(rv, axis=-1) > 0.5 * np.pi
+    flip = np.einsum("kbi,kbi->kb", rv[1:], rv[:-1]) < 0.0
+    return flip & big[1:] & big[:-1]
+
+
+def _after_last_crossing(rv: np.ndarray) -> np.ndarray:
+    """Per spacecraft, the first sample after the last antipode crossing (0 when none)."""
+    rv = np.asarray(rv, dtype=np.float64)
+    K, B = rv.shape[:2]
+    if K < 2:
+        return np.zeros(B, dtype=np.intp)
+    j = _antipode_jumps(rv)
+    last = (K - 2) - np.argmax(j[::-1], axis=0)  # index k of the last jump k → k+1
+    return np.where(j.any(axis=0), last + 1, 0).astype(np.intp)
+
+
+def crossed_antipode(rv: np.ndarray) -> np.ndarray:
+    """Per spacecraft: the error rotation vectors ``rv`` ``(K, B, 3)`` jumped across the cut
+    locus θ = π between two consecutive samples (both with θ > π/2 and ``⟨r_k, r_{k+1}⟩ < 0``):
+    the rotation went the long way round (module docstring, **unwound**)."""
+    rv = np.asarray(rv, dtype=np.float64)
+    if rv.shape[0] < 2:
+        return np.zeros(rv.shape[1], dtype=bool)
+    return _antipode_jumps(rv).any(axis=0)
 
 
 def _check_cones(cones: Any, name: str) -> tuple:
@@ -599,6 +690,7 @@ FLAGS: tuple[str, ...] = (
     "position-not-converged",
     "diverged",
     "unwound",
+    "overshoot",
     "actuator-saturated",
     "momentum-saturated",
     "near-singular",
@@ -613,6 +705,10 @@ FLAGS: tuple[str, ...] = (
 #: like 1/σ_min, and at m = 0.2 the smallest singular value is already a few times below the
 #: equilibrium's, so torque accuracy and gimbal-rate headroom are visibly degraded.
 NEAR_SINGULAR_M = 0.2
+#: ``overshoot_pct`` above which a run is flagged ``overshoot``: past the target along the
+#: initial error axis by more than 10 % of the initial angle (the default overshoot requirement,
+#: :data:`benchmarks.requirements.OVERSHOOT_LIMIT_PCT`).
+OVERSHOOT_FLAG_PCT = 10.0
 #: ``command_reversals`` from which a run is flagged ``chattering``: a smooth law reverses its
 #: torque a handful of times (accelerate, brake, one or two overshoots) over a whole run; a law
 #: that switches sign from sample to sample reverses hundreds of times.
@@ -661,7 +757,8 @@ def judge(
     SE(3): ``steady_position_error_max_m`` > ``position_tol…``    position-not-converged  failed
     a metric is non-finite (NaN/inf state), or the run ends ≥ 30°   diverged                failed
     farther from the target than it started
-    ``unwound`` (unwinding ratio ≥ 1.5)                            unwound                 degraded
+    ``unwound`` (the error path crossed θ = π: the long way)       unwound                 degraded
+    ``overshoot_pct`` > :data:`OVERSHOOT_FLAG_PCT` (10 %)           overshoot               degraded
     ``saturation_time_s`` > 0 (gimbal rate / torque box;           actuator-saturated      degraded
     on wheels ``torque_saturation_time_s`` > 0)
     ``wheel_speed_saturation_time_s`` > 0, or                      momentum-saturated      degraded
@@ -723,6 +820,8 @@ def judge(
         failed = True
     if metrics.get("unwound"):
         flags.append("unwound")
+    if _num(metrics, "overshoot_pct") > OVERSHOOT_FLAG_PCT:
+        flags.append("overshoot")
     sat = _num(metrics, "saturation_time_s")
     wheel_torque = _num(metrics, "torque_saturation_time_s")
     wheel_speed = _num(metrics, "wheel_speed_saturation_time_s")

@@ -49,8 +49,8 @@ from liecontrol._validation import as_scalar, check_inertia, check_positive_scal
 
 from .controllers import ControllerContext, ControllerInfo, available_controllers, get_controller
 from .executors import Executor, TaskFailure, describe_exception, make_executor
+from .histories import history_arrays
 from .metrics import compute_metrics
-from .results_file import history_arrays
 from .scenarios import SGCMG_SPACECRAFT, SpacecraftSpec
 
 __all__ = [
@@ -706,13 +706,14 @@ def write_montecarlo_report(
         row.append(fmt(float(np.median(sps))) if sps.size else "n/a")
         rows.append(row)
     lines += markdown_table(
-        ["controller", "success", "failed runs", "settling time [s]", "final error [deg]",
+        ["controller", "success", "errors (runs that raised)", "settling time [s]",
+         "final error [deg]",
          "unwinding ratio", "∫‖u‖dt [N·m·s]", "spacecraft-steps/s"],
         rows,
     )  # fmt: skip
     failed = [r for r in result.records if r["status"] != "ok"]
     if failed:
-        lines += ["", "## Failures", ""]
+        lines += ["", "## Errors (runs that raised)", ""]
         seen: set[tuple[str, str]] = set()
         for r in failed:
             key = (r["controller"], r["error"])

@@ -5,10 +5,12 @@ figures (matplotlib, Agg backend).
 (controllers × scenarios: the verdict of :func:`benchmarks.metrics.judge` and its flags, with
 the settling time or the final error), the Pareto fronts, and one controllers × scenarios table
 per metric — actuator metrics only over the scenarios whose plant has that actuator (gimbal
-metrics on SGCMG plants, wheel metrics on wheel plants, force on SE(3)). Cells of failed runs
-say ``FAILED`` and the error text is listed below. A pair whose controller does not apply to the
-scenario reads ``does not apply`` (the summary says why). Metrics not defined for a run (NaN)
-read ``n/a``; a NaN settling time reads ``not settled``. No cell is ever empty.
+metrics on SGCMG plants, wheel metrics on wheel plants, force on SE(3)). Cells of runs that
+raised (verdict ``error``) say ``error`` and the exception text is listed under "Errors"; the
+word ``failed`` is kept for the verdict "did not converge" (one word per meaning). A pair
+whose controller does not apply to the scenario reads ``does not apply`` (the summary says
+why). Metrics not defined for a run (NaN) read ``n/a``; a NaN settling time reads
+``not settled``. No cell is ever empty.
 
 Figures: per scenario the time histories (panels chosen by the plant, every panel with its time
 axis) and a Pareto figure (performance vs control effort and vs peak actuator use, one marker
@@ -31,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from .controller_cost import cost_section
 from .metrics import (
     CHATTER_REVERSALS,
     DESCRIPTIONS,
@@ -40,6 +43,8 @@ from .metrics import (
     UNITS,
     VERDICTS,
 )
+from .ranking_report import dealiased, dispersion_section
+from .requirements import meets, requirements_of
 from .runner import RunOutcome, SuiteResult
 from .tuning_report import tuning_section
 
@@ -71,7 +76,7 @@ TABLE_METRICS: tuple[tuple[str, str], ...] = (
     ("settling_time_s", "Settling time to the scenario's attitude tolerance [s]"),
     ("steady_error_max_deg", "Steady-state error (max over final 10 %) [deg]"),
     ("peak_rate_deg_s", "Peak rate ‖ω − RᵀR_dω_d‖ [deg/s]"),
-    ("overshoot_deg", "Overshoot along the initial error axis [deg]"),
+    ("overshoot_deg", "Overshoot past the target along the approach axis [deg]"),
     ("effort_Nms", "Control effort ∫‖u‖dt [N·m·s]"),
     ("peak_torque_Nm", "Peak torque ‖u‖ [N·m]"),
     ("saturation_time_s", "Time with an actuator limit active [s]"),
@@ -85,9 +90,9 @@ TABLE_METRICS: tuple[tuple[str, str], ...] = (
     ("peak_wheel_speed_frac", "Wheels: peak wheel speed / speed limit [-]"),
     ("wheel_speed_saturation_time_s", "Wheels: time at the speed limit (momentum saturated) [s]"),
     ("torque_saturation_time_s", "Wheels: time with a wheel torque clipped [s]"),
-    ("unwinding_ratio", "Unwinding ratio (path angle / geodesic angle; ≥ 1.5 unwound) [-]"),
+    ("unwinding_ratio", "Path-length ratio (path angle / geodesic angle; a cost: unwinding is "
+     "the crossing of θ = π) [-]"),
     ("command_reversals", f"Command reversals (≥ {CHATTER_REVERSALS}: chattering) [-]"),
-    ("controller_time_us", "Controller wall time per control step and spacecraft [µs]"),
 )
 #: Extra tables when a suite has SE(3) runs.
 POSE_METRICS: tuple[tuple[str, str], ...] = (
@@ -211,7 +216,7 @@ def _cell(o: RunOutcome, key: str) -> str:
     if o.status == "n/a":
         return NOT_APPLICABLE
     if o.status != "ok":
-        return "FAILED"
+        return "error"  # the run raised (verdict error); "failed" means did not converge
     if key in SETTLING_KEYS and o.verdict == "failed":
         # the settling time of a failed run is a last entry into the band that the final-10 %
         # window contradicts: show the verdict and where the error ended, as the summary does
@@ -240,7 +245,7 @@ def _summary_cell(o: RunOutcome) -> str:
         # the reason is written in full: a cut mid-word ("not for lar…") misleads
         return f"not-applicable: {NOT_APPLICABLE} ({_esc(o.error or '')})"
     if o.status != "ok":
-        return f"{_verdict_text(o)} FAILED: " + _esc(o.error or "", 90)
+        return f"{_verdict_text(o)}: the run raised " + _esc(o.error or "", 90)
     m = o.metrics
     ts = float(m.get("settling_time_s", float("nan")))
     converged = o.verdict != "failed" and "attitude-not-converged" not in o.flags
@@ -274,7 +279,8 @@ def _table(
     names = [s.name for s in scs]
     rows = []
     for c in result.controllers:
-        rows.append([f"`{c}`"] + [cell(result.outcome(s, c)) for s in names])
+        label = f"`{c}`" + "".join(f" (= `{a}`)" for a in getattr(result, "aliases", {}).get(c, ()))
+        rows.append([label] + [cell(result.outcome(s, c)) for s in names])
     lines = [
         "| controller | " + " | ".join(names) + " |",
         "|---|" + "---|" * len(names),
@@ -340,11 +346,17 @@ def _scale_axis(ax: Any, values: Sequence[float], axis: str = "x") -> str:
     v = [x for x in values if math.isfinite(x) and x > 0]
     log = bool(v) and max(v) / min(v) > 10.0
     if log:
-        from matplotlib.ticker import NullFormatter
+        from matplotlib.ticker import LogFormatterSciNotation, LogLocator, NullFormatter
 
         (ax.set_xscale if axis == "x" else ax.set_yscale)("log")
+        ax_ = ax.xaxis if axis == "x" else ax.yaxis
         # minor-tick labels of a log axis spanning a few decades collide
-        (ax.xaxis if axis == "x" else ax.yaxis).set_minor_formatter(NullFormatter())
+        ax_.set_minor_formatter(NullFormatter())
+        if max(v) / min(v) < 1e3:
+            # one or two decades may hold a single power of ten: label 1, 2, 5 × 10^k too,
+            # so the axis always shows at least two labelled ticks
+            ax_.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0)))
+            ax_.set_major_formatter(LogFormatterSciNotation(labelOnlyBase=False))
         return " (log)"
     loc = ax.xaxis if axis == "x" else ax.yaxis
     loc.set_major_locator(MaxNLocator(5))
@@ -438,23 +450,30 @@ def _pareto_points(
         if o.status != "ok":
             continue
         perf, perf_label = performance(scenario, o.metrics)
-        if o.verdict == "failed":
-            perf = float("nan")  # a failed run has no settling time: drawn on the top line
+        if o.verdict == "failed" and _is_settling(scenario):
+            # a failed manoeuvre has no settling time: drawn on the "did not settle" line; a
+            # failed regulation run keeps its real steady error on the real axis
+            perf = float("nan")
         use, use_label = peak_actuator_use(scenario, o.metrics)
         out[c] = (perf, _effort(scenario, o.metrics)[0], use)
     return out, perf_label, use_label
 
 
+def front_eligible(result: SuiteResult, scenario: Any, controller: str) -> bool:
+    """A nominal run may stand on a Pareto front only when it meets every requirement of the
+    scenario (:mod:`benchmarks.requirements`) and its single-run verdict is ``success`` (no
+    saturation, unwinding, overshoot … flag): a degraded or failed run is drawn, distinguishable,
+    but never on the front."""
+    o = result.outcome(scenario.name, controller)
+    return o.verdict == "success" and meets(requirements_of(scenario), o.metrics)[0]
+
+
 def _fronts(result: SuiteResult, scenario: Any) -> tuple[list[str], list[str]]:
     """Pareto fronts (performance vs effort, performance vs peak actuator use) among the runs
-    whose verdict is success or degraded (a run that failed is on no front). Values within
-    :data:`PARETO_REL_TOL` (settling times also within one control period) are equivalent."""
+    that may stand on one (:func:`front_eligible`). Values within :data:`PARETO_REL_TOL`
+    (settling times also within one control period) are equivalent."""
     pts, _, _ = _pareto_points(result, scenario)
-    ok = {
-        c: v
-        for c, v in pts.items()
-        if result.outcome(scenario.name, c).verdict in ("success", "degraded")
-    }
+    ok = {c: v for c, v in pts.items() if front_eligible(result, scenario, c)}
     period = getattr(scenario, "control_period", None) or getattr(scenario, "dt", 0.0)
     perf_abs = float(period) if _is_settling(scenario) else 0.0
     kw = {"rel_tol": PARETO_REL_TOL, "abs_tol": (0.0, perf_abs)}
@@ -472,14 +491,23 @@ def _is_settling(scenario: Any) -> bool:
 
 def _front_cell(result: SuiteResult, scenario: Any, front: list[str], axis: int) -> str:
     pts, _, _ = _pareto_points(result, scenario)
-    vals = [v[axis] for c, v in pts.items()
-            if result.outcome(scenario.name, c).verdict in ("success", "degraded")]
+    vals = [v[axis] for c, v in pts.items() if front_eligible(result, scenario, c)]
     names = ", ".join(f"`{c}`" for c in front) or "none"
     if _narrow_axis(vals):
         lo, hi = min(vals), max(vals)
         return (f"{names} (cost {_fmt(lo)}–{_fmt(hi)}: within 0.5 %, not a separating axis; "
                 "the front is decided by performance alone)")
     return names
+
+
+def _wrap_title(text: str, width_in: float, fontsize: float) -> str:
+    """``text`` wrapped (at spaces; existing line breaks kept) to lines that fit ``width_in``
+    inches at ``fontsize`` points: a long scenario description must not run past the
+    figure's edges, where the saved PNG would cut it."""
+    import textwrap
+
+    chars = max(20, int(width_in * 72.0 / (0.6 * fontsize)))
+    return "\n".join(textwrap.fill(line, chars) if line else line for line in text.split("\n"))
 
 
 def _fault_text(scenario: Any) -> str:
@@ -496,12 +524,15 @@ def write_pareto_figure(result: SuiteResult, scenario: Any, path: Path) -> Path 
     """Performance vs control effort and vs peak actuator use for ``scenario``: one marker per
     controller (its colour and shape), filled for ``success``, hollow for ``degraded``, hollow
     with a grey cross for ``failed``; runs that did not settle are drawn at the top edge
-    (marked). Coincident markers are spread a few points apart on a small circle and labelled
-    "n overlapping". The legend shows each controller with a filled marker; the verdict
+    (marked). Coincident markers stay at their true position (no sideways jitter: an axis
+    may be a ratio whose value matters), drawn as concentric markers of decreasing size so
+    each one shows, and labelled "n overlapping" inside the axes. The legend shows each
+    controller with a filled marker; the verdict
     encoding has its own grey entries. The Pareto front (with the tie tolerance of
-    :func:`pareto_front`) of the success/degraded runs is drawn as a step line."""
+    :func:`pareto_front`) of the runs that meet every requirement with a ``success`` verdict
+    (:func:`front_eligible`) is drawn as a step line."""
+    _check_result(result)
     plt = _plt()
-    from matplotlib.transforms import offset_copy
 
     pts, perf_label, use_label = _pareto_points(result, scenario)
     if not pts:
@@ -517,8 +548,8 @@ def write_pareto_figure(result: SuiteResult, scenario: Any, path: Path) -> Path 
         (axes[0], 1, effort_label, fronts[0]),
         (axes[1], 2, use_label, fronts[1]),
     ):
-        # groups of (near-)coincident markers: spread them by a few points on screen
-        # (deterministic, scale-independent) and say how many overlap
+        # groups of (near-)coincident markers: drawn concentrically at the true position
+        # (largest underneath) and labelled with how many overlap
         drawn = [(c, v[j], v[0] if math.isfinite(v[0]) else top) for c, v in pts.items()
                  if math.isfinite(v[j])]
         nx = _axis_fraction([d[1] for d in drawn])
@@ -538,26 +569,30 @@ def write_pareto_figure(result: SuiteResult, scenario: Any, path: Path) -> Path 
                 o = result.outcome(scenario.name, c)
                 st = styles[c]
                 any_unsettled |= not math.isfinite(pts[c][0])
-                ang = 2 * math.pi * n / len(g)
-                r = 0.0 if len(g) == 1 else 4.0 + 1.0 * len(g)
-                tr = offset_copy(ax.transData, fig=fig, x=r * math.cos(ang),
-                                 y=r * math.sin(ang), units="points")
+                # the first of a group is the largest; at most 24 pt larger than a lone marker
+                size = 9.0 + min(5.0, 24.0 / max(1, len(g) - 1)) * (len(g) - 1 - n)
                 filled = o.verdict == "success"
-                ax.update_datalim([(x, y)])  # the offset transform hides it from autoscaling
                 ax.plot(
-                    [x], [y], linestyle="none", marker=st["marker"], markersize=9,
+                    [x], [y], linestyle="none", marker=st["marker"], markersize=size,
                     markeredgecolor=st["color"], markeredgewidth=1.6,
-                    markerfacecolor=st["color"] if filled else "none", transform=tr,
+                    markerfacecolor=st["color"] if filled else "none", zorder=2 + 0.01 * n,
                 )  # fmt: skip
                 if o.verdict in ("failed", "error"):
                     ax.plot([x], [y], linestyle="none", marker="x", color="0.45",
-                            markersize=12, transform=tr)  # fmt: skip
+                            markersize=size + 3, zorder=2.5 + 0.01 * n)  # fmt: skip
         multi = [g for g in groups if len(g) > 1]
         for gi, g in enumerate(multi):
-            if len(g) > 1:  # alternate above/below so neighbouring labels do not collide
+            if len(g) > 1:
+                # the label points into the axes (left of a marker in the right half, below
+                # one in the top half) so it never spills over the frame; neighbouring
+                # labels alternate their distance
+                fx, fy = nx(g[0][1]), ny(g[0][2])
+                dx = 18.0 if fx <= 0.5 else -18.0
+                dy = (8.0 + 10.0 * (gi % 2)) * (1.0 if fy <= 0.5 else -1.6)
                 ax.annotate(f"{len(g)} overlapping", (g[0][1], g[0][2]),
-                            xytext=(10, 8 if gi % 2 == 0 else -14),
-                            textcoords="offset points", fontsize=7, color="0.25")  # fmt: skip
+                            xytext=(dx, dy), ha="left" if dx > 0 else "right",
+                            va="bottom" if dy > 0 else "top", textcoords="offset points",
+                            fontsize=7, color="0.25")  # fmt: skip
         fp = [(pts[c][j], pts[c][0]) for c in front]
         if len(fp) > 1:
             xs, ys = zip(*sorted(fp), strict=True)
@@ -579,7 +614,8 @@ def write_pareto_figure(result: SuiteResult, scenario: Any, path: Path) -> Path 
     # explained only by the grey entries below
     ident = [
         Line2D([], [], ls="none", marker=styles[c]["marker"], markersize=8,
-               color=styles[c]["color"], markerfacecolor=styles[c]["color"], label=c)
+               color=styles[c]["color"], markerfacecolor=styles[c]["color"],
+               label=result.display_name(c))
         for c in pts
     ]  # fmt: skip
     extra = [
@@ -596,8 +632,10 @@ def write_pareto_figure(result: SuiteResult, scenario: Any, path: Path) -> Path 
         fontsize=7,
     )
     fig.suptitle(
-        f"{scenario.name}: Pareto view (lower-left is better){_fault_text(scenario)}", fontsize=10
-    )
+        _wrap_title(f"{scenario.name}: Pareto view (lower-left is better)"
+                    f"{_fault_text(scenario)}", 0.95 * fig.get_figwidth(), 10),
+        fontsize=10,
+    )  # fmt: skip
     return save_png(fig, path)
 
 
@@ -609,10 +647,16 @@ def _tolerance_text(s: Any) -> str:
 
 def _plant_text(s: Any) -> str:
     if s.plant == "se3":
-        return "SE(3) chaser"
+        px = s.proximity
+        if px is None:
+            return "SE(3) chaser"
+        lim = [f"‖F_i‖ ≤ {px.max_force:g} N" if px.max_force else "force unlimited",
+               f"‖τ_i‖ ≤ {px.max_torque:g} N·m" if px.max_torque else "torque unlimited"]
+        return f"SE(3) chaser, mass {px.mass:g} kg, " + ", ".join(lim) + " per axis"
     sp = s.spacecraft
     if sp.actuator == "sgcmg":
-        txt = f"SGCMG pyramid h₀ {sp.h0:g} N·m·s, δ̇ ≤ {sp.gimbal_rate_limit:g} rad/s"
+        txt = (f"SGCMG pyramid h₀ {sp.h0:g} N·m·s, δ̇ ≤ {sp.gimbal_rate_limit:g} rad/s, "
+               f"steering `{sp.steering}`")  # fmt: skip
     elif sp.actuator == "wheels":
         n = 4 if sp.wheel_layout == "pyramid" else 3
         txt = (
@@ -625,6 +669,41 @@ def _plant_text(s: Any) -> str:
         est = s.sensors.estimator
         txt += "; sensed" + ("" if est == "none" else f" via {est.upper()}")
     return txt
+
+
+def _disturbance_text(s: Any) -> str:
+    """The scenario's disturbances by name (with their parameters) and their size: the peak
+    ‖τ_d‖ over the run at the initial attitude and rate (attitude-dependent torques change as
+    the spacecraft turns), computed from the same models the runs use."""
+    ds = tuple(getattr(s, "disturbances", ()) or ())
+    if s.plant == "se3" or not ds:
+        return "none"
+    names = " + ".join(
+        d.name + (f" ({', '.join(f'{k} {v:g}' for k, v in d.params)})" if d.params else "")
+        for d in ds
+    )
+    try:
+        from liecontrol.lie import so3
+
+        from .runner import build_disturbance
+
+        orbit = s.orbit.circular_orbit() if getattr(s, "orbit", None) is not None else None
+        src = build_disturbance(ds, s.spacecraft.J, orbit=orbit)
+        R0 = so3.exp(np.asarray(s.initial_rotvec, dtype=float))[None]
+        w0 = np.asarray(s.initial_rate, dtype=float)[None]
+        peak = max(float(np.linalg.norm(src(float(t), R0, w0)))
+                   for t in np.linspace(0.0, s.duration, 121))  # fmt: skip
+    except Exception:  # noqa: BLE001 - the size is a courtesy; the name is always shown
+        return names
+    return f"{names}: peak ‖τ_d‖ {_fmt(peak)} N·m"
+
+
+def _faults_cell(s: Any) -> str:
+    """The scenario's actuator faults as table text (kind, unit, time), or "none"."""
+    faults = getattr(s, "faults", ())
+    if not faults:
+        return "none"
+    return "; ".join(f"{f.kind} unit {f.unit} at {f.time:g} s" for f in faults)
 
 
 VERDICT_RULES = (
@@ -641,7 +720,7 @@ VERDICT_RULES = (
     f"`chattering` (≥ {CHATTER_REVERSALS} command reversals); **failed** — an error channel "
     "out of tolerance (`attitude-not-converged`, `position-not-converged`) or `diverged` (ends "
     "at least 30° farther from the target than it started, or a non-finite state); "
-    "**error** — the run raised (its message is listed under Failures); "
+    "**error** — the run raised (its message is listed under Errors); "
     "**not-applicable** — the controller is not defined for that plant."
 )
 
@@ -714,13 +793,56 @@ def _spread_lines(result: SuiteResult) -> list[str]:
     return out
 
 
-def write_report(result: SuiteResult, out_dir: Path, *, figures: bool = True) -> Path:
-    """Write the whole report folder; returns the path of ``report.md``."""
-    out_dir = Path(out_dir)
+def _check_result(result: Any, name: str = "result") -> None:
+    """``TypeError`` naming ``name`` unless ``result`` is a
+    :class:`~benchmarks.runner.SuiteResult`."""
+    if not isinstance(result, SuiteResult):
+        raise TypeError(
+            f"{name}: expected a SuiteResult (from benchmarks.runner.run_suite), got "
+            f"{type(result).__name__}"
+        )
+
+
+def _check_out_dir(out_dir: Any, name: str = "out_dir") -> Path:
+    if not isinstance(out_dir, (str, Path)):
+        raise TypeError(f"{name}: expected a path (str or Path), got {type(out_dir).__name__}")
+    return Path(out_dir)
+
+
+def write_report(
+    result: SuiteResult, out_dir: Path, *, figures: bool = True, progress: bool = False
+) -> Path:
+    """Write the whole report folder; returns the path of ``report.md``. ``progress``: show a
+    tqdm bar (stderr) over the report's steps — each scenario's figures, the overview and
+    the tuning section (which measures every controller's small-angle loop)."""
+    _check_result(result)
+    out_dir = _check_out_dir(out_dir)
+    if not isinstance(progress, bool):
+        raise TypeError(f"progress: expected a bool, got {type(progress).__name__}")
+    from tqdm.auto import tqdm
+
+    n_steps = 1 + (len(result.scenarios) + 1 if figures else 0)
+    bar = tqdm(total=n_steps, desc="report and figures", unit="step", disable=not progress)
+
+    def tick(name: str) -> None:
+        bar.set_postfix_str(name, refresh=False)
+        bar.update(1)
+
+    try:
+        return _write_report(result, out_dir, figures, tick)
+    finally:
+        bar.close()
+
+
+def _write_report(
+    result: SuiteResult, out_dir: Path, figures: bool, tick: Callable[[str], None]
+) -> Path:
     out_dir.mkdir(parents=True, exist_ok=True)
     write_csv(result, out_dir / "metrics.csv")
     write_json(result, out_dir / "metrics.json")
-    figs = write_figures(result, out_dir / "figures") if figures else {}
+    # the data files keep every controller; tables and figures show a suite-wide alias once
+    full, result = result, dealiased(result)
+    figs = write_figures(result, out_dir / "figures", progress=tick) if figures else {}
     counts = {v: sum(o.verdict == v for o in result.outcomes) for v in VERDICTS}
 
     lines = [
@@ -743,13 +865,18 @@ def write_report(result: SuiteResult, out_dir: Path, *, figures: bool = True) ->
         "",
         "## Scenarios",
         "",
-        "| scenario | description | plant | initial error [deg] | tolerance | duration [s] "
-        "| dt [s] | control period [s] |",
-        "|---|---|---|---|---|---|---|---|",
+        "Plant: actuator with its limits (SGCMG: steering law; SE(3): chaser mass and thrust "
+        "limits); disturbance: the external torque models with their peak ‖τ_d‖ over the run at "
+        "the initial attitude; faults: actuator faults (kind, unit, time).",
+        "",
+        "| scenario | description | plant | disturbance | faults | initial error [deg] "
+        "| tolerance | duration [s] | dt [s] | control period [s] |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for s in result.scenarios:
         lines.append(
             f"| {s.name} | {_esc(s.description)} | {_esc(_plant_text(s))} "
+            f"| {_esc(_disturbance_text(s))} | {_esc(_faults_cell(s))} "
             f"| {s.initial_error_deg:.1f} | {_tolerance_text(s)} | {s.duration:g} "
             f"| {s.dt:g} | {s.control_period if s.control_period is not None else s.dt:g} |"
         )
@@ -757,7 +884,9 @@ def write_report(result: SuiteResult, out_dir: Path, *, figures: bool = True) ->
     for c in result.controllers:
         lines.append(f"- `{c}`: {_esc(result.descriptions.get(c, ''))}")
     lines += [""]
+    lines += dispersion_section(full)
     lines += tuning_section(result)
+    tick("tuning")
     lines += [
         "## Summary",
         "",
@@ -802,12 +931,11 @@ def write_report(result: SuiteResult, out_dir: Path, *, figures: bool = True) ->
         if plants is not None and any(s.plant not in plants for s in result.scenarios):
             lines += [f"Scenarios whose plant has no such quantity are left out. "
                       f"{_esc(DESCRIPTIONS.get(key, ''))}.", ""]  # fmt: skip
-        if key == "controller_time_us":
-            lines += [WALL_TIME_NOTE, ""]
         lines += _table(result, lambda o, k=key: _cell(o, k), plants)
+    lines += ["", *cost_section(result)]
     failed = [o for o in result.outcomes if o.status == "failed"]
     if failed:
-        lines += ["", "## Failures", ""]
+        lines += ["", "## Errors (runs that raised)", ""]
         for o in failed:
             lines.append(f"- `{o.controller}` on `{o.scenario}`: {_esc(o.error or '')}")
     lines += figures_section(figs, out_dir)
@@ -827,7 +955,8 @@ def _metric_keys(result: SuiteResult) -> list[str]:
 
 def write_csv(result: SuiteResult, path: Path) -> None:
     """One row per (scenario, controller): status, verdict, flags (``;``-separated), error,
-    then the metrics (empty cells for failed runs, ``nan`` for undefined metrics)."""
+    then the metrics (empty cells for runs that raised, ``nan`` for undefined metrics)."""
+    _check_result(result)
     keys = _metric_keys(result)
     with open(path, "w", newline="", encoding="utf-8") as f:
         w = csv.writer(f)
@@ -844,10 +973,25 @@ def _json_value(v: Any) -> Any:
     return v
 
 
+def _scenario_json(s: Any) -> dict[str, Any]:
+    """``dataclasses.asdict`` of a scenario, with each fault in its scenario-file form (its
+    ``kind`` is a class attribute, which ``asdict`` would drop)."""
+    import dataclasses
+
+    d = dataclasses.asdict(s)
+    if "faults" in d:
+        d["faults"] = [
+            f.as_dict() if hasattr(f, "as_dict")
+            else {"kind": getattr(f, "kind", type(f).__name__), **dataclasses.asdict(f)}
+            for f in getattr(s, "faults", ())
+        ]  # fmt: skip
+    return d
+
+
 def write_json(result: SuiteResult, path: Path) -> None:
     """Everything in ``metrics.csv`` plus units, scenarios (with their tolerances) and run
     metadata (NaN → null)."""
-    import dataclasses
+    _check_result(result)
 
     keys = _metric_keys(result)
     units = {**UNITS, **RUN_UNITS}
@@ -856,7 +1000,7 @@ def write_json(result: SuiteResult, path: Path) -> None:
         "wall_time_s": result.wall_time_s,
         "units": {k: units.get(k, "") for k in keys},
         "verdict_rules": VERDICT_RULES,
-        "scenarios": [dataclasses.asdict(s) for s in result.scenarios],
+        "scenarios": [_scenario_json(s) for s in result.scenarios],
         "controllers": list(result.controllers),
         "results": [
             {
@@ -869,6 +1013,35 @@ def write_json(result: SuiteResult, path: Path) -> None:
                 "metrics": {k: _json_value(o.metrics[k]) for k in keys if k in o.metrics},
             }
             for o in result.outcomes
+        ],
+        "members": result.members,
+        "member_results": [
+            {
+                "scenario": o.scenario,
+                "controller": o.controller,
+                "member": o.member,
+                "status": o.status,
+                "verdict": o.verdict,
+                "flags": list(o.flags),
+                "error": o.error,
+                "metrics": {k: _json_value(o.metrics[k]) for k in keys if k in o.metrics},
+            }
+            for o in result.member_outcomes
+        ],
+        "cells": [
+            {
+                "scenario": c.scenario,
+                "controller": c.controller,
+                "members": c.n,
+                "passed": c.passed,
+                "wilson95": [_json_value(c.interval[0]), _json_value(c.interval[1])],
+                "verdict": c.verdict,
+                "single_run_verdict": c.nominal_verdict,
+                "worst_margin": _json_value(c.worst_margin),
+                "margins": {k: [_json_value(x) for x in v] for k, v in c.margins.items()},
+                "flag_fraction": c.flag_fraction,
+            }
+            for c in result.cells.values()
         ],
     }
     path.write_text(json.dumps(doc, indent=2, allow_nan=False) + "\n", encoding="utf-8")
@@ -929,18 +1102,34 @@ _PANELS: tuple[tuple[str, str, bool, frozenset[str], tuple[float, str] | None], 
 )  # fmt: skip
 
 
-def write_figures(result: SuiteResult, fig_dir: Path) -> dict[str, Path]:
+def _ticking(items: Sequence[Any], tick: Callable[[str], None] | None) -> Any:
+    """Yield ``items``; after each one (also when the loop body ``continue``-s) call
+    ``tick(name)`` when given (the report's progress bar)."""
+    for item in items:
+        yield item
+        if tick is not None:
+            tick(str(getattr(item, "name", item)))
+
+
+def write_figures(
+    result: SuiteResult, fig_dir: Path, *, progress: Callable[[str], None] | None = None
+) -> dict[str, Path]:
     """Per scenario: the time histories (all controllers overlaid; panels chosen by the plant:
     attitude and rate error on every plant, gimbal rate and singularity measure on SGCMG
     plants, wheel speed and momentum on wheel plants, torque on ideal ones, position error and
     force on SE(3); every panel with its own time axis; log panels say where they clip) and
-    the Pareto figure; plus ``overview.png``, the verdict map. Returns ``{name: path}``."""
+    the Pareto figure; plus ``overview.png``, the verdict map. Returns ``{name: path}``.
+    ``progress``: called with the scenario's name after each scenario's figures, and with
+    ``"overview"`` at the end (the command line's progress bar)."""
+    _check_result(result)
+    fig_dir = _check_out_dir(fig_dir, "fig_dir")
+    if progress is not None and not callable(progress):
+        raise TypeError(f"progress: expected a callable or None, got {type(progress).__name__}")
     plt = _plt()
-    fig_dir = Path(fig_dir)
     fig_dir.mkdir(parents=True, exist_ok=True)
     styles = controller_styles(result.controllers)
     out: dict[str, Path] = {}
-    for s in result.scenarios:
+    for s in _ticking(result.scenarios, progress):
         runs = [result.outcome(s.name, c) for c in result.controllers]
         runs = [o for o in runs if o.status != "n/a" and "t" in o.series]
         if not runs:
@@ -967,7 +1156,8 @@ def write_figures(result: SuiteResult, fig_dir: Path) -> dict[str, Path]:
                     y = np.maximum(y, LOG_FLOOR)
                 t = np.asarray(o.series["t"], dtype=float)
                 st = styles[o.controller]
-                lab = o.controller if o.status == "ok" else f"{o.controller} (failed)"
+                name = result.display_name(o.controller)
+                lab = name if o.status == "ok" else f"{name} (error)"
                 # identical traces (two controllers flying the same dynamics) must not hide
                 # one another: solid lines lie underneath, broken lines are drawn over them
                 # and the markers of trace k are shifted by k samples
@@ -994,7 +1184,7 @@ def write_figures(result: SuiteResult, fig_dir: Path) -> dict[str, Path]:
                 title += f"  (log; values < {LOG_FLOOR:g} drawn at {LOG_FLOOR:g})"
             elif key in ("error_deg", "position_error_m"):
                 title += "  (dotted: tolerance)"
-            ax.set_title(title, fontsize=8)
+            ax.set_title(_wrap_title(title, 0.9 * fig.get_figwidth() / ncol, 8), fontsize=8)
             ax.set_ylabel(label, fontsize=8)
             ax.set_xlabel("t [s]", fontsize=8)
             ax.grid(True, alpha=0.3)
@@ -1005,7 +1195,8 @@ def write_figures(result: SuiteResult, fig_dir: Path) -> dict[str, Path]:
         handles, labels = axes[0, 0].get_legend_handles_labels()
         if handles:
             fig.legend(handles, labels, loc="outside right center", fontsize=7)
-        fig.suptitle(f"{s.name}: {s.description}{_fault_text(s)}", fontsize=10)
+        fig.suptitle(_wrap_title(f"{s.name}: {s.description}{_fault_text(s)}",
+                                 0.95 * fig.get_figwidth(), 10), fontsize=10)  # fmt: skip
         out[s.name] = save_png(fig, fig_dir / f"{s.name}.png")
         pareto = write_pareto_figure(result, s, fig_dir / f"{s.name}-pareto.png")
         if pareto is not None:
@@ -1013,6 +1204,8 @@ def write_figures(result: SuiteResult, fig_dir: Path) -> dict[str, Path]:
     path = _overview_figure(result, fig_dir / "overview.png")
     if path is not None:
         out["overview"] = path
+    if progress is not None:
+        progress("overview")
     return out
 
 
@@ -1061,12 +1254,16 @@ def _overview_figure(result: SuiteResult, path: Path) -> Path | None:
         for j in range(S):
             ax.text(j, i, text[i][j], ha="center", va="center", fontsize=7)
     ax.set_xticks(range(S), [s.name for s in result.scenarios], rotation=40, ha="right", fontsize=8)
-    ax.set_yticks(range(C), list(result.controllers), fontsize=8)
+    ax.set_yticks(range(C), [result.display_name(c) for c in result.controllers], fontsize=8)
     ax.set_title(
-        "verdict per run; number: settling time [s] (SE(3): position); *: degraded (flags in "
-        "report.md); —: does not apply\n"
-        "failed cells name the first flag: 'no conv.' attitude not converged, 'pos.' position "
-        "not converged",
+        _wrap_title(
+            "verdict per run; number: settling time [s] (SE(3): position); *: degraded (flags "
+            "in report.md); —: does not apply\n"
+            "failed cells name the first flag: 'no conv.' attitude not converged, 'pos.' "
+            "position not converged; 'error': the run raised",
+            0.95 * fig.get_figwidth(),
+            8,
+        ),
         fontsize=8,
     )
     ax.legend(
@@ -1088,10 +1285,16 @@ def write_sweep_report(
     ``figures/<scenario>-sweep.png``: performance vs control effort with one line per
     controller through its ω_n points (verdict by fill, as in the Pareto figure), so
     controllers are compared at equal aggressiveness. Returns the path of ``sweep.md``."""
+    if not isinstance(results, Mapping):
+        raise TypeError(
+            f"results: expected a mapping ω_n -> SuiteResult, got {type(results).__name__}"
+        )
     if not results:
         raise ValueError("results: empty sweep")
+    for w, r in results.items():
+        _check_result(r, f"results[{w!r}]")
     plt = _plt()
-    out_dir = Path(out_dir)
+    out_dir = _check_out_dir(out_dir)
     fig_dir = out_dir / "figures"
     fig_dir.mkdir(parents=True, exist_ok=True)
     ws = sorted(results)
@@ -1156,8 +1359,12 @@ def write_sweep_report(
             ax.grid(True, alpha=0.3)
             ax.legend(fontsize=7, loc="best")
             ax.set_title(
-                f"{s.name}: each controller over ω_n (labels: ω_n [rad/s]; filled: success, "
-                "hollow: degraded; failed runs left out)",
+                _wrap_title(
+                    f"{s.name}: each controller over ω_n (labels: ω_n [rad/s]; filled: "
+                    "success, hollow: degraded; failed runs left out)",
+                    0.9 * fig.get_figwidth(),
+                    9,
+                ),
                 fontsize=9,
             )
             figs[f"{s.name} (sweep)"] = save_png(fig, fig_dir / f"{s.name}-sweep.png")

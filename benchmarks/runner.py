@@ -51,9 +51,12 @@ from .controllers import (
     GainRule,
     get_controller,
 )
+from .dispersion import DispersionSpec, member_scenario
 from .executors import Executor, TaskFailure, describe_exception, make_executor
+from .histories import history_arrays
 from .metrics import compute_metrics, error_angle, judge, rate_error, settling_time, trapezoid
-from .results_file import history_arrays
+from .ranking import CellSummary, summarise_cell
+from .requirements import pointing_window, requirements_of
 from .scenarios import DisturbanceSpec, ReferenceSpec, Scenario, SensorSpec, SpacecraftSpec
 
 __all__ = [
@@ -556,22 +559,42 @@ def build_reference(spec: ReferenceSpec | Scenario) -> Callable[[float], Attitud
 class FilteredAttitude:
     """Measurement hook (``simulate(..., measurement=...)``) that runs an attitude filter per
     spacecraft between the sensors and the controller: at each control sample it predicts
-    with the held gyro reading over the time since the last sample and updates with the star
-    tracker's roll/pitch/yaw; the controller gets ``R(q̂)`` and ``ω̃ − b̂``.
+    over the time since the last sample with the mean of the gyro readings at its two ends
+    (the trapezoidal rule: exact for a rate that varies linearly over the step, as it does
+    under a held torque, where the end reading alone is off by α·Δt/2 and the bias estimate
+    absorbs that during a slew) and updates with the star tracker's roll/pitch/yaw (a held
+    output — an outage, a slower tracker — or one flagged invalid is not used); the controller
+    gets ``R(q̂)`` and ``ω̃ − b̂``.
 
     The filter (:class:`liecontrol.estimation.MEKF` or
     :class:`liecontrol.estimation.ManifoldUKF`) runs on
     :class:`liecontrol.estimation.GyroAttitudeModel` (state: attitude quaternion and gyro bias;
-    Lefferts, Markley & Shuster 1982) with the sensors' noise levels. It starts at the first
-    star-tracker sample with zero bias and ``P₀ = diag(σ_z², σ_z², σ_z², σ_b², σ_b², σ_b²)``.
+    Lefferts, Markley & Shuster 1982) with the sensors' noise levels: σ_v, σ_u the gyro's, and
+    the tracker's body-frame noise covariance Σ (per-axis or boresight model) seen through the
+    Euler angles, ``R = B(z) Σ B(z)ᵀ`` (``GyroAttitudeModel.R_at``). It starts at the first
+    star-tracker sample with zero bias and ``P₀ = blockdiag(Σ, σ_b² I₃)``.
+
+    Consistency (:mod:`liecontrol.estimation.consistency`): after every filter step the NEES
+    of the attitude error (3 states, against the true attitude handed to the hook) and — with
+    ``gyro`` — of attitude and bias (6 states, against the gyro's true bias), and at every
+    star-tracker update the NIS and whether the χ² gate rejected it, are logged per spacecraft;
+    :meth:`consistency` summarises them as run metrics.
 
     Args:
         spec: the scenario's :class:`~benchmarks.scenarios.SensorSpec` (``estimator`` ``"mekf"``
             or ``"ukf"``).
         attitude, rate: sensor names in ``simulate(..., sensors=...)``.
+        gyro: the simulated :class:`spacecraft.sensors.RateGyro` (its ``state.bias`` is the
+            truth of the bias NEES), or ``None`` (attitude NEES only).
     """
 
-    def __init__(self, spec: SensorSpec, attitude: str = "star_tracker", rate: str = "gyro"):
+    def __init__(
+        self,
+        spec: SensorSpec,
+        attitude: str = "star_tracker",
+        rate: str = "gyro",
+        gyro: Any = None,
+    ):
         _need(spec, SensorSpec, "spec")
         for name, v in (("attitude", attitude), ("rate", rate)):
             if not isinstance(v, str) or not v.isidentifier():
@@ -580,9 +603,12 @@ class FilteredAttitude:
             raise ValueError(f"spec: estimator must be 'mekf' or 'ukf', got {spec.estimator!r}")
         self.spec = spec
         self.attitude, self.rate = attitude, rate
+        self.gyro = gyro
         self._filters: list[Any] = []
         self._t_last: float | None = None
         self._z_last: np.ndarray | None = None
+        self._w_last: np.ndarray | None = None
+        self._log: list[dict[str, list[float]]] = []
 
     def required(self) -> tuple[str, ...]:
         return (self.attitude, self.rate)
@@ -591,24 +617,35 @@ class FilteredAttitude:
         self._filters = []
         self._t_last = None
         self._z_last = None
+        self._w_last = None
+        self._log = [
+            {"nees": [], "nees_full": [], "nis": [], "gated": []} for _ in range(batch_size)
+        ]
+
+    def tracker_covariance(self) -> np.ndarray:
+        """Σ (3×3) [rad²] of the star tracker's body-frame noise rotation (per-axis σ² I₃ or
+        the boresight model σ_c²(I − bbᵀ) + σ_b² bbᵀ), floored at (1e-7 rad)² per axis so the
+        filter's noise covariance stays positive definite for a noiseless sensor."""
+        sp = self.spec
+        if sp.cross_boresight_arcsec is not None or sp.boresight_arcsec is not None:
+            sc = sp.arcsec_to_rad(sp.cross_boresight_arcsec) or 0.0
+            sb = sp.arcsec_to_rad(sp.boresight_arcsec) or 0.0
+            b = np.asarray(sp.boresight, dtype=np.float64)
+            bb = np.outer(b, b)
+            S = sc**2 * (np.eye(3) - bb) + sb**2 * bb
+        else:
+            S = sp.attitude_noise_rad**2 * np.eye(3)
+        return S + 1e-14 * np.eye(3)
 
     def _model(self) -> Any:
         from liecontrol.estimation import GyroAttitudeModel
 
-        sp = self.spec
-        noise = sp.attitude_noise_rad
-        if sp.cross_boresight_arcsec is not None or sp.boresight_arcsec is not None:
-            # boresight model: the filter's isotropic σ_z is the worst axis (the roll)
-            noise = max(
-                sp.arcsec_to_rad(sp.cross_boresight_arcsec) or 0.0,
-                sp.arcsec_to_rad(sp.boresight_arcsec) or 0.0,
-            )
-        # the filter needs positive noise levels even for a noiseless sensor
-        sigma_z = max(noise, 1e-7)
+        S = self.tracker_covariance()
         return GyroAttitudeModel(
-            sigma_v=max(sp.gyro_noise_density, 1e-9),
-            sigma_u=sp.gyro_bias_rw,
-            sigma_z=np.full(3, sigma_z),
+            sigma_v=max(self.spec.gyro_noise_density, 1e-9),
+            sigma_u=self.spec.gyro_bias_rw,
+            sigma_z=np.full(3, np.sqrt(np.max(np.diag(S)))),
+            sigma_body=S,
         )
 
     def __call__(self, t: float, outputs: Any, truth: AttitudeState) -> AttitudeState:
@@ -617,34 +654,95 @@ class FilteredAttitude:
 
         q_meas = np.asarray(outputs[self.attitude], dtype=np.float64)  # (B, 4) scalar-first
         w_meas = np.asarray(outputs[self.rate], dtype=np.float64)  # (B, 3)
+        valid = outputs.get(self.attitude + "_valid")  # a TimedSensor's flag (None: always)
         z = euler_rpy_from_quaternion(q_meas)
         B = q_meas.shape[0]
+        if len(self._log) != B:
+            self.reset(float(t), B)
         if not self._filters:
             model = self._model()
-            sz = float(model.sigma_z[0])
             # initial bias uncertainty: 10× the largest configured bias, at least 1e-5 rad/s
             sb = max(10.0 * float(np.max(np.abs(self.spec.gyro_bias))), 1e-5)
-            P0 = np.diag([sz**2] * 3 + [sb**2] * 3)
+            # the first estimate is the tracker's output: its error is the tracker noise (Σ)
+            P0 = np.zeros((6, 6))
+            P0[:3, :3] = model.sigma_body
+            P0[3:, 3:] = sb**2 * np.eye(3)
             cls = MEKF if self.spec.estimator == "mekf" else ManifoldUKF
             self._filters = [
                 cls(model, np.concatenate([q_meas[b], np.zeros(3)]), P0) for b in range(B)
             ]
         else:
             dt = float(t) - float(self._t_last)
+            w_mid = w_meas if self._w_last is None else 0.5 * (self._w_last + w_meas)
             # a star-tracker sample held over several control samples (or through an outage of
             # that spacecraft's tracker) is used once
             for b, f in enumerate(self._filters):
                 if dt > 0.0:
-                    f.predict(w_meas[b], dt)
-                if self._z_last is None or not np.array_equal(z[b], self._z_last[b]):
-                    f.update(z[b])
+                    f.predict(w_mid[b], dt)
+                fresh = self._z_last is None or not np.array_equal(z[b], self._z_last[b])
+                if fresh and (valid is None or bool(valid[b])):
+                    accepted = f.update(z[b])
+                    nis = f.diagnostics["nis"]
+                    if np.isfinite(nis):
+                        self._log[b]["nis"].append(float(nis))
+                        self._log[b]["gated"].append(0.0 if accepted else 1.0)
         self._t_last = float(t)
         self._z_last = z
+        self._w_last = w_meas.copy()
+        self._log_errors(truth)
         xs = np.stack([f.x for f in self._filters])
         R = quat.to_matrix(xs[:, :4] / np.linalg.norm(xs[:, :4], axis=-1, keepdims=True))
         return AttitudeState(
             R=R, omega=w_meas - xs[:, 4:], h=truth.h, actuator_state=truth.actuator_state
         )
+
+    def _log_errors(self, truth: AttitudeState) -> None:
+        """Append each filter's NEES against the true attitude (and the gyro's true bias)."""
+        from liecontrol.charts import quaternion as quat
+        from liecontrol.estimation.consistency import normalised_error_squared
+
+        q_true = quat.from_matrix(np.asarray(truth.R, dtype=np.float64))
+        st = getattr(self.gyro, "state", None)
+        bias = None if st is None else np.asarray(st.bias, dtype=np.float64)
+        for b, f in enumerate(self._filters):
+            x_true = np.concatenate([q_true[b], f.x[4:] if bias is None else bias[b]])
+            e = f.error(x_true)
+            P = f.P
+            self._log[b]["nees"].append(normalised_error_squared(e[:3], P[:3, :3]))
+            if bias is not None:
+                self._log[b]["nees_full"].append(normalised_error_squared(e, P))
+
+    def consistency(self, b: int) -> dict[str, float]:
+        """Run metrics of spacecraft ``b``'s filter consistency (module
+        :mod:`liecontrol.estimation.consistency`; NaN where there were no samples):
+        ``nees_mean`` (attitude, 3 states) with ``nees_in_bounds`` (1.0 when inside the
+        two-sided 95 % χ² region of its time average, over the effective number of independent
+        samples) and ``nees_in_bounds_fraction`` (share of samples inside χ²₃'s two-sided 95 %
+        interval), ``nees_full_mean`` (attitude and bias, 6 states), ``nis_mean`` with
+        ``nis_in_bounds`` (over the K updates: innovations are white), ``filter_updates`` and
+        ``filter_rejections`` (updates the χ² gate rejected)."""
+        from liecontrol.estimation.consistency import in_interval_fraction, time_average_test
+
+        log = self._log[b]
+        nan = float("nan")
+        out: dict[str, float] = {}
+        for key, n, corr in (("nees", 3, True), ("nees_full", 6, True), ("nis", 3, False)):
+            s = log[key]
+            if s:
+                m, _, _, inside = time_average_test(s, n, correlated=corr)
+                out[f"{key}_mean"] = m
+                if key != "nees_full":
+                    out[f"{key}_in_bounds"] = 1.0 if inside else 0.0
+            else:
+                out[f"{key}_mean"] = nan
+                if key != "nees_full":
+                    out[f"{key}_in_bounds"] = nan
+        out["nees_in_bounds_fraction"] = (
+            in_interval_fraction(log["nees"], 3) if log["nees"] else nan
+        )
+        out["filter_updates"] = float(len(log["gated"]))
+        out["filter_rejections"] = float(sum(log["gated"]))
+        return out
 
 
 def _check_stack(items: Any, name: str, sizes: Any) -> tuple[list, list[int]]:
@@ -704,7 +802,11 @@ def build_sensors(spec: SensorSpec) -> tuple[dict[str, Any], Any, np.random.Gene
             bandwidth=spec.gyro_bandwidth,
         ),
     }
-    hook: Any = StarTrackerGyro() if spec.estimator == "none" else FilteredAttitude(spec)
+    hook: Any = (
+        StarTrackerGyro()
+        if spec.estimator == "none"
+        else FilteredAttitude(spec, gyro=sensors["gyro"])
+    )
     return sensors, hook, np.random.default_rng(spec.seed)
 
 
@@ -747,6 +849,7 @@ class RunOutcome:
         histories: with ``run_suite(..., keep_histories=True)``, the full logged histories
             (:func:`benchmarks.results_file.history_arrays`: ``t``, ``R`` (K, 3, 3), ...),
             written to one file by :func:`benchmarks.results_file.write_histories`; else empty.
+        member: the dispersion member (0: the nominal scenario; :mod:`benchmarks.dispersion`).
     """
 
     scenario: str
@@ -758,6 +861,7 @@ class RunOutcome:
     verdict: str = ""
     flags: tuple[str, ...] = ()
     histories: dict[str, np.ndarray] = field(default_factory=dict)
+    member: int = 0
 
 
 def with_verdict(outcome: RunOutcome, scenario: Scenario) -> RunOutcome:
@@ -781,12 +885,38 @@ class SuiteResult:
     executor: str = "serial"
     descriptions: dict[str, str] = field(default_factory=dict)
     gain_rule: GainRule | None = None  # the spec the run was tuned to (None: the default)
+    members: int = 1
+    member_outcomes: tuple[RunOutcome, ...] = ()
+    cells: dict[tuple[str, str], CellSummary] = field(default_factory=dict)
+    # (scenario, controller) → {ω_n factor: the nominal run meets every requirement; None: the
+    # controller cannot be tuned to that bandwidth} (:func:`bandwidth_sensitivity`)
+    sensitivity: dict[tuple[str, str], dict[float, bool | None]] = field(default_factory=dict)
+    # representative → controllers whose runs coincide with it on every scenario (set by
+    # :func:`benchmarks.ranking_report.dealiased` for the report's tables and figures)
+    aliases: dict[str, tuple[str, ...]] = field(default_factory=dict)
+
+    def display_name(self, controller: str) -> str:
+        """``controller`` with the aliases it stands for, e.g. ``"a (= b)"``."""
+        same = self.aliases.get(controller, ())
+        return f"{controller} (= {', '.join(same)})" if same else controller
 
     def outcome(self, scenario: str, controller: str) -> RunOutcome:
+        """The nominal (member 0) outcome of a pair."""
         for o in self.outcomes:
             if o.scenario == scenario and o.controller == controller:
                 return o
         raise KeyError((scenario, controller))
+
+    def cell(self, scenario: str, controller: str) -> CellSummary:
+        """The pair's :class:`benchmarks.ranking.CellSummary` over its members."""
+        return self.cells[(scenario, controller)]
+
+    def member_runs(self, scenario: str, controller: str) -> list[RunOutcome]:
+        """Every member's outcome of a pair, member 0 first."""
+        rest = [
+            o for o in self.member_outcomes if o.scenario == scenario and o.controller == controller
+        ]
+        return [self.outcome(scenario, controller), *sorted(rest, key=lambda o: o.member)]
 
     @property
     def n_failed(self) -> int:
@@ -953,10 +1083,15 @@ def _simulate_attitude(
 
     sc0 = pairs[0][0]
     mm = sc0.momentum_management
+    groups = _members(pairs, infos)
+    order = [i for _, idx in groups for i in idx]
+    # drawn members of one batch may differ in their true inertia: one per spacecraft then
+    inertias = [pairs[i][0].true_inertia for i in order]
+    same = all(np.array_equal(inertias[0], J) for J in inertias[1:])
     plant = build_plant(
         sc0.spacecraft,
         sc0.disturbances,
-        sc0.true_inertia,
+        inertias[0] if same else np.stack(inertias),
         None if mm is None else mm.build(sc0.orbit),
         orbit=None if sc0.orbit is None else sc0.orbit.circular_orbit(),
     )
@@ -964,8 +1099,6 @@ def _simulate_attitude(
         from spacecraft.faults import with_faults
 
         plant = with_faults(plant, sc0.faults)  # steering told the lost units only
-    groups = _members(pairs, infos)
-    order = [i for _, idx in groups for i in idx]
     members, refs, sizes = [], [], []
     for c, idx in groups:
         scs = [pairs[i][0] for i in idx]
@@ -1008,15 +1141,16 @@ def _simulate_attitude(
     }
     # the settling threshold is each scenario's attitude tolerance (one pass per distinct one)
     by_tol = {
-        tol: compute_metrics(
+        (tol, win): compute_metrics(
             result,
             settle_threshold_deg=tol,
             keep_out=sc0.keep_out,  # one batch shares its cones (Scenario.batch_key)
             keep_in=sc0.keep_in,
             momentum_actuator=plant.actuator,
+            rpe_window_s=win,
             **limits,
         )
-        for tol in {s.attitude_tolerance_deg for s, _ in pairs}
+        for tol, win in {(s.attitude_tolerance_deg, pointing_window(s)) for s, _ in pairs}
     }
     outcomes: dict[int, RunOutcome] = {}
     b = 0
@@ -1024,23 +1158,34 @@ def _simulate_attitude(
         timed = m.inner if isinstance(m, HeldController) else m
         per_sc = timed.mean_time_per_call / len(idx)
         for i in idx:
-            mm = by_tol[pairs[i][0].attitude_tolerance_deg].as_dict(b)
+            s_i = pairs[i][0]
+            mm = by_tol[(s_i.attitude_tolerance_deg, pointing_window(s_i))].as_dict(b)
             mm["controller_time_us"] = 1e6 * per_sc
             mm["sim_wall_time_s"] = wall
+            if callable(getattr(sense.get("measurement"), "consistency", None)):
+                mm.update(sense["measurement"].consistency(b))  # filter NEES/NIS metrics
             series = _series(result, b, limits["wheel_max_speed"])
             hist = history_arrays(result, b) if histories else {}
-            outcomes[i] = RunOutcome(pairs[i][0].name, c, "ok", None, mm, series, histories=hist)
+            outcomes[i] = RunOutcome(
+                s_i.name, c, "ok", None, mm, series, histories=hist, member=s_i.member
+            )
             b += 1
     return [outcomes[i] for i in range(len(pairs))]
 
 
 def _pose_metrics(
-    res: Any, attitude_tol_deg: float = 0.1, position_tol_m: float = 0.1
+    res: Any,
+    attitude_tol_deg: float = 0.1,
+    position_tol_m: float = 0.1,
+    mass: float | None = None,
 ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """Attitude metrics of the pose log (via a duck-typed attitude log) plus position ones:
-    final and steady-state (max over the final 10 %) position error, position settling time to
-    ``position_tol_m`` (first time after which ‖p − p_d‖ stays below it, interpolated as the
-    attitude's; NaN if the last sample is above), peak force."""
+    """Attitude metrics of the pose log (via a duck-typed attitude log whose actuator reports
+    the torque limits' ``saturated`` flags, so ``actuator-saturated`` is judged as on SO(3)) plus
+    position ones: final and steady-state (max over the final 10 %) position error, position
+    settling time to ``position_tol_m`` (first time after which ‖p − p_d‖ stays below it,
+    interpolated as the attitude's; NaN if the last sample is above), peak force, the time with
+    a force component at its limit, the range excursion ``max_t ‖p − p_d‖ / ‖p₀ − p_d‖`` and —
+    with the chaser's ``mass`` — ΔV = ∫‖F‖/m dt of the delivered force."""
 
     @dataclass(frozen=True)
     class _AttitudeView:
@@ -1053,6 +1198,7 @@ def _pose_metrics(
         actuator: dict = field(default_factory=dict)
 
     g, g_d = np.asarray(res.g), np.asarray(res.g_d)
+    sat = np.asarray(getattr(res, "saturated", np.zeros((len(res.t), 1, 6), dtype=bool)))
     view = _AttitudeView(
         t=np.asarray(res.t),
         R=g[..., :3, :3],
@@ -1060,8 +1206,16 @@ def _pose_metrics(
         R_d=g_d[..., :3, :3],
         omega_d=np.asarray(res.xi_d)[..., :3],
         u=np.asarray(res.wrench)[..., :3],
+        actuator={"saturated": sat[..., :3]},
     )
     m = compute_metrics(view, settle_threshold_deg=attitude_tol_deg).as_dict(0)
+    t_all = np.asarray(res.t)
+    force_sat = sat[..., 3:].reshape(len(t_all), -1).any(axis=-1)
+    m["force_saturation_time_s"] = float(np.sum(force_sat[:-1] * np.diff(t_all)))
+    # actuator-saturated covers both halves of the wrench
+    m["saturation_time_s"] = float(
+        np.sum((sat.reshape(len(t_all), -1).any(axis=-1))[:-1] * np.diff(t_all))
+    )
     pos = np.asarray(res.position_error)[:, 0]
     t = np.asarray(res.t)
     ts = float(settling_time(t, pos[:, None], position_tol_m)[0])
@@ -1072,6 +1226,8 @@ def _pose_metrics(
     m["position_settling_time_s"] = ts
     m["peak_force_N"] = float(force.max())
     m["force_effort_Ns"] = float(trapezoid(force, t))
+    m["delta_v_m_s"] = float(trapezoid(force, t)) / mass if mass else float("nan")
+    m["max_range_ratio"] = float(pos.max() / pos[0]) if pos[0] > 0 else float("nan")
     idx = _decimate(t.shape[0])
     series = {
         "t": t[idx],
@@ -1149,11 +1305,15 @@ def _simulate_pose_pair(
         control_period=scenario.control_period,
     )
     wall = time.perf_counter() - t_start
-    m, series = _pose_metrics(res, scenario.attitude_tolerance_deg, scenario.position_tolerance_m)
+    m, series = _pose_metrics(
+        res, scenario.attitude_tolerance_deg, scenario.position_tolerance_m, mass=px.mass
+    )
     m["controller_time_us"] = 1e6 * timed.mean_time_per_call
     m["sim_wall_time_s"] = wall
     hist = history_arrays(res, 0) if histories else {}
-    return RunOutcome(scenario.name, name, "ok", None, m, series, histories=hist)
+    return RunOutcome(
+        scenario.name, name, "ok", None, m, series, histories=hist, member=scenario.member
+    )
 
 
 def _failed(s: Scenario, c: str, exc: BaseException, histories: bool = False) -> RunOutcome:
@@ -1166,7 +1326,9 @@ def _failed(s: Scenario, c: str, exc: BaseException, histories: bool = False) ->
             hist = history_arrays(partial, 0) if histories else {}
         except Exception:  # noqa: BLE001 - a broken partial log must not hide the error
             series, hist = {}, {}
-    return RunOutcome(s.name, c, "failed", describe_exception(exc), {}, series, histories=hist)
+    return RunOutcome(
+        s.name, c, "failed", describe_exception(exc), {}, series, histories=hist, member=s.member
+    )
 
 
 def run_group(task: GroupTask) -> list[RunOutcome]:
@@ -1204,8 +1366,12 @@ def run_suite(
     progress: bool = True,
     gain_rule: GainRule | None = None,
     keep_histories: bool = False,
+    members: int = 1,
+    dispersion: DispersionSpec | None = None,
+    dispersion_seed: int | None = None,
 ) -> SuiteResult:
-    """Run every scenario with every controller (pairs that do not apply are ``"n/a"``).
+    """Run every scenario with every controller (pairs that do not apply are ``"n/a"``), each
+    pair as a cell of ``members`` dispersed members.
 
     Args:
         scenarios: the scenarios (see :mod:`benchmarks.scenarios`).
@@ -1220,9 +1386,17 @@ def run_suite(
             :attr:`ControllerContext.rule`); ``None``: :data:`DEFAULT_GAIN_RULE`.
         keep_histories: keep every run's full logged histories in
             :attr:`RunOutcome.histories`, for :func:`benchmarks.results_file.write_histories`.
+        members: members per cell (≥ 1): member 0 is the scenario itself, members ``1 … N−1``
+            are drawn by :func:`benchmarks.dispersion.member_scenario` and batched apart from it.
+        dispersion: the spread of every scenario's members (``None``: each scenario's own
+            :attr:`~benchmarks.scenarios.Scenario.dispersion`, else
+            :data:`benchmarks.dispersion.DEFAULT_DISPERSION`).
+        dispersion_seed: replaces the seed of every scenario's dispersion (``None``: keep it).
 
     Returns:
-        :class:`SuiteResult` with one :class:`RunOutcome` per pair (scenario-major order).
+        :class:`SuiteResult` with one nominal :class:`RunOutcome` per pair (scenario-major
+        order) in ``outcomes``, the drawn members' in ``member_outcomes``, and a
+        :class:`benchmarks.ranking.CellSummary` per pair in ``cells``.
     """
     from tqdm.auto import tqdm
 
@@ -1275,21 +1449,39 @@ def run_suite(
         raise TypeError(f"gain_rule: expected GainRule or None, got {type(gain_rule).__name__}")
     if not isinstance(keep_histories, (bool, np.bool_)):
         raise TypeError(f"keep_histories: expected a bool, got {keep_histories!r}")
+    members = as_int(members, "members", 1)
+    if dispersion is not None and not isinstance(dispersion, DispersionSpec):
+        raise TypeError(
+            f"dispersion: expected a DispersionSpec or None, got {type(dispersion).__name__}"
+        )
+    from .dispersion import DEFAULT_DISPERSION
 
-    outcomes: dict[tuple[str, str], RunOutcome] = {}
+    # every member is drawn before anything runs (a spread too wide for the plant fails here)
+    drawn: dict[str, list[Scenario]] = {}
+    for s in scenarios:
+        d = dispersion or s.dispersion or DEFAULT_DISPERSION
+        if dispersion_seed is not None:
+            d = dataclasses.replace(d, seed=as_int(dispersion_seed, "dispersion_seed", 0))
+        try:
+            drawn[s.name] = [member_scenario(s, k, d) for k in range(members)]
+        except ValueError as exc:
+            raise ValueError(f"dispersion: scenario {s.name!r}: {exc}") from None
+
+    outcomes: dict[tuple[str, str, int], RunOutcome] = {}
     groups: dict[tuple, list[tuple[Scenario, str]]] = {}
     for s in scenarios:
         for c in controllers:
             ok, why = infos[c].applies(s, gain_rule)
             if not ok:
-                outcomes[(s.name, c)] = RunOutcome(s.name, c, "n/a", why)
+                outcomes[(s.name, c, 0)] = RunOutcome(s.name, c, "n/a", why)
                 continue
-            s_run = sampled_for(s, infos[c])
-            key = s_run.batch_key()
-            if s.plant == "se3" or s.sensors is not None:
-                # SE(3): one pair per run; sensors: every controller sees the same noise draws
-                key = key + (c, s.name)
-            groups.setdefault(key, []).append((s_run, c))
+            for s_k in drawn[s.name]:
+                s_run = sampled_for(s_k, infos[c])
+                key = s_run.batch_key()
+                if s.plant == "se3" or s.sensors is not None:
+                    # SE(3): one pair per run; sensors: every controller sees the same noise
+                    key = key + (c, s.name, s_k.member)
+                groups.setdefault(key, []).append((s_run, c))
     own = not isinstance(executor, Executor)
     if isinstance(executor, Executor):
         ex = executor
@@ -1317,11 +1509,32 @@ def run_suite(
     for task, res in zip(tasks, results, strict=True):
         if isinstance(res, TaskFailure):
             for s, c in task.pairs:
-                outcomes[(s.name, c)] = RunOutcome(s.name, c, "failed", res.error)
+                outcomes[(s.name, c, s.member)] = RunOutcome(
+                    s.name, c, "failed", res.error, member=s.member
+                )
         else:
             for o in res:
-                outcomes[(o.scenario, o.controller)] = o
-    ordered = tuple(with_verdict(outcomes[(s.name, c)], s) for s in scenarios for c in controllers)
+                outcomes[(o.scenario, o.controller, o.member)] = o
+    ordered = tuple(
+        with_verdict(outcomes[(s.name, c, 0)], s) for s in scenarios for c in controllers
+    )
+    extra = tuple(
+        with_verdict(outcomes[(s.name, c, s_k.member)], s_k)
+        for s in scenarios
+        for c in controllers
+        if outcomes[(s.name, c, 0)].status != "n/a"
+        for s_k in drawn[s.name][1:]
+    )
+    cells: dict[tuple[str, str], CellSummary] = {}
+    by_pair: dict[tuple[str, str], list[RunOutcome]] = {}
+    for o in extra:
+        by_pair.setdefault((o.scenario, o.controller), []).append(o)
+    nominal = {(o.scenario, o.controller): o for o in ordered}
+    for s in scenarios:
+        reqs = requirements_of(s)
+        for c in controllers:
+            runs = [nominal[(s.name, c)], *by_pair.get((s.name, c), [])]
+            cells[(s.name, c)] = summarise_cell(reqs, runs)
     return SuiteResult(
         suite=suite,
         scenarios=scenarios,
@@ -1330,6 +1543,9 @@ def run_suite(
         wall_time_s=time.perf_counter() - t_start,
         executor=ex.name,
         gain_rule=gain_rule,
+        members=members,
+        member_outcomes=extra,
+        cells=cells,
         descriptions={
             c: infos[c].description
             + (
@@ -1340,6 +1556,46 @@ def run_suite(
             for c in controllers
         },
     )
+
+
+#: The bandwidth factors :func:`bandwidth_sensitivity` re-tunes to (ω_n × 0.9 and × 1.1).
+SENSITIVITY_FACTORS: tuple[float, ...] = (0.9, 1.1)
+
+
+def bandwidth_sensitivity(
+    result: SuiteResult,
+    factors: Sequence[float] = SENSITIVITY_FACTORS,
+    *,
+    executor: Executor | str | None = None,
+    progress: bool = False,
+) -> SuiteResult:
+    """``result`` with :attr:`SuiteResult.sensitivity` filled: every applicable pair's nominal
+    scenario re-run with every controller re-tuned to ``ω_n × factor`` (ζ kept), and whether
+    that run meets every requirement of the scenario (``None`` where the controller cannot be
+    tuned to that bandwidth). A cell whose verdict is decided by a knife edge shows it here: its
+    requirements hold at one bandwidth and not at the neighbour."""
+    from .requirements import meets
+
+    rule = result.gain_rule or DEFAULT_GAIN_RULE
+    sens: dict[tuple[str, str], dict[float, bool | None]] = {}
+    live = list(result.controllers)
+    for f in factors:
+        f = float(check_positive_scalar(f, "factors"))
+        scaled = GainRule(omega_n=rule.omega_n * f, zeta=rule.zeta)
+        sub = run_suite(
+            result.scenarios, live, suite=f"{result.suite} (ω_n × {f:g})", executor=executor,
+            progress=progress, gain_rule=scaled,
+        )  # fmt: skip
+        for s in result.scenarios:
+            reqs = requirements_of(s)
+            for c in live:
+                if result.outcome(s.name, c).status == "n/a":
+                    continue
+                o = sub.outcome(s.name, c)
+                # None: the controller cannot be tuned to that bandwidth on this scenario
+                ok = None if o.status == "n/a" else o.status == "ok" and meets(reqs, o.metrics)[0]
+                sens.setdefault((s.name, c), {})[f] = ok
+    return dataclasses.replace(result, sensitivity=sens)
 
 
 def _split_groups(

@@ -73,6 +73,16 @@ apply to every scenario (a scenario's own keys win)::
     max_dipole = 200.0               # A·m² per rod
     gain = 0.001                     # k [1/s] of m = k (Δh × B)/‖B‖² (spacecraft.momentum)
 
+    [scenario.dispersion]            # the members' spread (benchmarks.dispersion; 1-sigma)
+    attitude_angle_deg = 2.0         # also attitude_axis_deg, rate_deg_s, inertia_moments,
+    inertia_moments = 0.05           #   inertia_axes_deg, cmg_h0, cmg_beta_deg,
+    seed = 0                         #   disturbance_scale, position_m, sensor_seeds
+    [[scenario.requirement]]         # repeatable (none: benchmarks.requirements defaults)
+    metric = "rpe_deg"               # a benchmarks.requirements.REQUIREMENT_METRICS key
+    limit = 0.01                     # in the metric's unit
+    sense = "max"                    # max: value <= limit; min: value >= limit
+    window_s = 10.0                  # RPE/PDE window [s]
+
     [[scenario.fault]]               # repeatable: an actuator fault (spacecraft.faults)
     kind = "cmg-gimbal-stuck"        # or wheel-failed | actuator-efficiency | actuator-bias
     unit = 2                         # 0-based gimbal / wheel / body axis; must exist
@@ -100,6 +110,8 @@ from scipy.spatial.transform import Rotation
 
 from liecontrol.control.constrained import KeepInCone, KeepOutCone
 
+from .dispersion import DispersionSpec
+from .requirements import Requirement
 from .scenarios import (
     MINI_CMG_SPACECRAFT,
     PAYLOAD_SPACECRAFT,
@@ -158,7 +170,10 @@ _TOP_KEYS = (
     "orbit",
     "momentum_management",
     "fault",
+    "dispersion",
+    "requirement",
 )
+_REQUIREMENT_KEYS = ("metric", "limit", "sense", "window_s", "name")
 _FAULT_KEYS = ("kind", "unit", "time", "efficiency", "bias")
 _CONE_KEYS = ("body_axis", "inertial_direction", "half_angle_deg")
 
@@ -399,6 +414,22 @@ def _scenario(table: Any, defaults: Mapping[str, Any], where: str) -> Scenario:
             kw[k] = _construct(cls, dict(_check_keys(t[k], fields, f"{where}.{k}")), f"{where}.{k}")
     if "fault" in t:
         kw["faults"] = _faults(t["fault"], kw, f"{where}.fault")
+    if "dispersion" in t:
+        fields = tuple(f.name for f in dataclasses.fields(DispersionSpec))
+        dt = _check_keys(t["dispersion"], fields, f"{where}.dispersion")
+        kw["dispersion"] = _construct(DispersionSpec, dict(dt), f"{where}.dispersion")
+    if "requirement" in t:
+        reqs = t["requirement"]
+        if not isinstance(reqs, list):
+            raise _Bad(f"{where}.requirement", "expected [[scenario.requirement]] tables")
+        kw["requirements"] = tuple(
+            _construct(
+                Requirement,
+                dict(_check_keys(r, _REQUIREMENT_KEYS, f"{where}.requirement[{i}]")),
+                f"{where}.requirement[{i}]",
+            )
+            for i, r in enumerate(reqs)
+        )
     ref_t = t.get("reference")
     n_given = isinstance(ref_t, Mapping) and "n" in ref_t
     if "orbit" in kw and "reference" in kw and kw["reference"].kind == "earth-pointing":
@@ -577,6 +608,19 @@ def scenario_to_dict(scenario: Scenario) -> dict[str, Any]:
         }
     if s.faults:
         out["fault"] = [f.as_dict() for f in s.faults]
+    if s.dispersion is not None:
+        out["dispersion"] = {
+            f.name: getattr(s.dispersion, f.name) for f in dataclasses.fields(DispersionSpec)
+        }
+    if s.requirements:
+        out["requirement"] = [
+            {
+                k: getattr(r, k)
+                for k in _REQUIREMENT_KEYS
+                if getattr(r, k) is not None
+            }
+            for r in s.requirements
+        ]
     if s.proximity is not None:
         out["proximity"] = {
             f.name: _plain(getattr(s.proximity, f.name))

@@ -45,8 +45,9 @@ and scenarios built to separate controllers (the quick suite runs the first two)
   and the controllers that ask for more ride the rate limit for the first tens of seconds;
 - ``singular-transit``: a 120° slew about :data:`SINGULAR_TRANSIT_AXIS` with a 115 N·m·s
   pyramid, whose stored-momentum path meets an internal singularity;
-- ``stabilisation-inertia-error``: stabilisation against the constant + harmonic disturbance
-  with the true principal moments × (1.2, 1.2, 0.8);
+- ``agile-slew-uncertain``: a 60° slew (no external torque) whose members draw the inertia (±20 %, axes 3°), the CMG rotor momentum (±6 %) and the pyramid skew
+  (±2°) (2σ; :mod:`benchmarks.dispersion`) — the nominal inertia error of the former
+  ``stabilisation-inertia-error`` moved θ(t) by at most 0.023°, which separated nothing;
 - ``noise-near-180``: 179.5° seen through a coarse attitude sensor (0.5°, 1σ) and a noisy gyro,
   where the error quaternion's sign flips with the noise (switched sign laws chatter);
 - ``estimator-mekf-slew-30`` / ``estimator-ukf-slew-30``: star tracker + biased gyro → MEKF or
@@ -84,6 +85,9 @@ from liecontrol.control.constrained import KeepInCone, KeepOutCone, check_admiss
 from spacecraft.faults import ActuatorFault, check_faults
 from spacecraft.momentum import CrossProductDumping, Magnetorquers
 from spacecraft.orbit import CircularOrbit
+
+from .dispersion import DispersionSpec
+from .requirements import Requirement
 
 __all__ = [
     "SGCMG_BUS_INERTIA",
@@ -230,7 +234,7 @@ def scale_principal_moments(J: object, scale: object) -> np.ndarray:
     """``V diag(λ ∘ s) Vᵀ`` with ``J = V diag(λ) Vᵀ`` (``λ`` ascending): the principal moments
     scaled by ``s`` (3,), principal axes kept. Raises ``ValueError`` (``scale: ...``) when the
     result violates the triangle inequality or is not positive definite."""
-    J = check_inertia(J, "J")
+    J = check_inertia_3x3(J, "J")  # one inertia: a batch is rejected naming J
     s = as_array(scale, "scale", (3,))
     if s.shape != (3,):
         raise ValueError(f"scale: expected shape (3,), got {s.shape}")
@@ -609,7 +613,10 @@ class ProximitySpec:
     inertia ``inertia`` reaches the docking pose ``(exp(dock_rotvec^), dock_position)`` relative
     to a target in a circular orbit of rate ``n``, starting displaced by ``initial_rotvec``
     [rad] and ``initial_position`` [m] (body axes of the docking pose) and co-moving.
-    ``max_torque`` / ``max_force`` limit the thrusters/torquers per axis (``None``: unlimited)."""
+    ``max_torque`` / ``max_force`` limit the thrusters/torquers per axis (``None``: unlimited;
+    the plant clips the command and the run is flagged ``actuator-saturated``).
+    ``max_delta_v`` [m/s]: the ΔV budget the default requirements judge the approach on
+    (``None``: no ΔV requirement)."""
 
     mass: float = 500.0
     inertia: tuple[tuple[float, ...], ...] = ((300.0, 0, 0), (0, 400.0, 0), (0, 0, 350.0))
@@ -620,6 +627,7 @@ class ProximitySpec:
     initial_position: tuple[float, float, float] = (60.0, -50.0, 58.0)
     max_torque: float | None = None
     max_force: float | None = None
+    max_delta_v: float | None = None
 
     def __post_init__(self) -> None:
         m = check_positive(self.mass, "mass")
@@ -630,7 +638,7 @@ class ProximitySpec:
         object.__setattr__(self, "n", check_positive_scalar(self.n, "n"))
         for name in ("dock_rotvec", "dock_position", "initial_rotvec", "initial_position"):
             object.__setattr__(self, name, _tuple3(getattr(self, name), name))
-        for name in ("max_torque", "max_force"):
+        for name in ("max_torque", "max_force", "max_delta_v"):
             v = getattr(self, name)
             if v is not None:
                 object.__setattr__(self, name, check_positive_scalar(v, name))
@@ -843,6 +851,15 @@ class Scenario:
             lie in ``[0, duration]``. The runner wraps the actuator in
             :class:`~spacecraft.faults.FaultyActuator` (steering told which units are lost) and
             the verdict carries the flag ``fault-injected``.
+        dispersion: :class:`benchmarks.dispersion.DispersionSpec` of the cell's members (``None``:
+            the suite's default spread, :data:`benchmarks.dispersion` docs); a suite run with
+            ``members=N`` flies members ``0 … N−1`` (member 0 is this scenario).
+        requirements: :class:`benchmarks.requirements.Requirement` bounds the members are judged
+            on (empty: :func:`benchmarks.requirements.default_requirements`).
+        member: ``0`` for the nominal scenario, ``k ≥ 1`` for a drawn member
+            (:func:`benchmarks.dispersion.member_scenario` sets it).
+        member_inertia: a member's drawn true inertia (``None``: :attr:`true_inertia` follows
+            :attr:`uncertainty`).
 
     :func:`benchmarks.metrics.judge` turns a run's metrics into a verdict with these
     tolerances.
@@ -870,6 +887,10 @@ class Scenario:
     orbit: OrbitSpec | None = None
     momentum_management: MomentumManagementSpec | None = None
     faults: tuple[ActuatorFault, ...] = ()
+    dispersion: DispersionSpec | None = None
+    requirements: tuple[Requirement, ...] = ()
+    member: int = 0
+    member_inertia: tuple[tuple[float, ...], ...] | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name or any(c in self.name for c in "/\\ "):
@@ -1005,6 +1026,30 @@ class Scenario:
             object.__setattr__(self, "faults", faults)
         elif not isinstance(self.faults, tuple):
             object.__setattr__(self, "faults", check_faults(self.faults, "ideal", 3))
+        if self.dispersion is not None and not isinstance(self.dispersion, DispersionSpec):
+            raise TypeError(
+                f"dispersion: expected DispersionSpec or None, got {type(self.dispersion).__name__}"
+            )
+        reqs = self.requirements
+        if isinstance(reqs, Requirement):
+            reqs = (reqs,)
+        if isinstance(reqs, str) or not isinstance(reqs, (tuple, list)):
+            raise TypeError(f"requirements: expected a sequence of Requirement, got {reqs!r}")
+        for r in reqs:
+            if not isinstance(r, Requirement):
+                raise TypeError(f"requirements: expected Requirement items, got {r!r}")
+        object.__setattr__(self, "requirements", tuple(reqs))
+        object.__setattr__(self, "member", as_int(self.member, "member", 0))
+        if self.member_inertia is not None:
+            J_m = _matrix3(self.member_inertia, "member_inertia")
+            object.__setattr__(self, "member_inertia", J_m)
+        # a requirement window must fit in the pointing interval (the final 10 % of the run)
+        for r in self.requirements:
+            if r.window_s is not None and r.window_s > 0.1 * self.duration * (1 + 1e-9):
+                raise ValueError(
+                    f"requirements: {r.name} window_s {r.window_s:g} s is longer than the "
+                    f"pointing interval ({0.1 * self.duration:g} s, the final 10 % of the run)"
+                )
 
     # ------------------------------------------------------------------ derived quantities
 
@@ -1024,7 +1069,9 @@ class Scenario:
 
     @property
     def true_inertia(self) -> np.ndarray:
-        """The plant's inertia (nominal with :attr:`uncertainty` applied)."""
+        """The plant's inertia (nominal with :attr:`uncertainty` applied, or a member's draw)."""
+        if self.member_inertia is not None:
+            return np.array(self.member_inertia)
         if self.uncertainty.is_nominal:
             return self.spacecraft.J
         return scale_principal_moments(self.spacecraft.J, self.uncertainty.inertia_scale)
@@ -1069,8 +1116,16 @@ class Scenario:
         return dataclasses.replace(self, duration=duration, faults=faults)
 
     def batch_key(self) -> tuple:
-        """Scenarios with equal keys can be simulated in one batch (same plant and time grid)."""
+        """Scenarios with equal keys can be simulated in one batch (same plant and time grid).
+
+        Drawn members (``member ≥ 1``) never share a batch with the nominal scenario (so member
+        0 is bit-identical to the single run); members that differ only in their true inertia
+        share one (the plant takes per-spacecraft inertias), except on the full CMG model whose
+        actuator is built on one bus inertia."""
+        full = self.spacecraft.cmg_model == "full"
         return (
+            self.member > 0,
+            self.member_inertia if full else None,
             self.plant,
             self.spacecraft,
             self.disturbances,
@@ -1359,12 +1414,22 @@ def _catalogue() -> tuple[Scenario, ...]:
             for law in ("pinv", "sr", "gsr", "local-gradient", "sda")
         ),
         Scenario(
-            name="stabilisation-inertia-error",
-            description="hold attitude against the constant + harmonic disturbance (Wu et al.) "
-            "with the true principal moments × (1.2, 1.2, 0.8)",
-            disturbances=(CONSTANT_HARMONIC_DISTURBANCE,),
-            uncertainty=UncertaintySpec((1.2, 1.2, 0.8)),
-            tags=("stabilisation", "uncertainty"),
+            name="agile-slew-uncertain",
+            description="60° slew with the inertia known to ±20 % (2σ) and its axes to 3°, the "
+            "CMG rotors' h₀ to ±6 % and the pyramid skew to ±2° (2σ), dispersed over the members "
+            "(no external torque: the model errors alone)",
+            initial_rotvec=tuple(deg(60.0) * np.array(SLEW_AXIS)),
+            duration=400.0,
+            dispersion=DispersionSpec(
+                attitude_angle_deg=2.0,
+                attitude_axis_deg=5.0,
+                rate_deg_s=0.005,
+                inertia_moments=0.1,
+                inertia_axes_deg=3.0,
+                cmg_h0=0.03,
+                cmg_beta_deg=1.0,
+            ),
+            tags=("manoeuvre", "uncertainty"),
         ),
         rest_to_rest(
             179.5,
@@ -1453,8 +1518,8 @@ def _catalogue() -> tuple[Scenario, ...]:
         Scenario(
             name="proximity-approach",
             description="SE(3) chaser to a docking pose 5 m behind an orbiting target, from "
-            "150° / 100 m",
-            proximity=ProximitySpec(),
+            "150° / 100 m, thrusters 20 N and torquers 5 N·m per axis, ΔV budget 10 m/s",
+            proximity=ProximitySpec(max_force=20.0, max_torque=5.0, max_delta_v=10.0),
             duration=400.0,
             dt=1.0,
             control_period=1.0,
@@ -1547,4 +1612,3 @@ def unregister_scenario(name: str) -> None:
 
 
 # the actuator-fault family (full suite): registered by its own module
-from . import fault_scenarios as _fault_scenarios  # noqa: E402, F401

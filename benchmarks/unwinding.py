@@ -18,7 +18,7 @@ log errors) or not (Lee's large-angle error). The cases:
 
 Verdict per (case, controller), in this order:
 
-- ``"failed"``: the run raised (error text kept);
+- ``"error"``: the run raised (error text kept; the same word as the suite's verdict);
 - ``"chatters"``: at least ``chatter_reversals`` command reversals (:mod:`benchmarks.metrics`,
   ``command_reversals``: consecutive commands pointing in opposite directions while both are
   ≥ 5 % of the peak) — checked first, because a chattering body's rate jitter also inflates
@@ -66,7 +66,7 @@ __all__ = [
     "write_unwinding_report",
 ]
 
-VERDICTS = ("converges", "chatters", "unwinds", "diverges", "not converged", "failed")
+VERDICTS = ("converges", "chatters", "unwinds", "diverges", "not converged", "error")
 
 
 @dataclass(frozen=True)
@@ -197,7 +197,7 @@ def unwinding_scenarios(cfg: UnwindingConfig = UnwindingConfig()) -> tuple[Scena
 def verdict(outcome: RunOutcome, cfg: UnwindingConfig = UnwindingConfig()) -> str:
     """The verdict of one run (module docstring; one of :data:`VERDICTS`)."""
     if outcome.status != "ok":
-        return "failed"
+        return "error"
     m = outcome.metrics
     rev = m.get("command_reversals", float("nan"))
     if not math.isnan(rev) and rev >= cfg.chatter_reversals:
@@ -247,7 +247,7 @@ class UnwindingResult:
 
     @property
     def n_failed(self) -> int:
-        return sum(r.verdict == "failed" for r in self.records)
+        return sum(r.verdict == "error" for r in self.records)
 
     def record(self, case: str, controller: str) -> UnwindingRecord:
         for r in self.records:
@@ -408,9 +408,9 @@ def write_unwinding_report(
         [[f"`{c}`"] + [_f(result.record(k, c).unwinding_ratio) for k in cases]
          for c in result.controllers],
     )  # fmt: skip
-    failed = [r for r in recs if r.verdict == "failed"]
+    failed = [r for r in recs if r.verdict == "error"]
     if failed:
-        lines += ["", "## Failures", ""]
+        lines += ["", "## Errors (runs that raised)", ""]
         lines += [f"- `{r.controller}` on `{r.case}`: {r.error}" for r in failed]
     lines += figures_section(figs, out)
     path = out / "unwinding.md"

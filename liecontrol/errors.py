@@ -60,7 +60,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validation import as_array, check_rotation_matrix, check_spd
+from ._validation import as_array, broadcast_batch, check_rotation_matrix, check_spd
 from .lie import so3
 
 __all__ = [
@@ -288,6 +288,8 @@ def angular_velocity_error(R: object, omega: object, R_d: object, omega_d: objec
     R, R_d = _check_pair(R, R_d)
     omega = as_array(omega, "omega", (3,))
     omega_d = as_array(omega_d, "omega_d", (3,))
+    broadcast_batch(("R", R.shape[:-2]), ("R_d", R_d.shape[:-2]), ("omega", omega.shape[:-1]),
+                    ("omega_d", omega_d.shape[:-1]))  # fmt: skip
     Rt = _relative(R, R_d)
     return omega - np.einsum("...ji,...j->...i", Rt, omega_d)
 

@@ -3,33 +3,35 @@ can run on) and the fused closed loop.
 
 A plant has a kernel plan when its parts all have kernels (:mod:`spacecraft._kernels`): a rigid
 body (shared or per-spacecraft inertia, no flexible modes, no momentum management), an
-:class:`~spacecraft.actuators.IdealTorqueActuator` or an
-:class:`~spacecraft.actuators.SgcmgActuator` with the ideal gimbal servo and a pseudo-inverse,
-singularity-robust or generalized singularity-robust steering law, and no disturbance, a
-:class:`~spacecraft.disturbances.ConstantTorque` (one torque for the batch) or a
-:class:`~spacecraft.disturbances.ConstantHarmonicTorque`. Exact types only: a subclass may
-override the formulas, so it keeps the numpy route.
+actuator with a kernel (:func:`spacecraft.actuators.actuator_kernel`: the ideal torque actuator,
+or the SGCMG pyramid with the ideal gimbal servo and a steering law with a kernel,
+:func:`spacecraft.steering.steering_kernel`) and a disturbance with a kernel
+(:func:`spacecraft.disturbances.disturbance_kernel`). Each of those functions lives next to the
+classes it describes; this module imports none of them at import time, and neither they nor the
+classes import this module (no import circle).
 
 :func:`run_fused` runs a whole :func:`spacecraft.simulator.simulate` call in compiled code when,
-in addition, the controller has a kernel (:class:`liecontrol.control.GeometricPD`) and no
-sensors, measurement hook, progress bar or compute delay are used. It produces the same
-:class:`~spacecraft.simulator.SimulationResult` as the per-step Python loop, which calls the
-same kernels one at a time. Anything else — a user's own Python controller, a Python
-disturbance — runs through that loop.
+in addition, the controller supplies a compiled law through the public seam
+:mod:`liecontrol.control.kernel` (``controller.fused_kernel(B)``) and no sensors, measurement
+hook, progress bar or compute delay are used. The loop knows no controller class: it calls the
+law it is given through a function pointer (a numba first-class function of the documented
+signature), carries the law's internal state array and logs its diagnostics rows, so one
+compiled loop (cached on disk) serves the built-in laws and a user's own alike. It produces the
+same :class:`~spacecraft.simulator.SimulationResult` as the per-step Python loop, which calls the
+same kernels one at a time. Anything else — a controller without a kernel, a Python
+disturbance — runs through that loop, and :func:`fused_supported` reports why.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from liecontrol._jit import JIT_ENABLED, njit
-from liecontrol._kernels.finite_time import finite_time_one
-from liecontrol._kernels.geometric_pd import geometric_pd_one
-from liecontrol._kernels.mrp_pd import mrp_pd_one
-from liecontrol._kernels.quaternion_pd import quaternion_pd_one
+from liecontrol.control import kernel as seam
 
 from . import _kernels as K
 
@@ -80,6 +82,7 @@ def _hold_steps(
     shared = J.shape[0] == 1
     held = np.empty(3 if act == K.ACT_IDEAL else n - 3)
     hd = np.empty(3)
+    at_limit = np.zeros(3, dtype=np.bool_)
     work = np.empty(7 * n)
     A = np.empty((3, max(n - 3, 1)))
     # the command's sin/cos of the gimbal angles land where the step's first stage reads them
@@ -91,21 +94,14 @@ def _hold_steps(
         kb = 0 if shared else b
         for _ in range(n_sub):
             if act == K.ACT_SGCMG:
-                if K.sgcmg_command(
+                limited = K.sgcmg_command(
                     S0, C0, steer, sp, rate_limit, u[b], x[b, :3], x[b, 3:], t, held, hd, A,
                     sn, cs,
-                ):  # fmt: skip
-                    saturated[b] += 1.0
+                )  # fmt: skip
             else:
-                limited = False
-                for i in range(3):
-                    v = u[b, i]
-                    if clip_on:
-                        v = min(max(v, -clip[i]), clip[i])
-                        limited = limited or abs(v) >= clip[i]
-                    held[i] = v
-                if limited:
-                    saturated[b] += 1.0
+                limited = K.ideal_command(u[b], clip_on, clip, held, at_limit)
+            if limited:
+                saturated[b] += 1.0
             K.rkmk4_step(
                 act, J[kb], J_inv[kb], S0, C0, dist, dp, t, R[b], x[b], held, dt, R_next,
                 x_next, work, act == K.ACT_SGCMG,
@@ -132,113 +128,52 @@ def hold_steps(
     return R, x, sat
 
 
-def steering_kernel(law: Any, cluster: Any = None) -> tuple[int, np.ndarray] | None:
-    """``(code, params)`` of a steering law with a kernel, else ``None``. The null-motion law
-    needs the ``cluster`` (an :class:`~spacecraft.sgcmg.SgcmgPyramid`) it steers."""
-    from .sgcmg import MEASURE_FLOOR
-    from .steering import (
-        PINV_EPS,
-        GeneralizedSingularityRobust,
-        PseudoInverse,
-        PseudoInverseNullMotion,
-        SingularityRobust,
-    )
-
-    kind = type(law)
-    if kind is PseudoInverse:
-        return K.STEER_PINV, np.array([0.0, 0.0, law.eps, 0.0, 0.0, 0.0, 0.0, 0.0])
-    if kind is SingularityRobust:
-        return K.STEER_SR, np.array([law.lambda0, law.mu, PINV_EPS, 0.0, 0.0, 0.0, 0.0, 0.0])
-    if kind is GeneralizedSingularityRobust:
-        p = [law.lambda0, law.mu, PINV_EPS, law.epsilon0, law.omega_eps, *law.phases]
-        return K.STEER_GSR, np.array(p, dtype=np.float64)
-    if kind is PseudoInverseNullMotion and cluster is not None:
-        head = [law.k, law.eps, MEASURE_FLOOR, 0.0, 0.0, 0.0, 0.0, 0.0]
-        unit = np.concatenate([np.ravel(cluster._S), np.ravel(cluster._C)])
-        return K.STEER_PINV_NULL, np.concatenate([np.array(head), unit])
-    return None
-
-
-def _disturbance_kernel(dist: Any) -> tuple[int, np.ndarray] | None:
-    from .disturbances import ConstantHarmonicTorque, ConstantTorque
-
-    if dist is None:
-        return K.DIST_NONE, np.zeros(3)
-    if type(dist) is ConstantHarmonicTorque:
-        return K.DIST_CONSTANT_HARMONIC, np.array([dist.n, dist.scale, 0.0])
-    if type(dist) is ConstantTorque and np.shape(dist.torque) == (3,):
-        return K.DIST_CONSTANT, np.array(dist.torque, dtype=np.float64)
-    return None
-
-
 def plant_kernel(plant: Any) -> PlantKernel | None:
     """The :class:`PlantKernel` of a :class:`spacecraft.plant.Spacecraft`, or ``None`` when a
     part has no kernel."""
-    from .actuators import IdealTorqueActuator, SgcmgActuator
+    from .actuators import actuator_kernel
+    from .disturbances import disturbance_kernel
 
     if plant.modes is not None or plant.momentum_management is not None:
         return None
-    dist = _disturbance_kernel(plant.disturbance)
+    dist = disturbance_kernel(plant.disturbance)
     if dist is None:
         return None
-    act = plant.actuator
-    clip = None
-    steer, sp, limit = K.STEER_PINV, np.zeros(8), np.inf
-    S0 = C0 = np.zeros((3, 0))
-    if type(act) is IdealTorqueActuator:
-        code = K.ACT_IDEAL
-        if act.max_torque is not None:
-            clip = np.broadcast_to(np.asarray(act.max_torque, dtype=np.float64), (3,)).copy()
-    elif type(act) is SgcmgActuator:
-        if act.servo != "ideal" or act._fast is None:
-            return None
-        s = steering_kernel(act.steering, act.cluster)
-        if s is None:
-            return None
-        code = K.ACT_SGCMG
-        steer, sp = s
-        limit = act.rate_limit
-        S0, C0 = np.ascontiguousarray(act._S0), np.ascontiguousarray(act._C0)
-    else:
+    ak = actuator_kernel(plant.actuator)
+    if ak is None:
         return None
-    J = plant.body.J
-    J_inv = plant.body.J_inv
-    J3 = np.ascontiguousarray(J.reshape(-1, 3, 3))
-    Ji3 = np.ascontiguousarray(J_inv.reshape(-1, 3, 3))
+    code, clip, steer, sp, limit, S0, C0 = ak
+    J3 = np.ascontiguousarray(plant.body.J.reshape(-1, 3, 3))
+    Ji3 = np.ascontiguousarray(plant.body.J_inv.reshape(-1, 3, 3))
     return PlantKernel(code, J3, Ji3, S0, C0, dist[0], dist[1], clip, steer, sp, float(limit))
 
 
-#: controller kinds of the fused loop
-CTRL_GEOMETRIC_PD = 0
-CTRL_MRP_PD = 1
-CTRL_FINITE_TIME = 2
-CTRL_QUATERNION_PD = 3
-#: width of the diagnostics rows the fused loop logs (the widest controller's)
-_DIAG_WIDTH = 11
+def plant_reason(plant: Any) -> str:
+    """Why a plant has no kernel plan, in words (the simulator's log line)."""
+    from .actuators import actuator_kernel
+    from .disturbances import disturbance_kernel
+
+    if plant.modes is not None:
+        return "the plant's flexible modes have no compiled kernel"
+    if plant.momentum_management is not None:
+        return "the plant's momentum management has no compiled kernel"
+    if disturbance_kernel(plant.disturbance) is None:
+        return f"the disturbance {type(plant.disturbance).__name__} has no compiled kernel"
+    if actuator_kernel(plant.actuator) is None:
+        act = plant.actuator
+        steering = getattr(act, "steering", None)
+        extra = "" if steering is None else f" with steering {type(steering).__name__}"
+        return f"the actuator {type(act).__name__}{extra} has no compiled kernel"
+    return "the plant has no compiled kernel"
 
 
-def controller_kernel(controller: Any) -> tuple | None:
-    """``(kind, code, threshold², J, gain 1, gain 2, G)`` of a controller with a kernel
-    (:class:`~liecontrol.control.GeometricPD`: error code, K_R, K_Ω, G;
-    :class:`~liecontrol.control.MrpPD`: feed-forward code, threshold², K, P), else ``None``."""
-    from liecontrol.control.chart_baselines import MrpPD, QuaternionPD
-    from liecontrol.control.finite_time import FiniteTimeSO3, FixedTimeSO3
-    from liecontrol.control.geometric_pd import GeometricPD
+@dataclass(frozen=True)
+class ControllerPlan:
+    """A controller's checked kernel: the law and the arrays the loop starts from."""
 
-    zero3, none = np.zeros((3, 3)), np.zeros(1)
-    if type(controller) is GeometricPD:
-        err, J, kR, kW, G = controller._kernel_args()
-        return CTRL_GEOMETRIC_PD, err, 0.0, J, kR, kW, G, none
-    if type(controller) is MrpPD and controller._kernel_applies():
-        ff, thr2, J, K, P = controller._kernel_args()
-        return CTRL_MRP_PD, ff, thr2, J, K, P, zero3, none
-    if type(controller) is QuaternionPD and controller._kernel_applies():
-        mode, hyst, J, Kp, Kd = controller._kernel_args()
-        return CTRL_QUATERNION_PD, mode, hyst, J, Kp, Kd, zero3, none
-    if type(controller) in (FiniteTimeSO3, FixedTimeSO3):
-        J, prm = controller._kernel_args()
-        return CTRL_FINITE_TIME, 0, 0.0, J, zero3, zero3, zero3, prm
-    return None
+    spec: seam.ControllerKernel
+    params: np.ndarray
+    state: np.ndarray
 
 
 @njit
@@ -248,19 +183,19 @@ def _fused_loop(
     act: int, J: np.ndarray, J_inv: np.ndarray, S0: np.ndarray, C0: np.ndarray,
     dist: int, dp: np.ndarray, clip_on: bool, clip: np.ndarray,
     steer: int, sp: np.ndarray, rate_limit: float,
-    ckind: int, code: int, thr2: float, cJ: np.ndarray, k1: np.ndarray, k2: np.ndarray,
-    G: np.ndarray, cprm: np.ndarray, p_prev: np.ndarray,
+    law: Any, cparams: np.ndarray, cstate: np.ndarray,
     ref_index: np.ndarray, ref_R: np.ndarray, ref_w: np.ndarray, ref_dw: np.ndarray,
     log_t: np.ndarray, log_R: np.ndarray, log_w: np.ndarray, log_Rd: np.ndarray,
     log_wd: np.ndarray, log_ucmd: np.ndarray, log_u: np.ndarray, log_dist: np.ndarray,
     log_act: np.ndarray, log_sat: np.ndarray, log_diag: np.ndarray, diag: np.ndarray,
-) -> tuple[int, int, int]:  # fmt: skip
-    """The closed loop of :func:`spacecraft.simulator.simulate` for ``B`` spacecraft: control at
-    every ``every_ctrl``-th step (zero-order hold), the actuator's command, a log row every
-    ``log_every``-th step and at the end, one RKMK4 step. Returns ``(status, rows, switches)``:
-    status 0 = done, 1 = state non-finite, 2 = non-finite torque; the MRP shadow switches.
-    The MRP controller's continuity memory ``p_prev`` starts empty (first sample) and is left
-    holding its last σ."""
+) -> tuple[int, int, float]:  # fmt: skip
+    """The closed loop of :func:`spacecraft.simulator.simulate` for ``B`` spacecraft: the
+    controller's ``law`` (a first-class function of :data:`liecontrol.control.kernel.
+    LAW_SIGNATURE`) at every ``every_ctrl``-th step (zero-order hold) with its parameters
+    ``cparams`` and its internal state rows ``cstate (B, n_s)`` (carried in place), the
+    actuator's command, a log row every ``log_every``-th step and at the end, one RKMK4 step.
+    Returns ``(status, rows, t)``: status 0 = done, 1 = state non-finite, 2 = non-finite
+    torque (at time ``t``)."""
     B = R.shape[0]
     n = x.shape[1]
     n_held = 3 if act == K.ACT_IDEAL else n - 3
@@ -278,36 +213,19 @@ def _fused_loop(
     # sin/cos of every spacecraft's gimbal angles from its command, reused by its step
     trig = np.empty((B, 2, max(n - 3, 1)))
     rows = 0
-    n_switch = 0
     for k in range(n_steps + 1):
         t = t0 + k * dt
         r = ref_index[k]
         if k % every_ctrl == 0:
             for b in range(B):
                 rb = b if ref_R.shape[1] > 1 else 0
-                if ckind == CTRL_FINITE_TIME:
-                    finite_time_one(
-                        cJ, cprm, R[b], x[b, :3], ref_R[r, rb], ref_w[r, rb], ref_dw[r, rb],
-                        u_cmd[b], diag[b],
-                    )  # fmt: skip
-                elif ckind == CTRL_QUATERNION_PD:
-                    quaternion_pd_one(
-                        code, thr2, cJ, k1, k2, R[b], x[b, :3], ref_R[r, rb], ref_w[r, rb],
-                        ref_dw[r, rb], p_prev[b], u_cmd[b], diag[b],
-                    )  # fmt: skip
-                elif ckind == CTRL_MRP_PD:
-                    n_switch += mrp_pd_one(
-                        code, thr2, cJ, k1, k2, R[b], x[b, :3], ref_R[r, rb], ref_w[r, rb],
-                        ref_dw[r, rb], k > 0, p_prev[b], u_cmd[b], diag[b],
-                    )  # fmt: skip
-                else:
-                    geometric_pd_one(
-                        code, cJ, k1, k2, G, R[b], x[b, :3], ref_R[r, rb], ref_w[r, rb],
-                        ref_dw[r, rb], u_cmd[b], diag[b],
-                    )  # fmt: skip
+                law(
+                    t, R[b], x[b, :3], ref_R[r, rb], ref_w[r, rb], ref_dw[r, rb], cparams,
+                    cstate[b], u_cmd[b], diag[b],
+                )  # fmt: skip
                 tot = u_cmd[b, 0] + u_cmd[b, 1] + u_cmd[b, 2]
                 if not np.isfinite(tot):
-                    return 2, rows, n_switch
+                    return 2, rows, t
         for b in range(B):
             if act == K.ACT_SGCMG:
                 sat[b, 0] = K.sgcmg_command(
@@ -315,12 +233,7 @@ def _fused_loop(
                     A, trig[b, 0], trig[b, 1],
                 )  # fmt: skip
             else:
-                for i in range(3):
-                    v = u_cmd[b, i]
-                    if clip_on:
-                        v = min(max(v, -clip[i]), clip[i])
-                        sat[b, i] = abs(v) >= clip[i]
-                    held[b, i] = v
+                K.ideal_command(u_cmd[b], clip_on, clip, held[b], sat[b])
         if k % log_every == 0 or k == n_steps:
             log_t[rows] = t
             for b in range(B):
@@ -372,27 +285,81 @@ def _fused_loop(
                 for j in range(3):
                     total += R_next[b, i, j]
         if not np.isfinite(total):
-            return 1, rows, n_switch
+            return 1, rows, t
         R, R_next = R_next, R
         x, x_next = x_next, x
-    return 0, rows, n_switch
+    return 0, rows, t0 + n_steps * dt
+
+
+#: compiled entry points of the fused loop, per argument types (the law's type is the seam's
+#: function type, so one compiled loop serves every law)
+_ENTRIES: dict[tuple, Callable[..., Any]] = {}  # by a cheap key of the argument types
+
+
+def _loop_entry(args: tuple, law_index: int) -> Callable[..., Any]:
+    """The compiled :func:`_fused_loop` for these argument types with the law typed as a
+    first-class function of the seam's signature (compiled once, cached on disk)."""
+    # a cheap key first (numba's typeof costs ~10 µs per argument)
+    key = tuple(
+        (a.dtype.char, a.ndim, a.flags.c_contiguous, a.flags.writeable, a.flags.aligned)
+        if isinstance(a, np.ndarray)
+        else type(a)
+        for i, a in enumerate(args)
+        if i != law_index
+    )
+    entry = _ENTRIES.get(key)
+    if entry is None:
+        import numba
+        from numba.core import types
+
+        sig = tuple(
+            types.FunctionType(seam.LAW_SIGNATURE) if i == law_index else numba.typeof(a)
+            for i, a in enumerate(args)
+        )
+        _fused_loop.compile(sig)
+        entry = _fused_loop.overloads[sig].entry_point
+        _ENTRIES[key] = entry
+    return entry
 
 
 def fused_supported(
-    plant: Any, controller: Any, sensors: Any, measurement: Any, progress: bool, **extra: Any
-) -> tuple[PlantKernel, tuple] | None:
-    """The plant and controller kernels when :func:`run_fused` applies, else ``None``."""
-    if not JIT_ENABLED or sensors or measurement is not None or progress:
-        return None
-    if any(v not in (None, 0, 0.0) for v in extra.values()):
-        return None
+    plant: Any,
+    controller: Any,
+    sensors: Any,
+    measurement: Any,
+    progress: bool,
+    *,
+    batch_size: int = 1,
+    control_period: float | None = None,
+    reasons: list[str] | None = None,
+    **extra: Any,
+) -> tuple[PlantKernel, seam.ControllerKernel] | None:
+    """``(plant kernel, controller kernel)`` when :func:`run_fused` applies, else ``None`` —
+    and then, when ``reasons`` is given, one sentence appended to it saying which part keeps
+    the Python loop."""
+
+    def no(why: str) -> None:
+        if reasons is not None:
+            reasons.append(why)
+
+    if not JIT_ENABLED:
+        return no("numba is not available (or LIECONTROL_DISABLE_JIT is set)")
+    if sensors:
+        return no("sensors in the loop have no compiled kernel")
+    if measurement is not None:
+        return no("the measurement hook has no compiled kernel")
+    if progress:
+        return no("the progress bar needs the Python loop")
+    for name, v in extra.items():
+        if v not in (None, 0, 0.0):
+            return no(f"{name} = {v!r} needs the Python loop")
     pk = plant._kernel_plan
     if pk is None:
-        return None
-    ck = controller_kernel(controller)
-    if ck is None:
-        return None
-    return pk, ck
+        return no(plant_reason(plant))
+    spec, why = seam.resolve(controller, batch_size, control_period)
+    if spec is None:
+        return no(why)
+    return pk, spec
 
 
 def _reference_samples(
@@ -442,7 +409,7 @@ def _reference_samples(
 
 
 def run_fused(
-    plan: tuple[PlantKernel, tuple],
+    plan: tuple[PlantKernel, seam.ControllerKernel],
     plant: Any,
     controller: Any,
     reference: Any,
@@ -454,14 +421,17 @@ def run_fused(
     every_ctrl: int,
     log_every: int,
     control_period: float,
+    make_log: Callable[[int, int], Any],
+    notes: list[str] | None = None,
 ) -> Any:
     """The whole run in :func:`_fused_loop`; returns the
     :class:`~spacecraft.simulator.SimulationResult`, or ``None`` when the run must go through
     the Python loop instead (an invalid reference, or a run that fails: the Python loop
-    reports the failure with its partial log)."""
-    from .simulator import _Log
-
-    pk, (ckind, code, thr2, cJ, k1, k2, G, cprm) = plan
+    reports the failure with its partial log; ``notes`` then gets one sentence why).
+    ``make_log(rows, B)`` builds the simulator's log. Raises ``ValueError`` naming the
+    controller and the argument when its kernel is malformed (:func:`liecontrol.control.
+    kernel.check`)."""
+    pk, spec = plan
     B, n = x0.shape
     steps = np.arange(n_steps + 1)
     times = t0 + steps * dt
@@ -471,29 +441,42 @@ def run_fused(
     needed[-1] = True
     refs = _reference_samples(reference, times, needed, B)
     if refs is None:
+        if notes is not None:
+            notes.append("the reference could not be sampled for the compiled loop")
         return None
     index, ref_R, ref_w, ref_dw = refs
+    R0 = np.array(R0, dtype=np.float64)
+    x0 = np.array(x0, dtype=np.float64)
+    # the first control sample (k = 0, before any step) is the probe of a non-finite torque
+    cparams, cstate = seam.check(controller, spec, B, None)
     Kr = n_steps // log_every + 1 + (1 if n_steps % log_every else 0)
-    log = _Log(Kr, B)
+    log = make_log(Kr, B)
     n_held = 3 if pk.act == K.ACT_IDEAL else n - 3
     log_act = np.empty((Kr, B, (n - 3) + n_held))
     n_sat = 3 if pk.act == K.ACT_IDEAL else 1
     log_sat = np.empty((Kr, B, n_sat), dtype=np.bool_)
-    diag = np.zeros((B, _DIAG_WIDTH))
-    log_diag = np.empty((Kr, B, _DIAG_WIDTH))
+    n_diag = int(spec.n_diag)
+    diag = np.zeros((B, n_diag))
+    log_diag = np.empty((Kr, B, n_diag))
     clip = pk.clip if pk.clip is not None else np.zeros(3)
-    # chart memory: MRP σ (3) or the quaternion (4), starting from the controller's own hint
-    p_prev = controller._first_hint(B) if ckind == CTRL_QUATERNION_PD else np.zeros((B, 4))
-    status, rows, n_switch = _fused_loop(
-        n_steps, float(t0), float(dt), every_ctrl, log_every,
-        np.array(R0, dtype=np.float64), np.array(x0, dtype=np.float64),
+    args = (
+        n_steps, float(t0), float(dt), every_ctrl, log_every, R0, x0,
         pk.act, pk.J, pk.J_inv, pk.S0, pk.C0, pk.dist, pk.dist_params, pk.clip is not None,
         clip, pk.steer, pk.steer_params, pk.rate_limit,
-        ckind, code, thr2, cJ, k1, k2, G, cprm, p_prev, index, ref_R, ref_w, ref_dw,
+        spec.law, cparams, cstate, index, ref_R, ref_w, ref_dw,
         log.t, log.R, log.omega, log.R_d, log.omega_d, log.u_cmd, log.u, log.disturbance,
         log_act, log_sat, log_diag, diag,
     )  # fmt: skip
+    status, rows, t_fail = _loop_entry(args, 19)(*args)
+    if status == 2 and t_fail == t0:
+        raise seam.non_finite_error(controller, spec, t0)
     if status != 0:
+        if notes is not None:
+            what = "the state became non-finite" if status == 1 else (
+                f"controller {type(controller).__name__}'s compiled law returned a non-finite "
+                "torque"
+            )  # fmt: skip
+            notes.append(f"{what} at t = {t_fail!r}; the run is repeated in the Python loop")
         return None
     log.rows = rows
     d = log.dicts
@@ -503,30 +486,6 @@ def run_fused(
         d["actuator"]["saturated"] = log_sat[:, :, 0]
     elif pk.clip is not None:
         d["actuator"]["saturated"] = log_sat
-    if ckind == CTRL_QUATERNION_PD:
-        d["controller"].update(
-            q_w=log_diag[:, :, 0], chart_y=log_diag[:, :, 0:4],
-            chart_y_d=np.broadcast_to([1.0, 0.0, 0.0, 0.0], (rows, B, 4)).copy(),
-            chart_switched=log_diag[:, :, 4] != 0.0,
-        )  # fmt: skip
-        controller._set_kernel_state(diag, p_prev)
-    elif ckind == CTRL_FINITE_TIME:
-        d["controller"].update(
-            Psi=log_diag[:, :, 0], theta=log_diag[:, :, 1], e_R=log_diag[:, :, 2:5],
-            e_Omega=log_diag[:, :, 5:8], s=log_diag[:, :, 8:11],
-        )  # fmt: skip
-        controller._diag = diag.copy()
-    elif ckind == CTRL_MRP_PD:
-        d["controller"].update(
-            chart_y=log_diag[:, :, 0:3],
-            chart_y_d=np.zeros((rows, B, 3)),
-            chart_switched=log_diag[:, :, 3] != 0.0,
-        )
-        controller.n_switches += n_switch
-        controller._set_kernel_state(diag, p_prev[:, :3].copy())
-    else:
-        d["controller"].update(
-            Psi=log_diag[:, :, 0], e_R=log_diag[:, :, 1:4], e_Omega=log_diag[:, :, 4:7]
-        )
-        controller._set_diagnostics(diag[:, :7])
+    d["controller"].update(spec.diagnostics(log_diag))
+    spec.finish(cstate, diag.copy())
     return log.result(dt, control_period, plant)

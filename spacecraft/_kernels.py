@@ -35,7 +35,7 @@ DIST_CONSTANT_HARMONIC = 2
 _DET_REL_TRUST = 1e-10
 
 
-@njit
+@njit(inline="always")
 def disturbance_at(kind: int, p: np.ndarray, t: float) -> tuple[float, float, float]:
     """A time-only external torque: none, constant ``p[:3]``, or the constant + harmonic torque
     of Wu, Huang, Wei & Guo (orbit rate ``p[0]``, scale ``p[1]``)."""
@@ -50,7 +50,7 @@ def disturbance_at(kind: int, p: np.ndarray, t: float) -> tuple[float, float, fl
     return 0.0, 0.0, 0.0
 
 
-@njit
+@njit(inline="always")
 def rigid_acceleration(
     J: np.ndarray, Jinv: np.ndarray, w0: float, w1: float, w2: float,
     t0: float, t1: float, t2: float,
@@ -92,7 +92,7 @@ def cmg_momentum_jacobian(
     return h0, h1, h2
 
 
-@njit
+@njit(inline="always")
 def sincos_into(
     x: np.ndarray, xo: int, m: int, trig: np.ndarray, so: int, co: int
 ) -> None:
@@ -104,7 +104,7 @@ def sincos_into(
         trig[co + i] = math.cos(v)
 
 
-@njit
+@njit(inline="always")
 def cmg_bus_torque_at(
     S0: np.ndarray, C0: np.ndarray, w0: float, w1: float, w2: float,
     trig: np.ndarray, so: int, co: int, delta_dot: np.ndarray,
@@ -351,7 +351,28 @@ def sgcmg_command(
     return False
 
 
-@njit
+@njit(inline="always")
+def ideal_command(
+    u: np.ndarray, clip_on: bool, clip: np.ndarray, held: np.ndarray, sat: np.ndarray
+) -> bool:
+    """The ideal actuator's command: ``held = u`` clipped to ``±clip`` per axis when
+    ``clip_on``; ``sat[i]`` = axis ``i`` at its limit (``|held_i| ≥ clip_i``, the one saturation
+    test of the compiled loops, as :meth:`spacecraft.actuators.IdealTorqueActuator.log`).
+    Returns whether any axis is at its limit."""
+    limited = False
+    for i in range(3):
+        v = u[i]
+        at = False
+        if clip_on:
+            v = min(max(v, -clip[i]), clip[i])
+            at = abs(v) >= clip[i]
+        held[i] = v
+        sat[i] = at
+        limited = limited or at
+    return limited
+
+
+@njit(inline="always")
 def actuator_torque(
     act: int, S0: np.ndarray, C0: np.ndarray, w0: float, w1: float, w2: float,
     x: np.ndarray, xo: int, held: np.ndarray, trig: np.ndarray,
@@ -365,7 +386,7 @@ def actuator_torque(
     return held[0], held[1], held[2]
 
 
-@njit
+@njit(inline="always")
 def _field(
     act: int, J: np.ndarray, Jinv: np.ndarray, S0: np.ndarray, C0: np.ndarray,
     dist: int, dp: np.ndarray, t: float, x: np.ndarray, xo: int, held: np.ndarray,

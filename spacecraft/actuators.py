@@ -305,7 +305,7 @@ class SgcmgActuator(Actuator):
         self._fast = self._build_fast_path()
         # the compiled command (spacecraft._kernels.sgcmg_command) for the steering laws that
         # have a kernel, with the sin/cos-separable cluster model
-        from ._fused import steering_kernel
+        from .steering import steering_kernel
 
         self._steer_kernel = None if self._fast is None else steering_kernel(steering, cluster)
         # pass only the keyword arguments the steering law accepts (stateless laws need none)
@@ -913,3 +913,26 @@ class ReactionWheelAssembly(Actuator):
     def derived_log(self, log: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """``h`` (K, B, 3) [N·m·s] from the logged wheel speeds."""
         return {"h": log["wheel_speed"] @ self._AI.T}
+
+
+def actuator_kernel(act: object) -> tuple | None:
+    """``(code, clip, steering code, steering params, rate limit, S0, C0)`` of an actuator with
+    a compiled kernel (:mod:`spacecraft._kernels`), else ``None``: an
+    :class:`IdealTorqueActuator` (``clip`` its per-axis limit ``(3,)`` or ``None``) or an
+    :class:`SgcmgActuator` with the ideal servo and a steering law with a kernel. Exact types
+    only (a subclass may override the formulas)."""
+    from ._kernels import ACT_IDEAL, ACT_SGCMG, STEER_PINV
+
+    none = np.zeros((3, 0))
+    if type(act) is IdealTorqueActuator:
+        clip = None
+        if act.max_torque is not None:
+            clip = np.broadcast_to(np.asarray(act.max_torque, dtype=np.float64), (3,)).copy()
+        return ACT_IDEAL, clip, STEER_PINV, np.zeros(8), math.inf, none, none
+    if type(act) is SgcmgActuator:
+        if act.servo != "ideal" or act._fast is None or act._steer_kernel is None:
+            return None
+        steer, sp = act._steer_kernel
+        S0, C0 = np.ascontiguousarray(act._S0), np.ascontiguousarray(act._C0)
+        return ACT_SGCMG, None, steer, sp, float(act.rate_limit), S0, C0
+    return None

@@ -51,13 +51,23 @@ Gimbal drive, either
 Rotor: constant speed (default; the spin motor holds ``Ω̇ = 0`` and its torque is computed) or
 ``variable_speed=True`` (the spin torque is an input, zero unless given by an open-loop command).
 
-Gimbal stops (:class:`GimbalStops`, e.g. a cable wrap of ±n turns): (1) the rate command from
-any steering law is shaped near a stop — the outward rate is limited to the braking curve
-``√(2 a_b d)`` with ``d`` the distance left after the servo lag, so it reaches zero at the stop
-(documented choice; inward motion is never limited); (2) with a :class:`GimbalServo` the stop
-itself is a stiff spring-damper bumper acting on the gimbal beyond the limit (internal torque, so
-momentum stays conserved). Contact and torque saturation are logged (``stop_contact``,
-``torque_saturated``) and counted by :mod:`benchmarks.metrics`.
+Gimbal stops (:class:`GimbalStops`, e.g. a cable wrap of ±n turns), a hard limit in three
+layers: (1) steering that knows the stops — the law is wrapped in
+:class:`spacecraft.steering.StopAware`, which weights gimbals heading into a nearby stop down so
+the others take the torque (``stop_aware=True``, the default); (2) the rate command is shaped
+near a stop — the outward rate is limited to the braking curve ``√(2 a_b d)`` with ``d`` the
+distance left after the servo lag, so it reaches zero at the stop (inward motion is never
+limited; logged as ``stop_limited``); (3) the stop itself is a rigid contact
+(``contact="hard"``, the default): after every integration step a gimbal found beyond its stop
+is put back on it and a gimbal on its stop moving outward is stopped by a plastic impact whose
+reaction goes into the bus, the total angular momentum kept exactly and the dissipated energy
+booked as work of the stops (:meth:`VscmgActuator.enforce_stops`). So ``lower ≤ δ ≤ upper``
+holds at every step end — every logged sample — whatever the steering, the servo's torque
+limit or the base-rate torque do (a PI rate loop does not hold zero rate against a base-rate
+torque: only the contact does). ``contact="bumper"`` instead models the stop as a stiff
+spring-damper acting beyond the limit inside the stages (penetration allowed). Contact and
+torque saturation are logged (``stop_contact``: a gimbal on a stop; ``torque_saturated``) and
+counted by :mod:`benchmarks.metrics` (``stop_contact_time_s``).
 """
 
 from __future__ import annotations
@@ -218,10 +228,19 @@ class GimbalStops:
     Args:
         lower, upper: the stops (``lower < upper`` elementwise).
         braking_acceleration: ``a_b > 0`` [rad/s²] of the command's braking curve.
-        stiffness: bumper stiffness ``k > 0`` [N·m/rad] beyond a stop (:class:`GimbalServo`).
+        stiffness: bumper stiffness ``k > 0`` [N·m/rad] beyond a stop (``contact="bumper"``
+            with a :class:`GimbalServo`).
         damping: bumper damping ``c ≥ 0`` [N·m·s/rad] (only while pressing into the stop).
         margin: ``≥ 0`` [rad]: the guard brakes to ``stop − margin`` (room for the motion
             during the held command step; the braking curve is exact only in continuous time).
+        contact: ``"hard"`` (default): the stop is a rigid constraint — at every step end a
+            gimbal beyond a stop is put back on it and one moving outward is stopped by a
+            plastic impact whose reaction goes into the bus, keeping the total momentum
+            (:meth:`VscmgActuator.enforce_stops`); ``lower ≤ δ ≤ upper`` then holds at every
+            step end. ``"bumper"``: a stiff spring-damper (``stiffness``, ``damping``) acts
+            beyond the stop inside the integration stages and the gimbal may penetrate
+            (bounded by the bumper; choose ``dt`` so that ``dt·√(k/J_g)`` stays well inside
+            RK4's stability region, else the integrator's momentum error grows).
     """
 
     lower: float | np.ndarray
@@ -230,6 +249,7 @@ class GimbalStops:
     stiffness: float = 1.0e4
     damping: float = 50.0
     margin: float = 0.01
+    contact: str = "hard"
 
     def __post_init__(self) -> None:
         lo, hi = _per_gimbal(self.lower, "lower"), _per_gimbal(self.upper, "upper")
@@ -251,6 +271,8 @@ class GimbalStops:
             if not isinstance(v, float):
                 raise ValueError(f"{name}: must be a scalar, got shape {np.shape(v)}")
             object.__setattr__(self, name, v)
+        if self.contact not in ("hard", "bumper"):
+            raise ValueError(f"contact: expected 'hard' or 'bumper', got {self.contact!r}")
         if np.any(hi - lo <= 2.0 * self.margin):
             raise ValueError(
                 f"margin: {self.margin:.6g} rad leaves no travel between the stops "
@@ -340,7 +362,12 @@ class VscmgActuator(Actuator):
         steering: steering law as for :class:`~spacecraft.actuators.SgcmgActuator`
             (default :class:`spacecraft.steering.SingularityRobust`).
         servo: :class:`GimbalServo` or :class:`~spacecraft.actuators.FirstOrderServo`.
-        stops: :class:`GimbalStops` or ``None`` (free gimbals, slip rings).
+        stops: :class:`GimbalStops` or ``None`` (free gimbals, slip rings). With stops the
+            gimbal angles stay inside them at every step end (contact,
+            :meth:`enforce_stops`).
+        stop_aware: with ``stops``, wrap the steering law in
+            :class:`spacecraft.steering.StopAware` (weights gimbals heading into a nearby stop
+            down; default ``True``).
         delta0: initial gimbal angles ``(4,)`` [rad] (default the zero-momentum set).
         variable_speed: rotor spin torque as an input (``True``) or speed held (``False``).
     """
@@ -357,6 +384,7 @@ class VscmgActuator(Actuator):
         stops: GimbalStops | None = None,
         delta0: object = (np.pi / 4, -np.pi / 4, np.pi / 4, -np.pi / 4),
         variable_speed: bool = False,
+        stop_aware: bool = True,
     ) -> None:
         from .sgcmg import SgcmgPyramid
         from .steering import SteeringLaw, _saturate_unchecked
@@ -389,6 +417,20 @@ class VscmgActuator(Actuator):
             stops.check_angles(d0, "delta0")
         d0 = d0.copy()
         d0.setflags(write=False)
+        self.stop_aware = check_bool(stop_aware, "stop_aware")
+        if stops is not None and self.stop_aware:
+            from .steering import StopAware
+
+            if not isinstance(steering, SteeringLaw):
+                raise ValueError(
+                    "steering: stop-aware steering needs a SteeringLaw (spacecraft.steering); "
+                    "pass stop_aware=False for a plain callable"
+                )
+            # weight gimbals heading into a stop from the braking distance at the rate limit
+            v = float(cluster.gimbal_rate_limit)
+            span = float(np.min(stops.upper - stops.lower))
+            zone = min(max(0.2, v * v / (2.0 * stops.braking_acceleration)), 0.25 * span)
+            steering = StopAware(steering, stops.lower, stops.upper, zone=zone)
         self.bus_inertia = J
         self._checked_J: Any = J  # last plant inertia found equal (identity check thereafter)
         self.inertias = inertias
@@ -422,12 +464,15 @@ class VscmgActuator(Actuator):
         par = np.zeros(N_PAR)
         I = inertias
         par[:8] = (I.J_s, I.J_t, I.J_g, I.wheel_spin, kp, ki, umax, self._lag)
+        # the bumper acts inside the stages only with contact="bumper"; hard stops are enforced
+        # after each step (enforce_stops)
+        self._bumper = stops is not None and stops.contact == "bumper"
         if stops is not None:
             par[8:10] = (stops.stiffness, stops.damping)
             par[10:14] = stops.lower
             par[14:18] = stops.upper
         geometry = np.concatenate([J, self._S, self._C, self._G], axis=1)  # [J_B | S | C | G]
-        self._kargs = (self._kinematic, self.variable_speed, stops is not None, par, geometry)
+        self._kargs = (self._kinematic, self.variable_speed, self._bumper, par, geometry)
         self._held_cache: tuple = (None, None)
         self._steer = steering.steer if isinstance(steering, SteeringLaw) else None
         try:
@@ -498,6 +543,79 @@ class VscmgActuator(Actuator):
             + I.J_t * (t @ t.transpose(0, 2, 1))
             + I.J_g * self._GGt
         )
+
+    # -- gimbal stops: contact ------------------------------------------------------------------
+
+    @property
+    def post_step(self) -> Callable[[np.ndarray], np.ndarray] | None:
+        """The hook :class:`spacecraft.plant.Spacecraft` applies to the packed state ``(ω,
+        x_act)`` after every integration step: :meth:`enforce_stops` with stops, else ``None``."""
+        st = self.stops
+        return self.enforce_stops if st is not None and st.contact == "hard" else None
+
+    def enforce_stops(self, x: np.ndarray) -> np.ndarray:
+        """Gimbal-stop contact as a hard constraint on the packed state ``x`` ``(B, 3 + 17)``
+        = ``(ω, x_act)`` at the end of a step; returns ``x`` (a modified copy where a gimbal
+        touched a stop).
+
+        A gimbal found beyond a stop is put back on it, and a gimbal on a stop moving outward is
+        stopped (a perfectly plastic impact): ``δ̇ᵢ = 0``. The impulse is internal, so the total
+        angular momentum ``H`` (:meth:`total_momentum`) is kept exactly and the reaction goes
+        into the bus: the bus rate change ``Δω`` solves
+        ``[J_tot(δ) − Σ_free J_g g gᵀ (− Σ I_Ws s sᵀ with variable_speed)] Δω = H − H(δ, ω,
+        δ̇ with the stopped gimbals at rest)``: the free gimbals' motors (torque-limited, no
+        impulse) keep each free gimbal's inertial rate ``gᵀω + δ̇`` (with the kinematic
+        :class:`~spacecraft.actuators.FirstOrderServo` they keep ``δ̇``), the spin motors keep
+        ``Ω`` (a variable-speed rotor keeps ``sᵀω + Ω``). The kinetic energy the impact
+        dissipates is booked as (negative) work of the stops in the work state ``W``, so the
+        energy balance ``T − W = const`` still holds. Logged as ``stop_contact`` (a gimbal on a
+        stop), counted by :mod:`benchmarks.metrics` as ``stop_contact_time_s``.
+
+        Inside a step, the stiff bumper of :class:`GimbalStops` acts on any penetration (the
+        RK stages see a smooth force); the projection makes ``lower ≤ δ ≤ upper`` hold exactly at
+        every step end, hence at every logged sample.
+        """
+        st = self.stops
+        if st is None or st.contact != "hard":
+            return x
+        d = x[:, 3:7]
+        r = x[:, 7:11]
+        hi, lo = st.upper, st.lower
+        hit_hi = (d > hi) | ((d >= hi) & (r > 0.0))
+        hit_lo = (d < lo) | ((d <= lo) & (r < 0.0))
+        hit = hit_hi | hit_lo
+        rows = np.flatnonzero(hit.any(axis=-1))
+        if rows.size == 0:
+            return x
+        x = np.array(x, dtype=np.float64, copy=True)
+        w = x[rows, :3]
+        xa = x[rows, 3:]
+        H = self.total_momentum(w, xa)
+        T0 = self.kinetic_energy(w, xa)
+        xa2 = xa.copy()
+        xa2[:, 0:4] = np.clip(xa[:, 0:4], lo, hi)
+        rate = xa2[:, 4:8]
+        stopped = (hit_hi[rows] & (rate > 0.0)) | (hit_lo[rows] & (rate < 0.0))
+        rate[stopped] = 0.0
+        s, t = self._axes(xa2[:, 0:4])
+        M = self._total_inertia(s, t)
+        I = self.inertias
+        if not self._kinematic:
+            free = (~stopped).astype(np.float64)
+            M = M - I.J_g * np.einsum("ik,bk,jk->bij", self._G, free, self._G)
+        if self.variable_speed:
+            M = M - I.wheel_spin * (s @ s.transpose(0, 2, 1))
+        dH = H - self.total_momentum(w, xa2)
+        dw = np.linalg.solve(M, dH[..., None])[..., 0]
+        if not self._kinematic:
+            rate -= np.where(stopped, 0.0, dw @ self._G)
+        if self.variable_speed:
+            xa2[:, 8:12] -= np.einsum("bij,bi->bj", s, dw)
+        w2 = w + dw
+        xa2[:, 16] += self.kinetic_energy(w2, xa2) - T0
+        x[rows, :3] = w2
+        x[rows, 3:] = xa2
+        return x
 
     # -- command -------------------------------------------------------------------------------
 
@@ -647,7 +765,7 @@ class VscmgActuator(Actuator):
         z_dot = np.where(sat & (e * raw > 0.0), 0.0, e)
         u_stop = np.zeros(rate.shape)
         st = self.stops
-        if st is not None:
+        if st is not None and self._bumper:
             over = delta - st.upper
             under = st.lower - delta
             push_up = np.maximum(st.stiffness * over + st.damping * rate, 0.0)
@@ -810,7 +928,7 @@ class VscmgActuator(Actuator):
         :func:`spacecraft._kernels_vscmg.vscmg_rkmk4_step` — or ``None`` when a part has no
         kernel (structural modes, momentum management, a disturbance other than the time-only
         ones of :mod:`spacecraft._kernels`, a body inertia that is not ``bus_inertia``)."""
-        from ._fused import _disturbance_kernel
+        from .disturbances import disturbance_kernel as _disturbance_kernel
 
         if plant.actuator is not self or plant.modes is not None:
             return None

@@ -121,6 +121,21 @@ class ConstantHarmonicTorque:
         return np.broadcast_to(self.torque_at(t), omega.shape)
 
 
+def disturbance_kernel(dist: object) -> tuple[int, np.ndarray] | None:
+    """``(code, params)`` of a disturbance with a compiled kernel
+    (:func:`spacecraft._kernels.disturbance_at`: none, one constant torque for the batch, the
+    constant + harmonic torque), else ``None``. Exact types only (a subclass may override)."""
+    from ._kernels import DIST_CONSTANT, DIST_CONSTANT_HARMONIC, DIST_NONE
+
+    if dist is None:
+        return DIST_NONE, np.zeros(3)
+    if type(dist) is ConstantHarmonicTorque:
+        return DIST_CONSTANT_HARMONIC, np.array([dist.n, dist.scale, 0.0])
+    if type(dist) is ConstantTorque and np.shape(dist.torque) == (3,):
+        return DIST_CONSTANT, np.array(dist.torque, dtype=np.float64)
+    return None
+
+
 @dataclass(frozen=True)
 class SumOfDisturbances:
     """Sum of named disturbance sources.

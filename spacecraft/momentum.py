@@ -40,6 +40,30 @@ directions) the two agree to 0.2 % when d is more than ~35° from every gimbal a
 much. For reaction wheels, maxᵢ |Ωᵢ|/Ω_max,i — the fraction of the
 wheel nearest its speed limit (the exact gauge of h in the momentum box for three orthogonal
 wheels).
+
+Feasibility (:func:`magnetic_dumping_feasibility`, :func:`check_dumping_feasibility`). A
+magnetorquer acts only perpendicular to B, so whether it can hold a disturbance is a property of
+the orbit, the attitude profile and the rods — checked before the run. Over ``n_orbits`` (the
+field turns with the Earth, so one orbit is not the period), with the attitude ``R(t)`` the
+controller holds, the secular disturbance is the inertial mean ``T̄ = ⟨R T_d⟩``; the stored
+momentum stays bounded only if the magnetic torque's inertial mean can be ``−T̄``. Along any
+unit direction ``d`` the rods (box ``|m_b,i| ≤ m_max,i`` in body axes) give at most
+``cap(d) = ⟨Σᵢ m_max,i |(Rᵀ(B × d))ᵢ|⟩`` (maximise ``dᵀ(R m_b × B) = m_bᵀRᵀ(B × d)`` at each
+instant), so ``cap(d) ≥ dᵀ(−T̄)`` for every ``d`` is **necessary**; ``authority_ratio =
+min_d cap(d)/dᵀ(−T̄)`` (over a sphere of directions) below 1 means the momentum grows along
+that ``d`` at least at ``dᵀ(−T̄) − cap(d)``: dumping fails, whatever the law. **Sufficient**
+(for an ideal law): the constant inertial demand ``v = −⟨P⊥⟩⁻¹T̄`` (``P⊥ = I − B̂B̂ᵀ``) realised
+by ``m = B × v/‖B‖²`` has ``⟨m × B⟩ = −T̄``; ``dipole_ratio = m_max / max_t |m_b,i|``. Between
+the two the outcome depends on the law. Assumptions: the attitude follows the given profile
+(the attitude loop holds it), the disturbance model is the one given, the tilted-dipole field.
+The cross-product law's gain ``k`` and the CMG momentum capacity (which must hold the cyclic
+part, reported as ``cyclic_momentum``) are not part of the necessary test. At low inclination
+the field lies close to the orbit normal, along which an Earth-pointing spacecraft's dominant
+secular torque then acts — the classic infeasible case.
+
+After a run, :func:`momentum_growth_per_orbit` measures the secular growth of the stored
+momentum (or its envelope fraction) from orbit means; a positive growth flags dumping that does
+not keep up.
 """
 
 from __future__ import annotations
@@ -60,6 +84,11 @@ __all__ = [
     "CrossProductDumping",
     "sgcmg_momentum_capacity",
     "momentum_fraction",
+    "DumpingFeasibility",
+    "DumpingInfeasibleWarning",
+    "magnetic_dumping_feasibility",
+    "check_dumping_feasibility",
+    "momentum_growth_per_orbit",
 ]
 
 
@@ -110,6 +139,12 @@ class CrossProductDumping:
         magnetorquers: the rods (default 200 A·m² per rod).
         gain: k [1/s] (> 0).
         h_target: target stored momentum ``(3,)`` [N·m·s] in body axes (default zero).
+        attitude: the attitude profile the controller will hold (a callable ``t ->
+            AttitudeReference`` such as :class:`spacecraft.orbit.EarthPointingReference`,
+            ``t -> (3, 3)``, or a constant ``(3, 3)``), or ``None``. When given,
+            :class:`spacecraft.plant.Spacecraft` runs :meth:`preflight` with its disturbance when
+            it is built: a :class:`DumpingInfeasibleWarning` before the run if the rods cannot
+            hold the secular disturbance (:func:`magnetic_dumping_feasibility`).
     """
 
     orbit: CircularOrbit
@@ -120,6 +155,7 @@ class CrossProductDumping:
     # inertial field by time: the RK stages evaluate t, t + h/2 (twice) and t + h, and the next
     # step starts at t + h (a per-instance memo of a pure function of t, bounded below)
     _memo: dict = _dc_field(init=False, repr=False, compare=False, default_factory=dict)
+    attitude: object = _dc_field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         if not isinstance(self.orbit, CircularOrbit):
@@ -139,6 +175,27 @@ class CrossProductDumping:
         ht = ht.copy()
         ht.setflags(write=False)
         object.__setattr__(self, "h_target", ht)
+        a = self.attitude
+        if a is not None and not callable(a):
+            from liecontrol._validation import check_rotation_matrix
+
+            R = check_rotation_matrix(a, "attitude")
+            if R.shape != (3, 3):
+                raise ValueError(
+                    f"attitude: expected a callable t -> AttitudeReference or one (3, 3) "
+                    f"attitude, got shape {R.shape}"
+                )
+            R = R.copy()
+            R.setflags(write=False)
+            object.__setattr__(self, "attitude", R)
+
+    def preflight(self, disturbance: object) -> DumpingFeasibility | None:
+        """:func:`check_dumping_feasibility` of ``disturbance`` (a torque model or ``None``: no
+        disturbance) along :attr:`attitude`; ``None`` without an attitude profile."""
+        if self.attitude is None:
+            return None
+        d = np.zeros(3) if disturbance is None else disturbance
+        return check_dumping_feasibility(self, d, self.attitude)
 
     def field_body(self, t: float, R: np.ndarray) -> np.ndarray:
         """Geomagnetic field in body axes ``(B, 3)`` [T] at time ``t`` for attitudes ``R``
@@ -242,3 +299,216 @@ def momentum_fraction(actuator: object, x_act: object) -> np.ndarray:
         f"actuator: {type(actuator).__name__} stores no momentum (expected SgcmgActuator or "
         "ReactionWheelAssembly)"
     )
+
+
+class DumpingInfeasibleWarning(UserWarning):
+    """Magnetic momentum dumping cannot hold the secular disturbance on this orbit and attitude
+    profile (the necessary authority test of :func:`magnetic_dumping_feasibility` fails)."""
+
+
+@dataclass(frozen=True)
+class DumpingFeasibility:
+    """Result of :func:`magnetic_dumping_feasibility` (module docstring).
+
+    Attributes:
+        feasible: ``authority_ratio ≥ 1`` (the necessary condition holds).
+        authority_ratio: ``min_d cap(d) / dᵀ(−T̄)`` over sampled directions (necessary: ≥ 1;
+            capped at :data:`RATIO_CAP`, e.g. without a secular disturbance).
+        dipole_ratio: ``m_max / (largest rod dipole of the constant-demand program)``
+            (sufficient for an ideal law: ≥ 1; capped likewise).
+        secular_torque: ``T̄`` ``(3,)`` [N·m], inertial axes.
+        worst_direction: the unit ``d`` ``(3,)`` of ``authority_ratio`` (inertial axes).
+        deficit_torque: ``max(0, dᵀ(−T̄) − cap(d))`` at that direction [N·m]: the least rate at
+            which the stored momentum grows along it.
+        cyclic_momentum: peak norm of the stored momentum the periodic part of the disturbance
+            alone would accumulate ``max_t ‖∫(R T_d − T̄) dt‖`` [N·m·s] (the actuator must hold
+            it; dumping cannot remove it within an orbit).
+        note: a sentence for a warning or a report.
+    """
+
+    feasible: bool
+    authority_ratio: float
+    dipole_ratio: float
+    secular_torque: np.ndarray
+    worst_direction: np.ndarray
+    deficit_torque: float
+    cyclic_momentum: float
+    note: str
+
+
+def _sphere(n: int) -> np.ndarray:
+    """``n`` unit vectors spread over the sphere (Fibonacci lattice)."""
+    i = np.arange(n) + 0.5
+    phi = np.arccos(1.0 - 2.0 * i / n)
+    th = math.pi * (1.0 + math.sqrt(5.0)) * i
+    return np.stack((np.cos(th) * np.sin(phi), np.sin(th) * np.sin(phi), np.cos(phi)), axis=-1)
+
+
+def _attitude_at(attitude: object, t: float) -> np.ndarray:
+    from liecontrol._validation import check_rotation_matrix
+
+    a = attitude(t) if callable(attitude) else attitude
+    R = check_rotation_matrix(getattr(a, "R_d", a), "attitude")
+    if R.shape != (3, 3):
+        raise ValueError(f"attitude: expected a (3, 3) attitude (or R_d) per time, got {R.shape}")
+    return R
+
+
+#: ratios of :class:`DumpingFeasibility` are capped here (no secular demand: "unbounded")
+RATIO_CAP = 1.0e6
+#: largest torque [N·m] a disturbance model may give to the check (beyond it: an input error)
+_TORQUE_MAX = 1.0e12
+
+
+def magnetic_dumping_feasibility(
+    dumping: CrossProductDumping,
+    disturbance: object,
+    attitude: object,
+    n_orbits: float = 4.0,
+    samples_per_orbit: int = 240,
+    n_directions: int = 600,
+) -> DumpingFeasibility:
+    """Whether magnetorquer dumping can hold ``disturbance`` on ``dumping``'s orbit along the
+    attitude profile ``attitude`` (module docstring for the tests and their assumptions).
+
+    Args:
+        dumping: the :class:`CrossProductDumping` (orbit, field, rods).
+        disturbance: the external torque model, a callable ``(t, R, omega) -> (B, 3)`` body
+            torque [N·m] (e.g. :class:`spacecraft.disturbances.ConstantHarmonicTorque`), or a
+            constant body torque ``(3,)``.
+        attitude: the attitude the controller holds: a callable ``t -> AttitudeReference``
+            (e.g. :class:`spacecraft.orbit.EarthPointingReference`) or ``t -> (3, 3)``, or one
+            constant ``(3, 3)`` attitude (inertial pointing).
+        n_orbits: horizon in orbits (> 0; the field turns with the Earth).
+        samples_per_orbit: time samples per orbit (≥ 16).
+        n_directions: directions ``d`` of the necessary test (≥ 50).
+    """
+    if not isinstance(dumping, CrossProductDumping):
+        raise ValueError(f"dumping: expected a CrossProductDumping, got {type(dumping).__name__}")
+    n_orbits = check_positive_scalar(n_orbits, "n_orbits")
+    if n_orbits > 1000.0:
+        raise ValueError(f"n_orbits: at most 1000 orbits, got {n_orbits:g}")
+    for name, v, lo, hi in (
+        ("samples_per_orbit", samples_per_orbit, 16, 100_000),
+        ("n_directions", n_directions, 50, 100_000),
+    ):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not lo <= v <= hi:
+            raise ValueError(f"{name}: expected an int in [{lo}, {hi}], got {v!r}")
+    if n_orbits * samples_per_orbit > 1_000_000:
+        raise ValueError(
+            f"n_orbits: {n_orbits:g} orbits × {samples_per_orbit} samples exceed 1e6 samples"
+        )
+    if attitude is None:
+        raise ValueError("attitude: the attitude profile is needed (e.g. EarthPointingReference)")
+    period = dumping.orbit.period
+    N = max(int(round(n_orbits * samples_per_orbit)), 16)
+    ts = np.arange(N) * (n_orbits * period / N)
+    Rs = np.stack([_attitude_at(attitude, float(t)) for t in ts])
+    B_in = np.stack([dumping._field_inertial(float(t)) for t in ts])
+    if callable(disturbance):
+        Td = np.stack(
+            [np.asarray(disturbance(float(t), R[None], np.zeros((1, 3))), dtype=np.float64)[0]
+             for t, R in zip(ts, Rs, strict=True)]
+        )  # fmt: skip
+    else:
+        c = as_array(disturbance, "disturbance")
+        if c.shape != (3,):
+            raise ValueError(f"disturbance: expected a callable or shape (3,), got {c.shape}")
+        Td = np.broadcast_to(c, (N, 3))
+    if Td.shape != (N, 3) or not np.all(np.abs(Td) <= _TORQUE_MAX):
+        raise ValueError(
+            f"disturbance: expected finite torques (N, 3) below {_TORQUE_MAX:g} N·m, got "
+            f"shape {Td.shape}"
+        )
+    T_in = np.einsum("kij,kj->ki", Rs, Td)
+    T_bar = T_in.mean(axis=0)
+    # cyclic part: the momentum the periodic disturbance alone stores
+    dt = n_orbits * period / N
+    cyc = np.cumsum(T_in - T_bar, axis=0) * dt
+    cyc = cyc - cyc.mean(axis=0)
+    cyclic = float(np.linalg.norm(cyc, axis=-1).max())
+    m_max = dumping.magnetorquers.max_dipole
+    # necessary: cap(d) ≥ dᵀ(−T̄) for every direction d
+    tn = float(np.linalg.norm(T_bar))
+    if tn == 0.0:
+        return DumpingFeasibility(
+            True, RATIO_CAP, RATIO_CAP, T_bar, np.zeros(3), 0.0, cyclic,
+            "no secular disturbance: nothing to dump beyond the cyclic momentum",
+        )  # fmt: skip
+    D = np.vstack([_sphere(int(n_directions)), -T_bar / tn])
+    demand = D @ (-T_bar)
+    BxD = np.cross(B_in[:, None, :], D[None, :, :])  # (N, n_d, 3)
+    body = np.einsum("kji,kdj->kdi", Rs, BxD)
+    cap = (np.abs(body) * m_max).sum(axis=-1).mean(axis=0)
+    pos = demand > 1e-12 * tn
+    ratios = np.full(D.shape[0], np.inf)
+    ratios[pos] = cap[pos] / demand[pos]
+    j = int(np.argmin(ratios))
+    authority = float(min(ratios[j], RATIO_CAP))
+    deficit = float(max(0.0, demand[j] - cap[j]))
+    # sufficient: the constant inertial demand through the averaged projector
+    b = B_in / np.linalg.norm(B_in, axis=-1, keepdims=True)
+    P = np.eye(3) - np.einsum("ki,kj->ij", b, b) / N
+    v = -np.linalg.solve(P, T_bar)
+    m_in = np.cross(B_in, v) / np.sum(B_in * B_in, axis=-1, keepdims=True)
+    m_b = np.einsum("kji,kj->ki", Rs, m_in)
+    need = float((np.abs(m_b) / m_max).max())
+    dip = RATIO_CAP if need <= 1.0 / RATIO_CAP else 1.0 / need
+    inc = math.degrees(dumping.orbit.inclination)
+    feasible = authority >= 1.0
+    if feasible:
+        note = (
+            f"magnetic dumping authority {authority:.2f}x the secular disturbance "
+            f"({tn:.3g} N·m) at {inc:.1f}° inclination (necessary test passes; "
+            f"constant-demand program needs {1.0 / dip:.2f}x the rod limit)"
+        )
+    else:
+        note = (
+            f"momentum_management: magnetorquers cannot hold the secular disturbance "
+            f"({tn:.3g} N·m inertial mean) at {inc:.1f}° inclination: along "
+            f"d = {np.round(D[j], 3).tolist()} they give at most {authority:.2f}x the demand, "
+            f"so the stored momentum grows by at least {deficit:.3g} N·m·s per second "
+            f"({deficit * period:.3g} N·m·s per orbit) until the actuator saturates — more "
+            "dipole, another orbit/attitude, or thruster unloading needed"
+        )
+    return DumpingFeasibility(feasible, authority, dip, T_bar, D[j].copy(), deficit, cyclic, note)
+
+
+def check_dumping_feasibility(
+    dumping: CrossProductDumping, disturbance: object, attitude: object, **kwargs: object
+) -> DumpingFeasibility:
+    """:func:`magnetic_dumping_feasibility`, warning (:class:`DumpingInfeasibleWarning`) when
+    the necessary test fails — call it before the run."""
+    import warnings
+
+    rep = magnetic_dumping_feasibility(dumping, disturbance, attitude, **kwargs)
+    if not rep.feasible:
+        warnings.warn(rep.note, DumpingInfeasibleWarning, stacklevel=2)
+    return rep
+
+
+def momentum_growth_per_orbit(t: object, value: object, period: float) -> np.ndarray:
+    """Secular growth per orbit of a stored-momentum measure (e.g. the envelope fraction of
+    :func:`momentum_fraction`, or ‖h‖) logged at times ``t`` ``(K,)``, ``value`` ``(K,)`` or
+    ``(K, B)``: the least-squares slope of the value against time over the whole run, times
+    ``period`` (the orbit period [s]). A run at least one orbit long is required (the cyclic
+    part then averages out to within its amplitude over the run length). Positive: dumping does
+    not keep up (a flag after the run; compare with the margin to saturation)."""
+    tt = as_array(t, "t")
+    if tt.ndim != 1 or tt.shape[0] < 2 or not np.all(np.diff(tt) > 0.0):
+        raise ValueError(f"t: expected increasing times (K,) with K >= 2, got shape {tt.shape}")
+    v = as_array(value, "value")
+    period = check_positive_scalar(period, "period")
+    if v.ndim not in (1, 2) or v.shape[0] != tt.shape[0]:
+        raise ValueError(
+            f"value: expected ({tt.shape[0]},) or ({tt.shape[0]}, B) to match t, got {v.shape}"
+        )
+    if tt[-1] - tt[0] < period:
+        raise ValueError(
+            f"period: the run in t ({tt[-1] - tt[0]:.6g} s) is shorter than one orbit "
+            f"({period:.6g} s)"
+        )
+    tc = tt - tt.mean()
+    vv = v.reshape(v.shape[0], -1)
+    slope = (tc @ (vv - vv.mean(axis=0))) / float(tc @ tc)
+    return (slope * period).reshape(v.shape[1:])

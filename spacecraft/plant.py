@@ -47,6 +47,19 @@ def _held_array(held: Any) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=np.float64)
 
 
+def _total_momentum_hook(actuator: object) -> Any:
+    """``total_momentum(omega, x_act)`` of an actuator that carries its own inertia (the full
+    CMG model), looking through fault wrappers (``inner``); ``None`` for a momentum source."""
+    for _ in range(4):
+        fn = getattr(actuator, "total_momentum", None)
+        if callable(fn):
+            return fn
+        actuator = getattr(actuator, "inner", None)
+        if actuator is None:
+            return None
+    return None
+
+
 def _reads_attitude(source: object) -> bool:
     """Whether a disturbance source may read its ``R`` argument (``uses_attitude``, see
     :mod:`spacecraft.disturbances`); ``True`` when it does not say (the safe default)."""
@@ -133,7 +146,9 @@ class Spacecraft:
             ``None``. An object with ``dipole(t, R, h) -> (B, 3)`` (computed from the state at
             the start of each step and held over it) and ``torque(t, R, m) -> (B, 3)`` (an
             external body torque added at every integration stage); it runs alongside the
-            actuator, which still takes the controller's torque.
+            actuator, which still takes the controller's torque. If it has ``preflight(
+            disturbance)`` it is called here (the magnetic dumping feasibility check, which
+            warns before the run when the rods cannot hold the disturbance).
     """
 
     body: RigidBody
@@ -146,6 +161,7 @@ class Spacecraft:
     _stage_attitude: bool = field(init=False, repr=False, compare=False, default=True)
     _kernel_plan: Any = field(init=False, repr=False, compare=False, default=None)
     _coupled_plan: Any = field(init=False, repr=False, compare=False, default=None)
+    _post_step: Any = field(init=False, repr=False, compare=False, default=None)
 
     def __post_init__(self) -> None:
         if not isinstance(self.body, RigidBody):
@@ -163,6 +179,11 @@ class Spacecraft:
                 "momentum_management: must have methods dipole(t, R, h) and torque(t, R, m) "
                 f"(e.g. spacecraft.momentum.CrossProductDumping), got {type(mm).__name__}"
             )
+        # momentum management that knows the attitude profile checks, before any run, that it
+        # can hold the secular disturbance (spacecraft.momentum.magnetic_dumping_feasibility)
+        preflight = getattr(mm, "preflight", None)
+        if callable(preflight):
+            preflight(self.disturbance)
         # optional actuator hook: an actuator whose model constrains the body (the full CMG
         # model takes body.J as its bus inertia) rejects a mismatch here, not at step 1
         check_plant = getattr(self.actuator, "check_plant", None)
@@ -192,6 +213,10 @@ class Spacecraft:
             (self.disturbance is not None and _reads_attitude(self.disturbance))
             or self.momentum_management is not None,
         )
+        # an actuator with a hard constraint on its state (the full CMG model's gimbal stops)
+        # projects the packed state (ω, x_act) after every step (:meth:`step_packed`)
+        post = getattr(self.actuator, "post_step", None)
+        object.__setattr__(self, "_post_step", post if callable(post) else None)
         # the compiled RKMK4 step when every part has a kernel (:meth:`step_packed`)
         from ._fused import plant_kernel
 
@@ -368,15 +393,38 @@ class Spacecraft:
         return self.actuator.momentum(state.x_act)
 
     def body_frame_momentum(self, state: PlantState) -> np.ndarray:
-        """Total angular momentum in body axes ``J ω + Bᵀ q̇ + h`` ``(B, 3)`` [N·m·s]."""
-        H = self.body.body_momentum(state.omega, self.actuator_momentum(state))
+        """Total angular momentum of bus, actuator and appendages in body axes ``(B, 3)``
+        [N·m·s].
+
+        ``J ω + Bᵀ q̇ + h`` for an actuator modelled as a momentum source ``h`` (ideal torque,
+        reaction wheels, the SGCMG momentum model: ``J`` is then the whole spacecraft's
+        inertia). An actuator that carries its own inertia — the full CMG model
+        :class:`spacecraft.cmg_dynamics.VscmgActuator`, whose gimbal frames and rotors are not
+        in ``body.J`` (the bus inertia ``J_B``) — defines ``total_momentum(omega, x_act)``,
+        which is used instead: ``J_tot(δ) ω + Σ (J_g δ̇ g + I_Ws Ω s)``. This is the one
+        implementation of the total momentum; tests, metrics and docs call it (or
+        :meth:`inertial_momentum`).
+        """
+        total = _total_momentum_hook(self.actuator)
+        if total is not None:
+            H = np.asarray(total(state.omega, state.x_act), dtype=np.float64)
+        else:
+            H = self.body.body_momentum(state.omega, self.actuator_momentum(state))
         if self.modes is not None and state.q_dot is not None:
             H = H + self.modes.momentum(state.q_dot)
         return H
 
     def inertial_momentum(self, state: PlantState) -> np.ndarray:
-        """Total angular momentum in inertial axes ``R (J ω + Bᵀ q̇ + h)`` ``(B, 3)`` [N·m·s] —
-        constant without disturbance, whatever the controller and steering law do."""
+        """Total angular momentum in inertial axes ``R H`` ``(B, 3)`` [N·m·s], with ``H`` the
+        body-axis total of :meth:`body_frame_momentum` (bus, actuator with its own gimbal and
+        rotor inertia where it has them, flexible appendages).
+
+        Constant under these assumptions: no external torque (no disturbance, no momentum
+        management), and up to the integrator's truncation error (RKMK4 conserves ``R H`` to
+        ``O((h λ)⁴)`` per unit time, ``λ`` the fastest mode of the plant), whatever the
+        controller and steering law do. Gimbal-stop contact of the full CMG model exchanges
+        momentum between gimbal and bus and keeps the total.
+        """
         return np.einsum("...ij,...j->...i", state.R, self.body_frame_momentum(state))
 
     def mechanical_energy(self, state: PlantState) -> np.ndarray:
@@ -461,16 +509,20 @@ class Spacecraft:
         kp = self._kernel_plan
         if kp is not None and (JIT_ENABLED or x.shape[0] == 1):
             # without numba the kernel runs as Python: only worth it for one spacecraft
-            return kp.step(t, R, x, _held_array(held), h)
+            R1, x1 = kp.step(t, R, x, _held_array(held), h)
+            return (R1, x1) if self._post_step is None else (R1, self._post_step(x1))
         cp = self._coupled_plan
+        post = self._post_step
         if cp is not None and (JIT_ENABLED or x.shape[0] == 1):
-            return cp(t, R, x, held, h)
+            R1, x1 = cp(t, R, x, held, h)
+            return (R1, x1) if post is None else (R1, post(x1))
         derivatives = self.derivatives
 
         def f(tt: float, RR: np.ndarray, xx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             return derivatives(tt, RR, xx, held, m)
 
-        return rkmk4_step_unchecked(f, t, R, x, h, stage_attitude=stage_attitude)
+        R1, x1 = rkmk4_step_unchecked(f, t, R, x, h, stage_attitude=stage_attitude)
+        return (R1, x1) if post is None else (R1, post(x1))
 
     def held_dipole(self, t: float, R: np.ndarray, x_act: np.ndarray) -> np.ndarray | None:
         """The momentum-management dipole ``(B, 3)`` held over the step from ``t`` (from the
@@ -505,4 +557,6 @@ class Spacecraft:
             return derivatives(tt, RR, xx, held, m)
 
         R, x = rkmk4_step(f, t, state.R, state.packed(), h)
+        if self._post_step is not None:
+            x = self._post_step(x)
         return self.unpack(R, x)

@@ -29,6 +29,7 @@ lock-step in one set of arrays; controllers with ``batched = False`` are stepped
 from __future__ import annotations
 
 import copy
+import logging
 import math
 import re
 import warnings
@@ -48,6 +49,9 @@ from liecontrol.lie import so3
 from ._fused import fused_supported, run_fused
 from .disturbances import SumOfDisturbances
 from .plant import PlantState, Spacecraft
+
+#: the simulator's logger: one line per run that keeps the Python loop, naming the part
+_logger = logging.getLogger("spacecraft.simulator")
 
 __all__ = ["SimulationDiverged", "SimulationResult", "StarTrackerGyro", "simulate"]
 
@@ -711,18 +715,30 @@ def simulate(
         ctrl = _PerSpacecraft(controller, B)
     ctrl.reset(t0, B)
     # the whole loop in compiled code when plant and controller have kernels
-    # (spacecraft._fused); the Python loop below runs the same kernels one call at a time
+    # (spacecraft._fused, liecontrol.control.kernel); the Python loop below runs the same
+    # kernels one call at a time. Whichever part keeps the Python loop is logged once.
+    # (a compute delay runs in the Python loop below: its command queue)
+    reasons: list[str] = []
     fused = fused_supported(
-        plant, ctrl, sensor_list, measurement, progress, compute_delay=compute_delay
-    )  # a compute delay runs in the Python loop below (its command queue)
+        plant, ctrl, sensor_list, measurement, progress, batch_size=B,
+        control_period=control_period, reasons=reasons, compute_delay=compute_delay,
+    )  # fmt: skip
     if fused is not None:
         result = run_fused(
             fused, plant, ctrl, reference, state.R, state.packed(), t0, n_steps, dt,
-            every_ctrl, log_every, control_period,
+            every_ctrl, log_every, control_period, _Log, reasons,
         )  # fmt: skip
         if result is not None:
             return result
         ctrl.reset(t0, B)  # a failing run is repeated below, which reports the failure
+    if reasons:
+        why = reasons[0]
+        if ctrl is not controller and why.startswith(f"controller {type(ctrl).__name__} "):
+            why = (
+                f"controller {type(controller).__name__} is unbatched (batched = False: one "
+                "Python copy per spacecraft)"
+            )
+        _logger.info("simulate: the Python loop runs: %s", why)
     for _, sensor, _ in sensor_list:
         if callable(getattr(sensor, "reset", None)):
             sensor.reset(B, rng)

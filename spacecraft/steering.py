@@ -225,8 +225,6 @@ def _apply_right_inverse(
 def _steer_kernel(law: SteeringLaw, A: np.ndarray, hdot_cmd: np.ndarray, t: float) -> np.ndarray:
     """δ̇ of the pseudo-inverse / SR / GSR laws through their compiled kernel
     (:func:`spacecraft._kernels.steer_regularised`), element by element over the batch."""
-    from ._fused import steering_kernel
-
     code, params = steering_kernel(law)
     n = A.shape[-1]
     batch = A.shape[:-2]
@@ -653,8 +651,31 @@ class GeneralizedSingularityRobust(SteeringLaw):
         return _apply_right_inverse(A, hdot_cmd[..., None], lam, PINV_EPS, off, rows)[..., 0]
 
 
-#: the laws with a compiled kernel (spacecraft._fused.steering_kernel)
+#: the laws with a compiled kernel (:func:`steering_kernel`)
 _KERNEL_LAWS = (PseudoInverse, SingularityRobust, GeneralizedSingularityRobust)
+
+
+def steering_kernel(law: object, cluster: SgcmgPyramid | None = None) -> tuple | None:
+    """``(code, params)`` of a steering law with a compiled kernel
+    (:func:`spacecraft._kernels.steer_regularised`, :func:`~spacecraft._kernels.sgcmg_command`),
+    else ``None``. Exact types only (a subclass may override the formula). The null-motion law
+    needs the ``cluster`` it steers."""
+    from ._kernels import STEER_GSR, STEER_PINV, STEER_PINV_NULL, STEER_SR
+    from .sgcmg import MEASURE_FLOOR
+
+    kind = type(law)
+    if kind is PseudoInverse:
+        return STEER_PINV, np.array([0.0, 0.0, law.eps, 0.0, 0.0, 0.0, 0.0, 0.0])
+    if kind is SingularityRobust:
+        return STEER_SR, np.array([law.lambda0, law.mu, PINV_EPS, 0.0, 0.0, 0.0, 0.0, 0.0])
+    if kind is GeneralizedSingularityRobust:
+        p = [law.lambda0, law.mu, PINV_EPS, law.epsilon0, law.omega_eps, *law.phases]
+        return STEER_GSR, np.array(p, dtype=np.float64)
+    if kind is PseudoInverseNullMotion and cluster is not None:
+        head = [law.k, law.eps, MEASURE_FLOOR, 0.0, 0.0, 0.0, 0.0, 0.0]
+        unit = np.concatenate([np.ravel(cluster._S), np.ravel(cluster._C)])
+        return STEER_PINV_NULL, np.concatenate([np.array(head), unit])
+    return None
 
 
 # ---------------------------------------------------------------------------- more laws
@@ -814,3 +835,81 @@ class SingularDirectionAvoidance(SteeringLaw):
         gain = S / (S * S + lam + PINV_EPS)
         coef = gain * (U * hdot_cmd[..., :, None]).sum(-2)  # (uᵢᵀḣ) σᵢ/(σᵢ² + λᵢ)
         return (Vt * coef[..., :, None]).sum(-2) / s[..., None]
+
+
+__all__ += ["StopAware"]
+
+
+@dataclass(frozen=True)
+class StopAware(SteeringLaw):
+    """Stop-aware weighting of any steering law: gimbals moving toward a nearby gimbal-angle
+    stop get a smaller share of the momentum-rate command, the others take it up.
+
+    Weighted minimum-norm steering by column scaling: with ``W = diag(wᵢ)``,
+    ``δ̇ = W^½ law(A W^½, ḣ_cmd)``; for the SR inverse this is the weighted SR inverse
+    ``δ̇ = W Aᵀ(A W Aᵀ + λ I)⁻¹ ḣ_cmd`` (Nakamura & Hanafusa, "Inverse kinematic solutions with
+    singularity robustness for robot manipulator control", J. Dyn. Sys. Meas. Control 108(3),
+    1986, weighted form). ``A W^½ y`` realises the same torque as ``A δ̇``, so the weighting
+    changes which gimbals move, not the torque (while the weighted Jacobian keeps rank 3).
+    Weights, from a first unweighted solution ``δ̇⁰``: a gimbal whose ``δ̇⁰ᵢ`` points toward a
+    stop at distance ``dᵢ`` gets ``wᵢ = max(min(dᵢ / zone, 1), floor)²``; every other gimbal
+    ``wᵢ = 1`` (motion away from a stop is never penalised). Only when some ``wᵢ < 1`` is the
+    law called a second time.
+
+    This shapes the steering; it does not by itself guarantee the stops. The full CMG model
+    (:class:`spacecraft.cmg_dynamics.VscmgActuator`) adds the braking-curve guard on the rate
+    command and enforces the stop as a contact constraint at every step
+    (:meth:`~spacecraft.cmg_dynamics.VscmgActuator.enforce_stops`).
+
+    Args:
+        law: the steering law to weight.
+        lower, upper: the stops [rad], scalar or per gimbal ``(n,)``, ``lower < upper``.
+        zone: distance to a stop [rad] below which the weight falls (> 0; default 0.2 rad).
+        floor: smallest weight's square root, in (0, 1] (default 1e-3; keeps ``A W^½``
+            finite and the law's scaling defined).
+    """
+
+    law: SteeringLaw
+    lower: float | np.ndarray
+    upper: float | np.ndarray
+    zone: float = 0.2
+    floor: float = 1e-3
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.law, SteeringLaw):
+            raise ValueError(f"law: expected a SteeringLaw, got {type(self.law).__name__}")
+        lo = np.atleast_1d(as_array(self.lower, "lower")).astype(np.float64)
+        hi = np.atleast_1d(as_array(self.upper, "upper")).astype(np.float64)
+        for name, a in (("lower", lo), ("upper", hi)):
+            if a.ndim != 1 or a.size == 0:
+                raise ValueError(f"{name}: expected a scalar or a 1-D array (n,), got {a.shape}")
+        if np.any(lo >= hi):
+            raise ValueError("lower: must be < upper for every gimbal")
+        lo.setflags(write=False)
+        hi.setflags(write=False)
+        object.__setattr__(self, "lower", lo)
+        object.__setattr__(self, "upper", hi)
+        z = _check_float(self.zone, "zone")
+        if z <= 0.0:
+            raise ValueError(f"zone: must be > 0, got {self.zone!r}")
+        object.__setattr__(self, "zone", z)
+        f = _check_float(self.floor, "floor", 0.0, 1.0 + 1e-15)
+        if f <= 0.0:
+            raise ValueError(f"floor: must be in (0, 1], got {self.floor!r}")
+        object.__setattr__(self, "floor", f)
+
+    def weights(self, delta: np.ndarray, rate: np.ndarray) -> np.ndarray:
+        """``√wᵢ`` ``(..., n)`` for gimbal angles ``delta`` and an intended rate ``rate``."""
+        away = np.where(rate < 0.0, delta - self.lower, np.inf)
+        d = np.where(rate > 0.0, self.upper - delta, away)
+        return np.clip(d / self.zone, self.floor, 1.0)
+
+    def steer(self, A, hdot_cmd, delta=None, t=0.0, cluster=None) -> np.ndarray:
+        if delta is None:
+            raise ValueError("delta: StopAware needs the gimbal angles")
+        dd0 = self.law.steer(A, hdot_cmd, delta, t, cluster)
+        sw = self.weights(delta, dd0)
+        if np.all(sw >= 1.0):
+            return dd0
+        Aw = np.ascontiguousarray(A * sw[..., None, :])
+        return sw * self.law.steer(Aw, hdot_cmd, delta, t, cluster)

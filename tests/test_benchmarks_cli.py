@@ -207,7 +207,8 @@ def test_failures_are_recorded_not_fatal(tmp_path):
     good = res.outcome("slew-179", "geometric-pd-log")
     assert good.status == "ok" and good.metrics["initial_error_deg"] == pytest.approx(179.0)
     md = write_report(res, tmp_path, figures=True).read_text(encoding="utf-8")
-    assert "FAILED: FloatingPointError: boom" in md and "## Failures" in md
+    assert "the run raised FloatingPointError: boom" in md
+    assert "## Errors (runs that raised)" in md and "FAILED" not in md
 
 
 def test_batched_group_matches_single_runs():

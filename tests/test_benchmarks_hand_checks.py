@@ -114,6 +114,7 @@ def test_every_metric_against_a_hand_computation():
         momentum_actuator=wheels,
         keep_out=keep_out,
         keep_in=keep_in,
+        rpe_window_s=0.5,
     )
     got = m.as_dict(0)
     theta = np.abs(a)
@@ -154,6 +155,11 @@ def test_every_metric_against_a_hand_computation():
         "min_keep_out_margin_deg": 20.0,
         "min_keep_in_margin_deg": 5.0,
         "stop_contact_time_s": 0.4,
+        # over [9, 10] the error is a = 0.05 (t − 6.8)/3.2 about z: windows [9, 9.5) (5 samples,
+        # mean at 9.2) and [9.5, 10] (6 samples, mean at 9.75); RPE = largest deviation from
+        # the window mean (0.25 s of slope), PDE = the step between the two means (0.55 s)
+        "rpe_deg": 0.05 * 0.25 / 3.2,
+        "pde_deg": 0.05 * 0.55 / 3.2,
     }
     # the dict covers every field, so a new metric without a hand value fails here
     assert set(expected) == {f.name for f in dataclasses.fields(Metrics)}

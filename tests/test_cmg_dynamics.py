@@ -266,7 +266,7 @@ def test_bumper_penetration_bounded_and_logged():
     p ≤ (u + √(u² + k J_g v²))/k (energy of the arriving gimbal; bus coupling is small here),
     and stop contact is logged."""
     delta0 = np.zeros(4)
-    stops = GimbalStops(-1.0, 0.2, stiffness=2000.0, damping=150.0)
+    stops = GimbalStops(-1.0, 0.2, stiffness=2000.0, damping=150.0, contact="bumper")
     act = VscmgActuator(
         1e6 * np.eye(3),
         INERTIAS,
@@ -405,7 +405,7 @@ def test_kernel_equals_numpy_route(kinematic, variable_speed, B):
     commands, gimbals inside and beyond their stops, torque limit active."""
     rng = np.random.default_rng(5)
     servo = FirstOrderServo(0.2) if kinematic else GimbalServo(3.0, 0.8)
-    stops = GimbalStops(-0.5, 0.5, stiffness=300.0, damping=7.0)
+    stops = GimbalStops(-0.5, 0.5, stiffness=300.0, damping=7.0, contact="bumper")
     act = VscmgActuator(
         J_BUS,
         INERTIAS,
@@ -494,7 +494,7 @@ def test_compiled_rkmk4_step_equals_numpy_step(B, disturbance):
         INERTIAS,
         SgcmgPyramid(h0=20.0),
         servo=GimbalServo(3.0, 0.8),
-        stops=GimbalStops(-0.5, 0.5, stiffness=300.0, damping=7.0),
+        stops=GimbalStops(-0.5, 0.5, stiffness=300.0, damping=7.0, contact="bumper"),
         delta0=np.zeros(4),
     )
     plant = _plant(act, disturbance=disturbance)

@@ -1,8 +1,9 @@
-"""Every ```python block in README.md and docs/*.md runs as written.
+"""Every ```python block in README.md and docs/*.md runs as written, **on its own**.
 
-Blocks of one page run in order in one namespace (a page's later examples may use earlier
-names), in a temporary working directory, with matplotlib's non-interactive backend. A block
-preceded by the line ``<!-- no-run -->`` is skipped (for shell-dependent snippets).
+Each block runs in a fresh namespace (a reader copies one example, not the page), in a temporary
+working directory, with matplotlib's non-interactive backend; so every block has its own imports
+and data. A block preceded by the line ``<!-- no-run -->`` is skipped (for shell-dependent
+snippets). Warnings a block emits are shown in the test's output, not hidden.
 """
 
 from __future__ import annotations
@@ -17,22 +18,41 @@ PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
 BLOCK = re.compile(r"(<!-- no-run -->\s*\n)?```python\n(.*?)```", re.DOTALL)
 
 
-def _blocks(page: Path) -> list[str]:
-    return [m.group(2) for m in BLOCK.finditer(page.read_text(encoding="utf-8")) if not m.group(1)]
+def _blocks(page: Path) -> list[tuple[int, str]]:
+    """``(line number, code)`` of the page's runnable blocks."""
+    text = page.read_text(encoding="utf-8")
+    return [
+        (text.count("\n", 0, m.start(2)) + 1, m.group(2))
+        for m in BLOCK.finditer(text)
+        if not m.group(1)
+    ]
 
 
-@pytest.mark.parametrize("page", [p for p in PAGES if _blocks(p)], ids=lambda p: p.name)
-def test_page_examples_run(page: Path, tmp_path, monkeypatch):
+CASES = [
+    pytest.param(page, line, code, id=f"{page.name}:{line}")
+    for page in PAGES
+    for line, code in _blocks(page)
+]
+
+
+@pytest.mark.parametrize(("page", "line", "code"), CASES)
+def test_example_runs_alone(page: Path, line: int, code: str, tmp_path, monkeypatch):
     import matplotlib
 
     matplotlib.use("Agg")
     monkeypatch.chdir(tmp_path)
-    namespace: dict[str, object] = {"__name__": f"docs_{page.stem}"}
-    for i, code in enumerate(_blocks(page)):
-        try:
-            exec(compile(code, f"{page.name}[block {i}]", "exec"), namespace)
-        except Exception as exc:  # pragma: no cover - the message is the point
-            raise AssertionError(f"{page.name}, example {i} failed: {exc!r}\n{code}") from exc
-    import matplotlib.pyplot as plt
+    namespace: dict[str, object] = {"__name__": f"docs_{page.stem}_{line}"}
+    try:
+        exec(compile(code, f"{page.name}:{line}", "exec"), namespace)
+    except Exception as exc:  # pragma: no cover - the message is the point
+        raise AssertionError(
+            f"{page.name}, the example at line {line} fails when run alone: {exc!r}\n{code}"
+        ) from exc
+    finally:
+        import matplotlib.pyplot as plt
 
-    plt.close("all")
+        plt.close("all")
+
+
+def test_every_page_with_examples_is_collected():
+    assert CASES, "no ```python block found in README.md or docs/*.md"

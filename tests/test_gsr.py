@@ -83,10 +83,22 @@ def test_gsr_without_dither_is_sr_and_nearly_exact_away_from_singularities():
     np.testing.assert_allclose((A[good] @ dd[..., None])[..., 0], h[good], atol=1e-4)
 
 
+#: ḣ components for the linearity property: 0, or 1e-200 ≤ |h_i| ≤ 1e3. Doubling is exact in
+#: floating point only while no intermediate underflows: every intermediate of the steering law
+#: is h_i times a product of a few matrix entries (≳ 1e-50 even at a singularity), so below
+#: ~1e-258 it would be subnormal, and then `GSR(2h) == 2 GSR(h)` is off by an ulp
+#: (hypothesis found h = (0, 0, 2.2e-309)). The floor leaves > 50 decades of margin.
+_H_COMPONENT = st.one_of(
+    st.just(0.0),
+    st.floats(1e-200, 1e3, allow_subnormal=False),
+    st.floats(-1e3, -1e-200, allow_subnormal=False),
+)
+
+
 @settings(max_examples=40, deadline=None)
 @given(
     d=st.tuples(*[st.floats(-7, 7)] * 4).map(np.array),
-    h=st.tuples(*[st.floats(-1e3, 1e3)] * 3).map(np.array),
+    h=st.tuples(*[_H_COMPONENT] * 3).map(np.array),
     t=st.floats(0.0, 1e4),
 )
 def test_gsr_finite_and_linear(d, h, t):

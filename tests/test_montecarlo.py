@@ -282,7 +282,7 @@ def test_failed_runs_are_reported_not_dropped(tmp_path):
     assert res.success_rate("boom") == 0.0 and res.n_failed == 4
     assert all(r["status"] == "ok" for r in res.of("geometric-pd-log"))
     md = write_montecarlo_report(res, tmp_path, figures=False).read_text(encoding="utf-8")
-    assert "## Failures" in md and "`boom` (4 samples)" in md
+    assert "## Errors (runs that raised)" in md and "`boom` (4 samples)" in md
 
 
 def test_unreachable_scheduler_is_a_clear_error(tmp_path, capsys):

@@ -705,6 +705,28 @@ OVERRIDES: dict[str, dict[str, Callable[[], Any]]] = {
         "x_act": lambda: np.array([[0.3, -0.6, 0.8, -0.2]]),
     },
     "spacecraft.momentum.CrossProductDumping": {"orbit": _orbit},
+    # dumping feasibility and the growth metric (issue 25)
+    **{
+        f"spacecraft.momentum.{fn}": {
+            "dumping": lambda: __import__("spacecraft.momentum").momentum.CrossProductDumping(
+                _orbit()
+            ),
+            "disturbance": lambda: np.array([0.0, 0.01, 0.0]),
+            "attitude": lambda: np.eye(3),
+            "n_orbits": lambda: 1.0,
+        }
+        for fn in ("magnetic_dumping_feasibility", "check_dumping_feasibility")
+    },
+    "spacecraft.momentum.momentum_growth_per_orbit": {
+        "t": lambda: np.linspace(0.0, 200.0, 21),
+        "value": lambda: np.linspace(0.1, 0.3, 21),
+        "period": lambda: 100.0,
+    },
+    "spacecraft.steering.StopAware": {
+        "law": lambda: __import__("spacecraft").SingularityRobust(),
+        "lower": lambda: -1.0,
+        "upper": lambda: 1.0,
+    },
     "spacecraft.orbit.EarthPointingReference": {"orbit": _orbit},
     "spacecraft.payload.RotatingPayload": {"inertia": lambda: np.diag([1.0, 1.0, 1.5])},
     "spacecraft.payload.RotatingPayloadTorque": {"payloads": lambda: (_payload(),)},
@@ -996,6 +1018,8 @@ METHODS: dict[str, dict[str, dict[str, Callable[[], Any]]]] = {
 NOT_SWEPT: dict[str, str] = {
     "spacecraft.faults.Reconfigurability": "a result record built by reconfigurability "
     "(which is swept)",
+    "spacecraft.momentum.DumpingFeasibility": "a result record built by "
+    "magnetic_dumping_feasibility (which is swept)",
     "spacecraft.faults.ActuatorFault": "the abstract base of the four fault kinds (it refuses "
     "to be instantiated, tested in test_faults); the kinds themselves are swept",
     "benchmarks.cli.main": "the command line; its errors are tested in test_benchmarks_cli",

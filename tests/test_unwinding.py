@@ -90,7 +90,7 @@ def test_verdict_rules():
     away = _outcome(initial_error_deg=60.0, final_error_deg=132.0, unwinding_ratio=4.0)
     assert verdict(away, cfg) == "diverges"
     assert verdict(_outcome(unwinding_ratio=math.nan, final_error_deg=0.0), cfg) == "converges"
-    assert verdict(RunOutcome("c", "x", "failed", "boom"), cfg) == "failed"
+    assert verdict(RunOutcome("c", "x", "failed", "boom"), cfg) == "error"
 
 
 def test_bad_config_and_controllers():

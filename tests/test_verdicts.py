@@ -289,7 +289,7 @@ NEW = (
     "step-5",
     "fast-slew-rate-limited",
     "singular-transit",
-    "stabilisation-inertia-error",
+    "agile-slew-uncertain",
     "noise-near-180",
     "estimator-mekf-slew-30",
     "estimator-ukf-slew-30",

@@ -6,6 +6,7 @@ Usage (from the repository root)::
     python tools/mutation_check.py --list       # list the mutations and exit
     python tools/mutation_check.py --only srukf-w0-sign metrics-rms-as-mean
     nice -n 10 python tools/mutation_check.py --jobs 2
+    python tools/mutation_check.py --kernels    # the compiled kernels' planted bugs (issue 26)
 
 The repository is copied once into a temporary directory (the working tree is never touched).
 The relevant test files of every selected mutation are first run on the unmodified copy (the
@@ -16,6 +17,13 @@ the installed ones). A mutation is **caught** when a test that passes on the bas
 (or the run errors where the baseline did not, or hits the time limit), **survived** when the
 tests pass, and **stale** when its original line is no longer found exactly once (the source
 moved on: update the table below).
+
+Compiled kernels: every pytest run gets ``NUMBA_CACHE_DIR`` inside the run's temporary
+directory (the developer's own cache is never read or written). The cache is keyed by a hash of
+all kernel sources (``liecontrol._jit``), so a mutant of a kernel is compiled afresh together with
+every kernel that calls it, while a mutant elsewhere reuses the baseline's machine code;
+``--fresh-cache`` gives every mutant an empty cache of its own instead (slower: each one compiles
+every kernel its tests call).
 
 Exit code: 0 when every mutation was caught, 1 when one survived, 2 for stale entries. The
 score is caught / (caught + survived).
@@ -55,6 +63,16 @@ class Mutation:
 
 EST = ("tests/test_estimation_filters.py", "tests/test_estimation_core.py")
 MET = ("tests/test_metrics.py", "tests/test_benchmarks_hand_checks.py")
+PROPS = "tests/test_planted_bug_properties.py"
+KT = "tests/test_kernels.py"
+#: the mutations of the compiled kernels and the families added with them (``--kernels``)
+KERNEL_IDS = (
+    "sgcmg-rate-scan-skips-gimbal-0", "ideal-clip-flag-strict", "adaptive-regressor-index",
+    "leader-follower-no-in-degree", "half-sinc-series-coefficient", "log-near-pi-threshold",
+    "kernel-cache-per-file", "kernel-exp-half-angle", "kernel-log-near-pi-sign",
+    "kernel-dexpinv-bracket-sign", "kernel-rigid-gyroscopic-sign", "kernel-large-angle-psi",
+    "kernel-cmg-bus-torque-sign", "kernel-trace-error-component", "kernel-hdot-command-sign",
+)
 
 MUTATIONS: tuple[Mutation, ...] = (
     # ---- the six bugs that once survived the suite -----------------------------------------
@@ -93,6 +111,103 @@ MUTATIONS: tuple[Mutation, ...] = (
         "return scale, rng.uniform(-1.0, 1.0, size=4), rng.normal(size=3)",
         ("tests/test_benchmarks_hand_checks.py", "tests/test_montecarlo.py"),
         "Monte Carlo attitudes from normalised uniform-cube quaternions instead of Haar",
+    ),
+    # ---- the bugs of the compiled kernels and new families that once survived (issue 26) -----
+    Mutation(
+        "sgcmg-rate-scan-skips-gimbal-0", "spacecraft/_kernels.py",
+        "    for i in range(dd_out.shape[0]):\n        peak = max(peak, abs(dd_out[i]))",
+        "    for i in range(1, dd_out.shape[0]):\n        peak = max(peak, abs(dd_out[i]))",
+        (PROPS + "::test_every_gimbal_stays_within_its_rate_limit_when_each_in_turn_is_fastest",),
+        "SGCMG command kernel: gimbal 0 left out of the peak-rate scan",
+    ),
+    Mutation(
+        "ideal-clip-flag-strict", "spacecraft/_kernels.py",
+        "            at = abs(v) >= clip[i]", "            at = abs(v) > clip[i]",
+        (PROPS + "::test_fused_loop_equals_python_loop_in_every_flag_for_every_actuator_and"
+         "_controller",),
+        "compiled loops' ideal-actuator saturation flag with > (never set at the clip)",
+    ),
+    Mutation(
+        "adaptive-regressor-index", "liecontrol/control/adaptive.py",
+        "    out[:, 5] = a2 * v1 + a1 * v2", "    out[:, 5] = a2 * v1 + a1 * v0",
+        (PROPS + "::test_adaptive_inertia_update_is_minus_gamma_W_transpose_s_term_by_term",),
+        "adaptive inertia update: wrong index in the regressor product Y(a)ᵀv",
+    ),
+    Mutation(
+        "leader-follower-no-in-degree", "liecontrol/control/consensus.py",
+        "        wn = wgt[keep] / d[i[keep]]", "        wn = wgt[keep]",
+        (PROPS + "::test_leader_follower_law_on_graphs_with_in_degree_above_one",),
+        "leader–follower weights not normalised by the in-degree",
+    ),
+    Mutation(
+        "half-sinc-series-coefficient", "liecontrol/_kernels/attitude.py",
+        "return 0.5 * (1.0 - t2 / 24.0 * (1.0 - t2 / 80.0))",
+        "return 0.5 * (1.0 - t2 / 12.0 * (1.0 - t2 / 80.0))",
+        (PROPS + "::test_half_sinc_and_large_angle_error_kernels_over_dense_angles",),
+        "half_sinc kernel's small-angle series with θ²/12 (3.4e-8 relative at θ = 9e-4)",
+    ),
+    Mutation(
+        "log-near-pi-threshold", "liecontrol/_kernels/so3.py",
+        "LOG_SYMMETRIC_COS = -0.999\n", "LOG_SYMMETRIC_COS = -1.0 + 1e-10\n",
+        (PROPS + "::test_log_and_exp_kernels_equal_numpy_over_dense_angles_near_0_and_pi",),
+        "log kernel's symmetric-part branch only above cos θ = −1 + 1e-10 (6e-12 off near π)",
+    ),
+    Mutation(
+        "kernel-cache-per-file", "liecontrol/_jit.py",
+        "dispatcher._cache = _CACHE_CLASS(dispatcher.py_func)", "dispatcher.enable_caching()",
+        ("tests/test_kernel_cache.py",),
+        "numba's own per-file cache: an edited helper never reaches its cached callers",
+    ),
+    # ---- the compiled kernels themselves ------------------------------------------------------
+    Mutation(
+        "kernel-exp-half-angle", "liecontrol/_kernels/so3.py",
+        "    b = 0.5 * q * q\n", "    b = q * q\n",
+        (KT + "::test_exp_and_log_kernels_equal_the_numpy_api",),
+        "exp kernel: Rodrigues' (1 − cos θ)/θ² without the ½",
+    ),
+    Mutation(
+        "kernel-log-near-pi-sign", "liecontrol/_kernels/so3.py",
+        "    sign = -1.0 if (c0 * v0 + c1 * v1 + c2 * v2) < 0.0 else 1.0",
+        "    sign = 1.0",
+        (PROPS + "::test_log_and_exp_kernels_equal_numpy_over_dense_angles_near_0_and_pi",),
+        "log kernel near π: the axis's sign never taken from (R − Rᵀ)^∨",
+    ),
+    Mutation(
+        "kernel-dexpinv-bracket-sign", "liecontrol/_kernels/so3.py",
+        "        c * w0 + 0.5 * (t1 * w2 - t2 * w1) + t0 * tw,",
+        "        c * w0 - 0.5 * (t1 * w2 - t2 * w1) + t0 * tw,",
+        (KT + "::test_dexpinv_kernel_is_the_truncated_right_jacobian_inverse",),
+        "RKMK4's dexp⁻¹ kernel with +½[θ, w] in one component",
+    ),
+    Mutation(
+        "kernel-rigid-gyroscopic-sign", "spacecraft/_kernels.py",
+        "    r0 = t0 - (w1 * j2 - w2 * j1)", "    r0 = t0 + (w1 * j2 - w2 * j1)",
+        (KT + "::test_plant_step_kernel_equals_rkmk4_on_a_numpy_field",),
+        "Euler's equation kernel with +ω × Jω in one component",
+    ),
+    Mutation(
+        "kernel-large-angle-psi", "liecontrol/_kernels/attitude.py",
+        "        psi = 4.0 * sq4 * sq4", "        psi = 2.0 * sq4 * sq4",
+        (PROPS + "::test_half_sinc_and_large_angle_error_kernels_over_dense_angles",),
+        "large-angle Ψ kernel as 2 sin²(θ/4) below π/2",
+    ),
+    Mutation(
+        "kernel-cmg-bus-torque-sign", "spacecraft/_kernels.py",
+        "        r0 += S0[0, i] * a - C0[0, i] * b", "        r0 += S0[0, i] * a + C0[0, i] * b",
+        (KT + "::test_cmg_torque_and_command_kernels_equal_the_cluster_model",),
+        "SGCMG bus-torque kernel: A δ̇ with the wrong sign of one −C0 sin δ term",
+    ),
+    Mutation(
+        "kernel-trace-error-component", "liecontrol/_kernels/geometric_pd.py",
+        "        e1 = 0.5 * (g02 - g20)", "        e1 = 0.5 * (g20 - g02)",
+        (KT + "::test_geometric_pd_kernel_equals_the_law_in_numpy",),
+        "geometric PD kernel: one component of the trace error's vee with the wrong sign",
+    ),
+    Mutation(
+        "kernel-hdot-command-sign", "spacecraft/_kernels.py",
+        "    q0 = -((w1 * h2 - w2 * h1) + u[0])", "    q0 = -((w1 * h2 - w2 * h1) - u[0])",
+        (KT + "::test_cmg_torque_and_command_kernels_equal_the_cluster_model",),
+        "SGCMG command kernel: ḣ_cmd with +u in one component",
     ),
     # ---- Lie groups, charts, errors ----------------------------------------------------------
     Mutation(
@@ -195,7 +310,7 @@ MUTATIONS: tuple[Mutation, ...] = (
     ),
     Mutation(
         "mekf-joseph-noise", "liecontrol/estimation/mekf.py",
-        "P = A @ self._P @ A.T + K @ m.R @ K.T", "P = A @ self._P @ A.T",
+        "P = A @ self._P @ A.T + K @ Rk @ K.T", "P = A @ self._P @ A.T",
         EST, "Joseph update without the K R Kᵀ term",
     ),
     Mutation(
@@ -271,13 +386,14 @@ def _copy_repo(dest: Path) -> Path:
 
 
 def _pytest(
-    repo: Path, tests: tuple[str, ...], timeout: float, extra: tuple[str, ...] = ()
+    repo: Path, tests: tuple[str, ...], timeout: float, cache: Path, extra: tuple[str, ...] = ()
 ) -> tuple[int, float, str, set[str]]:
-    """Run pytest on ``tests`` in ``repo`` with the options ``extra``: (exit code, seconds,
-    first failure or the summary line, the set of failing test ids); exit code −1 on the time
-    limit."""
+    """Run pytest on ``tests`` in ``repo`` with the options ``extra`` and the compiled-kernel
+    cache ``cache``: (exit code, seconds, first failure or the summary line, the set of failing
+    test ids); exit code −1 on the time limit."""
     env = dict(os.environ)
     env["PYTHONPATH"] = str(repo) + os.pathsep + env.get("PYTHONPATH", "")
+    env["NUMBA_CACHE_DIR"] = str(cache)
     env.setdefault("OMP_NUM_THREADS", "1")
     env.setdefault("OPENBLAS_NUM_THREADS", "1")
     cmd = [sys.executable, "-m", "pytest", "-q", "-rfE", "-p", "no:cacheprovider",
@@ -308,10 +424,11 @@ def _check_import_origin(repo: Path) -> None:
 
 
 def _run_one(
-    m: Mutation, base: Path, timeout: float, known: set[str], base_rc: int
+    m: Mutation, base: Path, timeout: float, known: set[str], base_rc: int, cache: Path | None
 ) -> tuple[str, float, str]:
     """Apply ``m`` in a private copy of the pristine copy ``base`` (so runs can overlap);
-    ``known``: tests failing on the baseline (deselected), ``base_rc``: its exit code.
+    ``known``: tests failing on the baseline (deselected), ``base_rc``: its exit code;
+    ``cache``: the shared kernel cache, ``None`` for an empty one of the mutant's own.
 
     ``-x``: the first failure decides (without it, a mutation that breaks many property-based
     tests spends minutes in hypothesis shrinking)."""
@@ -320,10 +437,11 @@ def _run_one(
         return "stale", 0.0, f"original text found {src.count(m.old)} times"
     with tempfile.TemporaryDirectory(prefix=f"mut-{m.id}-") as d:
         repo = Path(d) / "repo"
-        shutil.copytree(base, repo)
+        shutil.copytree(base, repo, ignore=shutil.ignore_patterns("__pycache__"))
         (repo / m.path).write_text(src.replace(m.old, m.new), encoding="utf-8")
         deselect = tuple(a for k in sorted(known) for a in ("--deselect", k))
-        rc, dt, tail, ids = _pytest(repo, m.tests, timeout, ("-x", *deselect))
+        own = Path(d) / "numba-cache" if cache is None else cache
+        rc, dt, tail, ids = _pytest(repo, m.tests, timeout, own, ("-x", *deselect))
     new = sorted(ids - known)
     if new:
         more = f" (+{len(new) - 1} more)" if len(new) > 1 else ""
@@ -344,6 +462,11 @@ def main(argv: list[str] | None = None) -> int:
                     help="per mutation run [s] (a hang counts as caught); the baseline gets 4×")
     ap.add_argument("--no-baseline", action="store_true",
                     help="skip the unmodified run (then any failure counts as caught)")
+    ap.add_argument("--kernels", action="store_true",
+                    help="only the mutations of the compiled kernels (KERNEL_IDS)")
+    ap.add_argument("--fresh-cache", action="store_true",
+                    help="an empty compiled-kernel cache for every mutant (default: one cache "
+                    "for the run, keyed by the kernel sources)")
     args = ap.parse_args(argv)
     if args.jobs < 1:
         ap.error(f"--jobs: must be >= 1, got {args.jobs}")
@@ -354,6 +477,8 @@ def main(argv: list[str] | None = None) -> int:
         if unknown:
             ap.error(f"--only: unknown mutation ids {unknown}; see --list")
         muts = [m for m in muts if m.id in set(args.only)]
+    if args.kernels:
+        muts = [m for m in muts if m.id in KERNEL_IDS]
     if args.list:
         for m in muts:
             print(f"{m.id:36s} {m.path:40s} {m.what}")
@@ -362,11 +487,12 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory(prefix="mutation-check-") as tmp:
         base = _copy_repo(Path(tmp))
         _check_import_origin(base)
+        shared = Path(tmp) / "numba-cache"
         known: set[str] = set()
         base_rc = 0
         if not args.no_baseline:
             tests = tuple(sorted({t for m in muts for t in m.tests}))
-            base_rc, dt, tail, known = _pytest(base, tests, 4.0 * args.timeout)
+            base_rc, dt, tail, known = _pytest(base, tests, 4.0 * args.timeout, shared)
             print(f"baseline ({len(tests)} test files, {dt:.0f} s): {tail}")
             if base_rc == -1:
                 print("baseline timed out: raise --timeout")
@@ -376,7 +502,13 @@ def main(argv: list[str] | None = None) -> int:
         t0 = time.perf_counter()
         with ThreadPoolExecutor(max_workers=args.jobs) as pool:
             results = list(
-                pool.map(lambda m: _run_one(m, base, args.timeout, known, base_rc), muts)
+                pool.map(
+                    lambda m: _run_one(
+                        m, base, args.timeout, known, base_rc,
+                        None if args.fresh_cache else shared,
+                    ),
+                    muts,
+                )  # fmt: skip
             )
         for m, (status, dt, tail) in zip(muts, results, strict=True):
             print(f"{status:16s} {dt:6.1f} s  {m.id:36s} {m.what}")

@@ -127,3 +127,15 @@ def finite_time_batch(
     are ``(B, ...)`` (one sample broadcast by the caller)."""
     for b in range(R.shape[0]):
         finite_time_one(J, prm, R[b], w[b], R_d[b], w_d[b], dw_d[b], M_out[b], diag_out[b])
+
+
+@njit
+def finite_time_law(
+    t: float, R: np.ndarray, w: np.ndarray, R_d: np.ndarray, w_d: np.ndarray, dw_d: np.ndarray,
+    params: np.ndarray, state: np.ndarray, M_out: np.ndarray, diag_out: np.ndarray,
+) -> None:  # fmt: skip
+    """:func:`finite_time_one` as a law of the compiled-kernel seam
+    (:mod:`liecontrol.control.kernel`): ``params (23,) = (J row-major, the 14 values of
+    PARAM_NAMES)``; stateless; diagnostics ``(11,)``."""
+    J = params[0:9].reshape((3, 3))
+    finite_time_one(J, params[9:23], R, w, R_d, w_d, dw_d, M_out, diag_out)

@@ -101,3 +101,15 @@ def geometric_pd_batch(
         geometric_pd_one(
             error, J, kR, kW, G, R[b], w[b], R_d[b], w_d[b], dw_d[b], M_out[b], diag_out[b]
         )
+
+
+@njit
+def geometric_pd_law(
+    t: float, R: np.ndarray, w: np.ndarray, R_d: np.ndarray, w_d: np.ndarray, dw_d: np.ndarray,
+    params: np.ndarray, state: np.ndarray, M_out: np.ndarray, diag_out: np.ndarray,
+) -> None:  # fmt: skip
+    """:func:`geometric_pd_one` as a law of the compiled-kernel seam
+    (:mod:`liecontrol.control.kernel`): ``params (37,) = (error code, J, K_R, K_Ω, G)``, the
+    3×3 matrices row-major; stateless; diagnostics ``(7,)``."""
+    m = params[1:37].reshape((4, 3, 3))  # one reshape, four views: cheaper than four
+    geometric_pd_one(int(params[0]), m[0], m[1], m[2], m[3], R, w, R_d, w_d, dw_d, M_out, diag_out)

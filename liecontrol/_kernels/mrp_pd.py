@@ -118,3 +118,22 @@ def mrp_pd_batch(
             p_prev[b], u_out[b], diag_out[b],
         )  # fmt: skip
     return n
+
+
+@njit
+def mrp_pd_law(
+    t: float, R: np.ndarray, w: np.ndarray, R_d: np.ndarray, w_d: np.ndarray, dw_d: np.ndarray,
+    params: np.ndarray, state: np.ndarray, u_out: np.ndarray, diag_out: np.ndarray,
+) -> None:  # fmt: skip
+    """:func:`mrp_pd_one` as a law of the compiled-kernel seam
+    (:mod:`liecontrol.control.kernel`): ``params (29,) = (feed-forward code, threshold², J, K,
+    P)``; ``state (5,) = (previous σ (3), has a previous σ (0/1), shadow switches so far)``;
+    diagnostics ``(4,) = (σ, switched)``."""
+    m = params[2:29].reshape((3, 3, 3))  # J, K, P
+    switched = mrp_pd_one(
+        int(params[0]), params[1], m[0], m[1], m[2], R, w, R_d, w_d, dw_d, state[3] != 0.0,
+        state[0:3], u_out, diag_out,
+    )  # fmt: skip
+    state[3] = 1.0
+    if switched:
+        state[4] += 1.0

@@ -70,3 +70,18 @@ def quaternion_pd_batch(
             sign_mode, hysteresis, J, Kp, Kd, R[b], w[b], R_d[b], w_d[b], dw_d[b], q_prev[b],
             u_out[b], diag_out[b],
         )  # fmt: skip
+
+
+@njit
+def quaternion_pd_law(
+    t: float, R: np.ndarray, w: np.ndarray, R_d: np.ndarray, w_d: np.ndarray, dw_d: np.ndarray,
+    params: np.ndarray, state: np.ndarray, u_out: np.ndarray, diag_out: np.ndarray,
+) -> None:  # fmt: skip
+    """:func:`quaternion_pd_one` as a law of the compiled-kernel seam
+    (:mod:`liecontrol.control.kernel`): ``params (29,) = (sign-mode code, hysteresis, J, k_p,
+    k_d)``; ``state (4,)`` the previous quaternion (or the first sample's hint); diagnostics
+    ``(5,) = (q, flipped)``."""
+    m = params[2:29].reshape((3, 3, 3))  # J, k_p, k_d
+    quaternion_pd_one(
+        int(params[0]), params[1], m[0], m[1], m[2], R, w, R_d, w_d, dw_d, state, u_out, diag_out
+    )

@@ -77,6 +77,9 @@ import math
 
 import numpy as np
 
+from .._kernels.adaptive import N_DIAG as AD_DIAG
+from .._kernels.adaptive import N_STATE as AD_STATE
+from .._kernels.adaptive import adaptive_law
 from .._validation import (
     as_array,
     as_scalar,
@@ -94,7 +97,8 @@ from .base import (
     check_state_batch,
     finite_command,
 )
-from .geometric_pd import check_gain
+from .geometric_pd import _as_matrix, check_gain
+from .kernel import ControllerKernel
 
 __all__ = [
     "AdaptiveGeometricSO3",
@@ -322,6 +326,23 @@ def _project_ball(
 # ----------------------------------------------------------------------------------- controller
 
 
+def _adaptive_rows(rows: np.ndarray, m: int) -> dict[str, np.ndarray]:
+    """The controller's diagnostics (with ``J_hat``) from its kernel rows ``(..., 21 + m)``."""
+    theta = rows[..., 13:19].copy()
+    return {
+        "Psi": rows[..., 0].copy(),
+        "e_R": rows[..., 1:4].copy(),
+        "e_Omega": rows[..., 4:7].copy(),
+        "s": rows[..., 7:10].copy(),
+        "d_hat": rows[..., 10:13].copy(),
+        "theta_hat": theta,
+        "phi_hat": rows[..., 19 : 19 + m].copy(),
+        "theta_projected": rows[..., 19 + m] != 0.0,
+        "phi_projected": rows[..., 20 + m] != 0.0,
+        "J_hat": _J_matrix(theta),
+    }
+
+
 class AdaptiveGeometricSO3(AttitudeController):
     """Adaptive geometric tracking on SO(3): unknown inertia and constant + harmonic disturbance.
 
@@ -522,6 +543,60 @@ class AdaptiveGeometricSO3(AttitudeController):
             "phi_projected": ph_proj,
         }
         return finite_command(M, w)
+
+    def fused_kernel(
+        self, batch_size: int, control_period: float | None = None
+    ) -> ControllerKernel | None:
+        """The compiled law (:func:`liecontrol._kernels.adaptive.adaptive_law`) for the
+        simulator's fused loop (:mod:`liecontrol.control.kernel`), carrying the estimates;
+        ``None`` for the log error (its rate matrix J_r⁻¹ has no kernel yet)."""
+        if self._batch is None or self.error == "log":
+            return None
+        B = int(batch_size)
+        G = np.zeros((3, 3)) if self.G is None else np.asarray(self.G, dtype=np.float64)
+        nu = self.frequencies
+        params = np.concatenate(
+            [
+                [0.0 if self.error == "large_angle" else 2.0],
+                np.ascontiguousarray(self.J, dtype=np.float64).ravel(),
+                np.zeros(18),
+                G.ravel(),
+                _as_matrix(self.k_s).ravel(),
+                [self.k_R, self.c, self.gamma_theta, self.gamma_phi],
+                self.theta0,
+                [self.inertia_radius, self.disturbance_bound, float(nu.size)],
+                nu,
+            ]
+        )
+        m = self.phi0.size
+        state = np.zeros((B, AD_STATE + 2 * m))
+        if self._t_prev is not None:
+            state[:, 0] = 1.0
+            state[:, 1] = self._t_prev
+        state[:, 2:8] = self.theta_hat
+        state[:, 8:14] = self._rate_theta
+        state[:, 14 : 14 + m] = self.phi_hat
+        state[:, 14 + m :] = self._rate_phi
+
+        def rows(r: np.ndarray) -> dict[str, np.ndarray]:
+            return _adaptive_rows(r, m)
+
+        return ControllerKernel(adaptive_law, params, state, AD_DIAG + m + 2, rows, self._finish)
+
+    def _kernel_reason(self) -> str:
+        return "the log error function (or a controller that was not reset)"
+
+    def _finish(self, state: np.ndarray, diag: np.ndarray) -> None:
+        """Estimates, their rates and diagnostics after a compiled run."""
+        m = self.phi0.size
+        self._t_prev = float(state[0, 1]) if state[0, 0] != 0.0 else None
+        self.theta_hat = state[:, 2:8].copy()
+        self._rate_theta = state[:, 8:14].copy()
+        self.phi_hat = state[:, 14 : 14 + m].copy()
+        self._rate_phi = state[:, 14 + m :].copy()
+        d = _adaptive_rows(diag, m)
+        d.pop("J_hat")
+        self._diag = d
 
     def diagnostics(self) -> dict[str, np.ndarray]:
         """The last sample's errors and estimates (class docstring); empty before a command."""

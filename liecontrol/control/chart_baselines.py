@@ -48,8 +48,8 @@ from typing import Any
 
 import numpy as np
 
-from .._kernels.mrp_pd import FEEDFORWARD_CODES, mrp_pd_batch
-from .._kernels.quaternion_pd import SIGN_CODES, quaternion_pd_batch
+from .._kernels.mrp_pd import FEEDFORWARD_CODES, mrp_pd_batch, mrp_pd_law
+from .._kernels.quaternion_pd import SIGN_CODES, quaternion_pd_batch, quaternion_pd_law
 from .._linalg import cross as _cross
 from .._validation import (
     as_scalar,
@@ -65,8 +65,28 @@ from .geometric_pd import (
     validated_reference,
     validated_rotation_and_rate,
 )
+from .kernel import ControllerKernel
 
 __all__ = ["QuaternionPD", "MrpPD", "QuaternionPDLaw", "MrpPDLaw", "MRP_FEEDFORWARDS"]
+
+
+def _quaternion_rows(rows: np.ndarray) -> dict[str, np.ndarray]:
+    """The quaternion PD's diagnostics from its kernel rows ``(..., 5) = (q, flipped)``."""
+    return {
+        "q_w": rows[..., 0].copy(),
+        "chart_y": rows[..., 0:4].copy(),
+        "chart_y_d": np.broadcast_to([1.0, 0.0, 0.0, 0.0], rows.shape[:-1] + (4,)).copy(),
+        "chart_switched": rows[..., 4] != 0.0,
+    }
+
+
+def _mrp_rows(rows: np.ndarray) -> dict[str, np.ndarray]:
+    """The MRP PD's diagnostics from its kernel rows ``(..., 4) = (σ, switched)``."""
+    return {
+        "chart_y": rows[..., 0:3].copy(),
+        "chart_y_d": np.zeros(rows.shape[:-1] + (3,)),
+        "chart_switched": rows[..., 3] != 0.0,
+    }
 
 
 def _kernel_inputs(
@@ -244,9 +264,25 @@ class QuaternionPD(QuaternionChartAdapter):
         self._set_kernel_state(diag, q)
         return finite_command(u, w)
 
-    def _kernel_args(self) -> tuple:
-        """``(sign-mode code, hysteresis, J, k_p, k_d)`` of the compiled kernel."""
-        return self._kargs
+    def fused_kernel(
+        self, batch_size: int, control_period: float | None = None
+    ) -> ControllerKernel | None:
+        """The compiled law (:func:`liecontrol._kernels.quaternion_pd.quaternion_pd_law`) for
+        the simulator's fused loop (:mod:`liecontrol.control.kernel`), ``None`` where the
+        adapter's numpy route runs (:meth:`_kernel_applies`)."""
+        if not self._kernel_applies():
+            return None
+        mode, hyst, J, Kp, Kd = self._kargs
+        params = np.concatenate([[float(mode), hyst], J.ravel(), Kp.ravel(), Kd.ravel()])
+        q = self._first_hint(batch_size) if self._q_prev is None else self._q_prev.copy()
+        return ControllerKernel(
+            quaternion_pd_law, params, np.array(q, dtype=np.float64), 5,
+            diagnostics=_quaternion_rows,
+            finish=lambda state, diag: self._set_kernel_state(diag, state.copy()),
+        )  # fmt: skip
+
+    def _kernel_reason(self) -> str:
+        return "a subclass, a swapped law or a base other than the reference frame"
 
     def _set_kernel_state(self, diag: np.ndarray, q: np.ndarray) -> None:
         """Chart memory and diagnostics from the kernel's quaternions ``q (B, 4)`` and rows."""
@@ -320,9 +356,29 @@ class MrpPD(MrpChartAdapter):
         self._set_kernel_state(diag, p)
         return finite_command(u, w)
 
-    def _kernel_args(self) -> tuple:
-        """``(feed-forward code, threshold², J, K, P)`` of the compiled kernel."""
-        return self._kargs
+    def fused_kernel(
+        self, batch_size: int, control_period: float | None = None
+    ) -> ControllerKernel | None:
+        """The compiled law (:func:`liecontrol._kernels.mrp_pd.mrp_pd_law`) for the simulator's
+        fused loop (:mod:`liecontrol.control.kernel`), ``None`` where the adapter's numpy route
+        runs (:meth:`_kernel_applies`). State: previous σ, has-previous flag, switch count."""
+        if not self._kernel_applies():
+            return None
+        ff, thr2, J, K, P = self._kargs
+        params = np.concatenate([[float(ff), thr2], J.ravel(), K.ravel(), P.ravel()])
+        state = np.zeros((batch_size, 5))
+        if self._p_prev is not None:
+            state[:, :3] = self._p_prev
+            state[:, 3] = 1.0
+
+        def finish(state: np.ndarray, diag: np.ndarray) -> None:
+            self.n_switches += int(state[:, 4].sum())
+            self._set_kernel_state(diag, state[:, :3].copy())
+
+        return ControllerKernel(mrp_pd_law, params, state, 4, _mrp_rows, finish)
+
+    def _kernel_reason(self) -> str:
+        return "a subclass, a swapped law or a base other than the reference frame"
 
     def _set_kernel_state(self, diag: np.ndarray, p: np.ndarray) -> None:
         """Chart memory and diagnostics from the kernel's σ ``p (B, 3)`` and ``(B, 7)`` rows."""

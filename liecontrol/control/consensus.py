@@ -24,12 +24,20 @@ rotation from ``i`` to ``j`` in ``i``'s body axes, which is also its value in ``
   Stability (undirected graph, all pairwise angles < π so every ``log`` is smooth): with
   ``V = ½ Σ_i Ω_iᵀJ_iΩ_i + ½ k_R Σ_{edges} a_ij ‖φ_ij‖²`` and ``d/dt ½‖φ_ij‖² = φ_ijᵀ(Ω_j − Ω_i)``
   (because ``φᵀ J_r(φ)⁻¹ = φᵀ`` and ``R_ij φ_ij = φ_ij``) one gets ``V̇ = −k_Ω Σ_i ‖Ω_i‖² ≤ 0``:
-  the formation comes to rest at an equilibrium ``Σ_j a_ij φ_ij = 0``. Members starting inside an
-  open ball of radius π/2 converge to consensus ``R_i = R_j`` (Sarlette, Sepulchre & Leonard,
-  "Autonomous rigid body attitude synchronization", *Automatica* 45(2), 2009); from arbitrary
-  starts rings can also rest in "twisted" non-consensus equilibria, so consensus is almost-global
-  only on some graphs. On a disconnected graph each component agrees on its own attitude and the
-  formation as a whole does not (tested).
+  the formation comes to rest at an equilibrium ``Σ_j a_ij φ_ij = 0``. Assumptions of this
+  argument: an undirected graph, a **scalar** ``k_R`` (a vector or matrix ``k_R`` breaks the
+  edge cancellation and the potential; the constructor warns with
+  :class:`ConsensusAssumptionWarning`), any SPD ``k_Ω``, no communication delay, the members'
+  inertias known exactly, pairwise angles below π. Consensus ``R_i = R_j`` from an open ball of
+  radius π/2 is a result for the **first-order** (kinematic) model ``Ṙ_i = R_i ω_i`` with the
+  rate as input (Sarlette, Sepulchre & Leonard, "Autonomous rigid body attitude
+  synchronization", *Automatica* 45(2), 2009). For this torque-level (second-order) law it is
+  claimed only for starts **at rest** inside the ball whose energy keeps them inside: initial
+  rates carry the members out of the ball (a ring with initial rates of standard deviation
+  1 rad/s ended at 180° disagreement in 2 of 40 runs). From arbitrary starts rings can also rest
+  in "twisted" non-consensus equilibria, which are stable with open basins, so consensus is
+  almost-global only on some graphs (trees). On a disconnected graph each component agrees on
+  its own attitude and the formation as a whole does not (tested).
 
 - :class:`LeaderFollowerConsensus` (the survey's leader–follower family): the members in
   ``graph.leaders`` track the reference ``R_d(t)`` with the geometric tracking law on the log
@@ -93,6 +101,7 @@ __all__ = [
     "LeaderFollowerConsensus",
     "PoseFormation",
     "ConsensusGraphWarning",
+    "ConsensusAssumptionWarning",
     "consensus_error",
     "pairwise_angles",
 ]
@@ -101,6 +110,32 @@ __all__ = [
 class ConsensusGraphWarning(UserWarning):
     """The graph lacks the connectivity a consensus law needs (the law still runs: the members
     of each part agree among themselves, the formation as a whole does not)."""
+
+
+class ConsensusAssumptionWarning(UserWarning):
+    """A consensus law was configured outside the assumptions of its stability argument (e.g. a
+    vector or matrix ``k_R``: the Lyapunov cancellation needs a scalar coupling gain). The law
+    still runs; its convergence is then not covered by the argument."""
+
+
+def _scalar_coupling_gain(K: float | np.ndarray) -> float | np.ndarray:
+    """A scalar ``k_R`` as ``float``; a multiple of the identity is folded to its scalar; any
+    other vector/matrix gain is kept with a :class:`ConsensusAssumptionWarning`."""
+    if isinstance(K, float):
+        return K
+    k = float(K[0, 0])
+    if np.array_equal(K, k * np.eye(3)):
+        return k
+    warnings.warn(
+        "k_R: a vector or matrix coupling gain breaks the Lyapunov argument of the consensus "
+        "laws — the cancellation φ_jiᵀ(k_R φ_ji) = φ_ijᵀ(k_R φ_ij) across an edge and the "
+        "potential ½k_R‖φ‖² of the log error need a scalar k_R (φ_ij and φ_ji are expressed in "
+        "different body axes); the law runs, but neither rest nor consensus is covered. Use a "
+        "scalar k_R (k_Omega may be any SPD gain)",
+        ConsensusAssumptionWarning,
+        stacklevel=4,
+    )
+    return K
 
 
 #: the longest communication delay accepted [control periods] (a ring buffer of this many states)
@@ -382,7 +417,7 @@ class _ConsensusBase(AttitudeController):
             )
         self.J = J.copy()
         self.J.setflags(write=False)
-        self.k_R = check_gain(k_R, "k_R")
+        self.k_R = _scalar_coupling_gain(check_gain(k_R, "k_R"))
         self.k_Omega = check_gain(k_Omega, "k_Omega")
         self.delay = _delay(delay)
         self.require_connected = check_bool(require_connected, "require_connected")
@@ -453,14 +488,19 @@ class AttitudeConsensus(_ConsensusBase):
 
     ``R̂_j`` member ``j``'s attitude as received (``delay`` control periods old). The reference
     passed to :meth:`command` is ignored: the members agree on an attitude they choose together.
-    With an undirected graph the Lyapunov function of the module docstring proves the formation
-    comes to rest (without delay); from starts in a ball of radius π/2 at consensus.
+    With an undirected graph, a scalar ``k_R`` and no delay the Lyapunov function of the module
+    docstring proves the formation comes to rest (at some equilibrium, possibly a twisted one on
+    a ring). Consensus from a ball of radius π/2 is the first-order (kinematic) result of
+    Sarlette, Sepulchre & Leonard (2009); for this torque law it is assumed only for starts at
+    rest inside the ball (initial rates can carry members out of it; module docstring).
 
     Args:
         graph: :class:`CommunicationGraph` of the ``N`` members (the batch size must be ``N``).
         J: inertia ``(3, 3)`` shared or ``(N, 3, 3)`` per member [kg·m²].
-        k_R: coupling gain (scalar, 3-vector or SPD 3×3) [N·m/rad].
-        k_Omega: rate damping gain, same forms [N·m·s/rad].
+        k_R: coupling gain [N·m/rad]: a positive scalar (the stability argument needs one); a
+            3-vector or SPD 3×3 is accepted with a :class:`ConsensusAssumptionWarning` (a
+            multiple of the identity is folded to its scalar without one).
+        k_Omega: rate damping gain: positive scalar, 3-vector or SPD 3×3 [N·m·s/rad].
         delay: communication delay in control periods (integer >= 0).
         predict: propagate each received state to the present at its constant body rate
             (module docstring); no effect without a delay.
@@ -511,6 +551,12 @@ class LeaderFollowerConsensus(_ConsensusBase):
     weighted geometric average of their neighbours (``e_R,i = −(1/d_i) Σ_j a_ij φ_ij``,
     ``ω̄_i = (1/d_i) Σ_j a_ij R_iᵀR̂_jΩ̂_j``) and no acceleration feed-forward (not
     communicated).
+
+    Assumptions of the convergence argument (module docstring): a tree (each follower with one
+    neighbour: the cascade of geometric PD loops), a scalar ``k_R`` (a vector or matrix one
+    warns: :class:`ConsensusAssumptionWarning`), no delay, exact inertias; a follower tracks a
+    constant-rate parent exactly and a maneuvering one with an error driven by the parent's
+    acceleration (not communicated). On other graphs convergence is not proved here.
 
     Args: as :class:`AttitudeConsensus`; ``graph.leaders`` must be non-empty. A follower that
     no leader informs (``graph.informed_by(graph.leaders)``), or one without neighbours, never

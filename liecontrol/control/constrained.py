@@ -46,10 +46,14 @@ admissible) is the unique global minimum (``Ψ = 0``).
 **Known limits.** (1) The barriers create other critical points of ``Ψ`` (saddles "behind" a
 cone, where the attractive and barrier gradients cancel, and the large-angle potential's maximum
 at ``θ = π``); trajectories from the measure-zero set of starts on their stable manifolds stall
-there, and starts near them converge slowly. (2) The guarantee needs the torque to be delivered:
-with actuator saturation (or model error, or a long sample period) the barrier's torque — which
-grows like ``1/slack`` — is clipped and the boresight can cross the boundary; nothing is hidden
-then: :func:`cone_margins_deg` reports the negative margin and the controller keeps commanding
+there, and starts near them converge slowly. (2) The guarantee is for continuous-time control
+with the torque delivered: with actuator saturation, model error, or sampling — not only "long"
+periods: a start approaching a cone fast enough crosses it at any practical period (a 120° slew
+through a 20° Sun cone at 0.1 rad/s toward it, ω_n T_s = 0.003, crossed by 19.7°; at 1 s the run
+diverged) — the barrier's torque, which grows like ``1/slack``, arrives late or clipped and the
+boresight can cross the boundary. :class:`SampledSafeConstrainedPD` adds the sampled-data,
+torque-bounded guarantee (a barrier on the braking-distance-augmented margin); here nothing is
+hidden: :func:`cone_margins_deg` reports the negative margin and the controller keeps commanding
 (the slack is floored at :data:`SLACK_FLOOR` so its push back out stays finite). (3) Near
 ``R_d`` the stiffness is ``(1 + Σ β_i(R_d))`` times the unconstrained PD's, i.e. the natural
 frequency is scaled by ``√(1 + Σ β_i(R_d))`` (1 for a target far from every cone). (4) The
@@ -86,6 +90,7 @@ __all__ = [
     "SLACK_FLOOR",
     "cone_margins_deg",
     "check_admissible",
+    "check_cone_set",
     "constrained_potential",
     "ConstrainedGeometricPD",
 ]
@@ -150,9 +155,20 @@ class _Cone:
 class KeepOutCone(_Cone):
     """The body axis ``body_axis`` must stay more than ``half_angle_deg`` from the inertial
     direction ``inertial_direction`` (``bᵀRᵀs < cos α``). The axes are stored as given and
-    normalised for the formulas; the half-angle must be in (0°, 180°)."""
+    normalised for the formulas; the half-angle must be in (0°, 90°) (a keep-out cone of 90° or
+    more would exclude a hemisphere or more: the barrier's potential is then not convex on the
+    admissible set and the braking geometry of :class:`SampledSafeConstrainedPD` — favourable
+    curvature below 90° — does not hold)."""
 
     kind = "keep_out"
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if not self.half_angle_deg < 90.0:
+            raise ValueError(
+                f"half_angle_deg: a keep-out cone must be narrower than 90°, got "
+                f"{self.half_angle_deg}° (exclude the opposite direction with a keep-in cone)"
+            )
 
     def margin_deg(self, R: object) -> np.ndarray:
         """``∠(Rb, s) − α`` [deg]: negative inside the cone."""
@@ -186,6 +202,42 @@ def _cones(cones: object, name: str, cls: type) -> tuple:
         if not isinstance(c, cls):
             raise TypeError(f"{name}: item {i} must be a {cls.__name__}, got {type(c).__name__}")
     return tuple(cones)
+
+
+def check_cone_set(keep_out: Sequence[KeepOutCone], keep_in: Sequence[KeepInCone]) -> None:
+    """Raise ``ValueError`` naming ``keep_in`` when the cones leave one body axis no admissible
+    direction: a keep-in cone lying entirely inside a keep-out cone of the same body axis
+    (``∠(s_in, s_out) + β ≤ α``), or two keep-in cones of the same body axis that do not overlap
+    (``∠(s₁, s₂) ≥ β₁ + β₂``). (Cones on different body axes can also conflict; that is not
+    detected here: the first ``command`` rejects an inadmissible ``R_d``.)"""
+    outs = _cones(keep_out, "keep_out", KeepOutCone)
+    ins = _cones(keep_in, "keep_in", KeepInCone)
+
+    def ang(a: np.ndarray, b: np.ndarray) -> float:
+        return math.degrees(math.acos(max(-1.0, min(1.0, float(a @ b)))))
+
+    for j, ci in enumerate(ins):
+        for i, co in enumerate(outs):
+            if (
+                ang(ci._b, co._b) < 1e-9
+                and ang(ci._s, co._s) + ci.half_angle_deg <= co.half_angle_deg
+            ):
+                raise ValueError(
+                    f"keep_in: keep-in cone {j} ({ci.half_angle_deg}° about "
+                    f"{ci._s.round(4).tolist()}) lies inside keep-out cone {i} "
+                    f"({co.half_angle_deg}° about {co._s.round(4).tolist()}) for the same body "
+                    f"axis {ci._b.round(4).tolist()}: no admissible attitude"
+                )
+        for k in range(j):
+            ck = ins[k]
+            if (
+                ang(ci._b, ck._b) < 1e-9
+                and ang(ci._s, ck._s) >= ci.half_angle_deg + ck.half_angle_deg
+            ):
+                raise ValueError(
+                    f"keep_in: keep-in cones {k} and {j} of body axis {ci._b.round(4).tolist()} "
+                    "do not overlap: no admissible attitude"
+                )
 
 
 def cone_margins_deg(cones: Sequence[AttitudeCone], R: object) -> np.ndarray:
@@ -324,6 +376,7 @@ class ConstrainedGeometricPD(AttitudeController):
         self.k_Omega = check_gain(k_Omega, "k_Omega")
         self.keep_out = _cones(keep_out, "keep_out", KeepOutCone)
         self.keep_in = _cones(keep_in, "keep_in", KeepInCone)
+        check_cone_set(self.keep_out, self.keep_in)
         self.barrier_weight = _weight(barrier_weight)
         self._cones = self.keep_out + self.keep_in
         self._batch: int | None = None
@@ -376,4 +429,329 @@ class ConstrainedGeometricPD(AttitudeController):
 
     def diagnostics(self) -> dict[str, np.ndarray]:
         """Last ``Psi``, ``e_R``, ``e_Omega``, ``min_slack`` (empty before the first command)."""
+        return dict(self._diag)
+
+
+# ------------------------------------------------------------------ sampled-data safe constraints
+
+__all__ += ["SampledSafeConstrainedPD", "UnrecoverableStartWarning", "braking_margins_deg"]
+
+
+class UnrecoverableStartWarning(UserWarning):
+    """A start from which the torque bound cannot be certified to stop the boresight before a
+    cone at the controller's sample period (:func:`braking_margins_deg` < 0)."""
+
+
+def _check_max_torque(u: object) -> np.ndarray:
+    a = as_array(u, "max_torque")
+    if a.ndim == 0:
+        a = np.full(3, float(a))
+    if a.shape != (3,):
+        raise ValueError(f"max_torque: expected a scalar or shape (3,), got {a.shape}")
+    if not np.all(a > 0.0):
+        raise ValueError(f"max_torque: must be > 0 [N·m], got {a.tolist()}")
+    a = a.copy()
+    a.setflags(write=False)
+    return a
+
+
+def _approach_terms(
+    R: np.ndarray, w: np.ndarray, J: np.ndarray, cone: _Cone
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """For one cone at ``(R, ω)`` ``(B, 3, 3), (B, 3)``: margin ``m`` [rad] ``(B,)``, approach
+    rate ``v = −ṁ`` ``(B,)``, and the approach acceleration ``−m̈ = a_free + pᵀu`` split into
+    the torque-free part ``a_free`` ``(B,)`` (gyroscopic and curvature terms) and ``p`` ``(B,
+    3)`` (``p = σ J⁻¹ g / sin φ``)."""
+    s_body = np.swapaxes(R, -1, -2) @ cone._s  # Rᵀs
+    c = np.clip(s_body @ cone._b, -1.0, 1.0)
+    phi = np.arccos(c)
+    sphi = np.maximum(np.sin(phi), 1e-9)
+    b = np.broadcast_to(cone._b, s_body.shape)
+    g = _cross(b, s_body)  # ∇c: ċ = gᵀω
+    c_dot = np.sum(g * w, axis=-1)
+    g_dot = _cross(b, _cross(s_body, w))  # d/dt(b × Rᵀs), Rᵀs' = Rᵀs × ω
+    Jinv = np.linalg.inv(J)
+    gyro = _cross(w, w @ J.T)  # ω × Jω
+    Jg = g @ Jinv.T  # J⁻¹ g (J symmetric)
+    # φ̇ = −ċ/sinφ,  φ̈ = −c̈/sinφ − ċ² cosφ/sin³φ,  c̈ = ġᵀω + gᵀJ⁻¹(u − ω × Jω)
+    sigma = 1.0 if cone.kind == "keep_out" else -1.0  # keep-out m = φ − α, keep-in m = β − φ
+    alpha = math.radians(cone.half_angle_deg)
+    m = sigma * (phi - alpha)
+    v = -sigma * (-c_dot / sphi)
+    curv = (np.sum(g_dot * w, axis=-1) - np.sum(Jg * gyro, axis=-1)) / sphi
+    curv = curv + c_dot**2 * c / sphi**3
+    a_free = sigma * curv  # −m̈ = −σ φ̈ = σ(c̈/sinφ + ċ² cosφ/sin³φ)
+    p = (sigma / sphi)[:, None] * Jg
+    return m, v, a_free, p
+
+
+def _braking_decel(
+    a_free: np.ndarray, u_max: np.ndarray, lam_max: float, efficiency: float
+) -> np.ndarray:
+    """Deceleration of the approach the torque bound certifies [rad/s²]: ``η u_min/λ_max(J)``
+    less any adverse torque-free acceleration (``‖J⁻¹ĝ‖₁ ≥ 1/λ_max`` for every approach
+    direction, so the bound holds while the geometry turns)."""
+    return np.maximum(efficiency * float(u_max.min()) / lam_max - np.maximum(a_free, 0.0), 1e-12)
+
+
+def _h(m: np.ndarray, v: np.ndarray, a_b: np.ndarray, T: float, buf: float) -> np.ndarray:
+    """Braking-distance-augmented margin ``m − v₊T − v₊²/(2a_b) − buffer`` [rad]."""
+    vp = np.maximum(v, 0.0)
+    return m - vp * T - vp * vp / (2.0 * a_b) - buf
+
+
+def braking_margins_deg(
+    cones: Sequence[AttitudeCone],
+    R: object,
+    omega: object,
+    J: object,
+    max_torque: object,
+    sample_period: float,
+    efficiency: float = 0.7,
+    buffer_deg: float = 0.5,
+) -> np.ndarray:
+    """Braking-distance-augmented margins ``(B, n)`` [deg] of the ``n`` cones at ``(R, ω)``:
+    ``m − v₊T − v₊²/(2a_b) − buffer``, ``m`` the geometric margin, ``v`` the rate at which the
+    boresight approaches the boundary, ``T`` the sample period (one period may pass before a
+    new command acts) and ``a_b`` the approach deceleration the torque bound certifies
+    (:class:`SampledSafeConstrainedPD`). Negative: from this state the torque bound cannot be
+    certified to stop the boresight before the boundary at this sample period (the
+    unrecoverable set, up to the certificate's conservatism)."""
+    cones = _cones(cones, "cones", _Cone)
+    R = check_rotation_matrix(R, "R").reshape(-1, 3, 3)
+    w = as_array(omega, "omega", (3,)).reshape(-1, 3)
+    if w.shape[0] != R.shape[0]:
+        if 1 not in (w.shape[0], R.shape[0]):
+            raise ValueError(f"omega: batch {w.shape[0]} does not match R's {R.shape[0]}")
+        B = max(w.shape[0], R.shape[0])
+        R = np.broadcast_to(R, (B, 3, 3))
+        w = np.broadcast_to(w, (B, 3))
+    J = check_inertia_3x3(J, "J")
+    u = _check_max_torque(max_torque)
+    T = as_scalar(sample_period, "sample_period")
+    if not T > 0.0:
+        raise ValueError(f"sample_period: must be > 0 [s], got {T}")
+    eta = _efficiency(efficiency)
+    buf = math.radians(as_scalar(buffer_deg, "buffer_deg"))
+    lam = float(np.linalg.eigvalsh(J)[-1])
+    out = []
+    for cone in cones:
+        m, v, a_free, _ = _approach_terms(R, w, J, cone)
+        out.append(np.degrees(_h(m, v, _braking_decel(a_free, u, lam, eta), T, buf)))
+    return np.stack(out, axis=-1) if out else np.zeros((R.shape[0], 0))
+
+
+def _efficiency(e: object) -> float:
+    v = as_scalar(e, "efficiency")
+    if not 0.0 < v <= 1.0:
+        raise ValueError(f"efficiency: must be in (0, 1], got {v}")
+    return v
+
+
+class SampledSafeConstrainedPD(AttitudeController):
+    """Keep-out/keep-in control that keeps the margin positive at its sample period under a torque
+    bound: :class:`ConstrainedGeometricPD` (the log barrier, which steers around the cones) as
+    the nominal command, clipped to the torque bound, then a one-step safety filter on the
+    braking-distance-augmented margin of every cone.
+
+    **Why.** The log barrier's guarantee is continuous-time with the torque delivered: its push
+    grows like ``1/slack``, so a sampled loop approaching a cone fast gets a huge, late,
+    zero-order-held command (a 120° slew through a 20° Sun cone at 0.1 rad/s toward it crossed
+    the cone by 19.7° at a 0.1 s period, with a 5.1 MN·m command).
+
+    **Margin with braking.** Per cone, with the geometric margin ``m`` [rad] (``φ − α`` keep-out,
+    ``β − φ`` keep-in, ``φ`` the boresight's angle to the cone axis), the approach rate
+    ``v = −ṁ`` and its acceleration ``−m̈ = a_free + pᵀu`` (exact at the sample, from
+    ``φ̈ = −c̈/sin φ − ċ² cos φ/sin³ φ``, ``c = bᵀRᵀs``, ``c̈ = ġᵀω + gᵀJ⁻¹(u − ω × Jω)``), the
+    certified braking deceleration is ``a_b = η u_min/λ_max(J) − max(a_free, 0)`` (``u_min``
+    the smallest per-axis limit; ``‖J⁻¹ĝ‖₁ ≥ 1/λ_max`` for every approach direction) and
+
+        h = m − v₊ T − v₊²/(2 a_b) − buffer,
+
+    the margin left if the boresight brakes at ``a_b`` starting one sample period ``T`` late.
+
+    **Filter.** At each sample, the command held over ``T`` is chosen so that the predicted
+    ``h`` after the period (double-integrator prediction of ``m``, ``v`` under the held
+    approach acceleration) stays ``≥ 0``: the nominal command is kept if it does; otherwise its
+    component along ``p`` is reduced to the largest admissible approach acceleration (the
+    smallest change of the command), and if the torque bound cannot realise that, the command
+    is full braking ``u = −u_max sign(p)`` for the most critical cone. For the double-integrator
+    model ``{h ≥ 0}`` is forward invariant under full braking (``h`` grows by at least
+    ``a_b T²`` per braking period while ``v > a_b T``), so a start with ``h ≥ 0`` never reaches
+    the boundary.
+
+    **Assumptions.** The model is exact (inertia, no disturbance) and the torque bound is the
+    actuator's (per axis, delivered within a sample); the approach geometry is predicted from
+    the sample (the curvature of a keep-out cone's distance is favourable below 90° and is
+    dropped from the braking budget; ``η`` < 1 covers the turning of the approach direction
+    within a period); the cones are separated (one critical cone at a time); ``v T`` covers one
+    period of delay, not more (no computation delay beyond the zero-order hold). From a start
+    with ``h < 0`` (:func:`braking_margins_deg`, the unrecoverable set up to the certificate's
+    conservatism) the first ``command`` warns (:class:`UnrecoverableStartWarning`; ``strict``:
+    ``ValueError``) and the filter brakes at full torque. Liveness (reaching ``R_d``) is the
+    nominal barrier law's, with its known limits (:class:`ConstrainedGeometricPD`); the filter
+    can slow it.
+
+    Args:
+        J, k_R, k_Omega, keep_out, keep_in, barrier_weight: as :class:`ConstrainedGeometricPD`.
+        max_torque: per-axis torque bound ``|u_i| ≤ u_max`` [N·m] (scalar or ``(3,)``; the
+            actuator's limit).
+        sample_period: the control period ``T`` [s] the law runs at (the simulator's
+            ``control_period``).
+        efficiency: ``η`` ∈ (0, 1], the share of the torque bound counted on for braking
+            (default 0.7).
+        buffer_deg: margin kept in reserve [deg] (≥ 0, default 0.5).
+        strict: raise instead of warning for an unrecoverable start.
+
+    ``diagnostics()``: the nominal law's plus ``braking_margin`` ``(B,)`` [deg] (smallest ``h``
+    over the cones), ``margin`` ``(B,)`` [deg] (smallest geometric margin) and ``filter_active``
+    ``(B,)`` (the filter changed the nominal command).
+    """
+
+    batched = True
+
+    def __init__(
+        self,
+        J: object,
+        k_R: object,
+        k_Omega: object,
+        keep_out: Sequence[KeepOutCone] = (),
+        keep_in: Sequence[KeepInCone] = (),
+        barrier_weight: float = 0.5,
+        *,
+        max_torque: object,
+        sample_period: float,
+        efficiency: float = 0.7,
+        buffer_deg: float = 0.5,
+        strict: bool = False,
+    ) -> None:
+        self.nominal = ConstrainedGeometricPD(J, k_R, k_Omega, keep_out, keep_in, barrier_weight)
+        self.J = self.nominal.J
+        self.keep_out = self.nominal.keep_out
+        self.keep_in = self.nominal.keep_in
+        self.max_torque = _check_max_torque(max_torque)
+        T = as_scalar(sample_period, "sample_period")
+        if not T > 0.0:
+            raise ValueError(f"sample_period: must be > 0 [s], got {T}")
+        self.sample_period = T
+        self.efficiency = _efficiency(efficiency)
+        b = as_scalar(buffer_deg, "buffer_deg")
+        if not b >= 0.0:
+            raise ValueError(f"buffer_deg: must be >= 0, got {b}")
+        self.buffer_deg = b
+        if not isinstance(strict, bool):
+            raise TypeError(f"strict: expected True or False, got {strict!r}")
+        self.strict = strict
+        self._lam_max = float(np.linalg.eigvalsh(self.J)[-1])
+        self._first = True
+        self._diag: dict[str, np.ndarray] = {}
+
+    def __repr__(self) -> str:
+        return (
+            f"SampledSafeConstrainedPD(keep_out={len(self.keep_out)}, "
+            f"keep_in={len(self.keep_in)}, max_torque={self.max_torque.tolist()}, "
+            f"sample_period={self.sample_period})"
+        )
+
+    def reset(self, t0: float, batch_size: int) -> None:
+        self.nominal.reset(t0, batch_size)
+        self._first = True
+        self._diag = {}
+
+    def _unrecoverable(self, h: np.ndarray, m: np.ndarray, v: np.ndarray, a_b: np.ndarray) -> None:
+        bad = np.argwhere(h < 0.0)
+        if not bad.size:
+            return
+        k, i = (int(x) for x in bad[0])
+        cone = (self.keep_out + self.keep_in)[i]
+        vp = max(float(v[k, i]), 0.0)
+        need = vp * self.sample_period + vp * vp / (2.0 * a_b[k, i])
+        msg = (
+            f"R: spacecraft {k} starts in the unrecoverable set of {cone.kind.replace('_', '-')} "
+            f"cone {i}: margin {math.degrees(m[k, i]):.3g}° with the boresight approaching at "
+            f"{vp:.3g} rad/s; stopping needs {math.degrees(need):.3g}° (+{self.buffer_deg:g}° "
+            f"buffer) at the certified deceleration {a_b[k, i]:.3g} rad/s² "
+            f"(max_torque {self.max_torque.min():.3g} N·m, efficiency {self.efficiency:g}) with "
+            f"a {self.sample_period:g} s sample period — the cone cannot be guaranteed"
+        )
+        if self.strict:
+            raise ValueError(msg)
+        import warnings
+
+        warnings.warn(msg, UnrecoverableStartWarning, stacklevel=3)
+
+    def command(self, t: float, state: AttitudeState, reference: AttitudeReference) -> np.ndarray:
+        """Body torque ``(B, 3)`` [N·m], within ``max_torque``."""
+        u_nom = self.nominal.command(t, state, reference)
+        R = np.asarray(state.R, dtype=np.float64).reshape(-1, 3, 3)
+        w = np.asarray(state.omega, dtype=np.float64).reshape(-1, 3)
+        umax = self.max_torque
+        u = np.clip(u_nom, -umax, umax)
+        T = self.sample_period
+        buf = math.radians(self.buffer_deg)
+        cones = self.keep_out + self.keep_in
+        B = R.shape[0]
+        if not cones:
+            self._diag = dict(self.nominal.diagnostics())
+            return u
+        terms = [_approach_terms(R, w, self.J, c) for c in cones]
+        m = np.stack([x[0] for x in terms], axis=-1)
+        v = np.stack([x[1] for x in terms], axis=-1)
+        a_free = np.stack([x[2] for x in terms], axis=-1)
+        p = np.stack([x[3] for x in terms], axis=1)  # (B, n, 3)
+        a_b = _braking_decel(a_free, umax, self._lam_max, self.efficiency)
+        h0 = _h(m, v, a_b, T, buf)
+        if self._first:
+            self._first = False
+            self._unrecoverable(h0, m, v, a_b)
+        active = np.zeros(B, dtype=bool)
+        # largest admissible approach acceleration a* per cone: h(m', v') ≥ 0 after one period,
+        # m' = m − vT − ½aT², v' = v + aT (h' decreases with a: bisection on [−a_b, a_hi])
+        a_hi = a_free + np.einsum("bnk,k->bn", np.abs(p), umax)
+        lo = np.minimum(-a_b, a_hi)
+        hi = a_hi.copy()
+
+        def h_next(a: np.ndarray) -> np.ndarray:
+            return _h(m - v * T - 0.5 * a * T * T, v + a * T, a_b, T, buf)
+
+        ok_hi = h_next(hi) >= 0.0
+        for _ in range(30):
+            mid = 0.5 * (lo + hi)
+            good = h_next(mid) >= 0.0
+            lo = np.where(good, mid, lo)
+            hi = np.where(good, hi, mid)
+        a_star = np.where(ok_hi, a_hi, lo)
+        # sequential projection of the command onto pᵀu ≤ a* − a_free, most critical cone last
+        order = np.argsort(-h0, axis=-1)
+        for j in range(len(cones)):
+            idx = order[:, j]
+            pj = p[np.arange(B), idx]
+            lim = (a_star - a_free)[np.arange(B), idx]
+            excess = np.sum(pj * u, axis=-1) - lim
+            need = excess > 0.0
+            if np.any(need):
+                pn2 = np.maximum(np.sum(pj * pj, axis=-1), 1e-300)
+                u = np.where(need[:, None], u - (excess / pn2)[:, None] * pj, u)
+                u = np.clip(u, -umax, umax)
+                active |= need
+        # still violated after clipping: full braking for the most critical cone
+        acc = a_free + np.einsum("bnk,bk->bn", p, u)
+        viol = np.any(acc > a_star + 1e-12 * np.abs(a_star), axis=-1)
+        if np.any(viol):
+            crit = order[:, -1]
+            pc = p[np.arange(B), crit]
+            brake = -np.sign(pc) * umax
+            u = np.where(viol[:, None], brake, u)
+            active |= viol
+        diag = dict(self.nominal.diagnostics())
+        diag.update(
+            braking_margin=np.degrees(h0.min(axis=-1)),
+            margin=np.degrees(m.min(axis=-1)),
+            filter_active=active,
+        )
+        self._diag = diag
+        return finite_command(u, w)
+
+    def diagnostics(self) -> dict[str, np.ndarray]:
+        """Last diagnostics (class docstring); empty before the first command."""
         return dict(self._diag)

@@ -62,6 +62,16 @@ time ``Θ`` falls to a tolerance bounds the time after which ``θ`` stays below 
 is a measure-zero set, as for every continuous feedback on SO(3) (Bhat & Bernstein 2000); there
 ``θ̇ = −h(π) < 0`` whichever axis is picked, so the body leaves it at once.
 
+**Assumptions of every bound in this module** (:func:`convergence_time_bound`,
+:meth:`FixedTimeSO3.settling_bound`, :func:`reaching_time`, :func:`sliding_time`): the
+controller's inertia is the plant's and there is no disturbance; the commanded torque is
+delivered — unbounded torque: "whatever ``s(0)``" needs a torque growing with the initial rate
+(e.g. a 14.7 kN·m peak on a 1000–1500 kg·m² body from a 1 rad/s start), so with an actuator
+torque limit the bounds are not applicable (pass ``max_torque``: ``nan`` and a
+:class:`BoundNotApplicable` warning); continuous-time control (a sampled law keeps the bound
+only approximately, for ``T_s`` small against the layer's poles ``1/(c₁ + c₂ a_s)``). A start
+already inside the tolerance that the comparison system keeps inside gets the bound 0.
+
 The finite-time gains and survey family: Guo & Song, "Adaptive finite-time backstepping control
 for attitude tracking of spacecraft based on rotation matrix", Chinese J. Aeronautics 27(2),
 2014; Shi, Zhang, Zhou et al., "Global fixed-time attitude tracking control for the rigid
@@ -82,7 +92,7 @@ import numpy as np
 from scipy import integrate
 
 from .._jit import JIT_ENABLED
-from .._kernels.finite_time import N_DIAG, finite_time_batch, finite_time_one
+from .._kernels.finite_time import N_DIAG, finite_time_batch, finite_time_law, finite_time_one
 from .._validation import (
     as_array,
     as_scalar,
@@ -98,6 +108,7 @@ from .base import (
     check_state_batch,
     finite_command,
 )
+from .kernel import ControllerKernel
 
 __all__ = [
     "FiniteTimeParams",
@@ -109,6 +120,7 @@ __all__ = [
     "sliding_time",
     "reaching_time",
     "convergence_time_bound",
+    "BoundNotApplicable",
 ]
 
 
@@ -357,15 +369,47 @@ def _y_integral(prm: FiniteTimeParams, lo: float, hi: float, f) -> float:
     return total
 
 
+class BoundNotApplicable(UserWarning):
+    """A convergence bound was asked for outside its assumptions (e.g. with a torque limit):
+    the function returns ``nan`` ("no bound") and warns with this category."""
+
+
+def _torque_limit_not_applicable(max_torque: object) -> bool:
+    """``True`` (after a :class:`BoundNotApplicable` warning) when a torque limit is given."""
+    if max_torque is None:
+        return False
+    a = as_array(max_torque, "max_torque")
+    if np.any(a <= 0.0):
+        raise ValueError(f"max_torque: must be > 0 [N·m], got {max_torque!r}")
+    import warnings
+
+    warnings.warn(
+        "max_torque: the finite/fixed-time bound assumes the commanded torque is delivered "
+        "(unbounded torque); with a torque limit the law saturates for large errors or rates "
+        "and the bound is not applicable — returning nan",
+        BoundNotApplicable,
+        stacklevel=3,
+    )
+    return True
+
+
 def convergence_time_bound(
     params: FiniteTimeParams,
     tol: float,
     theta0: float = math.pi,
     s0: float = math.inf,
+    max_torque: object = None,
 ) -> float:
     """Upper bound [s] on the time after which the attitude-error angle stays ``≤ tol``, for a
-    start at angle ``theta0`` with sliding variable ``‖s(0)‖ = s0`` (model exact, no
-    disturbance; module docstring).
+    start at angle ``theta0`` with sliding variable ``‖s(0)‖ = s0`` (module docstring).
+
+    Assumptions: the rigid-body model the law uses is exact (inertia, no disturbance), the
+    commanded torque is delivered — **unbounded torque**: the reaching law ``ṡ = −k_s s``
+    asks for a torque that grows with ``‖s‖`` (``~J c₃‖s‖^μ``), so "from any initial rate"
+    means with an actuator that can deliver it —, continuous-time control (no sample period,
+    no actuator lag). With ``max_torque`` given (a limit the actuator has), the bound is not
+    applicable: a :class:`BoundNotApplicable` warning and ``nan``. A start already inside the
+    tolerance whose comparison trajectory never leaves it gives 0.
 
     The comparison system ``Θ̇ = y − h(Θ)`` (``Θ ≤ π``), ``ẏ = −k_s(y)y`` from ``(θ₀, s₀)``:
     while ``y > h(π)`` the angle may grow, so ``Θ`` is bounded by
@@ -378,6 +422,8 @@ def convergence_time_bound(
     theta0, tol = _check_angle_pair(theta0, tol)
     if isinstance(s0, bool):
         raise TypeError("s0: expected a real number, got a bool")
+    if _torque_limit_not_applicable(max_torque):
+        return math.nan
     s0f = float(s0) if isinstance(s0, (int, float)) else None
     if s0f is not None and math.isinf(s0f) and s0f > 0:
         if not params.fixed_time:
@@ -416,6 +462,9 @@ def convergence_time_bound(
     sol = integrate.solve_ivp(
         rhs, (0.0, horizon), [Th, y], events=crossed, rtol=1e-10, atol=1e-13, method="RK45"
     )
+    if not sol.t_events[0].size and Th <= tol and float(np.max(sol.y[0])) <= tol:
+        # started inside the tolerance and never left it (Θ peaks where y = h(Θ), then falls)
+        return t1
     if not sol.t_events[0].size:
         raise ValueError(
             f"tol: the comparison system did not reach {tol:g} rad within {horizon:.3g} s"
@@ -501,6 +550,17 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 # ------------------------------------------------------------------------------ controllers
 
 
+def _finite_time_rows(d: np.ndarray) -> dict[str, np.ndarray]:
+    """``Psi``, ``theta``, ``e_R``, ``e_Omega``, ``s`` from the kernel's rows ``(..., 11)``."""
+    return {
+        "Psi": d[..., 0],
+        "theta": d[..., 1],
+        "e_R": d[..., 2:5],
+        "e_Omega": d[..., 5:8],
+        "s": d[..., 8:11],
+    }
+
+
 class FiniteTimeSO3(AttitudeController):
     """Nonsingular fast terminal sliding mode on SO(3) (module docstring for equations,
     stability argument and sources).
@@ -570,10 +630,12 @@ class FiniteTimeSO3(AttitudeController):
         self._diag = {}
 
     def convergence_time_bound(
-        self, tol: float, theta0: float = math.pi, s0: float = math.inf
+        self, tol: float, theta0: float = math.pi, s0: float = math.inf, max_torque: object = None
     ) -> float:
-        """:func:`convergence_time_bound` with this controller's gains."""
-        return convergence_time_bound(self.params, tol, theta0, s0)
+        """:func:`convergence_time_bound` with this controller's gains (same assumptions:
+        exact model, unbounded torque, continuous time; ``nan`` and a
+        :class:`BoundNotApplicable` warning with a ``max_torque``)."""
+        return convergence_time_bound(self.params, tol, theta0, s0, max_torque=max_torque)
 
     def _reference(self, reference: AttitudeReference, B: int) -> tuple[np.ndarray, ...]:
         if not isinstance(reference, AttitudeReference):
@@ -658,20 +720,28 @@ class FiniteTimeSO3(AttitudeController):
         return M
 
     def _kernel_args(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(J, parameter vector)`` of the compiled kernel (for a fused simulation loop)."""
+        """``(J, parameter vector)`` of the compiled kernel."""
         return self._kJ, self._kprm
+
+    def fused_kernel(
+        self, batch_size: int, control_period: float | None = None
+    ) -> ControllerKernel:
+        """The compiled law (:func:`liecontrol._kernels.finite_time.finite_time_law`) for the
+        simulator's fused loop, through the public seam :mod:`liecontrol.control.kernel`."""
+        params = np.concatenate([self._kJ.ravel(), self._kprm])
+
+        def finish(state: np.ndarray, diag: np.ndarray) -> None:
+            self._diag = diag.copy()
+
+        return ControllerKernel(
+            finite_time_law, params, np.zeros((batch_size, 0)), N_DIAG, _finite_time_rows, finish
+        )
 
     def diagnostics(self) -> dict[str, np.ndarray]:
         """Last ``Psi``, ``theta`` ``(B,)`` and ``e_R``, ``e_Omega``, ``s`` ``(B, 3)``."""
         d = self._diag
         if isinstance(d, np.ndarray):  # the kernel's rows (Ψ, θ, e_R, e_Ω, s)
-            return {
-                "Psi": d[:, 0],
-                "theta": d[:, 1],
-                "e_R": d[:, 2:5],
-                "e_Omega": d[:, 5:8],
-                "s": d[:, 8:11],
-            }
+            return _finite_time_rows(d)
         return dict(d)
 
 
@@ -698,7 +768,12 @@ class FixedTimeSO3(FiniteTimeSO3):
         c3 = _positive(c3, "c3")
         super().__init__(J, k1, k2, c2, r=r, eps=eps, c1=c1, rho=rho, eps_s=eps_s, c3=c3, mu=mu)
 
-    def settling_bound(self, tol: float) -> float:
+    def settling_bound(self, tol: float, max_torque: object = None) -> float:
         """Bound [s] valid for every initial attitude and rate: the time after which the error
-        angle stays ``≤ tol`` (:func:`convergence_time_bound` at ``θ₀ = π``, ``s₀ = ∞``)."""
-        return convergence_time_bound(self.params, tol)
+        angle stays ``≤ tol`` (:func:`convergence_time_bound` at ``θ₀ = π``, ``s₀ = ∞``).
+
+        Assumes unbounded torque (the reaching law's torque grows like ``J c₃ ‖s‖^μ`` with the
+        initial rate), the exact model and continuous time. With the actuator's torque limit
+        ``max_torque`` the bound is reported as not applicable: ``nan`` and a
+        :class:`BoundNotApplicable` warning."""
+        return convergence_time_bound(self.params, tol, max_torque=max_torque)

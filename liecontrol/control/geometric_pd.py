@@ -26,7 +26,12 @@ from typing import Any
 import numpy as np
 
 from .._jit import JIT_ENABLED
-from .._kernels.geometric_pd import ERROR_CODES, geometric_pd_batch, geometric_pd_one
+from .._kernels.geometric_pd import (
+    ERROR_CODES,
+    geometric_pd_batch,
+    geometric_pd_law,
+    geometric_pd_one,
+)
 from .._validation import (
     as_array,
     as_scalar,
@@ -47,6 +52,7 @@ from .base import (
     finite_command,
     validated_rotation_and_rate,
 )
+from .kernel import ControllerKernel
 
 __all__ = ["GeometricPD", "check_gain", "gains_from_bandwidth", "linear_error_slope"]
 
@@ -208,6 +214,11 @@ def _batch(a: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
     return np.ascontiguousarray(np.broadcast_to(np.asarray(a, dtype=np.float64), shape))
 
 
+def _pd_rows(rows: np.ndarray) -> dict[str, np.ndarray]:
+    """``Psi``, ``e_R``, ``e_Omega`` from the kernel's rows ``(..., 7)``."""
+    return {"Psi": rows[..., 0], "e_R": rows[..., 1:4], "e_Omega": rows[..., 4:7]}
+
+
 class GeometricPD(AttitudeController):
     """Geometric PD / tracking controller on SO(3) (Jiang, Meng & Yang 2023 Lemmas 2, 4).
 
@@ -356,12 +367,24 @@ class GeometricPD(AttitudeController):
         return M
 
     def _kernel_args(self) -> tuple:
-        """``(error code, J, K_R, K_Ω, G)`` of the compiled kernel (fused simulation loop)."""
+        """``(error code, J, K_R, K_Ω, G)`` of the compiled kernel."""
         return self._kargs
+
+    def fused_kernel(
+        self, batch_size: int, control_period: float | None = None
+    ) -> ControllerKernel:
+        """The compiled law (:func:`liecontrol._kernels.geometric_pd.geometric_pd_law`) for the
+        simulator's fused loop, through the public seam :mod:`liecontrol.control.kernel`."""
+        err, J, kR, kW, G = self._kargs
+        params = np.concatenate([[float(err)], J.ravel(), kR.ravel(), kW.ravel(), G.ravel()])
+        return ControllerKernel(
+            geometric_pd_law, params, np.zeros((batch_size, 0)), 7,
+            diagnostics=_pd_rows, finish=lambda state, diag: self._set_diagnostics(diag),
+        )  # fmt: skip
 
     def _set_diagnostics(self, diag: np.ndarray) -> None:
         """Diagnostics from the kernel's ``(B, 7)`` rows ``(Ψ, e_R, e_Ω)``."""
-        self._diag = {"Psi": diag[:, 0], "e_R": diag[:, 1:4], "e_Omega": diag[:, 4:7]}
+        self._diag = _pd_rows(diag)
 
     def diagnostics(self) -> dict[str, np.ndarray]:
         """Last ``Psi`` ``(B,)``, ``e_R`` ``(B, 3)``, ``e_Omega`` ``(B, 3)`` (empty before the

@@ -64,6 +64,7 @@ import math
 
 import numpy as np
 
+from .._kernels.geometric_pid import INTEGRAND_CODES, N_DIAG, N_STATE, geometric_pid_law
 from .._validation import (
     as_array,
     as_scalar,
@@ -71,7 +72,8 @@ from .._validation import (
     check_positive_scalar,
 )
 from .base import AttitudeController, AttitudeReference, AttitudeState, finite_command
-from .geometric_pd import GeometricPD, _apply_gain, _cross, check_gain
+from .geometric_pd import GeometricPD, _apply_gain, _as_matrix, _cross, check_gain
+from .kernel import ControllerKernel
 
 __all__ = ["IntrinsicPID", "IntegralPD", "integral_gain", "connection_term"]
 
@@ -129,6 +131,20 @@ def _check_torque_limit(x: object) -> np.ndarray | None:
     out = np.broadcast_to(a, (3,)).copy()
     out.setflags(write=False)
     return out
+
+
+def _pid_rows(rows: np.ndarray) -> dict[str, np.ndarray]:
+    """The integral controllers' diagnostics from their kernel rows ``(..., 16)``."""
+    return {
+        "Psi": rows[..., 0].copy(),
+        "e_R": rows[..., 1:4].copy(),
+        "e_Omega": rows[..., 4:7].copy(),
+        "integral": rows[..., 7:10].copy(),
+        "u_integral": rows[..., 10:13].copy(),
+        "saturated": rows[..., 13] != 0.0,
+        "integration_frozen": rows[..., 14] != 0.0,
+        "integral_clamped": rows[..., 15] != 0.0,
+    }
 
 
 class _IntegralController(AttitudeController):
@@ -239,6 +255,56 @@ class _IntegralController(AttitudeController):
         )
         self._diag = d
         return finite_command(u, state.omega)
+
+    def fused_kernel(
+        self, batch_size: int, control_period: float | None = None
+    ) -> ControllerKernel | None:
+        """The compiled law (:func:`liecontrol._kernels.geometric_pid.geometric_pid_law`) for
+        the simulator's fused loop (:mod:`liecontrol.control.kernel`), carrying the integral
+        state; ``None`` for a subclass with its own integrand."""
+        kind = getattr(self, "connection", "integral_pd")
+        own = type(self)._integrand
+        if own is not IntrinsicPID._integrand and own is not IntegralPD._integrand:
+            return None
+        B = int(batch_size)
+        tl = self.torque_limit
+        J = np.ascontiguousarray(self.J, dtype=np.float64)
+        params = np.concatenate(
+            [
+                self._pd.fused_kernel(B).params,
+                _as_matrix(self.k_I).ravel(),
+                [
+                    -1.0 if self.integral_limit is None else float(self.integral_limit),
+                    0.0 if tl is None else 1.0,
+                ],
+                np.zeros(3) if tl is None else tl,
+                [float(self.conditional), float(INTEGRAND_CODES[kind]), getattr(self, "c", 0.0)],
+                np.linalg.inv(J).ravel(),
+                J.ravel(),
+            ]
+        )
+        state = np.zeros((B, N_STATE))
+        if getattr(self, "_t_prev", None) is not None and self._batch == B:
+            state[:, 0] = 1.0
+            state[:, 1] = self._t_prev
+            state[:, 2:5] = self.z
+            state[:, 5:8] = self._f_prev
+            state[:, 8:11] = self._u_raw_prev
+            state[:, 11:14] = self._sat_prev
+        return ControllerKernel(geometric_pid_law, params, state, N_DIAG, _pid_rows, self._finish)
+
+    def _kernel_reason(self) -> str:
+        return "a subclass with its own integrand"
+
+    def _finish(self, state: np.ndarray, diag: np.ndarray) -> None:
+        """The integral state and diagnostics after a compiled run (as the Python loop)."""
+        self._t_prev = float(state[0, 1]) if state[0, 0] != 0.0 else None
+        self.z = state[:, 2:5].copy()
+        self._f_prev = state[:, 5:8].copy()
+        self._u_raw_prev = state[:, 8:11].copy()
+        self._sat_prev = state[:, 11:14] != 0.0
+        self._pd._set_diagnostics(diag[:, :7].copy())
+        self._diag = _pid_rows(diag)
 
     def diagnostics(self) -> dict[str, np.ndarray]:
         """Last ``Psi`` ``(B,)``, ``e_R``, ``e_Omega``, ``integral`` (the state z),

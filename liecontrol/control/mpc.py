@@ -80,6 +80,7 @@ from __future__ import annotations
 
 import copy
 import logging
+import warnings
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -976,6 +977,8 @@ class SO3MPC(AttitudeController):
         self.J = J.copy()
         self.J.setflags(write=False)
         self.N = _check_int(horizon, "horizon", 1)
+        if self.N > 100_000:  # the QP holds N states and inputs: beyond this it cannot be built
+            raise ValueError(f"horizon: {self.N} steps is larger than any feasible MPC horizon")
         dt = check_positive(dt, "dt")
         if not isinstance(dt, float):
             raise ValueError("dt: must be a scalar")
@@ -989,7 +992,24 @@ class SO3MPC(AttitudeController):
         self.u_max = np.broadcast_to(um, (3,)).copy()
         A0, B0 = rest_model(self.J, dt)
         if P is None:
-            P = scipy.linalg.solve_discrete_are(A0, B0, self.Q, self.R)
+            try:
+                # a failing solve warns on its way (overflow, QZ): the error below says it all;
+                # the warnings of a solve that succeeds are passed on
+                with warnings.catch_warnings(record=True) as caught, np.errstate(all="ignore"):
+                    warnings.simplefilter("always")
+                    P = scipy.linalg.solve_discrete_are(A0, B0, self.Q, self.R)
+                for w in caught:
+                    warnings.warn(w.message, w.category, stacklevel=2)
+            except (np.linalg.LinAlgError, ValueError) as exc:
+                # the torque has no numerical effect on the model: name the likeliest cause
+                culprit = ("J" if float(np.max(self.J)) > 1e100
+                           else "R" if float(np.max(self.R)) > 1e100 else "dt")  # fmt: skip
+                raise ValueError(
+                    f"{culprit}: the terminal weight P (discrete Riccati equation of the "
+                    f"linearised model with dt = {dt:g}) has no finite solution ({exc}); the "
+                    "control is numerically ineffective (dt too small, J or R too large) — "
+                    "change them or pass P"
+                ) from None
             P = 0.5 * (P + P.T)
         self.P = check_weight(P, "P", 6)
         if backend not in ("osqp", "cvxpy"):

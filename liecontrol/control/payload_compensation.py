@@ -195,6 +195,8 @@ class HarmonicIdentifier:
         if self.max_covariance <= self.initial_covariance:
             raise ValueError("max_covariance: must exceed initial_covariance")
         self.n_params = 3 if self.include_bias else 2
+        if batch_size is None:  # reset(None) keeps the current size: there is none yet
+            raise ValueError("batch_size: expected a positive int, got None")
         self.reset(batch_size)
 
     def __repr__(self) -> str:

@@ -60,6 +60,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._kernels.prescribed_performance import N_DIAG as PPC_DIAG
+from .._kernels.prescribed_performance import N_STATE as PPC_STATE
+from .._kernels.prescribed_performance import ppc_law
 from .._validation import (
     as_array,
     as_scalar,
@@ -69,6 +72,7 @@ from .._validation import (
 )
 from .base import AttitudeController, AttitudeReference, AttitudeState, finite_command
 from .geometric_pd import GeometricPD, _cross
+from .kernel import ControllerKernel
 
 __all__ = [
     "Funnel",
@@ -388,6 +392,55 @@ class PrescribedPerformance(AttitudeController):
         self._diag = d
         return finite_command(M, state.omega)
 
+    def fused_kernel(
+        self, batch_size: int, control_period: float | None = None
+    ) -> ControllerKernel | None:
+        """The compiled law (:func:`liecontrol._kernels.prescribed_performance.ppc_law`) for the
+        simulator's fused loop (:mod:`liecontrol.control.kernel`); state: ρ₀, violations."""
+        if self._batch is None:
+            return None
+        f = self.funnel
+        B = int(batch_size)
+        params = np.concatenate(
+            [
+                self._pd.fused_kernel(B).params,
+                [f.rho_inf, f.decay, -1.0 if f.rho0 is None else f.rho0, f.margin],
+                [self.k1, self.k2, self.kc, self.q_min, self.z_max, self._t0],
+            ]
+        )
+        state = np.zeros((B, PPC_STATE))
+        if self.rho0 is not None:
+            state[:, 0] = 1.0
+            state[:, 1] = self.rho0
+        state[:, 2] = self._violations
+        return ControllerKernel(ppc_law, params, state, PPC_DIAG, _ppc_rows, self._finish)
+
+    def _kernel_reason(self) -> str:
+        return "a controller that was not reset"
+
+    def _finish(self, state: np.ndarray, diag: np.ndarray) -> None:
+        """Funnel width, violation counts and diagnostics after a compiled run."""
+        if state[0, 0] != 0.0:
+            self.rho0 = state[:, 1].copy()
+        self._violations = state[:, 2].astype(np.int64)
+        self._pd._set_diagnostics(diag[:, :7].copy())
+        self._diag = _ppc_rows(diag)
+
     def diagnostics(self) -> dict[str, np.ndarray]:
         """Last-sample internals (see the class docstring); empty before the first command."""
         return dict(self._diag)
+
+
+def _ppc_rows(rows: np.ndarray) -> dict[str, np.ndarray]:
+    """The controller's diagnostics from its kernel rows ``(..., 19)``."""
+    return {
+        "Psi": rows[..., 0].copy(),
+        "e_R": rows[..., 1:4].copy(),
+        "e_Omega": rows[..., 4:7].copy(),
+        "eps": rows[..., 7:10].copy(),
+        "alpha": rows[..., 10:13].copy(),
+        "s": rows[..., 13:16].copy(),
+        "rho": rows[..., 16].copy(),
+        "funnel_violations": rows[..., 17].astype(np.int64),
+        "edge_saturated": rows[..., 18] != 0.0,
+    }

@@ -112,6 +112,8 @@ class Filter(abc.ABC):
 
     name: str = "filter"
     square_root: bool = False
+    #: Attributes a model must have (checked by the constructor: ``TypeError`` naming ``model``).
+    _MODEL_ATTRS: tuple[str, ...] = ("n", "m", "f", "h", "normalize")
 
     def __init__(
         self,
@@ -125,6 +127,13 @@ class Filter(abc.ABC):
     ) -> None:
         if not isinstance(pd_policy, str) or pd_policy not in _PD_POLICIES:
             raise ValueError(f"pd_policy: must be one of {_PD_POLICIES}, got {pd_policy!r}")
+        missing = [a for a in self._MODEL_ATTRS if not hasattr(model, a)]
+        if missing:
+            raise TypeError(
+                f"model: expected a filter model (e.g. GyrolessAttitudeModel or "
+                f"GyroAttitudeModel), got {type(model).__name__} without "
+                + ", ".join(repr(a) for a in missing)
+            )
         self.model = model
         self.pd_policy = pd_policy
         if gate_probability is None:
@@ -152,7 +161,10 @@ class Filter(abc.ABC):
         x = as_array(x0, "x0")
         if x.shape != (n,):
             raise ValueError(f"x0: expected shape ({n},), got {x.shape}")
-        self._x = model.normalize(x[None, :])[0]
+        try:
+            self._x = model.normalize(x[None, :])[0]
+        except ValueError as exc:  # the model names its own argument "x"
+            raise ValueError(f"x0: {str(exc).removeprefix('x: ')}") from None
         k = self.cov_dim
         P = as_array(P0, "P0")
         if P.shape != (k, k):
@@ -220,7 +232,20 @@ class Filter(abc.ABC):
         if uu.shape != (3,):
             raise ValueError(f"u: expected shape (3,), got {uu.shape}")
         self._reset_diag()
-        self._guarded(self._predict, "predict", uu, dt)
+        try:
+            self._guarded(self._predict, "predict", uu, dt)
+        except NotPositiveDefiniteError:
+            raise
+        except ValueError as exc:
+            if not str(exc).startswith("x: "):
+                raise
+            # the state was finite before the step and the covariance is intact (_guarded
+            # checked it): the input drove the model out of its range (e.g. u = 1e300)
+            raise ValueError(
+                f"u: the time update with u = {uu.tolist()} over dt = {dt:g} s gives an invalid "
+                f"state ({str(exc).removeprefix('x: ')}); the input (or dt) is out of the "
+                "model's range"
+            ) from None
         self._check_finite("predict")
 
     def update(self, z: object) -> bool:
@@ -403,6 +428,8 @@ class Filter(abc.ABC):
 class ManifoldFilter(Filter):
     """A :class:`Filter` whose state lives on a manifold: the covariance is over the ``model.d``
     error coordinates and errors are ``x_true ⊟ x̂`` (the model's ``normalize``/``boxminus``)."""
+
+    _MODEL_ATTRS = (*Filter._MODEL_ATTRS, "d", "boxplus", "boxminus")
 
     @property
     def cov_dim(self) -> int:

@@ -60,11 +60,18 @@ def cholupdate(S: object, v: object, sign: float = 1.0) -> np.ndarray:
     L = np.array(as_array(S, "S"), dtype=np.float64, copy=True)
     if L.ndim < 2 or L.shape[-1] != L.shape[-2]:
         raise ValueError(f"S: expected a square (..., n, n) array, got shape {L.shape}")
-    if sign not in (1, -1, 1.0, -1.0):
-        raise ValueError(f"sign: must be +1 or -1, got {sign}")
+    if (
+        isinstance(sign, (bool, np.bool_))
+        or not isinstance(sign, (int, float, np.integer, np.floating))
+        or sign not in (1, -1)
+    ):
+        raise ValueError(f"sign: must be the number +1 or -1, got {sign!r}")
     n = L.shape[-1]
     V = as_array(v, "v")
-    if V.shape == L.shape[:-1]:
+    # one vector per batch element (..., n) unless the last two axes read as (n, k) columns
+    if V.shape == L.shape[:-1] or (
+        V.ndim >= 1 and V.shape[-1] == n and (V.ndim < 2 or V.shape[-2] != n)
+    ):
         V = V[..., None]
     if V.ndim < 2 or V.shape[-2] != n:
         raise ValueError(f"v: expected shape (..., {n}) or (..., {n}, k), got {V.shape}")

@@ -73,7 +73,8 @@ class ManifoldUKF(ManifoldFilter):
         zm = m.z_mean(Z, w.Wm)
         dZ = m.z_residual(Z, zm)
         Wc = w.Wc[:, None]
-        Pzz = (dZ * Wc).T @ dZ + m.R
+        R_at = getattr(m, "R_at", None)  # state-dependent noise (MEKF's note), else R
+        Pzz = (dZ * Wc).T @ dZ + (m.R if R_at is None else R_at(self._x))
         Sz = self._sqrt_or_repair(Pzz, "P_zz")
         Pzz = Sz @ Sz.T
         Pxz = (D * Wc).T @ dZ

@@ -9,6 +9,9 @@ Spacecraft Attitude Determination and Control*, 2014, §6.2)::
     update:   H = ∂h/∂δ at x⁻,  K = P⁻Hᵀ (H P⁻ Hᵀ + R)⁻¹,  δ = K ν,  x = x⁻ ⊞ δ,
               P = (I − K H) P⁻ (I − K H)ᵀ + K R Kᵀ        (Joseph form)
 
+R is ``model.R_at(x⁻)`` when the model has it (a state-dependent noise covariance, e.g. a star
+tracker's body-frame noise seen through the Euler angles), else ``model.R``.
+
 Φ comes from ``model.error_transition(x, u, dt)`` when the model provides it (the gyro model:
 Φ = [[Exp(−ω T_s), −J_r(ω T_s) T_s], [0, I]]); otherwise it is computed by central finite
 differences through ⊞/⊟ with all 2d perturbed states propagated in one batched call (e.g. the
@@ -73,7 +76,11 @@ class MEKF(ManifoldFilter):
         self._valid_P()
         H = m.measurement_jacobian(self._x)
         zhat = m.h(self._x[None, :])[0]
-        Pzz = H @ self._P @ H.T + m.R
+        # state-dependent measurement noise when the model has one (GyroAttitudeModel with a
+        # body-frame star-tracker covariance: R = B Σ Bᵀ at the prior), else the constant R
+        R_at = getattr(m, "R_at", None)
+        Rk = m.R if R_at is None else R_at(self._x)
+        Pzz = H @ self._P @ H.T + Rk
         Sz = self._sqrt_or_repair(0.5 * (Pzz + Pzz.T), "P_zz")
         Pzz = Sz @ Sz.T
         K = tri_solve_gain(self._P @ H.T, Sz)
@@ -81,6 +88,6 @@ class MEKF(ManifoldFilter):
         self._record_innovation(nu, Pzz, Sz)
         self._x = m.boxplus(self._x[None, :], (K @ nu)[None, :])[0]
         A = np.eye(m.d) - K @ H
-        P = A @ self._P @ A.T + K @ m.R @ K.T
+        P = A @ self._P @ A.T + K @ Rk @ K.T
         S_new = self._sqrt_or_repair(0.5 * (P + P.T), "P")
         self._P = S_new @ S_new.T

@@ -155,6 +155,24 @@ class _EulerMeasurement:
         """Measurement noise covariance diag(σ_z²) (3×3)."""
         return np.diag(self.sigma_z**2)
 
+    def R_at(self, x: np.ndarray) -> np.ndarray:
+        """Measurement noise covariance at the state ``x`` (7,) (3×3).
+
+        Without a body-frame sensor covariance (``sigma_body`` ``None``) this is :attr:`R`.
+        With one — the covariance Σ of the small rotation δ of a star tracker's output,
+        R_m = R exp(δ^) — the Euler angles carry z + B(z) δ to first order (B the 3-2-1
+        Euler-rate matrix of :func:`euler_rpy_jacobian`), so their noise covariance is
+        ``B(z) Σ B(z)ᵀ`` at ``z = h(x)``: anisotropic (a boresight model) and growing as
+        1/cos θ with the pitch. :class:`~liecontrol.estimation.mekf.MEKF` and
+        :class:`~liecontrol.estimation.manifold_ukf.ManifoldUKF` use it at the prior mean.
+        """
+        sb = getattr(self, "sigma_body", None)
+        if sb is None:
+            return self.R
+        B = euler_rpy_jacobian(_rpy_from_q(np.asarray(x, dtype=np.float64)[:4]))
+        Rk = B @ sb @ B.T
+        return 0.5 * (Rk + Rk.T)
+
     def h(self, x: np.ndarray) -> np.ndarray:
         """Euler angles (roll, pitch, yaw) of the attitude in x, (N, 7) -> (N, 3)."""
         if x.ndim == 2 and x.dtype == np.float64:
@@ -291,11 +309,17 @@ class GyroAttitudeModel(_EulerMeasurement):
     """Gyro-equipped model: state (q, b), input the gyro reading ω̃ (Farrenkopf gyro model).
 
     ω̃ = ω + b + η_v, ḃ = η_u; σ_v [rad/√s] angle random walk, σ_u [rad/s/√s] rate random walk.
+
+    ``sigma_body`` (optional, 3×3 symmetric positive definite [rad²]): the covariance of the star
+    tracker's attitude noise as a body-frame rotation vector (e.g.
+    :attr:`spacecraft.sensors.StarTracker.covariance`). Given, the Euler-angle noise covariance
+    is state dependent, :meth:`R_at` = B(z) Σ B(z)ᵀ, instead of the isotropic diag(σ_z²).
     """
 
     sigma_v: float = 1e-4
     sigma_u: float = 1e-6
     sigma_z: np.ndarray = field(default_factory=lambda: np.full(3, 2e-3))
+    sigma_body: np.ndarray | None = None
     n: int = field(default=7, init=False)
     d: int = field(default=6, init=False)
 
@@ -305,6 +329,17 @@ class GyroAttitudeModel(_EulerMeasurement):
         object.__setattr__(self, "sigma_z", _sigma3(self.sigma_z, "sigma_z"))
         if np.any(self.sigma_z <= 0):
             raise ValueError("sigma_z: must be > 0 (measurement noise covariance must be PD)")
+        if self.sigma_body is not None:
+            S = as_array(self.sigma_body, "sigma_body")
+            if S.shape != (3, 3):
+                raise ValueError(f"sigma_body: expected shape (3, 3), got {S.shape}")
+            if np.abs(S - S.T).max() > 1e-9 * max(float(np.abs(S).max()), 1e-300):
+                raise ValueError("sigma_body: not symmetric")
+            if not np.linalg.eigvalsh(S).min() > 0.0:
+                raise ValueError("sigma_body: must be positive definite (a noise covariance)")
+            S = 0.5 * (S + S.T)
+            S.setflags(write=False)
+            object.__setattr__(self, "sigma_body", S)
 
     def f(self, x: np.ndarray, u: np.ndarray, dt: float) -> np.ndarray:
         """q ⊗ Exp((ω̃ − b) dt), b unchanged."""

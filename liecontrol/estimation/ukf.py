@@ -32,6 +32,8 @@ __all__ = ["UKF"]
 class _AdditiveUT(Filter):
     """Shared machinery of the additive (7-state) unscented filters."""
 
+    _MODEL_ATTRS = (*Filter._MODEL_ATTRS, "Q", "z_mean", "z_residual")
+
     def __init__(
         self,
         model: Any,

@@ -21,6 +21,7 @@ positive weights and is therefore positive semi-definite for any α, κ with n +
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -71,6 +72,11 @@ def ut_weights(
     if alpha <= 0:
         raise ValueError(f"alpha: must be > 0, got {alpha}")
     lam = alpha * alpha * (n + kappa) - n
+    if not math.isfinite(lam):
+        name = "alpha" if not math.isfinite(alpha * alpha) else "kappa"
+        raise ValueError(
+            f"{name}: λ = α²(n + κ) − n overflows float64 (α={alpha}, κ={kappa}): too large"
+        )
     if n + lam <= 0:
         raise ValueError(
             f"kappa: n + λ = α²(n + κ) must be > 0, got {n + lam:.3e} (n={n}, α={alpha}, κ={kappa})"
@@ -80,6 +86,8 @@ def ut_weights(
     Wc = np.full(2 * n + 1, wi)
     Wm[0] = lam / (n + lam)
     Wc[0] = Wm[0] + 1.0 - alpha * alpha + beta
+    if not (math.isfinite(Wc[0]) and math.isfinite(Wm[0])):
+        raise ValueError(f"beta: W₀ᶜ = W₀ᵐ + 1 − α² + β is not finite (β={beta}): too large")
     Wm.setflags(write=False)
     Wc.setflags(write=False)
     return UTWeights(n, float(alpha), float(beta), float(kappa), float(lam),

@@ -35,12 +35,14 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from .._kernels.so3 import dexpinv_rkmk4, exp_into
 from .._validation import (
     as_array,
+    check_output_finite,
     check_positive_scalar,
     check_rotation_matrix,
 )
@@ -288,6 +290,27 @@ def _checked_rk4_field(f: RK4Field, shape: tuple[int, ...]) -> RK4Field:
     return g
 
 
+def _step_naming_h(step: Callable, g: Callable, t: float, state: tuple, h: float) -> Any:
+    """``step(g, t, *state, h)``; a non-finite value of ``f`` at a *later* stage (the first
+    stage, at the given state, was finite) means the step itself left the float range: the
+    error then names ``h`` instead of ``f``."""
+    calls = [0]
+
+    def counted(*args: Any) -> Any:
+        calls[0] += 1
+        return g(*args)
+
+    try:
+        return step(counted, t, *state, h)
+    except ValueError as exc:
+        if calls[0] > 1 and str(exc).startswith("f: returned a non-finite value"):
+            raise ValueError(
+                f"h: the step h = {h:g} takes the state out of the float range ({exc} inside "
+                "the step; f was finite at the start): too large"
+            ) from None
+        raise
+
+
 def rk4_step(f: RK4Field, t: float, y: np.ndarray, h: float) -> np.ndarray:
     """One classical RK4 step on ℝⁿ, batched: ``y`` is ``(..., n)``, ``f(t, y) -> (..., n)``.
 
@@ -300,7 +323,9 @@ def rk4_step(f: RK4Field, t: float, y: np.ndarray, h: float) -> np.ndarray:
     y = as_array(y, "y")
     if y.ndim < 1:
         raise ValueError(f"y: expected shape (..., n), got {y.shape}")
-    return rk4_step_unchecked(_checked_rk4_field(f, y.shape), t, y, h)
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is named just below
+        y1 = _step_naming_h(rk4_step_unchecked, _checked_rk4_field(f, y.shape), t, (y,), h)
+    return check_output_finite(y1, "h", "the step")
 
 
 def rkmk4_step(
@@ -318,7 +343,10 @@ def rkmk4_step(
     h = _check_h(h)
     R, x = _check_state(R, x)
     g = _checked_lie_field(f, R.shape[:-2], x.shape[-1])
-    return rkmk4_step_unchecked(g, t, R, x, h)
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is named just below
+        R1, x1 = _step_naming_h(rkmk4_step_unchecked, g, t, (R, x), h)
+    check_output_finite(R1, "h", "the step")
+    return R1, check_output_finite(x1, "h", "the step")
 
 
 @dataclass(frozen=True)

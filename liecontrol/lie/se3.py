@@ -29,8 +29,10 @@ from .._linalg import cross as _cross
 from .._validation import (
     ROTATION_ATOL,
     as_array,
+    check_output_finite,
     check_positive_scalar,
     check_tolerance,
+    norm_last,
 )
 from . import so3
 from .so3 import (
@@ -177,8 +179,10 @@ def exp(xi: object) -> np.ndarray:
     # coefficients, so long twists do not overflow
     theta, n = _axis_angle(w)
     b1, c1 = _unit_jac_coeffs(theta)
-    nv = _cross(n, v)
-    t = v + b1[..., None] * nv + c1[..., None] * _cross(n, nv)
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is named just below
+        nv = _cross(n, v)
+        t = v + b1[..., None] * nv + c1[..., None] * _cross(n, nv)
+    check_output_finite(t, "xi", "the translation V v")
     g = np.zeros(xi.shape[:-1] + (4, 4))
     g[..., :3, :3] = so3.exp(w)
     g[..., :3, 3] = t
@@ -209,11 +213,14 @@ def _exp_one(x: float, y: float, z: float, v0: float, v1: float, v2: float) -> n
     a0, a1, a2 = n1 * v2 - n2 * v1, n2 * v0 - n0 * v2, n0 * v1 - n1 * v0
     b0, b1_, b2 = n1 * a2 - n2 * a1, n2 * a0 - n0 * a2, n0 * a1 - n1 * a0
     (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = rows
+    t0, t1, t2 = v0 + b1 * a0 + c1 * b0, v1 + b1 * a1 + c1 * b1_, v2 + b1 * a2 + c1 * b2
+    if not (math.isfinite(t0) and math.isfinite(t1) and math.isfinite(t2)):
+        return None  # a non-finite v, or an overflow: the batched path names xi
     return np.array(
         (
-            (r00, r01, r02, v0 + b1 * a0 + c1 * b0),
-            (r10, r11, r12, v1 + b1 * a1 + c1 * b1_),
-            (r20, r21, r22, v2 + b1 * a2 + c1 * b2),
+            (r00, r01, r02, t0),
+            (r10, r11, r12, t1),
+            (r20, r21, r22, t2),
             (0.0, 0.0, 0.0, 1.0),
         )
     )
@@ -675,8 +682,11 @@ def distance(g1: object, g2: object, length_scale: float = 1.0) -> np.ndarray:
     _batch(("g1", g1.shape[:-2]), ("g2", g2.shape[:-2]))
     L = check_positive_scalar(length_scale, "length_scale")
     theta = so3.angle_unchecked(np.swapaxes(g1[..., :3, :3], -1, -2) @ g2[..., :3, :3])
-    dp = g2[..., :3, 3] - g1[..., :3, 3]
-    return np.sqrt(theta * theta + np.sum(dp * dp, axis=-1) / (L * L))
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is named just below
+        dp = g2[..., :3, 3] - g1[..., :3, 3]
+        # norm_last and hypot: no overflow of the squares for translations up to ~1e308
+        d = np.hypot(theta, norm_last(dp) / L)
+    return check_output_finite(d, "g2", "the distance (‖p₂ − p₁‖ / length_scale)")
 
 
 def interpolate(g0: object, g1: object, s: object) -> np.ndarray:

@@ -1,0 +1,268 @@
+"""Requirements a scenario states, in the pointing vocabulary of ECSS-E-ST-60-10C.
+
+A requirement is a bound on one measured quantity of a run (:class:`Requirement`): the run
+*meets* it when the value is on the right side of the limit; a value that could not be measured
+(NaN: not settled, diverged) does not meet it. Its **margin** is ``value / limit`` for an upper
+bound and ``limit / value`` for a lower bound, so a margin ≤ 1 is met and the margin says how
+close the run came (a lower bound of 0, such as a cone clearance, has no ratio: its margin is
+NaN and the value itself is reported).
+
+Pointing errors follow ECSS-E-ST-60-10C ("Space engineering — Control performance", ECSS
+Secretariat, 2008), evaluated on the attitude error vector ``e(t) = log(R_d(t)ᵀR(t))^∨`` over the
+*pointing interval* — the final 10 % of the run, ``t ≥ t_f − 0.1 T`` (where the steady-state
+error is measured):
+
+- **APE** (absolute performance error): ``max_t ‖e(t)‖`` over the pointing interval — the
+  metric ``steady_error_max_deg``;
+- **RPE** over a window ``Δt`` (relative performance error): the pointing interval is cut into
+  consecutive windows ``[t_s + jΔt, t_s + (j+1)Δt)`` (a last, incomplete window is left out);
+  with ``ē_j`` the mean of the logged samples of window ``j``,
+  ``RPE = max_j max_{t ∈ window j} ‖e(t) − ē_j‖`` — the metric ``rpe_deg``;
+- **PDE** (performance drift error, the stability figure): ``max_j ‖ē_{j+1} − ē_j‖`` between
+  consecutive windows — the metric ``pde_deg``.
+
+:func:`pointing_errors` computes RPE and PDE from a logged error-vector history; the runner
+stores them with the other metrics (:mod:`benchmarks.metrics`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from liecontrol._validation import as_array
+
+__all__ = [
+    "Requirement",
+    "REQUIREMENT_METRICS",
+    "DEFAULT_RPE_WINDOW_S",
+    "OVERSHOOT_LIMIT_PCT",
+    "SETTLING_FRACTION",
+    "RANGE_EXCURSION_LIMIT",
+    "default_requirements",
+    "requirements_of",
+    "pointing_errors",
+    "meets",
+]
+
+#: Quantities a requirement can bound: metric key → (label, unit).
+REQUIREMENT_METRICS: dict[str, tuple[str, str]] = {
+    "steady_error_max_deg": ("APE", "deg"),
+    "rpe_deg": ("RPE", "deg"),
+    "pde_deg": ("PDE", "deg"),
+    "settling_time_s": ("settling time", "s"),
+    "overshoot_pct": ("overshoot", "%"),
+    "peak_torque_Nm": ("peak torque", "N·m"),
+    "peak_momentum_fraction": ("momentum use", "-"),
+    "peak_gimbal_rate_frac": ("gimbal-rate use", "-"),
+    "saturation_time_s": ("time saturated", "s"),
+    "min_keep_out_margin_deg": ("keep-out clearance", "deg"),
+    "min_keep_in_margin_deg": ("keep-in clearance", "deg"),
+    "steady_position_error_max_m": ("position APE", "m"),
+    "max_range_ratio": ("range excursion", "-"),
+    "delta_v_m_s": ("ΔV", "m/s"),
+    "peak_force_N": ("peak force", "N"),
+}
+#: RPE/PDE window of the default requirements [s].
+DEFAULT_RPE_WINDOW_S = 10.0
+#: Default overshoot bound of a manoeuvre [% of the initial error angle].
+OVERSHOOT_LIMIT_PCT = 10.0
+#: A manoeuvre must settle within this fraction of the run (the rest is pointing).
+SETTLING_FRACTION = 0.8
+#: Default bound on the SE(3) range excursion ``max_t ‖p − p_d‖ / ‖p₀ − p_d‖``.
+RANGE_EXCURSION_LIMIT = 1.5
+
+
+@dataclass(frozen=True)
+class Requirement:
+    """A bound on one measured quantity of a run.
+
+    Attributes:
+        metric: the quantity (a key of :data:`REQUIREMENT_METRICS`).
+        limit: the bound, in the metric's unit (finite; > 0 for an upper bound).
+        sense: ``"max"`` (met when value ≤ limit) or ``"min"`` (met when value ≥ limit).
+        window_s: RPE/PDE only: the window length [s] (default
+            :data:`DEFAULT_RPE_WINDOW_S`); must fit in the pointing interval.
+        name: label for reports (default: the metric's, e.g. ``"APE"``).
+    """
+
+    metric: str
+    limit: float | None = None
+    sense: str = "max"
+    window_s: float | None = None
+    name: str = ""
+
+    def __post_init__(self) -> None:
+        if self.metric not in REQUIREMENT_METRICS:
+            raise ValueError(
+                f"metric: unknown requirement quantity {self.metric!r}; valid: "
+                f"{', '.join(REQUIREMENT_METRICS)}"
+            )
+        if self.limit is None:
+            raise ValueError(f"limit: requirement on {self.metric!r} has no limit")
+        lim = as_array(self.limit, "limit", ())
+        if lim.shape != () or not math.isfinite(float(lim)):
+            raise ValueError(f"limit: expected a finite number, got {self.limit!r}")
+        object.__setattr__(self, "limit", float(lim))
+        if self.sense not in ("max", "min"):
+            raise ValueError(f"sense: expected 'max' or 'min', got {self.sense!r}")
+        if self.sense == "max" and self.limit <= 0 and self.metric != "saturation_time_s":
+            raise ValueError(f"limit: an upper bound on {self.metric!r} must be > 0")
+        if self.window_s is not None:
+            if self.metric not in ("rpe_deg", "pde_deg"):
+                raise ValueError(f"window_s: only RPE/PDE have a window, not {self.metric!r}")
+            w = as_array(self.window_s, "window_s", ())
+            if w.shape != () or not float(w) > 0 or not math.isfinite(float(w)):
+                raise ValueError(f"window_s: expected a finite window > 0 s, got {self.window_s!r}")
+            object.__setattr__(self, "window_s", float(w))
+        elif self.metric in ("rpe_deg", "pde_deg"):
+            object.__setattr__(self, "window_s", DEFAULT_RPE_WINDOW_S)
+        if not isinstance(self.name, str):
+            raise TypeError(f"name: expected a str, got {type(self.name).__name__}")
+        if not self.name:
+            object.__setattr__(self, "name", REQUIREMENT_METRICS[self.metric][0])
+
+    @property
+    def unit(self) -> str:
+        return REQUIREMENT_METRICS[self.metric][1]
+
+    def text(self) -> str:
+        """``"APE ≤ 0.1 deg"``, ``"RPE (10 s) ≤ 0.05 deg"``."""
+        op = "≤" if self.sense == "max" else "≥"
+        win = f" ({self.window_s:g} s)" if self.window_s is not None else ""
+        return f"{self.name}{win} {op} {self.limit:g} {self.unit}"
+
+    def met(self, value: float) -> bool:
+        """The value meets the bound (NaN never does)."""
+        v = float(value)
+        if math.isnan(v):
+            return False
+        return v <= self.limit if self.sense == "max" else v >= self.limit
+
+    def margin(self, value: float) -> float:
+        """``value / limit`` (upper bound) or ``limit / value`` (lower bound): ≤ 1 is met;
+        NaN when the ratio is not defined (a zero bound, an unmeasured value)."""
+        v = float(value)
+        if math.isnan(v) or self.limit == 0.0:
+            return float("nan")
+        if self.sense == "max":
+            return v / self.limit
+        if v <= 0.0 or self.limit < 0.0:
+            return float("inf") if v <= 0.0 < self.limit else float("nan")
+        return self.limit / v
+
+
+def default_requirements(scenario: Any) -> tuple[Requirement, ...]:
+    """The requirements a scenario states when it names none.
+
+    Attitude (every scenario): APE ≤ ``attitude_tolerance_deg``. Pointing and tracking scenarios
+    (initial error < 1°, or a moving reference): RPE over 10 s ≤ the same tolerance.
+    Manoeuvres (initial error ≥ 1°): settling within 80 % of the run and overshoot ≤ 10 %.
+    Actuators that store momentum: peak momentum use ≤ 0.95 of the envelope. Pointing cones:
+    clearance ≥ 0°. SE(3): position APE ≤ ``position_tolerance_m``, range excursion ≤ 1.5 × the
+    initial range, and ΔV ≤ ``proximity.max_delta_v`` when the scenario sets it.
+    """
+    tol = float(scenario.attitude_tolerance_deg)
+    out = [Requirement("steady_error_max_deg", tol)]
+    manoeuvre = scenario.initial_error_deg >= 1.0
+    if scenario.proximity is not None:
+        px = scenario.proximity
+        out.append(Requirement("steady_position_error_max_m", float(scenario.position_tolerance_m)))
+        out.append(Requirement("max_range_ratio", RANGE_EXCURSION_LIMIT))
+        if getattr(px, "max_delta_v", None) is not None:
+            out.append(Requirement("delta_v_m_s", float(px.max_delta_v)))
+        return tuple(out)
+    if manoeuvre:
+        out.append(Requirement("settling_time_s", SETTLING_FRACTION * float(scenario.duration)))
+        out.append(Requirement("overshoot_pct", OVERSHOOT_LIMIT_PCT))
+    tracking = getattr(scenario.reference, "kind", "constant") != "constant"
+    if (tracking or not manoeuvre) and 0.1 * float(scenario.duration) >= DEFAULT_RPE_WINDOW_S:
+        out.append(Requirement("rpe_deg", tol, window_s=DEFAULT_RPE_WINDOW_S))
+    if scenario.spacecraft.actuator in ("sgcmg", "wheels"):
+        out.append(Requirement("peak_momentum_fraction", 0.95))
+    if scenario.keep_out:
+        out.append(Requirement("min_keep_out_margin_deg", 0.0, sense="min"))
+    if scenario.keep_in:
+        out.append(Requirement("min_keep_in_margin_deg", 0.0, sense="min"))
+    return tuple(out)
+
+
+def requirements_of(scenario: Any) -> tuple[Requirement, ...]:
+    """The scenario's own requirements, else :func:`default_requirements`."""
+    own = getattr(scenario, "requirements", None)
+    return tuple(own) if own else default_requirements(scenario)
+
+
+def pointing_window(scenario: Any) -> float | None:
+    """The RPE/PDE window of a scenario's requirements (``None`` when none asks for one)."""
+    wins = {r.window_s for r in requirements_of(scenario) if r.window_s is not None}
+    if len(wins) > 1:
+        raise ValueError(f"requirements: one RPE/PDE window per scenario, got {sorted(wins)} s")
+    return next(iter(wins), None)
+
+
+def pointing_errors(
+    t: np.ndarray, e: np.ndarray, window_s: float, start: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """RPE and PDE [same unit as ``e``] per spacecraft (module docstring).
+
+    Args:
+        t: ``(K,)`` sample times [s], increasing.
+        e: ``(K, B, 3)`` error vectors.
+        window_s: window length Δt [s].
+        start: start of the pointing interval t_s [s].
+
+    Returns:
+        ``(rpe, pde)``, each ``(B,)``; PDE is NaN with fewer than two complete windows.
+
+    Raises:
+        ValueError: ``window_s`` longer than the pointing interval ``[start, t_K]``.
+    """
+    t = np.asarray(t, dtype=np.float64)
+    e = np.asarray(e, dtype=np.float64)
+    span = float(t[-1] - start)
+    n_win = int(math.floor(span / window_s + 1e-9))
+    if n_win < 1:
+        raise ValueError(
+            f"window_s: {window_s:g} s is longer than the pointing interval "
+            f"({span:g} s, the final 10 % of the run)"
+        )
+    B = e.shape[1]
+    rpe = np.zeros(B)
+    means = []
+    eps = 1e-9 * max(1.0, abs(float(t[-1])))
+    for j in range(n_win):
+        lo, hi = start + j * window_s, start + (j + 1) * window_s
+        sel = (t >= lo - eps) & ((t < hi - eps) if j < n_win - 1 else (t <= hi + eps))
+        if not sel.any():
+            continue
+        w = e[sel]
+        m = w.mean(axis=0)
+        means.append(m)
+        rpe = np.maximum(rpe, np.linalg.norm(w - m, axis=-1).max(axis=0))
+    if len(means) < 2:
+        return rpe, np.full(B, np.nan)
+    mm = np.stack(means)
+    pde = np.linalg.norm(np.diff(mm, axis=0), axis=-1).max(axis=0)
+    return rpe, pde
+
+
+def meets(
+    requirements: Sequence[Requirement], metrics: Mapping[str, Any]
+) -> tuple[bool, dict[str, float]]:
+    """Whether a run's ``metrics`` meet every requirement, and each requirement's value."""
+    values: dict[str, float] = {}
+    ok = True
+    for r in requirements:
+        v = metrics.get(r.metric)
+        try:
+            v = float("nan") if v is None else float(v)
+        except (TypeError, ValueError):
+            v = float("nan")
+        values[r.text()] = v
+        ok = ok and r.met(v)
+    return ok, values

@@ -1,0 +1,236 @@
+"""The compiled-kernel seam: how a controller hands the simulator its per-step law.
+
+A controller that wants to run inside the simulator's compiled closed loop
+(:func:`spacecraft.simulator.simulate`) defines one more method next to ``reset`` and
+``command``::
+
+    def fused_kernel(self, batch_size: int, control_period: float) -> ControllerKernel | None:
+        ...
+
+called after ``reset(t0, batch_size)`` with the run's control period [s] (the law is called
+every ``control_period``, so a discretised law can precompute its matrices). It returns a
+:class:`ControllerKernel`: a numba ``@njit`` function of the signature below (the *law*), a flat
+``float64`` parameter vector, the initial internal state of each spacecraft (an integrator, an
+observer, a chart memory: the loop carries it from one control sample to the next), and two
+small Python callables that turn the law's diagnostics rows into the controller's
+``diagnostics()`` dictionary and write the final state back into the controller. ``None``
+means "no kernel for this configuration"; the Python loop then runs and ``simulate`` logs one
+line (logger ``spacecraft.simulator``) naming the part that kept it there.
+
+The law, called once per spacecraft at every control sample::
+
+    law(t, R, omega, R_d, omega_d, omega_dot_d, params, state, u_out, diag_out) -> None
+
+==================  ============================================================================
+``t``               float, the sample time [s]
+``R``               ``(3, 3)`` float64 attitude (body → inertial)
+``omega``           ``(3,)`` body rate [rad/s]
+``R_d``             ``(3, 3)`` desired attitude; ``omega_d``, ``omega_dot_d`` ``(3,)`` desired
+                    rate and acceleration in the desired frame (an
+                    :class:`~liecontrol.control.base.AttitudeReference` sample)
+``params``          ``(n_p,)`` C-contiguous float64: the controller's parameters (read only)
+``state``           ``(n_s,)`` C-contiguous float64: this spacecraft's internal state, read and
+                    updated in place; ``n_s`` may be 0
+``u_out``           ``(3,)`` body torque command [N·m], written by the law
+``diag_out``        ``(n_d,)`` diagnostics row, written by the law (``n_d`` may be 0)
+==================  ============================================================================
+
+:data:`LAW_SIGNATURE` is this signature in numba's types; the simulator compiles the law for it
+(every array C-contiguous float64, so ``params[1:10].reshape((3, 3))`` is a 3×3 view and
+``R_d.T @ R`` runs at full speed). The loop calls the law through a
+function pointer, so one compiled loop (cached on disk) serves every law.
+
+Which class the kernel speaks for: :func:`resolve` accepts the kernel only when ``command`` is
+defined in the class that defines ``fused_kernel`` or above it. A subclass of
+:class:`~liecontrol.control.GeometricPD` that keeps the law inherits the kernel; one that
+overrides ``command`` in Python does not silently get its parent's kernel — the Python loop runs
+its ``command`` (and the log line says so) until it defines ``fused_kernel`` itself.
+
+Before the loop starts, :func:`check` compiles the law for :data:`LAW_SIGNATURE`, checks the
+arrays (dtype, dimensions, finiteness) and calls the law once on the initial state; a wrong
+signature, a numba typing error, a parameter of the wrong shape or dtype, or a non-finite torque
+raise :class:`ValueError` naming the controller and the argument. The guide
+``docs/fast_controllers.md`` walks through a user's law with an integrator, end to end.
+
+This module imports numba only when it is installed (:mod:`liecontrol._jit`); without it no
+controller has a kernel and every run takes the Python loop.
+"""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .._jit import JIT_ENABLED
+
+__all__ = ["ControllerKernel", "LAW_SIGNATURE", "check", "non_finite_error", "resolve"]
+
+
+def _law_signature() -> Any:
+    if not JIT_ENABLED:
+        return None
+    from numba import types
+
+    C1 = types.Array(types.float64, 1, "C")
+    C2 = types.Array(types.float64, 2, "C")
+    return types.void(types.float64, C2, C1, C2, C1, C1, C1, C1, C1, C1)
+
+
+#: numba signature of a law (``None`` without numba)
+LAW_SIGNATURE: Any = _law_signature()
+
+
+def _no_diagnostics(rows: np.ndarray) -> dict[str, np.ndarray]:
+    return {}
+
+
+def _no_finish(state: np.ndarray, diag: np.ndarray) -> None:
+    return None
+
+
+@dataclass(frozen=True)
+class ControllerKernel:
+    """What :meth:`fused_kernel` returns (module docstring).
+
+    Attributes:
+        law: the ``@njit`` law of the documented signature.
+        params: ``(n_p,)`` float64 parameter vector (copied, read only to the law).
+        state: ``(B, n_s)`` float64 initial internal state per spacecraft (copied; the loop
+            carries it); ``np.zeros((B, 0))`` for a stateless law.
+        n_diag: width ``n_d`` of the diagnostics row.
+        diagnostics: ``rows (..., B, n_d) -> dict`` of arrays: the controller's
+            ``diagnostics()`` entries from the rows (used for the log, where ``...`` is the
+            row axis, and for the last sample). Must give the same keys, shapes and dtypes as
+            the controller's ``diagnostics()`` in the Python loop.
+        finish: ``(state (B, n_s), last diagnostics row (B, n_d)) -> None``: writes the final
+            internal state back into the controller after the run, so that it ends as the
+            Python loop would leave it.
+        name: the law's name in messages (default: the function's name).
+    """
+
+    law: Callable[..., None]
+    params: np.ndarray
+    state: np.ndarray
+    n_diag: int = 0
+    diagnostics: Callable[[np.ndarray], dict[str, np.ndarray]] = field(
+        default=_no_diagnostics, repr=False
+    )
+    finish: Callable[[np.ndarray, np.ndarray], None] = field(default=_no_finish, repr=False)
+    name: str = ""
+
+
+def _owner(cls: type, attr: str) -> type | None:
+    for klass in inspect.getmro(cls):
+        if attr in vars(klass):
+            return klass
+    return None
+
+
+def resolve(
+    controller: Any, batch_size: int, control_period: float | None = None
+) -> tuple[ControllerKernel | None, str]:
+    """``(kernel, "")`` for a controller with a kernel, else ``(None, reason)``: why it keeps
+    the Python loop, in words (used for the simulator's one log line)."""
+    label = type(controller).__name__
+    if not JIT_ENABLED:
+        return None, "numba is not available"
+    hook = getattr(controller, "fused_kernel", None)
+    if not callable(hook):
+        return None, f"controller {label} has no compiled kernel (no fused_kernel method)"
+    cls = type(controller)
+    k_owner, c_owner = _owner(cls, "fused_kernel"), _owner(cls, "command")
+    if k_owner is not None and c_owner is not None and c_owner is not k_owner:
+        if issubclass(c_owner, k_owner):
+            return None, (
+                f"controller {label} overrides command() in {c_owner.__name__} below "
+                f"{k_owner.__name__}.fused_kernel(), whose kernel is not its law (define "
+                "fused_kernel on the subclass to compile it)"
+            )
+    spec = hook(batch_size, control_period)
+    if spec is None:
+        why = getattr(controller, "_kernel_reason", None)
+        why = why() if callable(why) else "this configuration"
+        return None, f"controller {label} has no compiled kernel for {why}"
+    if not isinstance(spec, ControllerKernel):
+        raise ValueError(
+            f"controller {label}: fused_kernel() must return a ControllerKernel or None, "
+            f"got {type(spec).__name__}"
+        )
+    return spec, ""
+
+
+def _array(label: str, name: str, a: Any, ndim: int, shape0: int | None = None) -> np.ndarray:
+    if not isinstance(a, np.ndarray):
+        raise ValueError(
+            f"controller {label}: kernel {name} must be a numpy float64 array, "
+            f"got {type(a).__name__}"
+        )
+    if a.dtype != np.float64:
+        raise ValueError(
+            f"controller {label}: kernel {name} must have dtype float64, got {a.dtype}"
+        )
+    if a.ndim != ndim or (shape0 is not None and a.shape[0] != shape0):
+        want = "(n,)" if ndim == 1 else f"({shape0}, n)"
+        raise ValueError(f"controller {label}: kernel {name} must have shape {want}, got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"controller {label}: kernel {name} must be finite")
+    return np.ascontiguousarray(a).copy()
+
+
+def check(
+    controller: Any,
+    spec: ControllerKernel,
+    batch_size: int,
+    probe: tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Validate ``spec`` before a run: compile the law for :data:`LAW_SIGNATURE` and, with
+    ``probe = (t, R, ω, R_d, ω_d, ω̇_d)``, call it once on the first spacecraft (on copies). Returns
+    the ``(params, state)`` arrays the loop uses; raises ``ValueError`` naming the controller
+    and the argument."""
+    label = type(controller).__name__
+    law = spec.law
+    lname = spec.name or getattr(law, "__name__", repr(law))
+    params = _array(label, "params", spec.params, 1)
+    state = _array(label, "state", spec.state, 2, batch_size)
+    n_diag = spec.n_diag
+    if isinstance(n_diag, bool) or not isinstance(n_diag, (int, np.integer)) or n_diag < 0:
+        raise ValueError(f"controller {label}: kernel n_diag must be an int >= 0, got {n_diag!r}")
+    if not callable(getattr(law, "compile", None)) or not hasattr(law, "py_func"):
+        raise ValueError(
+            f"controller {label}: kernel law must be a numba @njit function, got {law!r}"
+        )
+    from numba.core.errors import NumbaError
+
+    try:
+        if LAW_SIGNATURE.args not in law.overloads:
+            law.compile(LAW_SIGNATURE)
+    except (NumbaError, TypeError, ValueError) as exc:
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise ValueError(
+            f"controller {label}: kernel law {lname} does not compile for the documented "
+            "signature law(t, R, omega, R_d, omega_d, omega_dot_d, params, state, u_out, "
+            f"diag_out) (liecontrol.control.kernel): {first}"
+        ) from None
+    if probe is not None:
+        t, R, w, R_d, w_d, dw_d = probe
+        u = np.full(3, np.nan)
+        d = np.zeros(n_diag)
+        law(float(t), R, w, R_d, w_d, dw_d, params.copy(), state[0].copy(), u, d)
+        if not np.all(np.isfinite(u)):
+            raise non_finite_error(controller, spec, t)
+    return params, state
+
+
+def non_finite_error(controller: Any, spec: ControllerKernel, t: float) -> ValueError:
+    """The error of a law that returns a non-finite torque at the first sample ``t`` (the
+    simulator's fused loop checks every sample; the first one is checked before any step)."""
+    label = type(controller).__name__
+    lname = spec.name or getattr(spec.law, "__name__", repr(spec.law))
+    return ValueError(
+        f"controller {label}: kernel law {lname} returned a non-finite torque u_out at the first "
+        f"control sample (t = {t!r}, the initial state); check the law and its params"
+    )
