@@ -38,6 +38,7 @@ verdicts in its table are findings, not errors).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import importlib
 import importlib.util
@@ -47,6 +48,7 @@ import time
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from types import ModuleType
+from typing import Any
 
 #: Members per cell of ``run`` (``--members``): see docs/benchmarks.md for what N buys.
 DEFAULT_MEMBERS = 8
@@ -122,8 +124,8 @@ def load_plugins(specs: Sequence[str]) -> list[ModuleType]:
 #: two different words, and only ``error`` changes the exit status.
 EXIT_STATUS_RULE = (
     "0 when every run completed, whatever its verdict (a 'failed' verdict — the controller "
-    "missed the scenario's tolerance — is a finding, not a crash); 1 when at least one run "
-    "raised (verdict 'error', listed with its message in the report); 2 for bad arguments; "
+    "missed the scenario's tolerance — is a finding, not a crash); 1 when some run raised "
+    "(verdict 'error', listed with its message in the report); 2 for bad arguments; "
     "130 when a Monte Carlo run is interrupted (its finished chunks are kept for --resume)."
 )
 
@@ -381,29 +383,56 @@ def _verdict_summary(outcomes: Iterable) -> str:
 #: a shared 2-core development machine (docs/benchmarks.md, "Run time").
 COLD_COMPILE_S = 20
 
-#: The warm-up says "compiling kernels" when it is still busy after this long [s] (loading
-#: cached machine code for the quick suite takes well under this).
-COMPILE_NOTICE_AFTER_S = 3.0
+#: The warm-up says "compiling kernels" once numba has started compiling (a cache miss, seen
+#: through numba's "numba:compile" event) and the warm-up has run this long [s]: a short
+#: compile (a user's uncached law) stays quiet, and loading cached code never triggers it.
+COMPILE_NOTICE_AFTER_S = 1.0
+
+
+def _compile_counter(counter: list[int]) -> Any:
+    """A context manager counting numba's compilations (cache misses) into ``counter[0]``;
+    without numba's event API every elapsed second counts as compiling."""
+    try:
+        from numba.core import event as ev
+    except Exception:  # noqa: BLE001 - an old or broken numba: fall back to the time alone
+        counter[0] = 1
+        return contextlib.nullcontext()
+
+    class _Count(ev.Listener):
+        def on_start(self, event: Any) -> None:
+            counter[0] += 1
+
+        def on_end(self, event: Any) -> None:
+            pass
+
+    return ev.install_listener("numba:compile", _Count())
+
+
+def _warm_up_runs(scenarios: Sequence, controllers: Sequence[str] | None) -> None:
+    """The warm-up's runs: ``scenarios`` × ``controllers`` in this process (serial)."""
+    from .executors import make_executor
+    from .runner import run_suite
+
+    with make_executor("serial") as ex:
+        run_suite(scenarios, controllers, suite="warm-up", executor=ex, progress=False)
 
 
 def _warm_up(scenarios: Sequence, controllers: Sequence[str] | None, announce: bool) -> float:
     """Compile — or load from numba's disk cache — the per-step kernels the selection uses,
     in this process and before the progress bar starts: one run of a few control periods per
-    kind of scenario (plant, actuator, estimator, faults) with every selected controller.
-    When this takes longer than :data:`COMPILE_NOTICE_AFTER_S` (numba is compiling: the
-    first run, or the first after an upgrade) it says so on stderr instead of leaving the bar
-    at 0. The forked workers of the ``process`` executor inherit the compiled code, so they
-    do not compile it again each. Returns the seconds spent; any failure is left to the real
-    run to report."""
+    kind of scenario (plant, actuator, steering law, estimator, faults) with every selected
+    controller. When numba compiles (a cache miss: the first run, or the first after an
+    upgrade or an edit of a kernel) and the warm-up lasts :data:`COMPILE_NOTICE_AFTER_S`, it
+    says so on stderr (``announce``) instead of leaving the bar at 0, then how long it took.
+    The forked workers of the ``process`` executor inherit the compiled code, so they do not
+    compile it again each. Returns the seconds spent; any failure is left to the real run to
+    report."""
     import threading
 
     from liecontrol._jit import JIT_ENABLED
 
     if not JIT_ENABLED:
         return 0.0
-    from .executors import make_executor
-    from .runner import run_suite
-
     kinds: dict[tuple, object] = {}
     for s in scenarios:
         sp = getattr(s, "spacecraft", None)
@@ -420,29 +449,35 @@ def _warm_up(scenarios: Sequence, controllers: Sequence[str] | None, announce: b
             continue
     if not short:
         return 0.0
+    compiles = [0]
     said: list[bool] = []
-
-    def notice() -> None:
-        said.append(True)
-        print(
-            f"compiling kernels (first run only, ≈{COLD_COMPILE_S} s on 2 cores; cached "
-            "for later runs) …",
-            file=sys.stderr,
-            flush=True,
-        )
-
-    timer = threading.Timer(COMPILE_NOTICE_AFTER_S, notice)
-    timer.daemon = True
-    if announce:
-        timer.start()
+    done = threading.Event()
     t0 = time.perf_counter()
-    try:
-        with make_executor("serial") as ex:
-            run_suite(short, controllers, suite="warm-up", executor=ex, progress=False)
-    except Exception:  # noqa: BLE001, S110 - the real run reports any problem with its context
-        pass
-    finally:
-        timer.cancel()
+
+    def watch() -> None:
+        while not done.wait(0.1):
+            if compiles[0] and time.perf_counter() - t0 >= COMPILE_NOTICE_AFTER_S:
+                said.append(True)
+                print(
+                    f"compiling kernels (first run only, ≈{COLD_COMPILE_S} s on 2 cores; "
+                    "cached for later runs) …",
+                    file=sys.stderr,
+                    flush=True,
+                )
+                return
+
+    watcher = threading.Thread(target=watch, name="compile-notice", daemon=True)
+    with _compile_counter(compiles):
+        if announce:
+            watcher.start()
+        try:
+            _warm_up_runs(short, controllers)
+        except Exception:  # noqa: BLE001 - the real run reports any problem with its context
+            pass
+        finally:
+            done.set()
+            if announce:
+                watcher.join()
     spent = time.perf_counter() - t0
     if said:
         print(f"kernels ready after {spent:.0f} s", file=sys.stderr, flush=True)
@@ -636,6 +671,18 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
                     write_histories_with_report(result, args.out, path)
                 summary = _verdict_summary(result.outcomes)
+                if result.members > 1:
+                    cells = _count(
+                        c.verdict for c in result.cells.values() if c.verdict != "not-applicable"
+                    )
+                    print(
+                        f"cell verdicts over {result.members} members (requirements, Wilson "
+                        "95 %): "
+                        + ", ".join(
+                            f"{cells.get(v, 0)} {v}"
+                            for v in ("success", "degraded", "failed", "error")
+                        )
+                    )
                 n_failed = result.n_failed
     print(
         f"report: {path} ({summary}; total wall time {time.perf_counter() - t0:.1f} s "

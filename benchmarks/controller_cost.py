@@ -33,10 +33,22 @@ def controller_cost(
 ) -> float:
     """Median wall time of one ``command`` call [µs] of registry controller ``name`` on one
     spacecraft of ``scenario`` (module docstring)."""
+    from liecontrol._validation import as_int
     from liecontrol.control import AttitudeState, ConstantAttitude
     from liecontrol.lie import so3
 
+    if not isinstance(name, str):
+        raise TypeError(f"name: expected a registered controller name, got {name!r}")
+    if not all(hasattr(scenario, a) for a in ("spacecraft", "control_period", "dt")):
+        raise TypeError(f"scenario: expected a Scenario, got {type(scenario).__name__}")
+    if rule is not None and not isinstance(rule, GainRule):
+        raise TypeError(f"rule: expected a GainRule or None, got {type(rule).__name__}")
+    warmup = as_int(warmup, "warmup", 0)
+    repeats = as_int(repeats, "repeats", 1)
+    calls = as_int(calls, "calls", 1)
     info = get_controller(name)
+    if not (info.plants & ATTITUDE_PLANTS):
+        raise ValueError(f"name: {name!r} is not an attitude controller")
     period = info.control_period or scenario.control_period or scenario.dt
     ref = ConstantAttitude(np.eye(3))
     kw = {} if rule is None else {"rule": rule}
@@ -64,6 +76,8 @@ def controller_cost(
 def cost_section(result: Any) -> list[str]:
     """Markdown lines: one row per attitude controller of ``result``, measured on the first
     attitude scenario's spacecraft."""
+    if not all(hasattr(result, a) for a in ("scenarios", "controllers")):
+        raise TypeError(f"result: expected a SuiteResult, got {type(result).__name__}")
     att = [s for s in result.scenarios if s.plant in ATTITUDE_PLANTS]
     if not att:
         return []

@@ -39,6 +39,7 @@ actions place their extra pole at −ω_n/5 with a 0.3 N·m anti-windup clamp
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -513,6 +514,29 @@ def _geometric_keep_out(ctx: ControllerContext) -> Any:
     return ConstrainedGeometricPD(ctx.J, keep_out=ctx.keep_out, keep_in=ctx.keep_in, **gains)
 
 
+def _geometric_keep_out_sampled(ctx: ControllerContext) -> Any:
+    """SampledSafeConstrainedPD: ``geometric-keep-out``'s barrier PD (same tuned gains) with the
+    sampled-data safety filter at the control period and the actuator's torque box (unlimited
+    ideal torque: the PD's own torque at a π error, ω_n²·λ_max(J)·π, as the bound)"""
+    from liecontrol.control.constrained import SampledSafeConstrainedPD
+    from liecontrol.control.tuning import tune_geometric_pd
+
+    spec, limits = tuned_spec(ctx)
+    gains = tune_geometric_pd(ctx.J, spec, error="large_angle")
+    del gains["error"]
+    u_max = limits.max_torque
+    if u_max is None:
+        u_max = spec.omega_n**2 * float(np.linalg.eigvalsh(ctx.J)[-1]) * math.pi
+    return SampledSafeConstrainedPD(
+        ctx.J,
+        keep_out=ctx.keep_out,
+        keep_in=ctx.keep_in,
+        max_torque=u_max,
+        sample_period=ctx.control_period,
+        **gains,
+    )
+
+
 def _intrinsic_pid(ctx: ControllerContext) -> Any:
     """IntrinsicPID (log error, Maithripala & Berg): (ω_n, ζ) poles + integral pole at −ω_n/5."""
     from liecontrol.control.geometric_pid import IntrinsicPID
@@ -740,6 +764,14 @@ def _register_builtins() -> None:
         "geometric-keep-out",
         _geometric_keep_out,
         description="large-angle geometric PD with log barriers on the scenario's pointing cones",
+        family="geometric",
+        quick=False,
+    )
+    register(
+        "geometric-keep-out-sampled",
+        _geometric_keep_out_sampled,
+        description="geometric-keep-out with a sampled-data safety filter on the braking-distance "
+        "margin at the control period and the torque box",
         family="geometric",
         quick=False,
     )

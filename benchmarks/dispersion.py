@@ -64,6 +64,7 @@ __all__ = [
     "DispersionSpec",
     "DEFAULT_DISPERSION",
     "DISPERSION_KEYS",
+    "MAX_MEMBERS",
     "member_scenario",
     "member_scenarios",
 ]
@@ -81,6 +82,8 @@ DISPERSION_KEYS: tuple[str, ...] = (
     "position_m",
 )
 
+#: The largest number of members a cell may have (a guard against a mistyped count).
+MAX_MEMBERS = 100_000
 #: Disturbance parameters that scale its amplitude, by disturbance name.
 _AMPLITUDE_PARAMS: dict[str, tuple[str, ...]] = {
     "constant-harmonic": ("scale",),
@@ -285,5 +288,7 @@ def member_scenario(scenario: Any, member: int, dispersion: DispersionSpec | Non
 
 def member_scenarios(scenario: Any, n: int, dispersion: DispersionSpec | None = None) -> list:
     """Members ``0 … n−1`` of ``scenario`` (:func:`member_scenario`); ``n ≥ 1``."""
-    n = as_int(n, "members", 1)
+    n = as_int(n, "n", 1)
+    if n > MAX_MEMBERS:
+        raise ValueError(f"n: at most {MAX_MEMBERS} members, got {n}")
     return [member_scenario(scenario, k, dispersion) for k in range(n)]

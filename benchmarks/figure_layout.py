@@ -87,6 +87,11 @@ def layout_problems(fig: Any) -> list[str]:
 
     if not isinstance(fig, Figure):
         raise TypeError(f"fig: expected a matplotlib Figure, got {type(fig).__name__}")
+    if not hasattr(fig.canvas, "get_renderer"):
+        # a Figure built without pyplot, or one pyplot has closed: draw it with Agg
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+        FigureCanvasAgg(fig)
     fig.canvas.draw()
     renderer = fig.canvas.get_renderer()
     fbox = fig.bbox

@@ -98,6 +98,7 @@ __all__ = [
     "CHATTER_REVERSALS",
     "OVERSHOOT_FLAG_PCT",
     "MOMENTUM_SATURATED_FRACTION",
+    "DUMPING_INSUFFICIENT_GROWTH",
     "DIVERGENCE_MARGIN_DEG",
     "judge",
     "compute_metrics",
@@ -323,6 +324,20 @@ RUN_UNITS: dict[str, str] = {
     "delta_v_m_s": "m/s",
     "max_range_ratio": "-",
     "force_saturation_time_s": "s",
+    "nees_mean": "-",
+    "nees_in_bounds": "-",
+    "nees_in_bounds_fraction": "-",
+    "nees_full_mean": "-",
+    "nis_mean": "-",
+    "nis_in_bounds": "-",
+    "filter_updates": "-",
+    "filter_rejections": "-",
+    "estimation_error_max_deg": "deg",
+    "momentum_growth_per_orbit": "1/orbit",
+    "propellant_kg": "kg",
+    "propellant_kg_per_orbit": "kg/orbit",
+    "fault_detection_delay_s": "s",
+    "false_alarms": "-",
 }
 
 #: One-line meaning of each field (for reports).
@@ -374,6 +389,31 @@ DESCRIPTIONS: dict[str, str] = {
     "delta_v_m_s": "SE(3): ΔV = ∫‖F‖/m dt, the velocity change the thrusters deliver",
     "max_range_ratio": "SE(3): max ‖p − p_d‖ over the run / ‖p₀ − p_d‖ (range excursion)",
     "force_saturation_time_s": "SE(3): time with a force component at the thrust limit",
+    "nees_mean": "filtered sensors: time average of the attitude NEES δθᵀP⁻¹δθ (3 states; "
+    "3 when the filter is consistent)",
+    "nees_in_bounds": "filtered sensors: 1 when nees_mean lies in the two-sided 95 % region "
+    "χ²(3K)/K of its time average (K: effective number of independent samples), else 0",
+    "nees_in_bounds_fraction": "filtered sensors: share of the NEES samples inside χ²₃'s "
+    "two-sided 95 % interval (0.95 when consistent)",
+    "nees_full_mean": "filtered sensors: time average of the NEES of attitude and gyro bias "
+    "(6 states; 6 when consistent)",
+    "nis_mean": "filtered sensors: time average of the star-tracker NIS νᵀS⁻¹ν (3 when "
+    "consistent)",
+    "nis_in_bounds": "filtered sensors: 1 when nis_mean lies in the two-sided 95 % region "
+    "χ²(3K)/K over the K updates, else 0",
+    "filter_updates": "filtered sensors: star-tracker updates offered to the filter",
+    "filter_rejections": "filtered sensors: updates rejected by the χ² innovation gate",
+    "estimation_error_max_deg": "filtered sensors: max attitude estimation error over the "
+    "final 10 % of the run (the floor the pointing error cannot beat)",
+    "momentum_growth_per_orbit": "momentum management: secular growth per orbit of the stored "
+    "momentum's envelope fraction after the first orbit (least-squares slope × orbit period; "
+    "NaN under two orbits)",
+    "propellant_kg": "thruster unloading: propellant used over the run",
+    "propellant_kg_per_orbit": "thruster unloading: propellant used per orbit (run average)",
+    "fault_detection_delay_s": "fault scenarios: time from the first fault to the residual "
+    "CUSUM's first alarm on a faulty unit (NaN: not detected)",
+    "false_alarms": "fault scenarios: units flagged by the residual CUSUM that are not faulty, "
+    "or flagged before their fault",
 }
 
 
@@ -696,6 +736,7 @@ FLAGS: tuple[str, ...] = (
     "near-singular",
     "chattering",
     "constraint-violated",
+    "dumping-insufficient",
     "fault-injected",
     "exception",
 )
@@ -718,6 +759,11 @@ CHATTER_REVERSALS = 20
 #: by up to ~6 % near a gimbal axis (:mod:`spacecraft.momentum`), so a cluster pinned at its
 #: envelope can read as low as ~0.94; 0.95 catches the envelope everywhere else.
 MOMENTUM_SATURATED_FRACTION = 0.95
+#: ``momentum_growth_per_orbit`` from which a run is flagged ``dumping-insufficient``: the
+#: stored momentum's envelope fraction grows by 5 % of the envelope per orbit or more after the
+#: first orbit — at that rate a cluster holding half its envelope saturates within ten orbits
+#: (a held dumping loop leaves a slope of order 0.01 from the cyclic part's run-end phase).
+DUMPING_INSUFFICIENT_GROWTH = 0.05
 #: A run has ``diverged`` when it ends at least this much farther from the target than it
 #: started [deg] (a bounded steady offset under a constant disturbance is not divergence: it is
 #: ``attitude-not-converged``).
@@ -767,6 +813,9 @@ def judge(
     ``command_reversals`` ≥ :data:`CHATTER_REVERSALS` (20)         chattering              degraded
     ``min_keep_out_margin_deg`` or ``min_keep_in_margin_deg`` < 0  constraint-violated     failed
     (NaN: the scenario has no such cone — not checked)
+    ``momentum_growth_per_orbit`` ≥                                 dumping-insufficient    degraded
+    :data:`DUMPING_INSUFFICIENT_GROWTH` (0.05 of the envelope per
+    orbit; momentum-management scenarios, NaN: not checked)
     the scenario injects actuator faults (``scenario.faults``)      fault-injected          (none)
     none of the above                                              —                       success
     ============================================================  ======================  =========
@@ -845,6 +894,8 @@ def judge(
     if any(_num(metrics, k) < 0.0 for k in ("min_keep_out_margin_deg", "min_keep_in_margin_deg")):
         flags.append("constraint-violated")
         failed = True
+    if _num(metrics, "momentum_growth_per_orbit") >= DUMPING_INSUFFICIENT_GROWTH:
+        flags.append("dumping-insufficient")
     info = ("fault-injected",) if getattr(scenario, "faults", ()) else ()  # informational
     if failed:
         return "failed", tuple(flags) + info

@@ -67,7 +67,11 @@ def wilson_interval(k: int, n: int, z: float = Z95) -> tuple[float, float]:
     if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 0 <= k <= n:
         raise ValueError(f"k: expected an integer in [0, {n}], got {k!r}")
     n, k = int(n), int(k)
-    z2 = z * z
+    if isinstance(z, bool) or not isinstance(z, (int, float, np.integer, np.floating)):
+        raise TypeError(f"z: expected a positive finite quantile, got {z!r}")
+    if not (math.isfinite(float(z)) and z > 0):
+        raise ValueError(f"z: expected a positive finite quantile, got {z!r}")
+    z2 = float(z) * float(z)
     centre = (k + 0.5 * z2) / (n + z2)
     half = z * math.sqrt(k * (n - k) / n + 0.25 * z2) / (n + z2)
     return max(0.0, centre - half), min(1.0, centre + half)
@@ -140,8 +144,17 @@ def _stats(x: np.ndarray, worst: str) -> tuple[float, float, float]:
 def summarise_cell(requirements: Sequence[Requirement], outcomes: Sequence[Any]) -> CellSummary:
     """Summarise one cell's member outcomes (:class:`benchmarks.runner.RunOutcome`, member 0
     first, all of one scenario and controller)."""
+    if isinstance(requirements, (str, Requirement)) or not isinstance(requirements, Sequence):
+        raise TypeError(f"requirements: expected a sequence of Requirement, got {requirements!r}")
+    if isinstance(outcomes, str) or not isinstance(outcomes, Sequence):
+        raise TypeError(f"outcomes: expected a sequence of RunOutcome, got {outcomes!r}")
     if not outcomes:
         raise ValueError("outcomes: empty (a cell has at least its nominal member)")
+    for o in outcomes:
+        if not all(hasattr(o, a) for a in ("status", "metrics", "flags", "scenario")):
+            raise TypeError(f"outcomes: expected RunOutcome items, got {type(o).__name__}")
+    if len({(o.scenario, o.controller) for o in outcomes}) > 1:
+        raise ValueError("outcomes: members of one (scenario, controller) cell expected")
     o0 = outcomes[0]
     if o0.status == "n/a":
         return CellSummary(
@@ -194,6 +207,13 @@ def rank_cells(
 ) -> list[tuple[int, CellSummary]]:
     """``[(rank, cell)]`` best first for the applicable cells of one scenario (module docstring:
     equal ranks are ties)."""
+    if isinstance(cells, str) or not isinstance(cells, Sequence):
+        raise TypeError(f"cells: expected a sequence of CellSummary, got {cells!r}")
+    for c in cells:
+        if not isinstance(c, CellSummary):
+            raise TypeError(f"cells: expected CellSummary items, got {type(c).__name__}")
+    if first_requirement is not None and not isinstance(first_requirement, str):
+        raise TypeError(f"first_requirement: expected a str or None, got {first_requirement!r}")
     live = [c for c in cells if c.verdict != "not-applicable"]
 
     def key(c: CellSummary) -> tuple[float, float]:
@@ -214,6 +234,13 @@ def find_aliases(
     """Groups (≥ 2) of controllers whose nominal outcomes of one scenario have identical series
     (each of ``keys`` within :data:`ALIAS_RTOL` of its peak), in the outcomes' order; the first
     name of a group is its representative."""
+    if isinstance(outcomes, str) or not isinstance(outcomes, Sequence):
+        raise TypeError(f"outcomes: expected a sequence of RunOutcome, got {outcomes!r}")
+    if isinstance(keys, str) or not all(isinstance(k, str) for k in keys):
+        raise TypeError(f"keys: expected a sequence of series names, got {keys!r}")
+    for o in outcomes:
+        if not all(hasattr(o, a) for a in ("status", "series", "controller")):
+            raise TypeError(f"outcomes: expected RunOutcome items, got {type(o).__name__}")
     runs = [o for o in outcomes if o.status == "ok" and o.series]
     groups: list[list[Any]] = []
     for o in runs:

@@ -20,6 +20,14 @@ __all__ = [
 ]
 
 
+def _check_result(result: Any) -> None:
+    if not all(hasattr(result, a) for a in ("scenarios", "controllers", "cells", "outcome")):
+        raise TypeError(
+            "result: expected a SuiteResult (from benchmarks.runner.run_suite), got "
+            f"{type(result).__name__}"
+        )
+
+
 def _f(x: float) -> str:
     if isinstance(x, float) and math.isinf(x):
         return "∞"
@@ -31,6 +39,7 @@ def _f(x: float) -> str:
 def alias_groups(result: Any) -> dict[str, list[tuple[str, ...]]]:
     """Per scenario, the groups of controllers whose nominal runs coincide
     (:func:`benchmarks.ranking.find_aliases`)."""
+    _check_result(result)
     out = {}
     for s in result.scenarios:
         groups = find_aliases([result.outcome(s.name, c) for c in result.controllers])
@@ -43,6 +52,7 @@ def suite_aliases(result: Any) -> dict[str, tuple[str, ...]]:
     """Representative → aliases for controllers whose nominal runs coincide on *every* scenario
     where both ran (at least one): the same closed loop under several names suite-wide. Aliases
     on some scenarios only stay separate rows (the alias list names them per scenario)."""
+    _check_result(result)
     per = alias_groups(result)
     ran = {
         c: {s.name for s in result.scenarios if result.outcome(s.name, c).status == "ok"}
@@ -79,6 +89,7 @@ def dealiased(result: Any) -> Any:
 
 def verdict_changes(result: Any) -> list[tuple[str, str, str, str]]:
     """``(scenario, controller, single-run verdict, cell verdict)`` where they differ."""
+    _check_result(result)
     out = []
     for (s, c), cell in result.cells.items():
         if cell.verdict != cell.nominal_verdict:
@@ -90,6 +101,7 @@ def not_equivalent_controllers(result: Any) -> set[str]:
     """Attitude controllers whose 1° step leaves the spec's linear behaviour
     (:func:`benchmarks.tuning_report.not_equivalent`), measured on the first attitude
     scenario's spacecraft; a controller that cannot be measured is left unmarked."""
+    _check_result(result)
     from .controllers import ATTITUDE_PLANTS, CONTROLLERS, get_controller
     from .tuning_report import not_equivalent, step_response
 
@@ -116,7 +128,8 @@ def _dispersion_text(s: Any) -> str:
 
 def dispersion_section(result: Any) -> list[str]:
     """Markdown lines of the section (empty when the result has no cells)."""
-    if not getattr(result, "cells", None):
+    _check_result(result)
+    if not result.cells:
         return []
     n = result.members
     aliases = alias_groups(result)

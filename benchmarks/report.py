@@ -587,7 +587,8 @@ def write_pareto_figure(result: SuiteResult, scenario: Any, path: Path) -> Path 
                 # one in the top half) so it never spills over the frame; neighbouring
                 # labels alternate their distance
                 fx, fy = nx(g[0][1]), ny(g[0][2])
-                dx = 18.0 if fx <= 0.5 else -18.0
+                big = 9.0 + min(5.0, 24.0 / max(1, len(g) - 1)) * (len(g) - 1)  # largest marker
+                dx = (0.5 * big + 6.0) * (1.0 if fx <= 0.5 else -1.0)
                 dy = (8.0 + 10.0 * (gi % 2)) * (1.0 if fy <= 0.5 else -1.6)
                 ax.annotate(f"{len(g)} overlapping", (g[0][1], g[0][2]),
                             xytext=(dx, dy), ha="left" if dx > 0 else "right",
@@ -1257,7 +1258,8 @@ def _overview_figure(result: SuiteResult, path: Path) -> Path | None:
     ax.set_yticks(range(C), [result.display_name(c) for c in result.controllers], fontsize=8)
     ax.set_title(
         _wrap_title(
-            "verdict per run; number: settling time [s] (SE(3): position); *: degraded (flags "
+            "single-run verdict of each nominal run (the cell verdicts over the members are in "
+            "report.md); number: settling time [s] (SE(3): position); *: degraded (flags "
             "in report.md); —: does not apply\n"
             "failed cells name the first flag: 'no conv.' attitude not converged, 'pos.' "
             "position not converged; 'error': the run raised",

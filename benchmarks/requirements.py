@@ -156,6 +156,13 @@ class Requirement:
         return self.limit / v
 
 
+def _check_scenario(scenario: Any, name: str = "scenario") -> None:
+    if not all(hasattr(scenario, a) for a in ("attitude_tolerance_deg", "batch_key", "proximity")):
+        raise TypeError(
+            f"{name}: expected a benchmarks.scenarios.Scenario, got {type(scenario).__name__}"
+        )
+
+
 def default_requirements(scenario: Any) -> tuple[Requirement, ...]:
     """The requirements a scenario states when it names none.
 
@@ -166,6 +173,7 @@ def default_requirements(scenario: Any) -> tuple[Requirement, ...]:
     clearance ≥ 0°. SE(3): position APE ≤ ``position_tolerance_m``, range excursion ≤ 1.5 × the
     initial range, and ΔV ≤ ``proximity.max_delta_v`` when the scenario sets it.
     """
+    _check_scenario(scenario)
     tol = float(scenario.attitude_tolerance_deg)
     out = [Requirement("steady_error_max_deg", tol)]
     manoeuvre = scenario.initial_error_deg >= 1.0
@@ -193,6 +201,7 @@ def default_requirements(scenario: Any) -> tuple[Requirement, ...]:
 
 def requirements_of(scenario: Any) -> tuple[Requirement, ...]:
     """The scenario's own requirements, else :func:`default_requirements`."""
+    _check_scenario(scenario)
     own = getattr(scenario, "requirements", None)
     return tuple(own) if own else default_requirements(scenario)
 
@@ -206,7 +215,7 @@ def pointing_window(scenario: Any) -> float | None:
 
 
 def pointing_errors(
-    t: np.ndarray, e: np.ndarray, window_s: float, start: float
+    t: np.ndarray, e: np.ndarray, window_s: float, start: float | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """RPE and PDE [same unit as ``e``] per spacecraft (module docstring).
 
@@ -214,7 +223,8 @@ def pointing_errors(
         t: ``(K,)`` sample times [s], increasing.
         e: ``(K, B, 3)`` error vectors.
         window_s: window length Δt [s].
-        start: start of the pointing interval t_s [s].
+        start: start of the pointing interval t_s [s] (default: the final 10 % of the samples'
+            span, ``t_K − 0.1 (t_K − t_0)``).
 
     Returns:
         ``(rpe, pde)``, each ``(B,)``; PDE is NaN with fewer than two complete windows.
@@ -222,8 +232,24 @@ def pointing_errors(
     Raises:
         ValueError: ``window_s`` longer than the pointing interval ``[start, t_K]``.
     """
-    t = np.asarray(t, dtype=np.float64)
-    e = np.asarray(e, dtype=np.float64)
+    t = as_array(t, "t", ())
+    if t.ndim != 1 or t.size < 2 or not np.all(np.diff(t) > 0) or not np.all(np.isfinite(t)):
+        raise ValueError(
+            f"t: expected strictly increasing finite sample times (K,) with K >= 2, got {t!r}"
+        )
+    e = as_array(e, "e", (3,))
+    if e.ndim != 3 or e.shape[0] != t.size:
+        raise ValueError(f"e: expected shape ({t.size}, B, 3), got {e.shape}")
+    w = as_array(window_s, "window_s", ())
+    if w.shape != () or not float(w) > 0 or not math.isfinite(float(w)):
+        raise ValueError(f"window_s: expected a finite window > 0 s, got {window_s!r}")
+    window_s = float(w)
+    if start is None:
+        start = float(t[-1] - 0.1 * (t[-1] - t[0]))
+    st = as_array(start, "start", ())
+    if st.shape != () or not t[0] - 1e-9 <= float(st) <= t[-1]:
+        raise ValueError(f"start: expected a time in [{t[0]:g}, {t[-1]:g}] s, got {start!r}")
+    start = float(st)
     span = float(t[-1] - start)
     n_win = int(math.floor(span / window_s + 1e-9))
     if n_win < 1:
@@ -255,6 +281,13 @@ def meets(
     requirements: Sequence[Requirement], metrics: Mapping[str, Any]
 ) -> tuple[bool, dict[str, float]]:
     """Whether a run's ``metrics`` meet every requirement, and each requirement's value."""
+    if isinstance(requirements, (str, Requirement)) or not isinstance(requirements, Sequence):
+        raise TypeError(f"requirements: expected a sequence of Requirement, got {requirements!r}")
+    for r in requirements:
+        if not isinstance(r, Requirement):
+            raise TypeError(f"requirements: expected Requirement items, got {r!r}")
+    if not isinstance(metrics, Mapping):
+        raise TypeError(f"metrics: expected a mapping, got {type(metrics).__name__}")
     values: dict[str, float] = {}
     ok = True
     for r in requirements:

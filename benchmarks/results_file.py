@@ -114,6 +114,7 @@ HISTORY_UNITS: dict[str, str] = {
     "modes.energy": "J",
     "sensors.star_tracker": "- (unit quaternion, scalar first)",
     "sensors.gyro": "rad/s",
+    "sensors.star_tracker_valid": "- (bool: a fresh output, not held through an outage)",
     "estimate.R": "- (rotation matrix, body to inertial)",
     "estimate.omega": "rad/s",
     # SE(3) runs (spacecraft.se3_plant.PoseSimulationResult)

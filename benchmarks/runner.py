@@ -51,7 +51,7 @@ from .controllers import (
     GainRule,
     get_controller,
 )
-from .dispersion import DispersionSpec, member_scenario
+from .dispersion import MAX_MEMBERS, DispersionSpec, member_scenario
 from .executors import Executor, TaskFailure, describe_exception, make_executor
 from .histories import history_arrays
 from .metrics import compute_metrics, error_angle, judge, rate_error, settling_time, trapezoid
@@ -601,6 +601,13 @@ class FilteredAttitude:
                 raise ValueError(f"{name}: expected a sensor name (an identifier), got {v!r}")
         if spec.estimator not in ("mekf", "ukf"):
             raise ValueError(f"spec: estimator must be 'mekf' or 'ukf', got {spec.estimator!r}")
+        if gyro is not None and not (
+            callable(getattr(gyro, "measure", None)) and hasattr(gyro, "state")
+        ):
+            raise ValueError(
+                f"gyro: expected a rate gyro with a bias state (spacecraft.sensors.RateGyro) or "
+                f"None, got {type(gyro).__name__}"
+            )
         self.spec = spec
         self.attitude, self.rate = attitude, rate
         self.gyro = gyro
@@ -619,7 +626,8 @@ class FilteredAttitude:
         self._z_last = None
         self._w_last = None
         self._log = [
-            {"nees": [], "nees_full": [], "nis": [], "gated": []} for _ in range(batch_size)
+            {"nees": [], "nees_full": [], "nis": [], "gated": [], "t": [], "err": []}
+            for _ in range(batch_size)
         ]
 
     def tracker_covariance(self) -> np.ndarray:
@@ -689,32 +697,41 @@ class FilteredAttitude:
         self._t_last = float(t)
         self._z_last = z
         self._w_last = w_meas.copy()
-        self._log_errors(truth)
         xs = np.stack([f.x for f in self._filters])
         R = quat.to_matrix(xs[:, :4] / np.linalg.norm(xs[:, :4], axis=-1, keepdims=True))
+        self._log_errors(float(t), truth, R, xs[:, 4:])
         return AttitudeState(
             R=R, omega=w_meas - xs[:, 4:], h=truth.h, actuator_state=truth.actuator_state
         )
 
-    def _log_errors(self, truth: AttitudeState) -> None:
-        """Append each filter's NEES against the true attitude (and the gyro's true bias)."""
-        from liecontrol.charts import quaternion as quat
-        from liecontrol.estimation.consistency import normalised_error_squared
+    def _log_errors(
+        self, t: float, truth: AttitudeState, R_hat: np.ndarray, b_hat: np.ndarray
+    ) -> None:
+        """Append each filter's attitude error angle and NEES against the true attitude (and
+        the gyro's true bias): the error is the filters' ``x_true ⊟ x̂``, body-frame
+        ``Log(R̂ᵀR)`` and ``b − b̂``."""
+        from liecontrol.lie import so3
 
-        q_true = quat.from_matrix(np.asarray(truth.R, dtype=np.float64))
+        E = np.swapaxes(R_hat, -1, -2) @ np.asarray(truth.R, dtype=np.float64)
+        dtheta = so3.log_unchecked(E)
         st = getattr(self.gyro, "state", None)
-        bias = None if st is None else np.asarray(st.bias, dtype=np.float64)
+        db = None if st is None else np.asarray(st.bias, dtype=np.float64) - b_hat
         for b, f in enumerate(self._filters):
-            x_true = np.concatenate([q_true[b], f.x[4:] if bias is None else bias[b]])
-            e = f.error(x_true)
             P = f.P
-            self._log[b]["nees"].append(normalised_error_squared(e[:3], P[:3, :3]))
-            if bias is not None:
-                self._log[b]["nees_full"].append(normalised_error_squared(e, P))
+            log = self._log[b]
+            log["t"].append(t)
+            log["err"].append(float(np.linalg.norm(dtheta[b])))
+            log["nees"].append(float(dtheta[b] @ np.linalg.solve(P[:3, :3], dtheta[b])))
+            if db is not None:
+                e = np.concatenate([dtheta[b], db[b]])
+                log["nees_full"].append(float(e @ np.linalg.solve(P, e)))
 
-    def consistency(self, b: int) -> dict[str, float]:
+    def consistency(self, b: int, since: float | None = None) -> dict[str, float]:
         """Run metrics of spacecraft ``b``'s filter consistency (module
         :mod:`liecontrol.estimation.consistency`; NaN where there were no samples):
+        ``estimation_error_max_deg``, the largest attitude estimation error angle at or after
+        ``since`` (the pointing interval: the floor the pointing error cannot beat; NaN
+        without ``since``),
         ``nees_mean`` (attitude, 3 states) with ``nees_in_bounds`` (1.0 when inside the
         two-sided 95 % χ² region of its time average, over the effective number of independent
         samples) and ``nees_in_bounds_fraction`` (share of samples inside χ²₃'s two-sided 95 %
@@ -742,6 +759,12 @@ class FilteredAttitude:
         )
         out["filter_updates"] = float(len(log["gated"]))
         out["filter_rejections"] = float(sum(log["gated"]))
+        tt, err = np.asarray(log["t"]), np.asarray(log["err"])
+        if since is None:
+            sel = np.zeros(tt.shape, dtype=bool)
+        else:
+            sel = tt >= float(since) - 1e-9 * max(1.0, abs(float(since)))
+        out["estimation_error_max_deg"] = float(np.degrees(err[sel].max())) if sel.any() else nan
         return out
 
 
@@ -1092,7 +1115,8 @@ def _simulate_attitude(
         sc0.spacecraft,
         sc0.disturbances,
         inertias[0] if same else np.stack(inertias),
-        None if mm is None else mm.build(sc0.orbit),
+        # the reference is the attitude profile the magnetorquers' pre-run feasibility check uses
+        None if mm is None else mm.build(sc0.orbit, build_reference(sc0)),
         orbit=None if sc0.orbit is None else sc0.orbit.circular_orbit(),
     )
     if sc0.faults:  # one batch shares its faults (Scenario.batch_key)
@@ -1162,8 +1186,11 @@ def _simulate_attitude(
             mm = by_tol[(s_i.attitude_tolerance_deg, pointing_window(s_i))].as_dict(b)
             mm["controller_time_us"] = 1e6 * per_sc
             mm["sim_wall_time_s"] = wall
+            if s_i.momentum_management is not None:
+                mm.update(_momentum_management_metrics(result, plant.actuator, s_i, b))
             if callable(getattr(sense.get("measurement"), "consistency", None)):
-                mm.update(sense["measurement"].consistency(b))  # filter NEES/NIS metrics
+                # filter NEES/NIS and the estimation error over the pointing interval
+                mm.update(sense["measurement"].consistency(b, since=0.9 * s_i.duration))
             series = _series(result, b, limits["wheel_max_speed"])
             hist = history_arrays(result, b) if histories else {}
             outcomes[i] = RunOutcome(
@@ -1171,6 +1198,41 @@ def _simulate_attitude(
             )
             b += 1
     return [outcomes[i] for i in range(len(pairs))]
+
+
+def _momentum_management_metrics(
+    result: Any, actuator: Any, scenario: Scenario, b: int
+) -> dict[str, float]:
+    """Momentum-management metrics of spacecraft ``b``: ``momentum_growth_per_orbit`` — the
+    secular growth per orbit of the stored momentum's envelope fraction
+    (:func:`spacecraft.momentum.momentum_growth_per_orbit`, least-squares slope × orbit period)
+    over the run after its first orbit (the initial build-up of the cyclic momentum left out;
+    NaN without an orbit or with less than one orbit after it); ``propellant_kg`` and
+    ``propellant_kg_per_orbit`` of thruster unloading (NaN for the other kinds)."""
+    from spacecraft.momentum import momentum_fraction, momentum_growth_per_orbit
+
+    out = {
+        "momentum_growth_per_orbit": math.nan,
+        "propellant_kg": math.nan,
+        "propellant_kg_per_orbit": math.nan,
+    }
+    t = np.asarray(result.t, dtype=np.float64)
+    period = None if scenario.orbit is None else scenario.orbit.period
+    act = result.actuator
+    key = "delta" if "delta" in act else ("wheel_speed" if "wheel_speed" in act else None)
+    inner = getattr(actuator, "inner", actuator)  # a FaultyActuator wraps the cluster
+    if period is not None and key is not None and t[-1] - t[0] >= 2.0 * period:
+        frac = momentum_fraction(inner, np.asarray(act[key])[:, b : b + 1])[:, 0]
+        keep = t >= t[0] + period
+        out["momentum_growth_per_orbit"] = float(
+            momentum_growth_per_orbit(t[keep], frac[keep], period)
+        )
+    if "propellant_kg" in act:
+        used = float(np.asarray(act["propellant_kg"])[-1, b])
+        out["propellant_kg"] = used
+        if period is not None and t[-1] > t[0]:
+            out["propellant_kg_per_orbit"] = used * period / (t[-1] - t[0])
+    return out
 
 
 def _pose_metrics(
@@ -1450,6 +1512,8 @@ def run_suite(
     if not isinstance(keep_histories, (bool, np.bool_)):
         raise TypeError(f"keep_histories: expected a bool, got {keep_histories!r}")
     members = as_int(members, "members", 1)
+    if members > MAX_MEMBERS:
+        raise ValueError(f"members: at most {MAX_MEMBERS} per cell, got {members}")
     if dispersion is not None and not isinstance(dispersion, DispersionSpec):
         raise TypeError(
             f"dispersion: expected a DispersionSpec or None, got {type(dispersion).__name__}"
@@ -1483,13 +1547,20 @@ def run_suite(
                     key = key + (c, s.name, s_k.member)
                 groups.setdefault(key, []).append((s_run, c))
     own = not isinstance(executor, Executor)
+    nominal = [g for g in groups.values() if g[0][0].member == 0]
+    drawn_groups = [g for g in groups.values() if g[0][0].member > 0]
+    n_split = None
     if isinstance(executor, Executor):
         ex = executor
     else:
         if jobs is None and executor in (None, "process") and not scheduler:
             jobs = max(1, min(len(groups), _cpu_count()))
+            n_split = max(1, min(len(nominal), _cpu_count()))  # as a single-member run's
         ex = make_executor(executor, jobs=jobs, scheduler=scheduler)
-    chunks = _split_groups(list(groups.values()), ex.parallelism)
+    # only the nominal groups are split for parallelism, exactly as in a single-member run (so
+    # member 0 is that run bit for bit); the drawn members' groups are never split, so their
+    # batches — and results — do not depend on the executor or its number of workers
+    chunks = _split_groups(nominal, n_split or ex.parallelism) + drawn_groups
     # largest tasks first: better packing over the workers
     tasks = sorted(
         (

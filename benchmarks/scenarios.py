@@ -45,13 +45,17 @@ and scenarios built to separate controllers (the quick suite runs the first two)
   and the controllers that ask for more ride the rate limit for the first tens of seconds;
 - ``singular-transit``: a 120° slew about :data:`SINGULAR_TRANSIT_AXIS` with a 115 N·m·s
   pyramid, whose stored-momentum path meets an internal singularity;
-- ``agile-slew-uncertain``: a 60° slew (no external torque) whose members draw the inertia (±20 %, axes 3°), the CMG rotor momentum (±6 %) and the pyramid skew
-  (±2°) (2σ; :mod:`benchmarks.dispersion`) — the nominal inertia error of the former
+- ``agile-slew-uncertain``: a 60° slew (no external torque) whose members draw the inertia
+  (±20 %, axes 3°), the CMG rotor momentum (±6 %) and the pyramid skew (±2°) (2σ;
+  :mod:`benchmarks.dispersion`) — the nominal inertia error of the former
   ``stabilisation-inertia-error`` moved θ(t) by at most 0.023°, which separated nothing;
 - ``noise-near-180``: 179.5° seen through a coarse attitude sensor (0.5°, 1σ) and a noisy gyro,
   where the error quaternion's sign flips with the noise (switched sign laws chatter);
-- ``estimator-mekf-slew-30`` / ``estimator-ukf-slew-30``: star tracker + biased gyro → MEKF or
-  manifold UKF → controller (:class:`SensorSpec`);
+- ``estimator-mekf-slew-30`` / ``estimator-ukf-slew-30``: a 30° slew seen through a star
+  tracker (8″ cross-boresight, 55″ roll, 5 Hz, a 30 s outage during the slew and random ones)
+  and a navigation-grade gyro (ARW 0.0011 °/√h, RRW 0.0039 °/h/√h; :func:`estimator_sensors`)
+  → MEKF or manifold UKF → controller, judged on APE ≤ 0.002° and RPE (10 s) ≤ 0.00005° near
+  the filters' estimation error (:data:`ESTIMATOR_REQUIREMENTS`);
 - ``wheels-pyramid-slew-30`` / ``wheels-pyramid-momentum-limited``: a four-wheel pyramid on the
   rotating-payload bus; the second with 3 N·m·s per wheel, so the slew saturates the wheels.
 
@@ -66,6 +70,7 @@ import dataclasses
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -519,7 +524,22 @@ class ReferenceSpec:
 
 
 #: Momentum-management kinds of :class:`MomentumManagementSpec`.
-MOMENTUM_MANAGEMENT_KINDS: tuple[str, ...] = ("none", "magnetorquer")
+MOMENTUM_MANAGEMENT_KINDS: tuple[str, ...] = ("none", "magnetorquer", "thrusters")
+#: Keys of :class:`MomentumManagementSpec` that apply to ``kind = "thrusters"`` only, with the
+#: default each takes there (``None`` in the spec): the documented default layout,
+#: :meth:`spacecraft.thrusters.ThrusterLayout.pairs` — six couples, two 1 N thrusters per signed
+#: body axis 1 m from the centre of mass (12 thrusters, 2 N·m per couple, no net force), I_sp
+#: 220 s (hydrazine monopropellant class) — a 1 s minimum on-time (the benchmarks' 1 s
+#: integration step of the orbit-long runs; the valve timing is the integration step), a PWPF
+#: pulse period of 10 × the minimum on-time and no deadband.
+THRUSTER_DEFAULTS: dict[str, float] = {
+    "thrust": 1.0,
+    "arm": 1.0,
+    "isp": 220.0,
+    "min_on_time": 1.0,
+    "deadband": 0.0,
+}
+_THRUSTER_KEYS = (*THRUSTER_DEFAULTS, "pulse_period", "positions", "directions")
 
 
 @dataclass(frozen=True)
@@ -562,30 +582,115 @@ class OrbitSpec:
 
 @dataclass(frozen=True)
 class MomentumManagementSpec:
-    """Momentum management (``[scenario.momentum_management]``): ``kind`` ``"magnetorquer"``
-    (three rods of ``max_dipole`` [A·m²] each, cross-product law of gain ``gain`` [1/s], see
-    :mod:`spacecraft.momentum`; needs an orbit) or ``"none"``. Thruster unloading is not
-    modelled."""
+    """Momentum management (``[scenario.momentum_management]``): ``kind``
+
+    - ``"magnetorquer"``: three rods of ``max_dipole`` [A·m²] each, cross-product law of gain
+      ``gain`` [1/s] (:mod:`spacecraft.momentum`; needs an orbit). :meth:`build` is given the
+      scenario's reference, so the plant runs the pre-run feasibility check
+      (:func:`spacecraft.momentum.magnetic_dumping_feasibility`) and warns
+      (:class:`~spacecraft.momentum.DumpingInfeasibleWarning`) where the rods cannot hold the
+      secular disturbance on this orbit (low inclination, Earth pointing);
+    - ``"thrusters"``: thruster unloading (:class:`spacecraft.thrusters.ThrusterUnloading`:
+      PWPF modulation, minimum impulse bit, propellant) with ``τ_des = −gain·(h − h_target)``;
+      the layout is ``positions``/``directions`` (``(n, 3)`` [m] / unit thrust directions) or,
+      by default, :meth:`~spacecraft.thrusters.ThrusterLayout.pairs` with ``arm`` [m];
+      ``thrust`` [N], ``isp`` [s], ``min_on_time`` [s] (≥ the scenario's ``dt``: the valve
+      timing is the integration step), ``pulse_period`` [s] (≥ ``min_on_time``),
+      ``deadband`` [N·m·s] (defaults: :data:`THRUSTER_DEFAULTS`). Works at any inclination
+      (no orbit needed; with one, the propellant is also reported per orbit);
+    - ``"none"``.
+
+    The thruster keys (``None``: their default) are rejected for the other kinds, naming the
+    key; a layout without torque authority about a signed body axis raises naming
+    ``positions``, a minimum on-time above the pulse period naming ``min_on_time``."""
 
     kind: str = "magnetorquer"
     max_dipole: float = 200.0
     gain: float = 1e-3
+    thrust: float | None = None
+    arm: float | None = None
+    isp: float | None = None
+    min_on_time: float | None = None
+    pulse_period: float | None = None
+    deadband: float | None = None
+    positions: tuple[tuple[float, float, float], ...] | None = None
+    directions: tuple[tuple[float, float, float], ...] | None = None
 
     def __post_init__(self) -> None:
         if self.kind not in MOMENTUM_MANAGEMENT_KINDS:
             raise ValueError(
                 f"kind: unknown momentum management {self.kind!r}; valid: "
-                f"{', '.join(MOMENTUM_MANAGEMENT_KINDS)} (thruster unloading is not modelled)"
+                f"{', '.join(MOMENTUM_MANAGEMENT_KINDS)}"
             )
         object.__setattr__(self, "max_dipole", check_positive_scalar(self.max_dipole, "max_dipole"))
         object.__setattr__(self, "gain", check_positive_scalar(self.gain, "gain"))
+        if self.kind != "thrusters":
+            for k in _THRUSTER_KEYS:
+                if getattr(self, k) is not None:
+                    raise ValueError(
+                        f"{k}: applies to kind = \"thrusters\" only (this is {self.kind!r})"
+                    )
+            return
+        for k in ("positions", "directions"):
+            v = getattr(self, k)
+            if v is not None:
+                a = as_array(v, k)
+                if a.ndim != 2 or a.shape[1] != 3:
+                    raise ValueError(f"{k}: expected (n, 3) rows, got shape {a.shape}")
+                object.__setattr__(self, k, tuple(tuple(float(x) for x in r) for r in a))
+        if (self.positions is None) != (self.directions is None):
+            missing = "directions" if self.directions is None else "positions"
+            raise ValueError(f"{missing}: a custom layout needs both positions and directions")
+        if self.positions is not None and self.arm is not None:
+            raise ValueError("arm: applies to the default layout only (positions are given)")
+        for k in (*THRUSTER_DEFAULTS, "pulse_period"):
+            v = getattr(self, k)
+            if v is not None:
+                object.__setattr__(self, k, as_scalar(v, k))
+        self.unloading()  # validates the layout and the modulator (errors name the key)
 
-    def build(self, orbit: OrbitSpec) -> CrossProductDumping | None:
-        """The plant's ``momentum_management`` object (``None`` for ``"none"``)."""
+    def _thruster(self, key: str) -> float:
+        v = getattr(self, key)
+        return THRUSTER_DEFAULTS[key] if v is None else float(v)
+
+    def unloading(self) -> Any:
+        """The :class:`spacecraft.thrusters.ThrusterUnloading` of ``kind = "thrusters"``."""
+        from spacecraft.thrusters import ThrusterLayout, ThrusterUnloading
+
+        if self.kind != "thrusters":
+            raise ValueError(f"kind: unloading() needs kind = \"thrusters\", got {self.kind!r}")
+        thrust, isp = self._thruster("thrust"), self._thruster("isp")
+        if self.positions is None:
+            layout = ThrusterLayout.pairs(self._thruster("arm"), thrust, isp)
+        else:
+            layout = ThrusterLayout(
+                np.array(self.positions), np.array(self.directions), thrust, isp
+            )
+        return ThrusterUnloading(
+            layout,
+            gain=self.gain,
+            min_on_time=self._thruster("min_on_time"),
+            pulse_period=self.pulse_period,
+            deadband=self._thruster("deadband"),
+        )
+
+    def build(self, orbit: OrbitSpec | None, attitude: object = None) -> Any:
+        """The plant's ``momentum_management`` object (``None`` for ``"none"``): a
+        :class:`~spacecraft.momentum.CrossProductDumping` on ``orbit`` told the ``attitude``
+        profile the controller holds (``t -> AttitudeReference``; its pre-run feasibility
+        check then warns where the rods cannot hold the disturbance), or a fresh
+        :class:`~spacecraft.thrusters.ThrusterUnloading` (``orbit`` may be ``None``)."""
         if self.kind == "none":
             return None
+        if self.kind == "thrusters":
+            return self.unloading()
+        if not isinstance(orbit, OrbitSpec):
+            raise ValueError(f"orbit: magnetorquers need an OrbitSpec, got {orbit!r}")
         return CrossProductDumping(
-            orbit.circular_orbit(), magnetorquers=Magnetorquers(self.max_dipole), gain=self.gain
+            orbit.circular_orbit(),
+            magnetorquers=Magnetorquers(self.max_dipole),
+            gain=self.gain,
+            attitude=attitude,
         )
 
 
@@ -1003,8 +1108,13 @@ class Scenario:
                     f"momentum_management: expected MomentumManagementSpec or None, got "
                     f"{type(mm).__name__}"
                 )
+            if mm.kind == "thrusters" and mm._thruster("min_on_time") < self.dt * (1 - 1e-9):
+                raise ValueError(
+                    f"momentum_management: min_on_time {mm._thruster('min_on_time'):g} s is below "
+                    f"the integration step dt = {self.dt:g} s (the valve timing is the step)"
+                )
             if mm.kind != "none":
-                if self.orbit is None:
+                if mm.kind == "magnetorquer" and self.orbit is None:
                     raise ValueError(
                         "momentum_management: magnetorquers need the orbit ([scenario.orbit])"
                     )
@@ -1110,10 +1220,17 @@ class Scenario:
 
     def with_duration(self, duration: float) -> Scenario:
         """The same scenario over another horizon (tests, quick looks). Faults timed after the
-        new end are left out (the shortened run ends before they strike)."""
+        new end are left out (the shortened run ends before they strike); an RPE/PDE window
+        longer than the new pointing interval (the final 10 %) is shortened to it."""
         d = check_positive_scalar(duration, "duration")
         faults = tuple(f for f in self.faults if f.time <= d)
-        return dataclasses.replace(self, duration=duration, faults=faults)
+        reqs = tuple(
+            dataclasses.replace(r, window_s=0.1 * d)
+            if r.window_s is not None and r.window_s > 0.1 * d
+            else r
+            for r in self.requirements
+        )
+        return dataclasses.replace(self, duration=duration, faults=faults, requirements=reqs)
 
     def batch_key(self) -> tuple:
         """Scenarios with equal keys can be simulated in one batch (same plant and time grid).
@@ -1286,6 +1403,101 @@ def _momentum_dumping_pair() -> tuple[Scenario, Scenario]:
     )
 
 
+#: Orbit of the low-inclination dumping pair: the same 530 km at 10° inclination, where the
+#: field lies close to the orbit normal — along the Earth-pointing disturbance's secular torque.
+LOW_INCLINATION_ORBIT = OrbitSpec(530.0, 10.0, 0.0)
+#: Unloading gain of the thruster scenario [1/s]: τ_des = −k Δh with the 2 N·m couples of the
+#: default layout; the PWPF fires once k‖Δh‖ ≳ 0.2 N·m, so k = 1e-2 holds ‖Δh‖ to ~20 N·m·s
+#: (1e-3 would let it reach ~200 N·m·s before the first pulse).
+THRUSTER_UNLOADING_GAIN = 1e-2
+
+
+def _low_inclination_dumping_pair() -> tuple[Scenario, Scenario]:
+    """Earth pointing for 5 orbits at 10° inclination under the constant + harmonic torque:
+    magnetorquers (the pre-run check warns, the run is flagged ``dumping-insufficient``) vs
+    thruster unloading (holds)."""
+    orbit = LOW_INCLINATION_ORBIT
+    dt = 1.0
+    duration = dt * math.ceil(5.0 * orbit.period / dt)
+    common = {
+        "reference": ReferenceSpec("earth-pointing", n=orbit.n),
+        "disturbances": (DisturbanceSpec("constant-harmonic", {"n": orbit.n}),),
+        "orbit": orbit,
+        "duration": duration,
+        "dt": dt,
+        "control_period": 1.0,
+        "attitude_tolerance_deg": 0.5,
+    }
+    return (
+        Scenario(
+            name="momentum-dumping-low-inclination",
+            description="the momentum-dumping run at 10° inclination: the field is nearly along "
+            "the secular torque, the magnetorquers cannot hold it (warned before the run)",
+            momentum_management=MomentumManagementSpec("magnetorquer", DUMPING_MAX_DIPOLE),
+            tags=("momentum", "tracking", "long"),
+            **common,
+        ),
+        Scenario(
+            name="momentum-thrusters-low-inclination",
+            description="the same 10° orbit with thruster unloading (12 × 1 N couples at 1 m, "
+            "PWPF, 1 s minimum on-time): holds at any inclination, at a propellant cost",
+            momentum_management=MomentumManagementSpec(
+                "thrusters", gain=THRUSTER_UNLOADING_GAIN
+            ),
+            tags=("momentum", "tracking", "long"),
+            **common,
+        ),
+    )
+
+
+#: Gyro of the estimator scenarios: the navigation-grade spacecraft gyro class of Crassidis &
+#: Markley ("Unscented filtering for spacecraft attitude estimation", JGCD 26(4), 2003, and
+#: Crassidis & Junkins, "Optimal Estimation of Dynamic Systems", CRC Press 2012): angle random
+#: walk σ_v = √10·10⁻⁷ rad/√s (0.0011 °/√h), rate random walk σ_u = √10·10⁻¹⁰ rad/s^{3/2}
+#: (0.0039 °/h/√h), initial bias 0.1 °/h per axis — (σ_v [rad/√s], σ_u [rad/s^{3/2}], b₀ [rad/s]).
+ESTIMATOR_GYRO: tuple[float, float, float] = (
+    math.sqrt(10.0) * 1e-7,
+    math.sqrt(10.0) * 1e-10,
+    math.radians(0.1 / 3600.0),
+)
+
+
+def estimator_sensors(estimator: str) -> SensorSpec:
+    """Sensors of ``estimator-{mekf,ukf}-slew-30``: a star tracker with 8″ (1σ) cross-boresight
+    and 55″ roll noise about a body-+z boresight (the roll/tilt ratio ≈ 7 of a ≈ 20° field of
+    view, Liebe, "Accuracy performance of star trackers — a tutorial", IEEE Trans. Aerospace and
+    Electronic Systems 38(2), 2002) at 5 Hz, blinded from 20 s to 50 s during the slew and in
+    random outages (rate 1/300 s⁻¹, 10 s each, drawn per member), and the
+    :data:`ESTIMATOR_GYRO` navigation-grade gyro sampled at the same 5 Hz, into ``estimator``
+    (``"mekf"`` or ``"ukf"``)."""
+    sv, su, b0 = ESTIMATOR_GYRO
+    return SensorSpec(
+        cross_boresight_arcsec=8.0,
+        boresight_arcsec=55.0,
+        boresight=(0.0, 0.0, 1.0),
+        period=0.2,
+        star_tracker_outages=((20.0, 50.0),),
+        outage_rate=1.0 / 300.0,
+        outage_duration=10.0,
+        gyro_noise_density=sv,
+        gyro_bias_rw=su,
+        gyro_bias=(b0, -b0, b0),
+        estimator=estimator,
+    )
+
+
+#: Pointing requirements of the estimator scenarios (ECSS-E-ST-60-10C terms, over the final 60 s):
+#: APE ≤ 0.002° (7.2″) and RPE over 10 s ≤ 0.00005° (0.18″). What the sensors allow: the
+#: filters' attitude estimation error over that interval (``estimation_error_max_deg``) is
+#: ≈ 0.0006-0.0009° (2-3″) and a loop that passes no estimator noise points to within it
+#: (the PD family's APE ≈ 0.00084°, RPE ≈ 0.00003°), so the limits leave a controller about
+#: as much again as the estimation error, not a free pass.
+ESTIMATOR_REQUIREMENTS: tuple[Requirement, ...] = (
+    Requirement("steady_error_max_deg", 0.002),
+    Requirement("rpe_deg", 0.00005, window_s=10.0),
+)
+
+
 def _catalogue() -> tuple[Scenario, ...]:
     deg = math.radians
     return (
@@ -1443,16 +1655,21 @@ def _catalogue() -> tuple[Scenario, ...]:
         rest_to_rest(
             30.0,
             name="estimator-mekf-slew-30",
-            description="30° slew, controller fed by an MEKF (10″ star tracker + biased gyro)",
-            sensors=SensorSpec(gyro_bias=(2e-5, -1e-5, 1.5e-5), estimator="mekf"),
+            description="30° slew, controller fed by an MEKF: 8″/55″ (cross-boresight/roll) "
+            "star tracker at 5 Hz with outages, navigation-grade gyro; judged on APE/RPE",
+            sensors=estimator_sensors("mekf"),
+            attitude_tolerance_deg=0.002,
+            requirements=ESTIMATOR_REQUIREMENTS,
             tags=("manoeuvre", "sensors", "estimator"),
         ),
         rest_to_rest(
             30.0,
             name="estimator-ukf-slew-30",
-            description="30° slew, controller fed by a manifold UKF (10″ star tracker + biased "
-            "gyro)",
-            sensors=SensorSpec(gyro_bias=(2e-5, -1e-5, 1.5e-5), estimator="ukf"),
+            description="30° slew, controller fed by a manifold UKF: 8″/55″ (cross-boresight/"
+            "roll) star tracker at 5 Hz with outages, navigation-grade gyro; judged on APE/RPE",
+            sensors=estimator_sensors("ukf"),
+            attitude_tolerance_deg=0.002,
+            requirements=ESTIMATOR_REQUIREMENTS,
             tags=("manoeuvre", "sensors", "estimator"),
         ),
         rest_to_rest(
@@ -1515,6 +1732,7 @@ def _catalogue() -> tuple[Scenario, ...]:
             tags=("constraint", "keep-out", "keep-in"),
         ),
         *_momentum_dumping_pair(),
+        *_low_inclination_dumping_pair(),
         Scenario(
             name="proximity-approach",
             description="SE(3) chaser to a docking pose 5 m behind an orbiting target, from "

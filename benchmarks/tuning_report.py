@@ -231,6 +231,12 @@ def not_equivalent(response: dict[str, float]) -> bool:
     """The step response leaves the spec's linear behaviour by more than the bounds
     (:data:`EQUIVALENT_OVERSHOOT_PCT`, :data:`EQUIVALENT_TORQUE_RATIO`), from rest or after
     warm-up."""
+    if not isinstance(response, dict):
+        raise TypeError(f"response: expected the dict of step_response, got {response!r}")
+    vals = [response.get(k, 0.0) for k in
+            ("overshoot_pct", "warm_overshoot_pct", "torque_ratio", "warm_torque_ratio")]
+    if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in vals):
+        raise TypeError(f"response: expected numbers, got {response!r}")
     over = max(response.get("overshoot_pct", 0.0), response.get("warm_overshoot_pct", 0.0))
     torque = max(response.get("torque_ratio", 0.0), response.get("warm_torque_ratio", 0.0))
     return not (over <= EQUIVALENT_OVERSHOOT_PCT and torque <= EQUIVALENT_TORQUE_RATIO)
@@ -364,7 +370,8 @@ def _reading_notes(result: Any, rule: GainRule) -> list[str]:
             "laws, whose torque does not vanish near π, settle well within it."
         )
         notes.append(
-            "- `geometric-pd-trace` measures 1.01–1.05 of the spec instead of 1.00 by design: "
+            "- `geometric-pd-trace` measures between 1.00 and 1.05 of the spec per axis instead "
+            "of exactly 1.00, by design: "
             "near the target its error is e_R ≈ S δθ with S = ½(tr G·I − G), whose "
             "eigenvalues for the default G = diag(0.9, 1.0, 1.1) are 0.95, 1.0 and 1.05 (the "
             "other error functions have one slope, S = s·I). The tuning puts the slowest "

@@ -266,19 +266,30 @@ def _user_cache_base() -> Path:
 
 
 def _candidates(name: str, root: Path, h: str) -> list[tuple[Path, str]]:
-    """``(directory, prefix of its sibling hash directories)`` in order of preference."""
+    """``(directory, prefix of its sibling hash directories)`` in order of preference (an
+    unwritable ``NUMBA_CACHE_DIR`` falls back to the other two)."""
     out: list[tuple[Path, str]] = []
     numba_dir = getattr(getattr(_NUMBA, "config", None), "CACHE_DIR", "") if _NUMBA else ""
     if numba_dir:
         out.append((Path(numba_dir) / f"{name}-{h}", f"{name}-"))
-    else:
-        pyc = (root if root.is_dir() else root.parent) / "__pycache__"
-        out.append((pyc / f"numba-{h}", "numba-"))
-        out.append((_user_cache_base() / f"{name}-{h}", f"{name}-"))
+    pyc = (root if root.is_dir() else root.parent) / "__pycache__"
+    out.append((pyc / f"numba-{h}", "numba-"))
+    out.append((_user_cache_base() / f"{name}-{h}", f"{name}-"))
     return out
 
 
 _PRUNED: set[Path] = set()
+
+
+def _is_hash_dir(p: Path, prefix: str) -> bool:
+    """Whether ``p`` is one of this module's hash directories (``prefix`` + the hex hash)."""
+    tail = p.name[len(prefix) :]
+    return (
+        p.name.startswith(prefix)
+        and len(tail) == _HASH_CHARS
+        and all(ch in "0123456789abcdef" for ch in tail)
+        and p.is_dir()
+    )
 
 
 def _prune(container: Path, prefix: str, keep: Path) -> None:
@@ -287,7 +298,7 @@ def _prune(container: Path, prefix: str, keep: Path) -> None:
         return
     _PRUNED.add(container)
     try:
-        dirs = [p for p in container.iterdir() if p.is_dir() and p.name.startswith(prefix)]
+        dirs = [p for p in container.iterdir() if _is_hash_dir(p, prefix)]
         dirs.sort(key=lambda p: p.stat().st_mtime, reverse=True)
     except OSError:
         return
@@ -354,7 +365,7 @@ def clear_cache(packages: tuple[str, ...] = ("liecontrol", "spacecraft")) -> lis
     for path, prefix in places:
         try:
             for p in path.parent.iterdir():
-                if p.is_dir() and p.name.startswith(prefix):
+                if _is_hash_dir(p, prefix):
                     shutil.rmtree(p, ignore_errors=True)
                     gone.append(p)
         except OSError:

@@ -90,6 +90,8 @@ class ResidualCusum:
 
     def __post_init__(self) -> None:
         self.n_units = as_int(self.n_units, "n_units", 1)
+        if self.n_units > 1024:
+            raise ValueError(f"n_units: at most 1024 actuator units, got {self.n_units}")
         self.noise_std = _positive(self.noise_std, "noise_std")
         d = _positive(self.min_loss, "min_loss")
         if d > 1.0:
@@ -117,6 +119,8 @@ class ResidualCusum:
     def reset(self, batch_size: int) -> None:
         """Zero the statistics for ``batch_size`` spacecraft."""
         B = as_int(batch_size, "batch_size", 1)
+        if B * self.n_units > 100_000_000:
+            raise ValueError(f"batch_size: {B} spacecraft × {self.n_units} units is too many")
         self.statistic = np.zeros((B, self.n_units, self.n_hypotheses))
         self.alarm_sample = np.full((B, self.n_units), -1, dtype=np.int64)
         self._k = 0

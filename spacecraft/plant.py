@@ -535,12 +535,17 @@ class Spacecraft:
     def momentum_management_log(
         self, t: float, R: np.ndarray, x_act: np.ndarray
     ) -> dict[str, np.ndarray]:
-        """Log entries at ``t``: ``dipole`` held from ``t`` and its ``magnetic_torque``
-        ``(B, 3)`` (empty without momentum management)."""
-        m = self.held_dipole(t, R, x_act)
-        if m is None:
+        """Log entries at ``t``: the management's own ``log(t, R, h)`` where it has one, else
+        ``dipole`` held from ``t`` and its ``magnetic_torque`` ``(B, 3)`` (empty without momentum
+        management)."""
+        mm = self.momentum_management
+        if mm is None:
             return {}
-        return {"dipole": m, "magnetic_torque": self.momentum_management.torque(t, R, m)}
+        own = getattr(mm, "log", None)
+        if callable(own):  # the management's own entries (thrusters: torque, valves, propellant)
+            return dict(own(t, R, self.actuator.momentum(x_act)))
+        m = self.held_dipole(t, R, x_act)
+        return {"dipole": m, "magnetic_torque": mm.torque(t, R, m)}
 
     def step(self, state: PlantState, held: Any, t: float, h: float) -> PlantState:
         """Advance ``state`` from ``t`` to ``t + h`` with the actuator command ``held`` fixed

@@ -44,6 +44,7 @@ import numpy as np
 from liecontrol._validation import as_int, as_scalar, check_positive_scalar
 from liecontrol.charts import euler
 from liecontrol.control.base import AttitudeController, AttitudeReference, AttitudeState
+from liecontrol.control.kernel import NonFiniteTorque
 from liecontrol.lie import so3
 
 from ._fused import fused_supported, run_fused
@@ -724,10 +725,20 @@ def simulate(
         control_period=control_period, reasons=reasons, compute_delay=compute_delay,
     )  # fmt: skip
     if fused is not None:
-        result = run_fused(
-            fused, plant, ctrl, reference, state.R, state.packed(), t0, n_steps, dt,
-            every_ctrl, log_every, control_period, _Log, reasons,
-        )  # fmt: skip
+        try:
+            result = run_fused(
+                fused, plant, ctrl, reference, state.R, state.packed(), t0, n_steps, dt,
+                every_ctrl, log_every, control_period, _Log, reasons,
+            )  # fmt: skip
+        except NonFiniteTorque:
+            # the controller's own (Python) command at the first sample: a built-in law raises
+            # its precise error there (e.g. an infeasible funnel); else the kernel's error stands
+            ctrl.reset(t0, B)
+            x0 = state.packed()
+            x_act = x0[:, plant.act_slice]
+            h0 = plant.actuator.momentum(x_act)
+            ctrl.command(t0, AttitudeState(state.R, x0[:, :3], h0, x_act), reference(t0))
+            raise
         if result is not None:
             return result
         ctrl.reset(t0, B)  # a failing run is repeated below, which reports the failure

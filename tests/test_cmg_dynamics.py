@@ -19,7 +19,7 @@ from spacecraft.cmg_dynamics import (
     VscmgCommand,
 )
 from spacecraft.disturbances import ConstantHarmonicTorque, ConstantTorque
-from spacecraft.plant import Spacecraft
+from spacecraft.plant import PlantState, Spacecraft
 from spacecraft.rigid_body import RigidBody
 from spacecraft.sgcmg import SgcmgPyramid
 from spacecraft.steering import SingularityRobust
@@ -33,7 +33,8 @@ def _plant(act: VscmgActuator, **kw) -> Spacecraft:
 
 
 def _inertial_momentum(act: VscmgActuator, R: np.ndarray, x: np.ndarray) -> np.ndarray:
-    return np.einsum("bij,bj->bi", R, act.total_momentum(x[:, :3], x[:, 3:]))
+    # the one implementation of the total momentum (Spacecraft.inertial_momentum)
+    return _plant(act).inertial_momentum(PlantState(R=R, omega=x[:, :3], x_act=x[:, 3:]))
 
 
 def _run(plant, R, x, t_end, dt, u_of):

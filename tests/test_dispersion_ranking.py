@@ -357,3 +357,26 @@ def test_cli_rejects_bad_members_and_seed(capsys):
     assert "members: expected an integer >= 1" in capsys.readouterr().err
     assert cli.main(["run", "--dispersion-seed", "-1", "--out", "x"]) == 2
     assert "dispersion-seed" in capsys.readouterr().err
+
+
+def test_report_helpers_name_a_wrong_argument():
+    from benchmarks.controller_cost import controller_cost, cost_section
+    from benchmarks.ranking_report import dealiased, dispersion_section, verdict_changes
+
+    for fn in (dispersion_section, dealiased, verdict_changes, cost_section):
+        with pytest.raises(TypeError, match="^result"):
+            fn("not a result")
+    with pytest.raises(TypeError, match="^name"):
+        controller_cost(3, SLEW)
+    with pytest.raises(ValueError, match="^name"):
+        controller_cost("se3-tracking", SLEW)
+    with pytest.raises(TypeError, match="^scenario"):
+        controller_cost("geometric-pd-log", "slew-90")
+    with pytest.raises(TypeError, match="^outcomes"):
+        summarise_cell((Requirement("overshoot_pct", 1.0),), "runs")
+    with pytest.raises(TypeError, match="^cells"):
+        rank_cells([object()])
+    with pytest.raises(TypeError, match="^outcomes"):
+        find_aliases([object()])
+    with pytest.raises(TypeError, match="^scenario"):
+        default_requirements("slew-90")

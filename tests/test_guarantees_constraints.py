@@ -75,6 +75,28 @@ def test_sampled_safe_law_keeps_the_margin_over_the_grid(T):
     assert res.controller["filter_active"][:, -1].any()
 
 
+@pytest.mark.parametrize("T", [0.05, 1.0])
+def test_largest_certified_rate_is_held(T):
+    """At 99 % of the largest initial rate the certificate accepts (braking margin 0 at the
+    start: 0.135 rad/s at 0.05 s, 0.123 rad/s at 1 s) the margin stays positive, without a
+    warning."""
+    from scipy.optimize import brentq
+
+    def h0(v):
+        w = np.array([[-v, 0.0, 0.0]])
+        return braking_margins_deg((SUN,), R0[None], w, J, U_MAX, T)[0, 0]
+
+    v_max = brentq(h0, 0.01, 1.0, xtol=1e-6)
+    assert 0.1 < v_max < 0.2
+    ctrl = SampledSafeConstrainedPD(
+        J, *_gains(T), keep_out=(SUN,), max_torque=U_MAX, sample_period=T
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UnrecoverableStartWarning)
+        res = _run(ctrl, T, rates=[0.99 * v_max], t_final=40.0)
+    assert cone_margins_deg((SUN,), res.R).min() > 0.0
+
+
 def test_keep_in_and_keep_out_together():
     """The keep-in-keep-out scenario at 1 s with the fastest start: both margins stay positive."""
     keep_in = KeepInCone((0.0, 1.0, 0.0), (0.0, 0.5, 0.866025), 75.0)

@@ -173,3 +173,21 @@ def test_the_hash_follows_every_kernel_source_across_packages(tmp_path):
     # numpy-only code does not invalidate the compiled kernels
     assert not changed("liecontrol/control/adaptive.py", "\n# edited\n")
     assert not changed("spacecraft/plant.py", "\n# edited\n")
+
+
+def test_old_hash_directories_are_pruned_and_nothing_else(tmp_path, monkeypatch):
+    monkeypatch.setattr(_jit, "_PRUNED", set())
+    dirs = []
+    for i in range(10):
+        d = tmp_path / f"numba-{i:016x}"
+        d.mkdir()
+        os.utime(d, (1e9 + i, 1e9 + i))
+        dirs.append(d)
+    others = [tmp_path / "numba-notahash", tmp_path / "spacecraft-0123", tmp_path / "keepme"]
+    for d in others:
+        d.mkdir()
+    keep = dirs[0]  # the one in use, even if it is the oldest
+    _jit._prune(tmp_path, "numba-", keep)
+    left = {p.name for p in tmp_path.iterdir()}
+    newest = {d.name for d in dirs[-(_jit.KEEP_CACHES - 1) :]}
+    assert left == newest | {keep.name} | {d.name for d in others}

@@ -39,7 +39,10 @@ from liecontrol.control.consensus import (
     CommunicationGraph,
     LeaderFollowerConsensus,
 )
+from liecontrol.control.fault_tolerant import AdaptiveFaultTolerantSO3
 from liecontrol.control.finite_time import FiniteTimeSO3, FixedTimeSO3
+from liecontrol.control.geometric_pid import IntegralPD, IntrinsicPID
+from liecontrol.control.prescribed_performance import PrescribedPerformance
 from liecontrol.control.reference import ConstantAttitude
 from liecontrol.errors import large_angle_error
 from liecontrol.lie import so3
@@ -156,6 +159,16 @@ def _controllers() -> dict[str, object]:
         "quaternion-pd": QuaternionPD(J, 300.0, 1200.0),
         "finite-time": FiniteTimeSO3(J, 0.02, 0.1, 0.5),
         "fixed-time": FixedTimeSO3(J, 0.02, 0.1, 0.5, 0.01),
+        "adaptive-trace": AdaptiveGeometricSO3(
+            J, 40.0, 300.0, 0.7, 2e4, 3.0, frequencies=[0.05], disturbance_bound=1e3
+        ),
+        "adaptive-large-angle": AdaptiveGeometricSO3(
+            J, 40.0, 300.0, 0.7, 2e4, 3.0, disturbance_bound=1e3, error="large_angle"
+        ),
+        "intrinsic-pid": IntrinsicPID(J, kR, kW, 20.0),
+        "integral-pd": IntegralPD(J, kR, kW, 20.0),
+        "prescribed-performance": PrescribedPerformance(J, 0.1, 0.02),
+        "fault-tolerant": AdaptiveFaultTolerantSO3(J, 300.0, 0.5, gamma_k=0.1, gamma_beta=0.1),
     }
 
 
@@ -181,7 +194,9 @@ def test_fused_loop_equals_python_loop_in_every_flag_for_every_actuator_and_cont
     actuator, monkeypatch
 ):
     """Three spacecraft: one at the reference (never limited), two far from it (limited at
-    first); every controller with a kernel; the fused run must take the compiled route."""
+    first); every controller with a kernel (the geometric PD family, the chart baselines, the
+    finite/fixed-time, adaptive, integral, prescribed-performance and fault-tolerant laws);
+    the fused run must take the compiled route."""
     rng = np.random.default_rng(11)
     R_d = so3.exp(np.array([0.3, -0.2, 0.1]))
     R0 = np.stack([R_d, R_d @ so3.exp(np.array([0.0, 2.5, 0.4])), so3.random(rng)])

@@ -563,7 +563,16 @@ def _finite_time_overrides() -> dict[str, dict[str, Callable[[], Any]]]:
     }
 
 
+def _small_figure() -> Any:
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(3.0, 2.0))
+    fig.add_subplot().plot([0.0, 1.0], [0.0, 1.0])
+    return fig
+
+
 OVERRIDES: dict[str, dict[str, Callable[[], Any]]] = {
+    "benchmarks.figure_layout.layout_problems": {"fig": _small_figure},
     # adaptive geometric control: gains of the seed-000 bus at ω_n = 0.03 rad/s
     "liecontrol.control.adaptive.AdaptiveGeometricSO3": {
         "k_R": lambda: 7.3,
@@ -722,6 +731,17 @@ OVERRIDES: dict[str, dict[str, Callable[[], Any]]] = {
         "value": lambda: np.linspace(0.1, 0.3, 21),
         "period": lambda: 100.0,
     },
+    "spacecraft.thrusters.ThrusterLayout": {
+        "positions": lambda: np.array(
+            [[0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1], [1, 0, 0], [-1, 0, 0]], dtype=float
+        ),
+        "directions": lambda: np.array(
+            [[0, 0, 1], [0, 0, 1], [1, 0, 0], [1, 0, 0], [0, 1, 0], [0, 1, 0]], dtype=float
+        ),
+    },
+    "spacecraft.thrusters.ThrusterUnloading": {
+        "layout": lambda: __import__("spacecraft.thrusters").thrusters.ThrusterLayout.pairs(1.0)
+    },
     "spacecraft.steering.StopAware": {
         "law": lambda: __import__("spacecraft").SingularityRobust(),
         "lower": lambda: -1.0,
@@ -770,6 +790,23 @@ OVERRIDES: dict[str, dict[str, Callable[[], Any]]] = {
         "omega": lambda: np.array([1.0, 2.0]),
     },
     "benchmarks.metrics.compute_metrics": {"result": _sim_result},
+    "benchmarks.ranking.wilson_interval": {"k": lambda: 3, "n": lambda: 8},
+    "benchmarks.tuning_report.not_equivalent": {"response": lambda: {"overshoot_pct": 1.0}},
+    "benchmarks.ranking.cell_verdict": {"k": lambda: 3, "n": lambda: 8},
+    "benchmarks.dispersion.member_scenarios": {"scenario": _scenario, "n": lambda: 2},
+    "benchmarks.requirements.Requirement": {"metric": lambda: "rpe_deg", "limit": lambda: 0.1},
+    "benchmarks.requirements.pointing_errors": {
+        "t": lambda: np.arange(0.0, 21.0),
+        "e": lambda: np.zeros((21, 1, 3)),
+        "window_s": lambda: 5.0,
+        "start": lambda: 10.0,
+    },
+    "benchmarks.requirements.meets": {
+        "requirements": lambda: (
+            __import__("benchmarks.requirements").requirements.Requirement("overshoot_pct", 10.0),
+        ),
+        "metrics": lambda: {"overshoot_pct": 5.0},
+    },
     "benchmarks.results_file.history_arrays": {"result": _sim_result},
     "benchmarks.results_file.history_unit": {"name": lambda: "R"},
     "benchmarks.metrics.error_angle": {"R": lambda: R_EX[None], "R_d": lambda: np.eye(3)[None]},
@@ -1111,6 +1148,27 @@ NOT_SWEPT: dict[str, str] = {
             "benchmarks.unwinding.UnwindingResult",
             "benchmarks.perf_lie.PerfRow",
             "benchmarks.executors.TaskFailure",
+            "benchmarks.ranking.CellSummary",
+        )
+    },
+    # report sections over a whole SuiteResult: their argument check (a SuiteResult, named
+    # ``result``) is tested in test_dispersion_ranking; a call runs simulations (seconds)
+    **{
+        name: "a report section over a SuiteResult (runs step responses or timings)"
+        for name in (
+            "benchmarks.controller_cost.cost_section",
+            "benchmarks.controller_cost.controller_cost",
+            "benchmarks.ranking_report.dispersion_section",
+            "benchmarks.ranking_report.not_equivalent_controllers",
+            "benchmarks.ranking_report.alias_groups",
+            "benchmarks.ranking_report.suite_aliases",
+            "benchmarks.ranking_report.dealiased",
+            "benchmarks.ranking_report.verdict_changes",
+            "benchmarks.ranking.summarise_cell",
+            "benchmarks.ranking.rank_cells",
+            "benchmarks.ranking.find_aliases",
+            "benchmarks.tuning_report.step_response",
+            "benchmarks.runner.bandwidth_sensitivity",
         )
     },
 }

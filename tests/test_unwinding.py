@@ -81,10 +81,12 @@ def _outcome(**m):
 def test_verdict_rules():
     cfg = UnwindingConfig()
     assert verdict(_outcome(), cfg) == "converges"
-    assert verdict(_outcome(unwinding_ratio=1.6), cfg) == "unwinds"
+    assert verdict(_outcome(unwound=True, unwinding_ratio=1.6), cfg) == "unwinds"
+    # a long path alone (overshoot, a detour) is not unwinding: the path must cross θ = π
+    assert verdict(_outcome(unwinding_ratio=1.6), cfg) == "converges"
     assert verdict(_outcome(command_reversals=12.0), cfg) == "chatters"
     # chattering inflates the path length: it takes precedence over unwinding
-    assert verdict(_outcome(command_reversals=12.0, unwinding_ratio=2.0), cfg) == "chatters"
+    assert verdict(_outcome(command_reversals=12.0, unwound=True), cfg) == "chatters"
     assert verdict(_outcome(final_error_deg=3.0), cfg) == "not converged"
     # moving away is not unwinding (an untuned law ending 132° off from a 60° start)
     away = _outcome(initial_error_deg=60.0, final_error_deg=132.0, unwinding_ratio=4.0)

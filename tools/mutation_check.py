@@ -68,7 +68,8 @@ KT = "tests/test_kernels.py"
 #: the mutations of the compiled kernels and the families added with them (``--kernels``)
 KERNEL_IDS = (
     "sgcmg-rate-scan-skips-gimbal-0", "ideal-clip-flag-strict", "adaptive-regressor-index",
-    "leader-follower-no-in-degree", "half-sinc-series-coefficient", "log-near-pi-threshold",
+    "adaptive-kernel-regressor-index", "leader-follower-no-in-degree",
+    "half-sinc-series-coefficient", "log-near-pi-threshold",
     "kernel-cache-per-file", "kernel-exp-half-angle", "kernel-log-near-pi-sign",
     "kernel-dexpinv-bracket-sign", "kernel-rigid-gyroscopic-sign", "kernel-large-angle-psi",
     "kernel-cmg-bus-torque-sign", "kernel-trace-error-component", "kernel-hdot-command-sign",
@@ -132,6 +133,14 @@ MUTATIONS: tuple[Mutation, ...] = (
         "    out[:, 5] = a2 * v1 + a1 * v2", "    out[:, 5] = a2 * v1 + a1 * v0",
         (PROPS + "::test_adaptive_inertia_update_is_minus_gamma_W_transpose_s_term_by_term",),
         "adaptive inertia update: wrong index in the regressor product Y(a)ᵀv",
+    ),
+    Mutation(
+        "adaptive-kernel-regressor-index", "liecontrol/_kernels/adaptive.py",
+        "    rate_th[5] = -g_th * ((x2 * c1 + x1 * c2) + (ar2 * s1 + ar1 * s2))",
+        "    rate_th[5] = -g_th * ((x2 * c1 + x1 * c2) + (ar2 * s1 + ar1 * s0))",
+        (PROPS + "::test_fused_loop_equals_python_loop_in_every_flag_for_every_actuator_and"
+         "_controller",),
+        "adaptive law's kernel: the same index slip in Y(a_r)ᵀs (fused loop only)",
     ),
     Mutation(
         "leader-follower-no-in-degree", "liecontrol/control/consensus.py",

@@ -64,6 +64,9 @@ from typing import Any
 import numpy as np
 from scipy.linalg import expm
 
+from .._kernels.adrc import N_DIAG as ADRC_DIAG
+from .._kernels.adrc import N_STATE as ADRC_STATE
+from .._kernels.adrc import mrp_adrc_law
 from .._linalg import matvec
 from .._validation import (
     as_array,
@@ -75,6 +78,7 @@ from .._validation import (
 )
 from ..charts import mrp as _mrp
 from .adapters import ChartState, MrpChartAdapter, mrp_shadow_jacobian, mrp_shadow_map
+from .kernel import ControllerKernel
 
 __all__ = [
     "ADRCParams",
@@ -455,3 +459,83 @@ class MrpADRC(MrpChartAdapter):
         eso_init: str = "measured",
     ) -> None:
         super().__init__(MrpADRCLaw(J, params, eso_init), base=base, threshold=threshold)
+
+    def fused_kernel(
+        self, batch_size: int, control_period: float | None = None
+    ) -> ControllerKernel | None:
+        """The compiled law (:func:`liecontrol._kernels.adrc.mrp_adrc_law`) for the simulator's
+        fused loop (:mod:`liecontrol.control.kernel`): the desired frame as base, this law,
+        the observer discretised once for the run's control period."""
+        law = self.law
+        if (
+            type(law) is not MrpADRCLaw
+            or self.base != "reference"
+            or control_period is None
+            or self._batch is None
+            or law.z is None
+        ):
+            return None
+        B = int(batch_size)
+        P = law.params
+        Phi, G0, G1, Gz, Phi_td, T0, T1 = law._discrete(float(control_period))
+        J = np.ascontiguousarray(law.J, dtype=np.float64)
+        params = np.concatenate(
+            [
+                [min(float(self.threshold), 1e150) ** 2],
+                J.ravel(),
+                np.linalg.inv(J).ravel(),
+                [P.alpha, P.beta],
+                np.broadcast_to(P.k1, (3,)),
+                np.broadcast_to(P.k2, (3,)),
+                [1.0 if law.eso_init == "measured" else 0.0],
+                *(np.ravel(a) for a in (Phi, G0, G1, Gz, Phi_td, T0, T1)),
+            ]
+        )
+        state = np.zeros((B, ADRC_STATE))
+        if self._p_prev is not None:
+            state[:, 0:3] = self._p_prev
+            state[:, 3] = 1.0
+        if law._t is not None:
+            state[:, 5] = 1.0
+            state[:, 6] = law._t
+            state[:, 25:28], state[:, 28:31], state[:, 31:34] = law._prev
+        state[:, 7:16] = law.z.reshape(B, 9)
+        if law.v is not None:
+            state[:, 16:22] = law.v.reshape(B, 6)
+        state[:, 22:25] = law._bu
+        return ControllerKernel(mrp_adrc_law, params, state, ADRC_DIAG, _adrc_rows, self._finish)
+
+    def _kernel_reason(self) -> str:
+        return "a base other than the reference frame, a swapped law or no control period"
+
+    def _finish(self, state: np.ndarray, diag: np.ndarray) -> None:
+        """Chart memory, observer and differentiator states after a compiled run."""
+        law = self.law
+        B = state.shape[0]
+        self._p_prev = state[:, 0:3].copy()
+        self._pd_prev = np.zeros((B, 3))
+        self.n_switches += int(state[:, 4].sum())
+        law._t = float(state[0, 6]) if state[0, 5] != 0.0 else None
+        law.z = state[:, 7:16].reshape(B, 3, 3).copy()
+        law.v = state[:, 16:22].reshape(B, 3, 2).copy()
+        law._bu = state[:, 22:25].copy()
+        if law._t is not None:
+            law._prev = (
+                state[:, 25:28].copy(), state[:, 28:31].copy(), state[:, 31:34].copy()
+            )  # fmt: skip
+        d = _adrc_rows(diag)
+        law._diag = {k: d[k] for k in ("z1", "z2", "z3", "v1", "v2", "tau0", "eso_error")}
+        self._diag = d
+
+
+def _adrc_rows(rows: np.ndarray) -> dict[str, np.ndarray]:
+    """The adapter's diagnostics from the kernel rows ``(..., 25)``."""
+    names = ("z1", "z2", "z3", "v1", "v2", "tau0", "eso_error")
+    out = {k: rows[..., 3 * i : 3 * i + 3].copy() for i, k in enumerate(names)}
+    out.update(
+        chart_y=rows[..., 21:24].copy(),
+        chart_y_d=np.zeros(rows.shape[:-1] + (3,)),
+        chart_switched=rows[..., 24] != 0.0,
+    )
+    return out
+

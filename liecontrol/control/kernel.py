@@ -67,7 +67,14 @@ import numpy as np
 
 from .._jit import JIT_ENABLED
 
-__all__ = ["ControllerKernel", "LAW_SIGNATURE", "check", "non_finite_error", "resolve"]
+__all__ = [
+    "ControllerKernel",
+    "LAW_SIGNATURE",
+    "NonFiniteTorque",
+    "check",
+    "non_finite_error",
+    "resolve",
+]
 
 
 def _law_signature() -> Any:
@@ -225,12 +232,16 @@ def check(
     return params, state
 
 
-def non_finite_error(controller: Any, spec: ControllerKernel, t: float) -> ValueError:
+class NonFiniteTorque(ValueError):
+    """A law returned a non-finite torque at the first control sample (before any step)."""
+
+
+def non_finite_error(controller: Any, spec: ControllerKernel, t: float) -> NonFiniteTorque:
     """The error of a law that returns a non-finite torque at the first sample ``t`` (the
     simulator's fused loop checks every sample; the first one is checked before any step)."""
     label = type(controller).__name__
     lname = spec.name or getattr(spec.law, "__name__", repr(spec.law))
-    return ValueError(
+    return NonFiniteTorque(
         f"controller {label}: kernel law {lname} returned a non-finite torque u_out at the first "
         f"control sample (t = {t!r}, the initial state); check the law and its params"
     )

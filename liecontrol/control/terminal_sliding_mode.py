@@ -66,6 +66,9 @@ from typing import Any
 
 import numpy as np
 
+from .._kernels.terminal_sliding_mode import N_DIAG as TSM_DIAG
+from .._kernels.terminal_sliding_mode import N_STATE as TSM_STATE
+from .._kernels.terminal_sliding_mode import tsm_zyx_law
 from .._linalg import cross as _cross
 from .._linalg import matvec as _mv
 from .._validation import (
@@ -81,6 +84,7 @@ from .._validation import (
 from ..charts.euler import LOCK_TOL, _elem, _parse, from_matrix, rates_matrix
 from .adapters import EulerChartAdapter
 from .base import finite_command
+from .kernel import ControllerKernel
 
 __all__ = [
     "TSMParams",
@@ -646,3 +650,67 @@ class TerminalSlidingModeSO3(EulerChartAdapter):
     ) -> None:
         law = TerminalSlidingMode(J, T, C1, C2, delta0, delta1, F, D, K, seq=seq)
         super().__init__(law, seq=seq, base=base, lock_tol=lock_tol)
+
+    def fused_kernel(
+        self, batch_size: int, control_period: float | None = None
+    ) -> ControllerKernel | None:
+        """The compiled law (:func:`liecontrol._kernels.terminal_sliding_mode.tsm_zyx_law`) for
+        the simulator's fused loop (:mod:`liecontrol.control.kernel`): sequence ``"ZYX"``, the
+        desired frame as base, this law; the state carries the shaping polynomial's initial
+        conditions."""
+        law = self.law
+        if (
+            type(law) is not TerminalSlidingMode
+            or law.seq != "ZYX"
+            or self.chart.seq != "ZYX"
+            or self.base != "reference"
+            or self._batch is None
+        ):
+            return None
+        P = law.params
+        params = np.concatenate(
+            [
+                *(np.ravel(a) for a in (law.J, law._J_inv, P.C1, P.C2, P.C2invC1)),
+                [P.T, P.delta0, P.delta1, P.gain, self.chart.lock_tol, law.lock_tol],
+                _C0.ravel(),
+                _C1.ravel(),
+                _C2.ravel(),
+                [0.0, 0.0],
+            ]
+        )
+        B = int(batch_size)
+        state = np.zeros((B, TSM_STATE))
+        if law._init is not None:
+            if law._init[0].shape != (B, 3):
+                return None
+            state[:, 0] = 1.0
+            state[:, 1] = law._t0
+            state[:, 2:5], state[:, 5:8], state[:, 8:11] = law._init
+        return ControllerKernel(tsm_zyx_law, params, state, TSM_DIAG, _tsm_rows, self._finish)
+
+    def _kernel_reason(self) -> str:
+        return "a sequence other than 'ZYX', a base other than the reference frame or a swapped law"
+
+    def _finish(self, state: np.ndarray, diag: np.ndarray) -> None:
+        """The law's initial conditions, the chart memory and diagnostics after a compiled run."""
+        law = self.law
+        if state[0, 0] != 0.0:
+            law._t0 = float(state[0, 1])
+            law._init = (state[:, 2:5].copy(), state[:, 5:8].copy(), state[:, 8:11].copy())
+        d = _tsm_rows(diag)
+        law._diag = {k: d[k] for k in ("sigma", "e", "edot", "p", "u")}
+        self._y_d_prev = self._identity_coords(state.shape[0])
+        self._diag = d
+
+
+def _tsm_rows(rows: np.ndarray) -> dict[str, np.ndarray]:
+    """The adapter's diagnostics from the kernel rows ``(..., 18)``."""
+    names = ("sigma", "e", "edot", "p", "u")
+    out = {k: rows[..., 3 * i : 3 * i + 3].copy() for i, k in enumerate(names)}
+    out.update(
+        chart_y=rows[..., 15:18].copy(),
+        chart_y_d=np.zeros(rows.shape[:-1] + (3,)),
+        chart_switched=np.zeros(rows.shape[:-1], dtype=bool),
+    )
+    return out
+

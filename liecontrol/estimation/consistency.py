@@ -89,15 +89,17 @@ def chi2_mean_bounds(K: float, n: int, level: float = 0.95) -> tuple[float, floa
     return float(chi2.ppf(a, dof) / K), float(chi2.ppf(1.0 - a, dof) / K)
 
 
-def effective_sample_size(x: object) -> float:
+def effective_sample_size(samples: object) -> float:
     """``K / τ`` with ``τ = 1 + 2 Σ_{l ≥ 1} ρ_l`` the integrated autocorrelation time of the
-    series ``x`` (K,), the sum stopped before the first lag whose sample autocorrelation is
-    ≤ 0; clipped to ``[1, K]``. A constant series gives 1."""
-    x = as_array(x, "x")
+    series ``samples`` (K,), the sum stopped before the first lag whose sample autocorrelation
+    is ≤ 0; clipped to ``[1, K]``. A constant series gives 1."""
+    x = as_array(samples, "samples")
     if x.ndim != 1 or x.shape[0] < 1:
-        raise ValueError(f"x: expected a non-empty 1-D series, got shape {x.shape}")
+        raise ValueError(f"samples: expected a non-empty 1-D series, got shape {x.shape}")
     K = x.shape[0]
-    d = x - x.mean()
+    scale = float(np.abs(x).max())
+    d = x / scale if scale > 0.0 else x  # scale-free: no overflow for huge values
+    d = d - d.mean()
     var = float(d @ d)
     if K < 3 or var <= 0.0:
         return 1.0 if var <= 0.0 else float(K)
