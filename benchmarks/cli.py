@@ -381,7 +381,7 @@ def _verdict_summary(outcomes: Iterable) -> str:
 #: Cold-cache compile time of the quick suite's kernels, shown in the "compiling kernels"
 #: message: measured with ``liecontrol-bench run --suite quick`` and an empty numba cache on
 #: a shared 2-core development machine (docs/benchmarks.md, "Run time").
-COLD_COMPILE_S = 20
+COLD_COMPILE_S = 70
 
 #: The warm-up says "compiling kernels" once numba has started compiling (a cache miss, seen
 #: through numba's "numba:compile" event) and the warm-up has run this long [s]: a short

@@ -700,6 +700,25 @@ def _fault_tolerant(ctx: ControllerContext) -> Any:
     return AdaptiveFaultTolerantSO3(ctx.J, **kw)
 
 
+#: Slew-rate limit of ``eigenaxis-rate-limited`` on an actuator with no momentum limit [rad/s].
+EIGENAXIS_DEFAULT_RATE = 0.02
+
+
+def _eigenaxis_rate_limited(ctx: ControllerContext) -> Any:
+    """RateLimitedEigenaxis (Wie & Lu 1995): k = 2ω_n², c = 2ζω_n (gains ∝ J), slew rate ≤ half
+    the momentum envelope over λ_max(J), feedback scaled into the actuator's torque box"""
+    from liecontrol.control.eigenaxis import RateLimitedEigenaxis, wie_lu_gains
+
+    spec, limits = tuned_spec(ctx)
+    J = np.asarray(ctx.J, dtype=np.float64)
+    rate = EIGENAXIS_DEFAULT_RATE
+    if limits.max_momentum is not None:
+        rate = 0.5 * min(limits.max_momentum) / float(np.linalg.eigvalsh(J).max())
+    return RateLimitedEigenaxis(
+        J, max_rate=rate, u_max=limits.max_torque, **wie_lu_gains(spec.omega_n, spec.zeta)
+    )
+
+
 def _payload_pid_ff(ctx: ControllerContext) -> Any:
     """SmallAnglePIDWithFeedforward (Wang, Chu, Zhang & Yuan): Euler PID + payload feed-forward.
 
@@ -784,6 +803,13 @@ def _register_builtins() -> None:
         description="OSQP MPC with the scenario's pointing cones linearised along the prediction",
         batched=False,
         family="mpc",
+        quick=False,
+    )
+    register(
+        "eigenaxis-rate-limited",
+        _eigenaxis_rate_limited,
+        description="Wie & Lu's rate- and torque-limited eigenaxis quaternion feedback",
+        family="chart",
         quick=False,
     )
     register("mrp-adrc", _adrc, family="chart")

@@ -102,10 +102,19 @@ class DispersionSpec:
     """One-sigma spreads of a scenario's members (module docstring: what each key draws).
 
     Attributes:
-        attitude_angle_deg, attitude_axis_deg, rate_deg_s, inertia_moments, inertia_axes_deg,
-            cmg_h0, cmg_beta_deg, disturbance_scale, position_m: spreads (≥ 0; 0 = fixed).
+        attitude_angle_deg: spread of the initial error angle [deg].
+        attitude_axis_deg: spread of the initial error axis' tilt [deg].
+        rate_deg_s: spread of each initial body-rate component [deg/s].
+        inertia_moments: relative spread of each principal second moment of mass.
+        inertia_axes_deg: spread of the principal axes' rotation [deg].
+        cmg_h0: relative spread of the SGCMG rotor momentum.
+        cmg_beta_deg: spread of the pyramid skew angle [deg].
+        disturbance_scale: relative spread of every disturbance's amplitude.
+        position_m: SE(3): spread of each initial relative position component [m].
         sensor_seeds: each member ``k ≥ 1`` gets its own sensor-noise seed.
         seed: the dispersion's seed (with the scenario's name and the member index).
+
+    Every spread is ≥ 0 (0: that quantity is not dispersed).
     """
 
     attitude_angle_deg: float = 0.0
@@ -147,16 +156,17 @@ class DispersionSpec:
 
 #: The spread of a scenario that states none: a few degrees of initial attitude, a few
 #: thousandths of a degree per second of residual rate (what a rate-damping mode leaves), ±5 %
-#: principal moments with their axes known to 2°, ±20 % disturbance amplitude and ±5 m of
-#: relative position on SE(3). CMG hardware is nominal (``cmg_h0``/``cmg_beta_deg`` 0): a
-#: hardware draw needs a batch of its own per member, which the quick suite cannot afford.
+#: second moments of mass with the principal axes known to 2°, and ±5 m of relative position on
+#: SE(3) — what the members of one batch can differ in (per-spacecraft state and inertia).
+#: CMG hardware and disturbance amplitude stay nominal: such a draw changes the plant and needs a
+#: simulation of its own per member (8× the quick suite's cost); scenarios that need them state
+#: them (``agile-slew-uncertain``).
 DEFAULT_DISPERSION = DispersionSpec(
     attitude_angle_deg=2.0,
     attitude_axis_deg=5.0,
     rate_deg_s=0.005,
     inertia_moments=0.05,
     inertia_axes_deg=2.0,
-    disturbance_scale=0.2,
     position_m=5.0,
 )
 

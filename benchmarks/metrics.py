@@ -327,6 +327,7 @@ RUN_UNITS: dict[str, str] = {
     "nees_mean": "-",
     "nees_in_bounds": "-",
     "nees_in_bounds_fraction": "-",
+    "nees_effective_samples": "-",
     "nees_full_mean": "-",
     "nis_mean": "-",
     "nis_in_bounds": "-",
@@ -395,6 +396,8 @@ DESCRIPTIONS: dict[str, str] = {
     "χ²(3K)/K of its time average (K: effective number of independent samples), else 0",
     "nees_in_bounds_fraction": "filtered sensors: share of the NEES samples inside χ²₃'s "
     "two-sided 95 % interval (0.95 when consistent)",
+    "nees_effective_samples": "filtered sensors: effective number of independent NEES samples "
+    "K/τ (τ: integrated autocorrelation time, Sokal's window) behind nees_in_bounds",
     "nees_full_mean": "filtered sensors: time average of the NEES of attitude and gyro bias "
     "(6 states; 6 when consistent)",
     "nis_mean": "filtered sensors: time average of the star-tracker NIS νᵀS⁻¹ν (3 when "
@@ -406,8 +409,8 @@ DESCRIPTIONS: dict[str, str] = {
     "estimation_error_max_deg": "filtered sensors: max attitude estimation error over the "
     "final 10 % of the run (the floor the pointing error cannot beat)",
     "momentum_growth_per_orbit": "momentum management: secular growth per orbit of the stored "
-    "momentum's envelope fraction after the first orbit (least-squares slope × orbit period; "
-    "NaN under two orbits)",
+    "momentum's envelope fraction from the end of the first orbit to the first saturation "
+    "(least-squares slope × orbit period; NaN under two orbits)",
     "propellant_kg": "thruster unloading: propellant used over the run",
     "propellant_kg_per_orbit": "thruster unloading: propellant used per orbit (run average)",
     "fault_detection_delay_s": "fault scenarios: time from the first fault to the residual "

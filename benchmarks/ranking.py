@@ -94,13 +94,17 @@ class CellSummary:
     """One (scenario, controller) cell over its members.
 
     Attributes:
-        scenario, controller: names.
-        n: members flown; ``passed``: members meeting every requirement.
+        scenario: the scenario's name.
+        controller: the controller's name.
+        n: members flown.
+        passed: members meeting every requirement.
         interval: Wilson 95 % interval of ``passed / n``.
-        verdict: :func:`cell_verdict`; ``nominal_verdict``: the single-run verdict of member 0
-            (:func:`benchmarks.metrics.judge`, flags and tolerance).
+        verdict: :func:`cell_verdict`.
+        nominal_verdict: the single-run verdict of member 0 (:func:`benchmarks.metrics.judge`,
+            flags and tolerance).
         margins: per requirement text, ``(median, p95, worst)`` of its margin over the members
-            (NaN where the ratio is not defined); ``values``: the same statistics of the value.
+            (NaN where the ratio is not defined).
+        values: the same statistics of the requirement's value.
         worst_margin: the largest margin over requirements and members (> 1: violated).
         flag_fraction: per flag, the fraction of members that raised it.
         nominal_passes: member 0 meets every requirement.

@@ -28,7 +28,7 @@ import contextlib
 import dataclasses
 import math
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Collection, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -553,6 +553,18 @@ def build_reference(spec: ReferenceSpec | Scenario) -> Callable[[float], Attitud
             return EarthPointingReference(CircularOrbit(n=spec.n), offset=spec.R_d)
         orbit = dataclasses.replace(orbit_spec.circular_orbit(), n=spec.n)
         return EarthPointingReference(orbit, offset=spec.R_d)
+    if spec.kind == "eigenaxis-profile":
+        from liecontrol.control.slew_profile import EigenaxisSlewProfile
+        from liecontrol.lie import so3
+
+        R_t = spec.R_d
+        return EigenaxisSlewProfile(
+            R_t @ so3.exp(np.array(spec.slew_rotvec)),
+            R_t,
+            max_rate=spec.max_rate,
+            max_accel=spec.max_accel,
+            max_jerk=spec.max_jerk,
+        )
     return ConstantRateReference(spec.R_d, np.array(spec.rate))
 
 
@@ -734,11 +746,15 @@ class FilteredAttitude:
         without ``since``),
         ``nees_mean`` (attitude, 3 states) with ``nees_in_bounds`` (1.0 when inside the
         two-sided 95 % χ² region of its time average, over the effective number of independent
-        samples) and ``nees_in_bounds_fraction`` (share of samples inside χ²₃'s two-sided 95 %
-        interval), ``nees_full_mean`` (attitude and bias, 6 states), ``nis_mean`` with
-        ``nis_in_bounds`` (over the K updates: innovations are white), ``filter_updates`` and
-        ``filter_rejections`` (updates the χ² gate rejected)."""
-        from liecontrol.estimation.consistency import in_interval_fraction, time_average_test
+        samples, ``nees_effective_samples``) and ``nees_in_bounds_fraction`` (share of samples
+        inside χ²₃'s two-sided 95 % interval), ``nees_full_mean`` (attitude and bias, 6
+        states), ``nis_mean`` with ``nis_in_bounds`` (over the K updates: innovations are white),
+        ``filter_updates`` and ``filter_rejections`` (updates the χ² gate rejected)."""
+        from liecontrol.estimation.consistency import (
+            effective_sample_size,
+            in_interval_fraction,
+            time_average_test,
+        )
 
         log = self._log[b]
         nan = float("nan")
@@ -756,6 +772,9 @@ class FilteredAttitude:
                     out[f"{key}_in_bounds"] = nan
         out["nees_in_bounds_fraction"] = (
             in_interval_fraction(log["nees"], 3) if log["nees"] else nan
+        )
+        out["nees_effective_samples"] = (
+            effective_sample_size(log["nees"]) if log["nees"] else nan
         )
         out["filter_updates"] = float(len(log["gated"]))
         out["filter_rejections"] = float(sum(log["gated"]))
@@ -1122,7 +1141,9 @@ def _simulate_attitude(
     if sc0.faults:  # one batch shares its faults (Scenario.batch_key)
         from spacecraft.faults import with_faults
 
-        plant = with_faults(plant, sc0.faults)  # steering told the lost units only
+        # steering told the lost units only: at the fault time ("oracle") or from the residual
+        # detector's isolation ("detector", the default)
+        plant = with_faults(plant, sc0.faults, reconfiguration=sc0.reconfiguration)
     members, refs, sizes = [], [], []
     for c, idx in groups:
         scs = [pairs[i][0] for i in idx]
@@ -1135,7 +1156,14 @@ def _simulate_attitude(
         members.append(_make_member(infos[c], scs, ref, rule))
         refs.extend(ref_list)
         sizes.append(len(idx))
-    ctrl = StackedController(members, sizes)
+    # one controller instance with a compiled kernel flies the fused loop (the timing proxy and
+    # the stack would keep the Python loop); its runs then have no per-call time in the log —
+    # the report measures controller cost apart (benchmarks.controller_cost)
+    only = members[0] if len(members) == 1 else None
+    fusable = isinstance(only, TimedController) and callable(
+        getattr(only.inner, "fused_kernel", None)
+    )
+    ctrl = only.inner if fusable else StackedController(members, sizes)
     ref = StackedReference(tuple(refs), (1,) * len(refs))
     starts = [initial_state(pairs[i][0]) for i in order]
     state = plant.initial_state(np.stack([r for r, _ in starts]), np.stack([w for _, w in starts]))
@@ -1188,6 +1216,8 @@ def _simulate_attitude(
             mm["sim_wall_time_s"] = wall
             if s_i.momentum_management is not None:
                 mm.update(_momentum_management_metrics(result, plant.actuator, s_i, b))
+            if s_i.faults:
+                mm.update(_fault_detection_metrics(plant.actuator, s_i, b))
             if callable(getattr(sense.get("measurement"), "consistency", None)):
                 # filter NEES/NIS and the estimation error over the pointing interval
                 mm.update(sense["measurement"].consistency(b, since=0.9 * s_i.duration))
@@ -1206,10 +1236,15 @@ def _momentum_management_metrics(
     """Momentum-management metrics of spacecraft ``b``: ``momentum_growth_per_orbit`` — the
     secular growth per orbit of the stored momentum's envelope fraction
     (:func:`spacecraft.momentum.momentum_growth_per_orbit`, least-squares slope × orbit period)
-    over the run after its first orbit (the initial build-up of the cyclic momentum left out;
-    NaN without an orbit or with less than one orbit after it); ``propellant_kg`` and
+    from the end of the first orbit (the initial build-up of the cyclic momentum left out) to
+    the first sample at :data:`benchmarks.metrics.MOMENTUM_SATURATED_FRACTION` (the fraction
+    cannot grow past the envelope: a saturated run would dilute the slope) or the end; when
+    that leaves less than an orbit, from the start, and under an orbit still, the chord slope;
+    NaN without an orbit or for a run under two orbits. ``propellant_kg`` and
     ``propellant_kg_per_orbit`` of thruster unloading (NaN for the other kinds)."""
     from spacecraft.momentum import momentum_fraction, momentum_growth_per_orbit
+
+    from .metrics import MOMENTUM_SATURATED_FRACTION
 
     out = {
         "momentum_growth_per_orbit": math.nan,
@@ -1223,16 +1258,36 @@ def _momentum_management_metrics(
     inner = getattr(actuator, "inner", actuator)  # a FaultyActuator wraps the cluster
     if period is not None and key is not None and t[-1] - t[0] >= 2.0 * period:
         frac = momentum_fraction(inner, np.asarray(act[key])[:, b : b + 1])[:, 0]
-        keep = t >= t[0] + period
-        out["momentum_growth_per_orbit"] = float(
-            momentum_growth_per_orbit(t[keep], frac[keep], period)
-        )
+        sat = np.flatnonzero(frac >= MOMENTUM_SATURATED_FRACTION)
+        end = int(sat[0]) if sat.size else t.size - 1
+        start = int(np.searchsorted(t, t[0] + period))
+        if t[end] - t[min(start, end)] < period:
+            start = 0
+        if t[end] - t[start] >= period:
+            growth = momentum_growth_per_orbit(t[start : end + 1], frac[start : end + 1], period)
+        else:  # saturated within the first orbit: the chord
+            growth = (frac[end] - frac[start]) * period / max(t[end] - t[start], 1e-300)
+        out["momentum_growth_per_orbit"] = float(growth)
     if "propellant_kg" in act:
         used = float(np.asarray(act["propellant_kg"])[-1, b])
         out["propellant_kg"] = used
         if period is not None and t[-1] > t[0]:
             out["propellant_kg_per_orbit"] = used * period / (t[-1] - t[0])
     return out
+
+
+def _fault_detection_metrics(actuator: Any, scenario: Scenario, b: int) -> dict[str, float]:
+    """``fault_detection_delay_s`` (first alarm on a faulty unit after the fault minus the fault
+    time; NaN: not detected) and ``false_alarms`` (units alarmed without a fault or before it)
+    of spacecraft ``b`` from the residual detector of a ``"detector"`` run (NaN for
+    ``"oracle"``: no detector)."""
+    from spacecraft.faults import fault_detection_report
+
+    times = getattr(actuator, "detection_time", None)
+    if times is None or times.shape[0] <= b:
+        return {"fault_detection_delay_s": math.nan, "false_alarms": math.nan}
+    delay, false_alarms = fault_detection_report(scenario.faults, times[b : b + 1])
+    return {"fault_detection_delay_s": float(delay[0]), "false_alarms": float(false_alarms[0])}
 
 
 def _pose_metrics(
@@ -1431,6 +1486,7 @@ def run_suite(
     members: int = 1,
     dispersion: DispersionSpec | None = None,
     dispersion_seed: int | None = None,
+    pairs: Collection[tuple[str, str]] | None = None,
 ) -> SuiteResult:
     """Run every scenario with every controller (pairs that do not apply are ``"n/a"``), each
     pair as a cell of ``members`` dispersed members.
@@ -1454,6 +1510,8 @@ def run_suite(
             :attr:`~benchmarks.scenarios.Scenario.dispersion`, else
             :data:`benchmarks.dispersion.DEFAULT_DISPERSION`).
         dispersion_seed: replaces the seed of every scenario's dispersion (``None``: keep it).
+        pairs: run only these ``(scenario name, controller name)`` pairs; the others are
+            recorded ``"n/a"`` with the reason "not selected" (``None``: every pair).
 
     Returns:
         :class:`SuiteResult` with one nominal :class:`RunOutcome` per pair (scenario-major
@@ -1531,17 +1589,35 @@ def run_suite(
         except ValueError as exc:
             raise ValueError(f"dispersion: scenario {s.name!r}: {exc}") from None
 
+    if pairs is not None:
+        bad = isinstance(pairs, str) or not isinstance(pairs, Collection)
+        if not bad:
+            bad = not all(
+                isinstance(p, tuple) and len(p) == 2 and all(isinstance(x, str) for x in p)
+                for p in pairs
+            )
+        if bad:
+            raise TypeError(
+                f"pairs: expected (scenario name, controller name) tuples, got {pairs!r}"
+            )
+        pairs = set(pairs)
     outcomes: dict[tuple[str, str, int], RunOutcome] = {}
     groups: dict[tuple, list[tuple[Scenario, str]]] = {}
     for s in scenarios:
         for c in controllers:
+            if pairs is not None and (s.name, c) not in pairs:
+                outcomes[(s.name, c, 0)] = RunOutcome(s.name, c, "n/a", "not selected")
+                continue
             ok, why = infos[c].applies(s, gain_rule)
             if not ok:
                 outcomes[(s.name, c, 0)] = RunOutcome(s.name, c, "n/a", why)
                 continue
             for s_k in drawn[s.name]:
                 s_run = sampled_for(s_k, infos[c])
-                key = s_run.batch_key()
+                # one controller per batch: a law with a compiled kernel then flies the fused
+                # loop (a stack of several laws cannot), and its batch does not depend on which
+                # other controllers were selected
+                key = s_run.batch_key() + (c,)
                 if s.plant == "se3" or s.sensors is not None:
                     # SE(3): one pair per run; sensors: every controller sees the same noise
                     key = key + (c, s.name, s_k.member)
@@ -1631,6 +1707,8 @@ def run_suite(
 
 #: The bandwidth factors :func:`bandwidth_sensitivity` re-tunes to (ω_n × 0.9 and × 1.1).
 SENSITIVITY_FACTORS: tuple[float, ...] = (0.9, 1.1)
+#: :func:`bandwidth_sensitivity` re-runs the cells whose worst margin lies within this factor of 1.
+SENSITIVITY_NEAR = 2.0
 
 
 def bandwidth_sensitivity(
@@ -1639,28 +1717,54 @@ def bandwidth_sensitivity(
     *,
     executor: Executor | str | None = None,
     progress: bool = False,
+    near: float | None = SENSITIVITY_NEAR,
 ) -> SuiteResult:
-    """``result`` with :attr:`SuiteResult.sensitivity` filled: every applicable pair's nominal
-    scenario re-run with every controller re-tuned to ``ω_n × factor`` (ζ kept), and whether
-    that run meets every requirement of the scenario (``None`` where the controller cannot be
-    tuned to that bandwidth). A cell whose verdict is decided by a knife edge shows it here: its
-    requirements hold at one bandwidth and not at the neighbour."""
+    """``result`` with :attr:`SuiteResult.sensitivity` filled: the nominal scenario of every
+    cell *near a limit* re-run with its controller re-tuned to ``ω_n × factor`` (ζ kept), and
+    whether that run meets every requirement of the scenario (``None`` where the controller
+    cannot be tuned to that bandwidth). A cell whose verdict is decided by a knife edge shows it
+    here: its requirements hold at one bandwidth and not at the neighbour.
+
+    A cell is near a limit when some members pass and some do not, or the nominal run's worst
+    margin lies within a factor ``near`` of 1 (``[1/near, near]``; unmeasured counts as far); the
+    other cells are not re-run (``None``: every cell). :data:`SENSITIVITY_NEAR` = 2: a ±10 %
+    bandwidth change moves settling times and steady errors by tens of percent, not by 2×."""
     from .requirements import meets
 
+    if near is not None:
+        near = float(check_positive_scalar(near, "near"))
+        if near < 1.0:
+            raise ValueError(f"near: expected a factor >= 1, got {near}")
     rule = result.gain_rule or DEFAULT_GAIN_RULE
     sens: dict[tuple[str, str], dict[float, bool | None]] = {}
     live = list(result.controllers)
+
+    def close(key: tuple[str, str], cell: CellSummary) -> bool:
+        if cell.verdict in ("not-applicable", "error"):
+            return False
+        if near is None or 0 < cell.passed < cell.n:
+            return True
+        # the nominal run's worst margin: the verdict a ±10 % retune could flip is its own
+        reqs = requirements_of(scenario_of[key[0]])
+        values = meets(reqs, result.outcome(*key).metrics)[1]
+        w = max((r.margin(values[r.text()]) for r in reqs), default=math.nan)
+        return math.isfinite(w) and 1.0 / near <= w <= near
+
+    scenario_of = {s.name: s for s in result.scenarios}
+    chosen = {k for k, cell in result.cells.items() if close(k, cell)}
+    if not chosen:
+        return dataclasses.replace(result, sensitivity={})
     for f in factors:
         f = float(check_positive_scalar(f, "factors"))
         scaled = GainRule(omega_n=rule.omega_n * f, zeta=rule.zeta)
         sub = run_suite(
             result.scenarios, live, suite=f"{result.suite} (ω_n × {f:g})", executor=executor,
-            progress=progress, gain_rule=scaled,
+            progress=progress, gain_rule=scaled, pairs=chosen,
         )  # fmt: skip
         for s in result.scenarios:
             reqs = requirements_of(s)
             for c in live:
-                if result.outcome(s.name, c).status == "n/a":
+                if (s.name, c) not in chosen:
                     continue
                 o = sub.outcome(s.name, c)
                 # None: the controller cannot be tuned to that bandwidth on this scenario

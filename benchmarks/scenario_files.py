@@ -19,9 +19,11 @@ apply to every scenario (a scenario's own keys win)::
     axis = [1.0, 0.0, 0.0]
     rate_deg_s = [0.0, 0.0, 0.0]   # or rate [rad/s]
 
-    [scenario.reference]      # kind: constant | earth-pointing | constant-rate
-    kind = "constant"
-    rotvec_deg = [0.0, 0.0, 0.0]   # (constant-rate: rate_deg_s; earth-pointing: n [rad/s])
+    [scenario.reference]      # kind: constant | earth-pointing | constant-rate |
+    kind = "constant"         #   eigenaxis-profile
+    rotvec_deg = [0.0, 0.0, 0.0]   # (constant-rate: rate_deg_s; earth-pointing: n [rad/s];
+                                   #  eigenaxis-profile: slew_rotvec_deg, the start relative
+                                   #  to rotvec, and max_rate, max_accel, max_jerk in rad/s^k)
 
     [[scenario.disturbance]]  # any number; name: constant-harmonic | gravity-gradient |
     name = "constant-harmonic"  # constant | rotating-payload | aerodynamic | solar-pressure |
@@ -68,10 +70,13 @@ apply to every scenario (a scenario's own keys win)::
     altitude_km = 530.0              # an earth-pointing reference's n follows from it unless set
     inclination_deg = 97.5
     raan_deg = 0.0
-    [scenario.momentum_management]   # needs [scenario.orbit] and CMGs or wheels
-    kind = "magnetorquer"            # or "none" (thruster unloading is not modelled)
+    [scenario.momentum_management]   # needs CMGs or wheels (magnetorquers: [scenario.orbit])
+    kind = "magnetorquer"            # or "thrusters" (spacecraft.thrusters) or "none"
     max_dipole = 200.0               # A·m² per rod
-    gain = 0.001                     # k [1/s] of m = k (Δh × B)/‖B‖² (spacecraft.momentum)
+    gain = 0.001                     # k [1/s] of m = k (Δh × B)/‖B‖² / τ = −k Δh (thrusters)
+    # kind = "thrusters" only: thrust [N], arm [m] (default layout: six couples), isp [s],
+    #   min_on_time [s] (>= dt), pulse_period [s], deadband [N·m·s], or a custom layout:
+    #   positions = [[x, y, z], ...] [m] and directions = [[dx, dy, dz], ...]
 
     [scenario.dispersion]            # the members' spread (benchmarks.dispersion; 1-sigma)
     attitude_angle_deg = 2.0         # also attitude_axis_deg, rate_deg_s, inertia_moments,
@@ -89,6 +94,7 @@ apply to every scenario (a scenario's own keys win)::
     time = 100.0                     # [s], within [0, duration]
     # efficiency = 0.5               # actuator-efficiency only, in [0, 1]
     # bias = 0.001                   # actuator-bias only: rad/s (CMG), N·m (wheel, ideal)
+    # (top level) reconfiguration = "detector"   # or "oracle": the exact fault time
 
 Angles may be given in radians (``rotvec``, ``rate``) or degrees (``rotvec_deg``, ``angle_deg``,
 ``rate_deg_s``). Every error names the file and the offending key, e.g.
@@ -170,6 +176,7 @@ _TOP_KEYS = (
     "orbit",
     "momentum_management",
     "fault",
+    "reconfiguration",
     "dispersion",
     "requirement",
 )
@@ -280,10 +287,21 @@ def _initial(t: Any, where: str) -> dict[str, Any]:
 
 
 def _reference(t: Any, where: str) -> ReferenceSpec:
-    t = _check_keys(t, ("kind", "rotvec", "rotvec_deg", "n", "rate", "rate_deg_s"), where)
+    t = _check_keys(
+        t,
+        ("kind", "rotvec", "rotvec_deg", "n", "rate", "rate_deg_s", "slew_rotvec")
+        + ("slew_rotvec_deg", "max_rate", "max_accel", "max_jerk"),
+        where,
+    )
     kw: dict[str, Any] = {}
     if "kind" in t:
         kw["kind"] = t["kind"]
+    slew = _angle_pair(t, where, "slew_rotvec", "slew_rotvec_deg")
+    if slew is not None:
+        kw["slew_rotvec"] = slew
+    for key in ("max_rate", "max_accel", "max_jerk"):
+        if key in t:
+            kw[key] = _number(t[key], f"{where}.{key}")
     rv = _angle_pair(t, where, "rotvec", "rotvec_deg")
     if rv is not None:
         kw["rotvec"] = rv
@@ -387,6 +405,8 @@ def _scenario(table: Any, defaults: Mapping[str, Any], where: str) -> Scenario:
         kw.update(_initial(t["initial"], f"{where}.initial"))
     if "quaternion_sign" in t:
         kw["quaternion_sign"] = t["quaternion_sign"]
+    if "reconfiguration" in t:
+        kw["reconfiguration"] = t["reconfiguration"]
     if "reference" in t:
         kw["reference"] = _reference(t["reference"], f"{where}.reference")
     if "disturbance" in t:
@@ -570,6 +590,16 @@ def scenario_to_dict(scenario: Scenario) -> dict[str, Any]:
             "rotvec": list(s.reference.rotvec),
             "n": s.reference.n,
             "rate": list(s.reference.rate),
+            **(
+                {
+                    "slew_rotvec": list(s.reference.slew_rotvec),
+                    "max_rate": s.reference.max_rate,
+                    "max_accel": s.reference.max_accel,
+                    "max_jerk": s.reference.max_jerk,
+                }
+                if s.reference.kind == "eigenaxis-profile"
+                else {}
+            ),
         },
         "disturbance": [{"name": d.name, **d.kwargs} for d in s.disturbances],
         "spacecraft": {
@@ -604,10 +634,13 @@ def scenario_to_dict(scenario: Scenario) -> dict[str, Any]:
     if s.momentum_management is not None:
         mm = s.momentum_management
         out["momentum_management"] = {
-            f.name: getattr(mm, f.name) for f in dataclasses.fields(MomentumManagementSpec)
+            f.name: getattr(mm, f.name)
+            for f in dataclasses.fields(MomentumManagementSpec)
+            if getattr(mm, f.name) is not None  # unset thruster keys: their defaults
         }
     if s.faults:
         out["fault"] = [f.as_dict() for f in s.faults]
+        out["reconfiguration"] = s.reconfiguration
     if s.dispersion is not None:
         out["dispersion"] = {
             f.name: getattr(s.dispersion, f.name) for f in dataclasses.fields(DispersionSpec)

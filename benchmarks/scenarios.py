@@ -21,7 +21,10 @@ with null motion climbing the singularity measure):
   enters through the torque's harmonics);
 - ``slew-30/90/150/179``: rest-to-rest manoeuvres about the body axis ``(1, 1, 1)/√3`` (not a
   principal axis of this J, so all three axes couple); ``slew-120-random-axis`` about a fixed
-  random axis (drawn once, ``default_rng(2026)``, and written out below);
+  random axis (drawn once, ``default_rng(2026)``, and written out below); ``slew-90-planned``:
+  slew-90's start and target flown as a planned jerk-limited eigenaxis profile with its
+  feed-forward (the ``eigenaxis-profile`` reference, :data:`PLANNED_SLEW_LIMITS`) — "planned"
+  beside the "step" of ``slew-90``;
 - ``unwinding-q`` / ``unwinding-minus-q``: the same physical 90° start given to chart
   controllers as the quaternion ``q`` or ``−q``; ``near-pi-179.9``: 0.1° from the antipode;
 - ``earth-pointing``: track the LVLH frame of a circular orbit (n = 0.0011 rad/s) from 10° and
@@ -54,7 +57,7 @@ and scenarios built to separate controllers (the quick suite runs the first two)
 - ``estimator-mekf-slew-30`` / ``estimator-ukf-slew-30``: a 30° slew seen through a star
   tracker (8″ cross-boresight, 55″ roll, 5 Hz, a 30 s outage during the slew and random ones)
   and a navigation-grade gyro (ARW 0.0011 °/√h, RRW 0.0039 °/h/√h; :func:`estimator_sensors`)
-  → MEKF or manifold UKF → controller, judged on APE ≤ 0.002° and RPE (10 s) ≤ 0.00005° near
+  → MEKF or manifold UKF → controller, judged on APE ≤ 0.003° and RPE (10 s) ≤ 0.0001° near
   the filters' estimation error (:data:`ESTIMATOR_REQUIREMENTS`);
 - ``wheels-pyramid-slew-30`` / ``wheels-pyramid-momentum-limited``: a four-wheel pyramid on the
   rotating-payload bus; the second with 3 N·m·s per wheel, so the slew saturates the wheels.
@@ -87,7 +90,7 @@ from liecontrol._validation import (
     check_rotation_matrix,
 )
 from liecontrol.control.constrained import KeepInCone, KeepOutCone, check_admissible
-from spacecraft.faults import ActuatorFault, check_faults
+from spacecraft.faults import RECONFIGURATION_MODES, ActuatorFault, check_faults
 from spacecraft.momentum import CrossProductDumping, Magnetorquers
 from spacecraft.orbit import CircularOrbit
 
@@ -220,7 +223,14 @@ DISTURBANCES: dict[str, tuple[str, ...]] = {
     "residual-dipole": ("altitude_km", "inclination_deg", "raan_deg", "x", "y", "z"),
 }
 #: Reference kinds of a :class:`ReferenceSpec`.
-REFERENCE_KINDS: tuple[str, ...] = ("constant", "earth-pointing", "constant-rate")
+REFERENCE_KINDS: tuple[str, ...] = (
+    "constant",
+    "earth-pointing",
+    "constant-rate",
+    "eigenaxis-profile",
+)
+#: Keys of a :class:`ReferenceSpec` that an ``eigenaxis-profile`` reference must set (> 0).
+PROFILE_LIMIT_KEYS: tuple[str, ...] = ("max_rate", "max_accel", "max_jerk")
 
 
 def _tuple3(x: object, name: str) -> tuple[float, float, float]:
@@ -497,13 +507,23 @@ class ReferenceSpec:
     - ``"earth-pointing"``: the LVLH frame of a circular orbit of rate ``n`` [rad/s],
       ``R_d(t) = C(t) exp(rotvec^)`` (:class:`spacecraft.orbit.EarthPointingReference`);
     - ``"constant-rate"``: ``R_d(t) = exp(rotvec^) exp(t ω_d^)`` with the constant desired body
-      rate ``rate`` [rad/s] (a slewing reference), ``ω̇_d = 0``.
+      rate ``rate`` [rad/s] (a slewing reference), ``ω̇_d = 0``;
+    - ``"eigenaxis-profile"``: a planned rest-to-rest slew
+      (:class:`liecontrol.control.slew_profile.EigenaxisSlewProfile`) from
+      ``exp(rotvec^) exp(slew_rotvec^)`` at ``t = 0`` to ``exp(rotvec^)``, the angle about the fixed
+      eigenaxis flown on a jerk-limited bang–coast–bang profile within ``max_rate`` [rad/s],
+      ``max_accel`` [rad/s²] and ``max_jerk`` [rad/s³] (all three required, > 0), with the rate
+      and acceleration feed-forward ``ω_d``, ``ω̇_d``.
     """
 
     kind: str = "constant"
     rotvec: tuple[float, float, float] = (0.0, 0.0, 0.0)
     n: float = 0.0011
     rate: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    slew_rotvec: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    max_rate: float | None = None
+    max_accel: float | None = None
+    max_jerk: float | None = None
 
     def __post_init__(self) -> None:
         if self.kind not in REFERENCE_KINDS:
@@ -512,6 +532,16 @@ class ReferenceSpec:
             )
         object.__setattr__(self, "rotvec", _tuple3(self.rotvec, "rotvec"))
         object.__setattr__(self, "rate", _tuple3(self.rate, "rate"))
+        object.__setattr__(self, "slew_rotvec", _tuple3(self.slew_rotvec, "slew_rotvec"))
+        for key in PROFILE_LIMIT_KEYS:
+            v = getattr(self, key)
+            if v is None:
+                if self.kind == "eigenaxis-profile":
+                    raise ValueError(f"{key}: an eigenaxis-profile reference needs it (> 0)")
+                continue
+            object.__setattr__(self, key, check_positive_scalar(v, key))
+        if self.kind == "eigenaxis-profile" and not any(self.slew_rotvec):
+            raise ValueError("slew_rotvec: an eigenaxis-profile reference needs a non-zero slew")
         n = check_positive(self.n, "n")
         if not isinstance(n, float):
             raise ValueError("n: must be a scalar")
@@ -956,6 +986,12 @@ class Scenario:
             lie in ``[0, duration]``. The runner wraps the actuator in
             :class:`~spacecraft.faults.FaultyActuator` (steering told which units are lost) and
             the verdict carries the flag ``fault-injected``.
+        reconfiguration: what triggers the reconfiguration of a faulty run
+            (:data:`spacecraft.faults.RECONFIGURATION_MODES`): ``"detector"`` (default) — the
+            residual CUSUM :func:`spacecraft.faults.default_detector` isolates units from the
+            commanded vs measured unit rates and the isolated units are dropped after its alarm
+            (the run reports ``fault_detection_delay_s`` and ``false_alarms``); ``"oracle"`` —
+            the lost units are dropped at the exact fault time (perfect isolation, no delay).
         dispersion: :class:`benchmarks.dispersion.DispersionSpec` of the cell's members (``None``:
             the suite's default spread, :data:`benchmarks.dispersion` docs); a suite run with
             ``members=N`` flies members ``0 … N−1`` (member 0 is this scenario).
@@ -992,6 +1028,7 @@ class Scenario:
     orbit: OrbitSpec | None = None
     momentum_management: MomentumManagementSpec | None = None
     faults: tuple[ActuatorFault, ...] = ()
+    reconfiguration: str = "detector"
     dispersion: DispersionSpec | None = None
     requirements: tuple[Requirement, ...] = ()
     member: int = 0
@@ -1136,6 +1173,11 @@ class Scenario:
             object.__setattr__(self, "faults", faults)
         elif not isinstance(self.faults, tuple):
             object.__setattr__(self, "faults", check_faults(self.faults, "ideal", 3))
+        if self.reconfiguration not in RECONFIGURATION_MODES:
+            raise ValueError(
+                f"reconfiguration: expected one of {', '.join(RECONFIGURATION_MODES)}, got "
+                f"{self.reconfiguration!r}"
+            )
         if self.dispersion is not None and not isinstance(self.dispersion, DispersionSpec):
             raise TypeError(
                 f"dispersion: expected DispersionSpec or None, got {type(self.dispersion).__name__}"
@@ -1257,6 +1299,7 @@ class Scenario:
             self.orbit,
             self.momentum_management,
             self.faults,
+            self.reconfiguration,
         )
 
 
@@ -1407,9 +1450,12 @@ def _momentum_dumping_pair() -> tuple[Scenario, Scenario]:
 #: field lies close to the orbit normal — along the Earth-pointing disturbance's secular torque.
 LOW_INCLINATION_ORBIT = OrbitSpec(530.0, 10.0, 0.0)
 #: Unloading gain of the thruster scenario [1/s]: τ_des = −k Δh with the 2 N·m couples of the
-#: default layout; the PWPF fires once k‖Δh‖ ≳ 0.2 N·m, so k = 1e-2 holds ‖Δh‖ to ~20 N·m·s
-#: (1e-3 would let it reach ~200 N·m·s before the first pulse).
-THRUSTER_UNLOADING_GAIN = 1e-2
+#: default layout; the PWPF's duty cycle follows the demand, so the mean torque is −k Δh and the
+#: secular 0.08 N·m is held at ‖Δh‖ ≈ 40 N·m·s (an envelope fraction ≈ 0.18 with the cyclic part;
+#: measured over the 5 orbits with the geometric PD: 0.237 kg of propellant per orbit, 1.10× the
+#: impulse the secular torque alone needs, steady error 0.25°). A larger k also chases the cyclic
+#: momentum (at 1e-2 a 2.2-orbit run burnt 10 kg per orbit).
+THRUSTER_UNLOADING_GAIN = 2e-3
 
 
 def _low_inclination_dumping_pair() -> tuple[Scenario, Scenario]:
@@ -1440,7 +1486,8 @@ def _low_inclination_dumping_pair() -> tuple[Scenario, Scenario]:
         Scenario(
             name="momentum-thrusters-low-inclination",
             description="the same 10° orbit with thruster unloading (12 × 1 N couples at 1 m, "
-            "PWPF, 1 s minimum on-time): holds at any inclination, at a propellant cost",
+            "PWPF, 1 s minimum on-time): holds at any inclination, at a propellant cost (the "
+            "pulses make the attitude loop reverse its torque: flagged chattering)",
             momentum_management=MomentumManagementSpec(
                 "thrusters", gain=THRUSTER_UNLOADING_GAIN
             ),
@@ -1487,15 +1534,22 @@ def estimator_sensors(estimator: str) -> SensorSpec:
 
 
 #: Pointing requirements of the estimator scenarios (ECSS-E-ST-60-10C terms, over the final 60 s):
-#: APE ≤ 0.002° (7.2″) and RPE over 10 s ≤ 0.00005° (0.18″). What the sensors allow: the
-#: filters' attitude estimation error over that interval (``estimation_error_max_deg``) is
-#: ≈ 0.0006-0.0009° (2-3″) and a loop that passes no estimator noise points to within it
-#: (the PD family's APE ≈ 0.00084°, RPE ≈ 0.00003°), so the limits leave a controller about
-#: as much again as the estimation error, not a free pass.
+#: APE ≤ 0.003° (10.8″) and RPE over 10 s ≤ 0.0001° (0.36″), set from what the sensors allow.
+#: The filters' attitude estimation error over that interval (``estimation_error_max_deg``) is
+#: 0.0003-0.0014° (1-5″) over 8 dispersed members: the APE limit is about twice the worst of
+#: it. A loop that adds no noise of its own to the estimate (the PD family) shows a median RPE
+#: of 0.000048° (worst 0.00014°, a dispersed member still settling): the RPE limit is about
+#: twice that median. Neither is a free pass (``docs/estimators.md``: what they separate).
 ESTIMATOR_REQUIREMENTS: tuple[Requirement, ...] = (
-    Requirement("steady_error_max_deg", 0.002),
-    Requirement("rpe_deg", 0.00005, window_s=10.0),
+    Requirement("steady_error_max_deg", 0.003),
+    Requirement("rpe_deg", 0.0001, window_s=10.0),
 )
+
+
+#: Limits of the planned slews (``slew-90-planned``): body rate 0.02 rad/s (the SGCMG bus's
+#: ``‖Jâ‖·ω`` ≈ 280 N·m·s about (1, 1, 1)/√3, a third of the pyramid's 850 N·m·s envelope),
+#: acceleration 5e-4 rad/s² (``max_i |(Jâ)_i|·α`` ≈ 4.9 N·m) and jerk 1e-4 rad/s³ (5 s ramps).
+PLANNED_SLEW_LIMITS: dict[str, float] = {"max_rate": 0.02, "max_accel": 5e-4, "max_jerk": 1e-4}
 
 
 def _catalogue() -> tuple[Scenario, ...]:
@@ -1513,6 +1567,20 @@ def _catalogue() -> tuple[Scenario, ...]:
         rest_to_rest(150.0, tags=("manoeuvre", "large-angle")),
         rest_to_rest(179.0, tags=("quick", "manoeuvre", "large-angle")),
         rest_to_rest(120.0, RANDOM_AXIS, name="slew-120-random-axis"),
+        # slew-90 planned: the same start and target, flown as a jerk-limited eigenaxis profile
+        # with its rate/acceleration feed-forward (a 123.5 s slew; PLANNED_SLEW_LIMITS)
+        Scenario(
+            name="slew-90-planned",
+            description="the 90° slew of slew-90 flown as a planned eigenaxis profile "
+            "(≤ 0.02 rad/s, 5e-4 rad/s², 1e-4 rad/s³; 123.5 s) with rate and acceleration "
+            "feed-forward",
+            reference=ReferenceSpec(
+                "eigenaxis-profile",
+                slew_rotvec=tuple(math.radians(90.0) * np.array(SLEW_AXIS)),
+                **PLANNED_SLEW_LIMITS,
+            ),
+            tags=("manoeuvre", "planned"),
+        ),
         rest_to_rest(
             90.0,
             name="unwinding-q",
@@ -1658,7 +1726,7 @@ def _catalogue() -> tuple[Scenario, ...]:
             description="30° slew, controller fed by an MEKF: 8″/55″ (cross-boresight/roll) "
             "star tracker at 5 Hz with outages, navigation-grade gyro; judged on APE/RPE",
             sensors=estimator_sensors("mekf"),
-            attitude_tolerance_deg=0.002,
+            attitude_tolerance_deg=0.003,
             requirements=ESTIMATOR_REQUIREMENTS,
             tags=("manoeuvre", "sensors", "estimator"),
         ),
@@ -1668,7 +1736,7 @@ def _catalogue() -> tuple[Scenario, ...]:
             description="30° slew, controller fed by a manifold UKF: 8″/55″ (cross-boresight/"
             "roll) star tracker at 5 Hz with outages, navigation-grade gyro; judged on APE/RPE",
             sensors=estimator_sensors("ukf"),
-            attitude_tolerance_deg=0.002,
+            attitude_tolerance_deg=0.003,
             requirements=ESTIMATOR_REQUIREMENTS,
             tags=("manoeuvre", "sensors", "estimator"),
         ),

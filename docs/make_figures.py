@@ -19,6 +19,10 @@ under two minutes on one core) and is saved at 90 dpi. Names (and the page that 
 - ``se3_docking.png`` (se3.md): SE(3) proximity approach, errors and trajectory.
 - ``lemmas_regions.png``, ``lemmas_lyapunov.png`` (survey_lemmas.md): the survey-lemmas reproduction
   (``geometric-survey-lemmas``, reduced sample count).
+- ``planned_slew.png`` (modes.md): the jerk-limited eigenaxis profile, the geometric PD on the
+  step vs the planned 90° slew, Wie & Lu's rate-limited law on a 150° slew.
+- ``detumble.png`` (modes.md): B-dot and cross-product detumbling of a 3U CubeSat at two
+  inclinations against the averaged dynamics.
 """
 
 from __future__ import annotations
@@ -356,6 +360,105 @@ def survey_lemmas_figures(out: pathlib.Path) -> list[pathlib.Path]:
     return lemmas._figures(result, out)
 
 
+def planned_slew(out: pathlib.Path) -> pathlib.Path:
+    """The 90° slew of ``slew-90`` on the SGCMG bus: the jerk-limited eigenaxis profile
+    (``slew-90-planned``'s limits), the geometric PD (large-angle, common tuning) flying the step
+    and the planned profile, and Wie & Lu's rate-limited law on a 150° slew."""
+    from benchmarks.runner import build_plant
+    from benchmarks.scenarios import PLANNED_SLEW_LIMITS, SGCMG_SPACECRAFT, SLEW_AXIS
+    from liecontrol.control import ConstantAttitude
+    from liecontrol.control.eigenaxis import RateLimitedEigenaxis, wie_lu_gains
+    from liecontrol.control.geometric_pd import GeometricPD
+    from liecontrol.control.slew_profile import EigenaxisSlewProfile
+    from liecontrol.control.tuning import ClosedLoopSpec, tune_geometric_pd
+    from liecontrol.lie import so3
+    from spacecraft import simulate
+
+    plant, J = build_plant(SGCMG_SPACECRAFT), SGCMG_SPACECRAFT.J
+    axis = np.array(SLEW_AXIS)
+    R0 = so3.exp(np.pi / 2 * axis)
+    prof = EigenaxisSlewProfile(R0, np.eye(3), **PLANNED_SLEW_LIMITS)
+    fig, axes = plt.subplots(1, 3, figsize=(11, 3))
+    t = np.linspace(0.0, prof.slew_time + 10.0, 1200)
+    S = np.array([prof.angle_at(x) for x in t])
+    lim = PLANNED_SLEW_LIMITS
+    for k, (lab, scale) in enumerate(
+        (("s/θ", 1 / prof.angle), ("ṡ/max_rate", 1 / lim["max_rate"]),
+         ("s̈/max_accel", 1 / lim["max_accel"]), ("s⃛/max_jerk", 1 / lim["max_jerk"]))
+    ):
+        axes[0].plot(t, S[:, k] * scale, label=lab, lw=1.2 if k < 3 else 0.8)
+    axes[0].set_title(f"profile: 90°, T = {prof.slew_time:.1f} s", fontsize=9)
+    axes[0].legend(fontsize=7)
+    gains = tune_geometric_pd(J, ClosedLoopSpec(0.03, 0.9, 0.2), error="large_angle")
+    for name, ref in (("step", ConstantAttitude(np.eye(3))), ("planned", prof)):
+        res = simulate(plant, GeometricPD(J, **gains), ref, plant.initial_state(R0), 350.0, 0.1,
+                       control_period=0.2, log_every=5)
+        to_target = np.rad2deg(np.linalg.norm(so3.log(res.R[:, 0]), axis=-1))
+        track = np.rad2deg(res.attitude_error_angle()[:, 0])
+        axes[1].semilogy(res.t, np.maximum(to_target, 1e-6), label=f"{name}: to target")
+        if name == "planned":
+            axes[1].semilogy(res.t, np.maximum(track, 1e-6), "--", label="planned: to R_d(t)")
+    axes[1].axhline(0.1, color="k", lw=0.6)
+    axes[1].set_title("geometric PD, error [deg]", fontsize=9)
+    axes[1].legend(fontsize=7)
+    c = RateLimitedEigenaxis(J, max_rate=0.02, **wie_lu_gains(0.03, 0.9))
+    res = simulate(plant, c, ConstantAttitude(np.eye(3)),
+                   plant.initial_state(so3.exp(np.deg2rad(150.0) * axis)), 400.0, 0.1,
+                   control_period=0.2, log_every=5)
+    axes[2].plot(res.t, np.rad2deg(np.linalg.norm(res.omega[:, 0], axis=1)), label="‖ω‖")
+    axes[2].axhline(np.rad2deg(0.02), color="k", ls="--", lw=0.8, label="max_rate")
+    axes[2].set_title("Wie & Lu, 150° slew: body rate [deg/s]", fontsize=9)
+    axes[2].legend(fontsize=7)
+    for ax in axes:
+        ax.set_xlabel("t [s]")
+        ax.grid(True, which="both", alpha=0.3)
+    return _save(fig, out, "planned_slew.png")
+
+
+def detumble(out: pathlib.Path) -> pathlib.Path:
+    """Detumbling a 3U CubeSat from a separation tumble with B-dot and the cross-product law
+    (k = 5e-5 N·m·s, 80 % duty cycle) at two inclinations, against the averaged dynamics."""
+    import math
+
+    from spacecraft.detumble import (
+        DetumbleLaw,
+        Magnetometer,
+        separation_tumble,
+        simulate_detumble,
+    )
+    from spacecraft.geomagnetic import TiltedDipoleField
+    from spacecraft.orbit import CircularOrbit
+
+    J = np.diag([0.0419, 0.0419, 0.0067])
+    w0 = separation_tumble(1, (5.0, 10.0), seed=1)
+    k, d, thr = 5e-5, 0.8, math.radians(1.0)
+    fig, axes = plt.subplots(1, 2, figsize=(9, 3), sharey=True)
+    lam, V = np.linalg.eigh(J)
+    c = V.T @ w0[0]
+    for ax, inc in zip(axes, (97.5, 51.6), strict=True):
+        orbit = CircularOrbit.from_altitude(530e3, inclination=math.radians(inc))
+        tt = np.linspace(0.0, orbit.period, 400)
+        B2 = float(np.mean(np.sum(TiltedDipoleField().inertial(tt, orbit.position(tt)) ** 2, -1)))
+        for law in ("bdot", "cross-product"):
+            gain = k if law == "cross-product" else k / B2
+            res = simulate_detumble(
+                J, DetumbleLaw(gain, m_max=0.2, law=law, period=2.0, duty_cycle=d), w0, 6000.0,
+                threshold=thr, orbit=orbit, magnetometer=Magnetometer(1e-7, (2e-7, -1e-7, 3e-7)),
+                dt=1.0,
+            )
+            ax.plot(res.t, np.rad2deg(np.linalg.norm(res.omega[:, 0], axis=1)), label=law, lw=0.9)
+        t = np.linspace(0.0, 6000.0, 300)
+        avg = np.linalg.norm(c[None] * np.exp(-(2 / 3) * d * k * t[:, None] / lam), axis=1)
+        ax.plot(t, np.rad2deg(avg), "k--", lw=1, label="averaged (2/3)dk/J")
+        ax.axhline(1.0, color="grey", lw=0.6)
+        ax.set_title(f"530 km, i = {inc}°", fontsize=9)
+        ax.set_xlabel("t [s]")
+        ax.grid(True, alpha=0.3)
+    axes[0].set_ylabel("‖ω‖ [deg/s]")
+    axes[0].legend(fontsize=7)
+    return _save(fig, out, "detumble.png")
+
+
 FIGURES: dict[str, Callable[[pathlib.Path], object]] = {
     "geometric_pd_179": geometric_pd_179,
     "pid_ppc": pid_ppc,
@@ -368,6 +471,8 @@ FIGURES: dict[str, Callable[[pathlib.Path], object]] = {
     "cmg_singular_transit": cmg_singular_transit,
     "se3_docking": se3_docking,
     "survey_lemmas": survey_lemmas_figures,
+    "planned_slew": planned_slew,
+    "detumble": detumble,
 }
 
 

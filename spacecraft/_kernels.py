@@ -69,7 +69,7 @@ def rigid_acceleration(
     )
 
 
-@njit
+@njit(inline="always")
 def cmg_momentum_jacobian(
     S0: np.ndarray, C0: np.ndarray, delta: np.ndarray, A_out: np.ndarray, sn: np.ndarray,
     cs: np.ndarray,
@@ -154,7 +154,7 @@ def _solve3_pivot(M: np.ndarray, r0: float, r1: float, r2: float) -> tuple[float
     return x0, x1, x2
 
 
-@njit
+@njit(inline="always")
 def gram(A: np.ndarray) -> tuple[float, float, float, float, float, float]:
     """Upper triangle (M00, M01, M02, M11, M12, M22) of M = AAᵀ for ``A (3, n)``."""
     a = b = c = d = e = f = 0.0
@@ -171,7 +171,7 @@ def gram(A: np.ndarray) -> tuple[float, float, float, float, float, float]:
     return a, b, c, d, e, f
 
 
-@njit
+@njit(inline="always")
 def _regularised_multiplier(
     g: tuple, lam: float, eps: float, gsr: bool, e1: float, e2: float, e3: float,
     q0: float, q1: float, q2: float,
@@ -219,7 +219,7 @@ def _regularised_multiplier(
     return _solve3_pivot(Mr, q0, q1, q2)
 
 
-@njit
+@njit(inline="always")
 def steer_regularised(
     kind: int, p: np.ndarray, t: float, A: np.ndarray, q0: float, q1: float, q2: float,
     out: np.ndarray,
@@ -315,7 +315,7 @@ def steer_null_motion(
         out[i] = pinv + k * (out[i] - proj)
 
 
-@njit
+@njit(inline="always")
 def sgcmg_command(
     S0: np.ndarray, C0: np.ndarray, steer: int, sp: np.ndarray, rate_limit: float,
     u: np.ndarray, w: np.ndarray, delta: np.ndarray, t: float,
@@ -389,32 +389,26 @@ def actuator_torque(
 @njit(inline="always")
 def _field(
     act: int, J: np.ndarray, Jinv: np.ndarray, S0: np.ndarray, C0: np.ndarray,
-    dist: int, dp: np.ndarray, t: float, x: np.ndarray, xo: int, held: np.ndarray,
-    work: np.ndarray, do: int, so: int, co: int, trig: bool,
-) -> None:  # fmt: skip
-    """ẋ of the packed state x = (ω, x_act) = ``x[xo:xo + n]`` for a held actuator command,
-    into ``work[do:do + n]``. SGCMG: ``work`` from ``so`` and ``co`` holds sin and cos of the
-    gimbal angles, computed here when ``trig`` is set (the RK stages 2 and 3 share their angles:
-    x + h/2 δ̇ with the same held δ̇)."""
-    w0, w1, w2 = x[xo], x[xo + 1], x[xo + 2]
+    dist: int, dp: np.ndarray, t: float, w0: float, w1: float, w2: float, x: np.ndarray,
+    xo: int, held: np.ndarray, work: np.ndarray, so: int, co: int, trig: bool,
+) -> tuple[float, float, float]:  # fmt: skip
+    """ω̇ of the packed state (ω, x_act) for a held actuator command (the actuator state's own
+    derivative is the held δ̇ of the SGCMG, nothing for the ideal actuator); the rate ω is
+    passed as values, the actuator state is ``x[xo:]``. SGCMG: ``work`` from ``so`` and ``co``
+    holds sin and cos of the gimbal angles, computed here when ``trig`` is set (the RK stages 2
+    and 3 share their angles: x + h/2 δ̇ with the same held δ̇)."""
     if act == ACT_SGCMG:
         m = held.shape[0]
         if trig:
-            sincos_into(x, xo + 3, m, work, so, co)
+            sincos_into(x, xo, m, work, so, co)
         t0, t1, t2 = cmg_bus_torque_at(S0, C0, w0, w1, w2, work, so, co, held)
     else:
         t0, t1, t2 = held[0], held[1], held[2]
     d0, d1, d2 = disturbance_at(dist, dp, t)
-    a0, a1, a2 = rigid_acceleration(J, Jinv, w0, w1, w2, t0 + d0, t1 + d1, t2 + d2)
-    work[do] = a0
-    work[do + 1] = a1
-    work[do + 2] = a2
-    if act == ACT_SGCMG:
-        for i in range(held.shape[0]):
-            work[do + 3 + i] = held[i]
+    return rigid_acceleration(J, Jinv, w0, w1, w2, t0 + d0, t1 + d1, t2 + d2)
 
 
-@njit
+@njit(inline="always")
 def rkmk4_step(
     act: int, J: np.ndarray, Jinv: np.ndarray, S0: np.ndarray, C0: np.ndarray,
     dist: int, dp: np.ndarray, t: float, R: np.ndarray, x: np.ndarray, held: np.ndarray,
@@ -425,37 +419,56 @@ def rkmk4_step(
     2K₂ + 2K₃ + K₄)). The time-only disturbances do not read the stage attitudes. ``work``
     (≥ 7n) is scratch space; with ``trig_ready`` its slots ``[5n, 5n + m)`` and
     ``[6n, 6n + m)`` already hold sin and cos of the m gimbal angles x[3:] (the SGCMG command of
-    the same step computed them)."""
+    the same step computed them). The stage rates and their derivatives are kept in locals
+    (values, not scratch-array round trips); the actuator state's derivative is the held command
+    in every stage (SGCMG: δ̇), so its stages are x + c h δ̇."""
     n = x.shape[0]
+    m = n - 3
     h2 = 0.5 * h
-    # work: stage derivatives at 0, n, 2n, 3n; the stage state at 4n; sin, cos at 5n, 6n
-    o2, o3, o4, os_, so, co = n, 2 * n, 3 * n, 4 * n, 5 * n, 6 * n
-    _field(act, J, Jinv, S0, C0, dist, dp, t, x, 0, held, work, 0, so, co, not trig_ready)
-    a0, a1, a2 = x[0], x[1], x[2]
-    u0, u1, u2 = h2 * a0, h2 * a1, h2 * a2
-    for i in range(n):
-        work[os_ + i] = x[i] + h2 * work[i]
-    _field(act, J, Jinv, S0, C0, dist, dp, t + h2, work, os_, held, work, o2, so, co, True)
-    b0, b1, b2 = dexpinv_rkmk4(u0, u1, u2, work[os_], work[os_ + 1], work[os_ + 2])
+    # work: the stage's actuator state at 4n + 3; sin, cos of the gimbal angles at 5n, 6n
+    os_, so, co = 4 * n, 5 * n, 6 * n
+    x0, x1, x2 = x[0], x[1], x[2]
+    k10, k11, k12 = _field(
+        act, J, Jinv, S0, C0, dist, dp, t, x0, x1, x2, x, 3, held, work, so, co, not trig_ready
+    )
+    u0, u1, u2 = h2 * x0, h2 * x1, h2 * x2
+    s0, s1, s2 = x0 + h2 * k10, x1 + h2 * k11, x2 + h2 * k12
+    for i in range(m):
+        work[os_ + 3 + i] = x[3 + i] + h2 * held[i]
+    k20, k21, k22 = _field(
+        act, J, Jinv, S0, C0, dist, dp, t + h2, s0, s1, s2, work, os_ + 3, held, work, so, co,
+        True,
+    )  # fmt: skip
+    b0, b1, b2 = dexpinv_rkmk4(u0, u1, u2, s0, s1, s2)
     u0, u1, u2 = h2 * b0, h2 * b1, h2 * b2
-    for i in range(n):
-        work[os_ + i] = x[i] + h2 * work[o2 + i]
+    s0, s1, s2 = x0 + h2 * k20, x1 + h2 * k21, x2 + h2 * k22
     # stage 3 has stage 2's gimbal angles bitwise (ẋ_act = held δ̇ in both): reuse sin/cos
-    _field(act, J, Jinv, S0, C0, dist, dp, t + h2, work, os_, held, work, o3, so, co, False)
-    c0, c1, c2 = dexpinv_rkmk4(u0, u1, u2, work[os_], work[os_ + 1], work[os_ + 2])
+    k30, k31, k32 = _field(
+        act, J, Jinv, S0, C0, dist, dp, t + h2, s0, s1, s2, work, os_ + 3, held, work, so, co,
+        False,
+    )  # fmt: skip
+    c0, c1, c2 = dexpinv_rkmk4(u0, u1, u2, s0, s1, s2)
     u0, u1, u2 = h * c0, h * c1, h * c2
-    for i in range(n):
-        work[os_ + i] = x[i] + h * work[o3 + i]
-    _field(act, J, Jinv, S0, C0, dist, dp, t + h, work, os_, held, work, o4, so, co, True)
-    e0, e1, e2 = dexpinv_rkmk4(u0, u1, u2, work[os_], work[os_ + 1], work[os_ + 2])
+    s0, s1, s2 = x0 + h * k30, x1 + h * k31, x2 + h * k32
+    for i in range(m):
+        work[os_ + 3 + i] = x[3 + i] + h * held[i]
+    k40, k41, k42 = _field(
+        act, J, Jinv, S0, C0, dist, dp, t + h, s0, s1, s2, work, os_ + 3, held, work, so, co,
+        True,
+    )  # fmt: skip
+    e0, e1, e2 = dexpinv_rkmk4(u0, u1, u2, s0, s1, s2)
     h6 = h / 6.0
-    for i in range(n):
-        x_out[i] = x[i] + (((work[o2 + i] + work[o3 + i]) * 2.0 + work[i]) + work[o4 + i]) * h6
+    x_out[0] = x0 + (((k20 + k30) * 2.0 + k10) + k40) * h6
+    x_out[1] = x1 + (((k21 + k31) * 2.0 + k11) + k41) * h6
+    x_out[2] = x2 + (((k22 + k32) * 2.0 + k12) + k42) * h6
+    for i in range(m):
+        d = held[i]
+        x_out[3 + i] = x[3 + i] + (((d + d) * 2.0 + d) + d) * h6
     right_multiply_exp_into(
         R,
-        h6 * (a0 + 2.0 * (b0 + c0) + e0),
-        h6 * (a1 + 2.0 * (b1 + c1) + e1),
-        h6 * (a2 + 2.0 * (b2 + c2) + e2),
+        h6 * (x0 + 2.0 * (b0 + c0) + e0),
+        h6 * (x1 + 2.0 * (b1 + c1) + e1),
+        h6 * (x2 + 2.0 * (b2 + c2) + e2),
         R_out,
     )
 

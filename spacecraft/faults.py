@@ -97,6 +97,10 @@ __all__ = [
     "Reconfigurability",
     "reconfigurability",
     "with_faults",
+    "RECONFIGURATION_MODES",
+    "FDI_NOISE_STD",
+    "FDI_MIN_BIAS",
+    "default_detector",
 ]
 
 #: The fault kinds, as written in scenario files (``[[scenario.fault]] kind = ...``).
@@ -110,6 +114,22 @@ FAULT_KINDS: tuple[str, ...] = (
 # a fault at ``time`` is active at the step starting at t ≥ time; the step times t0 + k dt
 # carry rounding, so a fault on the grid is not missed by one ulp
 _TIME_RTOL = 1e-9
+
+#: What triggers the reconfiguration (:func:`with_faults`, :class:`ReconfiguredSteering`):
+#: ``"oracle"`` — the steering/distribution is told the lost units at the exact fault time
+#: (perfect isolation, zero delay: an idealisation, kept for comparison); ``"detector"`` — the
+#: units whose loss test a residual detector (:class:`spacecraft.fdi.ResidualCusum`) raises are
+#: taken offline from the sample after its alarm (delay and false alarms included; a bias alarm
+#: is reported, not acted on — as the oracle is told lost units only).
+RECONFIGURATION_MODES: tuple[str, ...] = ("oracle", "detector")
+#: Standard deviation of the simulated unit-rate measurement of the default detector, per
+#: actuator kind: gimbal-rate tachometer 1e-4 rad/s (SGCMG), delivered wheel motor torque
+#: 1e-3 N·m (wheels; from the wheel-speed derivative), ideal axes 1e-3 N·m. Assumed sensor
+#: classes, not a datasheet.
+FDI_NOISE_STD: dict[str, float] = {"sgcmg": 1e-4, "wheels": 1e-3, "ideal": 1e-3}
+#: Smallest unit bias the default detector tests for (``None``: no bias test): half the
+#: benchmark family's 1 mrad/s gimbal-rate bias.
+FDI_MIN_BIAS: dict[str, float | None] = {"sgcmg": 5e-4, "wheels": None, "ideal": None}
 
 
 @dataclass(frozen=True)
@@ -383,10 +403,22 @@ class FaultyActuator(Actuator):
             directions (then a ``UserWarning``); default: ``ValueError``.
         compensate: with ``reconfigure``, also invert the known efficiency and bias of the
             healthy wheels (``False``: only the lost wheels are known).
+        detector: a :class:`spacecraft.fdi.ResidualCusum` over the ``n_units`` units, or
+            ``None``. Each command, the unit commands ``c`` (gimbal rates, wheel motor torques,
+            axis torques) and the delivered ones plus white noise of the detector's
+            ``noise_std`` (the simulated tachometer / wheel-speed-derivative measurement) update
+            it; with ``reconfigure`` (wheels) the distribution then drops the units whose loss
+            test it has raised, per spacecraft, instead of the lost ones known from the fault
+            list (the
+            ``"detector"`` trigger of :data:`RECONFIGURATION_MODES`; ``compensate`` must be
+            ``False``). A new run (time going back, or another batch size) resets it.
+        seed: seed of the measurement noise (reset with the detector).
 
     Logged: everything the inner actuator logs, plus ``fault_active`` ``(B, n_faults)`` bool;
     derived (SGCMG): ``singularity_remaining`` ``(K, B)``, the singularity measure of the
     gimbals still turning at each logged time (= ``singularity`` before any gimbal sticks).
+    With a detector, :attr:`detection_time` ``(B, n_units)`` holds each unit's first alarm time
+    [s] (NaN: none); :func:`fault_detection_report` turns it into delay and false alarms.
     """
 
     def __init__(
@@ -396,6 +428,8 @@ class FaultyActuator(Actuator):
         reconfigure: bool = False,
         allow_underactuated: bool = False,
         compensate: bool = True,
+        detector: Any = None,
+        seed: int = 0,
     ) -> None:
         kind, n, _ = _actuator_units(inner, "inner")
         self.faults = check_faults(faults, kind, n)
@@ -423,9 +457,69 @@ class FaultyActuator(Actuator):
                 raise ValueError(f"faults: {rep.note} (pass allow_underactuated=True to run it)")
             warnings.warn(rep.note, UserWarning, stacklevel=2)
         self._command = getattr(inner, "command_unchecked", inner.command)
+        self.detector = _check_detector(detector, n)
+        if self.detector is not None and reconfigure and compensate:
+            raise ValueError(
+                "compensate: a detector isolates units, it does not estimate their efficiency "
+                "or bias; pass compensate=False with a detector"
+            )
+        self.seed = as_int(seed, "seed", 0)
+        self._det_t: float | None = None
+        self._times: list[float] = []
+        self._rng = np.random.default_rng(self.seed)
 
     def __repr__(self) -> str:
         return f"FaultyActuator({self.inner!r}, faults={self.faults!r})"
+
+    # ------------------------------------------------------------------ fault detection
+    def _new_run(self, t: float, B: int) -> None:
+        """Reset the detector at the start of a run (time going back or a new batch size)."""
+        det = self.detector
+        if det is None:
+            return
+        if self._det_t is None or t < self._det_t or det.statistic.shape[0] != B:
+            det.reset(B)
+            self._times = []
+            self._det_t = None
+            self._rng = np.random.default_rng(self.seed)
+
+    def _isolated(self, B: int) -> np.ndarray | None:
+        """``(B, n_units)`` units the detector has isolated, or ``None`` (none / no detector)."""
+        det = self.detector
+        if det is None or det.alarm_sample.shape[0] != B:
+            return None
+        iso = det.alarm_hypothesis == 0  # the loss test: the unit delivers too little
+        return iso if iso.any() else None
+
+    def _detect(self, t: float, commanded: np.ndarray, delivered: np.ndarray) -> None:
+        det = self.detector
+        if det is None or (self._det_t is not None and t == self._det_t):
+            return
+        noise = self._rng.normal(scale=det.noise_std, size=commanded.shape)
+        det.update(commanded, delivered + noise)
+        self._times.append(t)
+        self._det_t = t
+
+    @property
+    def detection_time(self) -> np.ndarray:
+        """``(B, n_units)`` time [s] of each unit's first detector alarm in the last run: the
+        time of the command after the alarming sample — the measured rate of the command held
+        from ``t`` is known at the next command, which is also the first one the isolation acts
+        on (NaN: no alarm, or one on the run's last sample; an empty ``(0, n_units)`` array
+        without a detector)."""
+        det = self.detector
+        if det is None:
+            return np.zeros((0, self.n_units))
+        k = det.alarm_sample
+        times = np.asarray(self._times + [np.nan], dtype=np.float64)
+        return np.where(k >= 0, times[np.clip(k + 1, 0, len(self._times))], np.nan)
+
+    def _unit_commands(self, held: Any) -> np.ndarray:
+        if self.kind == "sgcmg":
+            return held.delta_dot
+        if self.kind == "wheels":
+            return held.torque
+        return held
 
     def initial_state(self, batch: int) -> np.ndarray:
         return self.inner.initial_state(batch)
@@ -443,24 +537,37 @@ class FaultyActuator(Actuator):
     def command_unchecked(
         self, u_cmd: np.ndarray, omega: np.ndarray, x_act: np.ndarray, t: float
     ) -> Any:
-        """The inner command, with the faults active at ``t`` applied to the unit commands."""
+        """The inner command, with the faults active at ``t`` applied to the unit commands
+        (and, with a detector, its update and the isolated units' redistribution)."""
+        B = u_cmd.shape[0]
+        self._new_run(t, B)  # before the inner command: the steering reads the detector
         held = self._command(u_cmd, omega, x_act, t)
-        if not any(f.active(t) for f in self.faults):
-            return _Held(held, None, np.zeros((u_cmd.shape[0], len(self.faults)), dtype=bool))
+        active = any(f.active(t) for f in self.faults)
+        iso = self._isolated(B) if self.reconfigure else None
+        if not active and iso is None:
+            if self.detector is not None:
+                c = self._unit_commands(held)
+                self._detect(t, c, c)
+            return _Held(held, None, np.zeros((B, len(self.faults)), dtype=bool))
         gain, offset, dead, act = _fault_map(self.faults, t, self.n_units)
-        flags = np.broadcast_to(act, (u_cmd.shape[0], len(self.faults)))
+        flags = np.broadcast_to(act, (B, len(self.faults)))
         if self.kind == "sgcmg":
-            dd = held.delta_dot * gain + offset
+            c = held.delta_dot
+            dd = c * gain + offset
             new = CmgCommand(delta_dot=dd, saturated=held.saturated, h_dot_cmd=held.h_dot_cmd)
+            out = dd
         elif self.kind == "wheels":
-            tau = held.torque_cmd if self.reconfigure else held.torque
             if self.reconfigure:
-                tau = self._redistribute(held, x_act, gain, offset, dead)
+                known = dead if self.detector is None else iso
+                c, out = self._redistribute(held, x_act, gain, offset, dead, known)
             else:
-                tau = tau * gain + offset
-            new = dataclasses.replace(held, torque=tau)
+                c = held.torque
+                out = c * gain + offset
+            new = dataclasses.replace(held, torque=out)
         else:
-            new = held * gain + offset
+            c = held
+            new = out = held * gain + offset
+        self._detect(t, c, out)
         return _Held(new, dead if self._servo and dead.any() else None, flags)
 
     def _redistribute(
@@ -470,22 +577,32 @@ class FaultyActuator(Actuator):
         gain: np.ndarray,
         offset: np.ndarray,
         dead: np.ndarray,
-    ) -> np.ndarray:
+        known: np.ndarray | None = None,
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Healthy-wheel distribution: the delivered torques x = A_r⁺ ḣ_cmd (minimum norm over
-        the healthy wheels), then the command c with gain·c + offset = x, then the limits."""
+        the wheels known to be healthy — ``known`` lost: ``(n,)`` or per spacecraft
+        ``(B, n)``; ``None``: none), then the command c with gain·c + offset = x, then the
+        limits. Returns ``(c, gain·c + offset)``: the command and what the wheels deliver."""
         rw: ReactionWheelAssembly = self.inner  # type: ignore[assignment]
-        ok = ~dead
-        A_r = rw.axes[:, ok]
+        B = held.torque_cmd.shape[0]
+        kn = np.zeros((B, self.n_units), dtype=bool) if known is None else known
+        kn = np.broadcast_to(kn, (B, self.n_units))
         x = np.zeros(held.torque_cmd.shape)
-        x[:, ok] = held.h_dot_cmd @ np.linalg.pinv(A_r).T
         c = np.zeros_like(x)
-        if self.compensate:
-            c[:, ok] = (x[:, ok] - offset[ok]) / gain[ok]
-        else:
-            c[:, ok] = x[:, ok]
+        for pattern in {tuple(r) for r in kn}:
+            rows = np.all(kn == np.array(pattern), axis=1)
+            ok = ~np.array(pattern, dtype=bool)
+            A_r = rw.axes[:, ok]
+            xr = np.zeros((int(rows.sum()), self.n_units))
+            xr[:, ok] = held.h_dot_cmd[rows] @ np.linalg.pinv(A_r).T
+            x[rows] = xr
+            if self.compensate:
+                c[np.ix_(rows, ok)] = (xr[:, ok] - offset[ok]) / gain[ok]
+            else:
+                c[np.ix_(rows, ok)] = xr[:, ok]
         c = np.clip(c, -rw.max_torque, rw.max_torque)
         c[rw._speed_gate(x_act, c * gain + offset)] = 0.0
-        return c * gain + offset
+        return c, c * gain + offset
 
     def _masked(self, x_act: np.ndarray, held: _Held) -> np.ndarray:
         """Servo state with the stuck gimbals' actual rates at 0."""
@@ -568,6 +685,16 @@ class ReconfiguredSteering(SteeringLaw):
         n_units: number of gimbals (4 for the pyramid).
         compensate: invert the known efficiency/bias of the faulty gimbals.
         allow_underactuated: permit fewer than 3 healthy gimbals (warns; then least squares).
+        reconfiguration: what triggers it (:data:`RECONFIGURATION_MODES`): ``"oracle"``
+            (default) — the lost gimbals of ``faults`` from their exact fault time;
+            ``"detector"`` — per spacecraft, the gimbals whose *loss* test ``detector`` has
+            raised (its latched alarms, updated by the :class:`FaultyActuator` sharing it: a
+            gimbal delivering half its command or less — stuck, or the family's 30 % unit) are
+            dropped from the sample after the alarm; a bias alarm is reported, not acted on
+            (as the oracle, which is told lost units only: the controller rejects a bias);
+            ``faults`` is then not used to steer and ``compensate`` must be ``False`` (the
+            detector does not estimate efficiency or bias).
+        detector: the shared :class:`spacecraft.fdi.ResidualCusum` (``"detector"`` only).
     """
 
     law: SteeringLaw
@@ -576,6 +703,8 @@ class ReconfiguredSteering(SteeringLaw):
     n_units: int = 4
     compensate: bool = True
     allow_underactuated: bool = False
+    reconfiguration: str = "oracle"
+    detector: Any = dataclasses.field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         for name in ("law", "reduced_law"):
@@ -589,6 +718,22 @@ class ReconfiguredSteering(SteeringLaw):
         for name in ("compensate", "allow_underactuated"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"{name}: expected a bool, got {getattr(self, name)!r}")
+        if self.reconfiguration not in RECONFIGURATION_MODES:
+            raise ValueError(
+                f"reconfiguration: expected one of {RECONFIGURATION_MODES}, got "
+                f"{self.reconfiguration!r}"
+            )
+        if self.reconfiguration == "detector":
+            if self.detector is None:
+                raise ValueError("detector: reconfiguration='detector' needs a ResidualCusum")
+            _check_detector(self.detector, n)
+            if self.compensate:
+                raise ValueError(
+                    "compensate: a detector isolates units, it does not estimate their "
+                    "efficiency or bias; pass compensate=False with reconfiguration='detector'"
+                )
+        elif self.detector is not None:
+            raise ValueError("detector: applies to reconfiguration='detector' only")
         left = _alive(self.faults, math.inf, n)
         if len(left) < 3:
             msg = (
@@ -602,7 +747,32 @@ class ReconfiguredSteering(SteeringLaw):
     def _active(self, t: float) -> bool:
         return any(f.active(t) for f in self.faults)
 
+    def _steer_detected(self, A, hdot_cmd, delta, t, cluster) -> np.ndarray:
+        """``"detector"``: the nominal law where nothing is isolated, the reduced law without
+        the isolated gimbals elsewhere (per spacecraft)."""
+        det = self.detector
+        A = np.asarray(A, dtype=np.float64)
+        B = A.shape[0] if A.ndim == 3 else 1
+        iso = det.alarm_hypothesis == 0 if det.alarm_sample.shape[0] == B else None
+        if iso is None or not iso.any():
+            return self.law.steer(A, hdot_cmd, delta, t, cluster)
+        A3 = A.reshape(B, 3, -1)
+        hd = np.asarray(hdot_cmd, dtype=np.float64).reshape(B, 3)
+        out = np.array(self.law.steer(A, hdot_cmd, delta, t, cluster), dtype=np.float64)
+        out = out.reshape(B, -1)
+        for pattern in {tuple(r) for r in iso if r.any()}:
+            rows = np.all(iso == np.array(pattern), axis=1)
+            ok = np.flatnonzero(~np.array(pattern, dtype=bool))
+            o = np.zeros((int(rows.sum()), self.n_units))
+            if ok.size:
+                A_r = np.ascontiguousarray(A3[rows][..., ok])
+                o[:, ok] = self.reduced_law.steer(A_r, hd[rows], None, t, None)
+            out[rows] = o
+        return out.reshape(A.shape[:-2] + (A.shape[-1],))
+
     def steer(self, A, hdot_cmd, delta=None, t=0.0, cluster=None) -> np.ndarray:
+        if self.reconfiguration == "detector":
+            return self._steer_detected(A, hdot_cmd, delta, t, cluster)
         if not self._active(t):
             return self.law.steer(A, hdot_cmd, delta, t, cluster)
         gain, offset, dead, _ = _fault_map(self.faults, t, self.n_units)
@@ -620,6 +790,76 @@ class ReconfiguredSteering(SteeringLaw):
         if self.compensate:
             out[..., ok] = (out[..., ok] - offset[ok]) / gain[ok]
         return out
+
+
+def _check_detector(detector: Any, n: int) -> Any:
+    """``detector`` (a :class:`spacecraft.fdi.ResidualCusum` over ``n`` units) or ``None``."""
+    if detector is None:
+        return None
+    from .fdi import ResidualCusum
+
+    if not isinstance(detector, ResidualCusum):
+        raise ValueError(f"detector: expected a ResidualCusum, got {type(detector).__name__}")
+    if detector.n_units != n:
+        raise ValueError(f"detector: expected n_units = {n}, got {detector.n_units}")
+    return detector
+
+
+def default_detector(actuator: Actuator, false_alarm_samples: float = 1.0e6) -> Any:
+    """The residual CUSUM (:class:`spacecraft.fdi.ResidualCusum`) of :func:`with_faults`'s
+    ``"detector"`` trigger for ``actuator``: one statistic per unit and hypothesis, noise
+    :data:`FDI_NOISE_STD` and bias test :data:`FDI_MIN_BIAS` of its kind, ``min_loss`` 0.5 (a
+    unit delivering half its command or less: a stuck gimbal, a failed wheel, the family's 30 %
+    unit), threshold ``h = ln(n_stats · false_alarm_samples)`` — at most one false alarm per
+    ``false_alarm_samples`` samples and spacecraft (Lorden's bound, :mod:`spacecraft.fdi`)."""
+    from .fdi import ResidualCusum
+
+    kind, n, _ = _actuator_units(actuator)
+    return ResidualCusum(
+        n,
+        FDI_NOISE_STD[kind],
+        min_loss=0.5,
+        min_bias=FDI_MIN_BIAS[kind],
+        false_alarm_samples=false_alarm_samples,
+    )
+
+
+def fault_detection_report(
+    faults: Sequence[ActuatorFault], detection_time: object
+) -> tuple[np.ndarray, np.ndarray]:
+    """Detection delay and false alarms per spacecraft from a detector's first alarm times
+    ``detection_time`` ``(B, n_units)`` [s] (NaN: no alarm; :attr:`FaultyActuator.
+    detection_time`): ``delay`` ``(B,)`` — the first alarm on a faulty unit at or after its
+    fault, minus the earliest fault time (NaN: the fault was not detected, or no fault);
+    ``false_alarms`` ``(B,)`` — units alarmed that carry no fault, or alarmed before their
+    fault struck."""
+    try:
+        T = np.asarray(detection_time, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"detection_time: expected a real (B, n_units) array, got {detection_time!r}"
+        ) from None
+    if T.ndim != 2 or np.isinf(T).any() or (T < 0.0).any():
+        raise ValueError("detection_time: expected (B, n_units) times >= 0 or NaN (no alarm)")
+    if not isinstance(faults, (list, tuple)):
+        raise ValueError(f"faults: expected a sequence of ActuatorFault, got {faults!r}")
+    fs = tuple(faults)
+    for f in fs:
+        if not isinstance(f, ActuatorFault) or not 0 <= f.unit < T.shape[1]:
+            raise ValueError(f"faults: expected ActuatorFault items on units < {T.shape[1]}")
+    onset = np.full(T.shape[1], np.inf)
+    for f in fs:
+        onset[f.unit] = min(onset[f.unit], f.time)
+    alarmed = np.isfinite(T)
+    faulty = np.isfinite(onset)[None, :]
+    tol = _TIME_RTOL * np.maximum(1.0, np.where(np.isfinite(onset), np.abs(onset), 1.0))
+    early = alarmed & (T < (onset - tol)[None, :])
+    false_alarms = np.sum(alarmed & (~faulty | early), axis=1).astype(np.float64)
+    hit = alarmed & faulty & ~early
+    first = np.where(hit, T, np.inf).min(axis=1)
+    t0 = float(onset.min()) if np.isfinite(onset).any() else np.nan
+    delay = np.where(np.isfinite(first), first - t0, np.nan)
+    return delay, false_alarms
 
 
 def reduced_singularity_measure(
@@ -745,25 +985,47 @@ def with_faults(
     reconfigure: bool = True,
     compensate: bool = False,
     allow_underactuated: bool = False,
+    reconfiguration: str = "oracle",
+    detector: Any = None,
 ) -> Any:
     """``plant`` (a :class:`spacecraft.plant.Spacecraft`) with ``faults`` injected: its actuator
     wrapped in :class:`FaultyActuator`. With ``reconfigure`` (default) an SGCMG actuator is
     rebuilt with :class:`ReconfiguredSteering` over its own steering law and wheels redistribute
-    over the healthy ones: the steering is told which units are *lost* (a stuck gimbal or a
-    dead wheel is what fault isolation reports). ``compensate`` also tells it the size of an
-    efficiency loss or a bias (default ``False``: those stay unknown, for the controller to
-    reject — the benchmark's setting). ``faults = ()`` returns ``plant`` unchanged."""
+    over the healthy ones. ``reconfiguration`` (:data:`RECONFIGURATION_MODES`) says what
+    triggers it: ``"oracle"`` (default) — the steering is told which units are *lost* (a stuck
+    gimbal or a dead wheel) at the exact fault time, perfect isolation with zero delay;
+    ``"detector"`` — a residual CUSUM (``detector``, default :func:`default_detector`) shared by
+    the steering and the wrapper isolates units from the commanded vs measured unit rates; a
+    unit whose loss test alarms (it delivers half its command or less) is dropped from the
+    sample after the alarm, per spacecraft, a bias alarm is reported only (its alarm times:
+    :attr:`FaultyActuator.detection_time`). ``compensate`` (oracle only) also tells it
+    the size of an efficiency loss or a bias (default ``False``: those stay unknown, for the
+    controller to reject — the benchmark's setting). ``faults = ()`` returns ``plant``
+    unchanged."""
     from .plant import Spacecraft
 
     if not isinstance(plant, Spacecraft):
         raise ValueError(f"plant: expected a Spacecraft, got {type(plant).__name__}")
     if not isinstance(reconfigure, bool):
         raise ValueError(f"reconfigure: expected a bool, got {reconfigure!r}")
+    if reconfiguration not in RECONFIGURATION_MODES:
+        raise ValueError(
+            f"reconfiguration: expected one of {RECONFIGURATION_MODES}, got {reconfiguration!r}"
+        )
     act = plant.actuator
     kind, n, _ = _actuator_units(act)
     fs = check_faults(faults, kind, n)
     if not fs:
         return plant
+    if reconfiguration == "detector":
+        detector = default_detector(act) if detector is None else _check_detector(detector, n)
+        if compensate:
+            raise ValueError(
+                "compensate: a detector isolates units, it does not estimate their efficiency "
+                "or bias; pass compensate=False with reconfiguration='detector'"
+            )
+    elif detector is not None:
+        raise ValueError("detector: applies to reconfiguration='detector' only")
     if reconfigure and kind == "sgcmg":
         if not isinstance(act.steering, SteeringLaw):
             raise ValueError(
@@ -778,6 +1040,8 @@ def with_faults(
             n_units=n,
             compensate=compensate,
             allow_underactuated=allow_underactuated,
+            reconfiguration=reconfiguration,
+            detector=detector,
         )
         act = SgcmgActuator(act.cluster, steering, act.delta0, act.servo)
     wrapped = FaultyActuator(
@@ -786,5 +1050,6 @@ def with_faults(
         reconfigure=reconfigure and kind == "wheels",
         allow_underactuated=allow_underactuated,
         compensate=compensate,
+        detector=detector,
     )
     return dataclasses.replace(plant, actuator=wrapped)

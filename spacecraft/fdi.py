@@ -75,7 +75,8 @@ class ResidualCusum:
     Use: ``reset(B)``, then ``update(command, measured)`` once per sample with ``(B, n_units)``
     arrays; it returns the ``(B, n_units)`` alarm flags of this sample (latched: a unit stays
     flagged). ``alarm_sample`` ``(B, n_units)`` holds the first alarm sample (−1: none),
-    ``statistic`` ``(B, n_units, n_hyp)`` the CUSUM values.
+    ``alarm_hypothesis`` ``(B, n_units)`` which test raised it (0: the loss test, 1/2: the
+    +/− bias tests; −1: none), ``statistic`` ``(B, n_units, n_hyp)`` the CUSUM values.
     """
 
     n_units: int
@@ -86,6 +87,7 @@ class ResidualCusum:
     threshold: float | None = None
     statistic: np.ndarray = field(init=False, repr=False)
     alarm_sample: np.ndarray = field(init=False, repr=False)
+    alarm_hypothesis: np.ndarray = field(init=False, repr=False)
     _k: int = field(init=False, repr=False, default=0)
 
     def __post_init__(self) -> None:
@@ -123,6 +125,7 @@ class ResidualCusum:
             raise ValueError(f"batch_size: {B} spacecraft × {self.n_units} units is too many")
         self.statistic = np.zeros((B, self.n_units, self.n_hypotheses))
         self.alarm_sample = np.full((B, self.n_units), -1, dtype=np.int64)
+        self.alarm_hypothesis = np.full((B, self.n_units), -1, dtype=np.int64)
         self._k = 0
 
     def update(self, command: object, measured: object) -> np.ndarray:
@@ -145,6 +148,8 @@ class ResidualCusum:
         crossed = (self.statistic >= self.threshold).any(axis=-1)
         new = crossed & (self.alarm_sample < 0)
         self.alarm_sample[new] = self._k
+        # the test that crossed (the largest excess over the threshold)
+        self.alarm_hypothesis[new] = np.argmax(self.statistic, axis=-1)[new]
         self._k += 1
         return self.alarm_sample >= 0
 

@@ -17,8 +17,11 @@ the external torque ``τ_des = −k (h − h_target)`` (the attitude loop holds 
 actuator absorbs what the thrusters apply, ``ḣ ≈ τ_d + τ_thr``; sign as for
 :class:`spacecraft.momentum.CrossProductDumping`). Per body axis a PWPF modulator (Wie, *Space
 Vehicle Dynamics and Control*, 2nd ed., AIAA 2008, §7.5) turns the normalised demand
-``u_a = τ_des,a / |τ_a±|`` into on/off pulses: a first-order filter ``ḟ = (K_m u − f)/τ_m``
-and a Schmitt trigger (on at ``|f| ≥ U_on``, off at ``|f| ≤ U_off``); once on, a thruster stays
+``u_a = τ_des,a / |τ_a±|`` into on/off pulses: a first-order filter of the demand minus the
+modulator's own output ``y ∈ {−1, 0, 1}``, ``ḟ = (K_m (u − y) − f)/τ_m`` (the feedback makes the
+pulses short and the duty cycle ≈ ``|u|``; without it the trigger would hold a thruster on until
+the demand itself fell below ``U_off/K_m``), and a Schmitt trigger (on at ``|f| ≥ U_on``, off at
+``|f| ≤ U_off``); once on, a thruster stays
 on for at least ``min_on_time`` (the minimum impulse bit ``F·t_min``). The valve command is
 sampled at the plant's integration steps (held over each step), so ``min_on_time`` must be at
 least one step and the pulses are whole steps. A ``deadband`` on ``‖h − h_target‖`` stops the
@@ -238,12 +241,15 @@ class ThrusterUnloading:
         u = np.where(tau_des >= 0.0, tau_des / pos, tau_des / neg)
         tau_m = 0.5 * self.pulse_period
         a = math.exp(-dt / tau_m) if dt > 0.0 else 1.0
-        st["f"] = a * st["f"] + (1.0 - a) * self.k_m * u
+        # the output held over the previous step is fed back (Wie's PWPF)
+        st["f"] = a * st["f"] + (1.0 - a) * self.k_m * (u - st["on"])
         f = st["f"]
         on = st["on"]
         held_min = (t - st["on_since"]) < self.min_on_time - 1e-12
         turn_on = (on == 0.0) & (np.abs(f) >= self.u_on)
-        turn_off = (on != 0.0) & (np.abs(f) <= self.u_off) & ~held_min
+        # off once f falls to U_off in the firing direction (with the output fed back f swings
+        # past zero while a minimum on-time holds the valve open)
+        turn_off = (on != 0.0) & (on * f <= self.u_off) & ~held_min
         new_on = np.where(turn_on, np.sign(f), np.where(turn_off, 0.0, on))
         st["on_since"] = np.where(turn_on, t, st["on_since"])
         st["on"] = new_on

@@ -223,13 +223,19 @@ def _slew_run(trapezoid: bool = True, seed: int = 3, T: float = 120.0):
 
 
 def test_accelerating_slew_is_consistent_and_not_gated():
-    hook = _slew_run()
-    m = hook.consistency(0)
-    assert m["filter_rejections"] == 0
-    assert m["nis_in_bounds"] == 1.0, m
-    assert m["nees_in_bounds"] == 1.0, m
-    assert 0.85 <= m["nees_in_bounds_fraction"] <= 1.0
-    assert 4.0 < m["nees_full_mean"] < 9.0  # attitude and bias against the gyro's true bias
+    """Five independent runs: no update gated, every NIS average inside its bounds (white
+    innovations: a sharp test), and the NEES consistent over the runs. A single run's NEES
+    average is a weak test here (the roll error decorrelates over minutes), so the NEES is
+    judged across runs: the mean of the runs' averages near 3, the per-sample share inside
+    χ²₃'s 95 % interval near 0.95."""
+    ms = [_slew_run(seed=s).consistency(0) for s in range(3, 8)]
+    assert all(m["filter_rejections"] == 0 for m in ms)
+    assert all(m["nis_in_bounds"] == 1.0 for m in ms), [m["nis_mean"] for m in ms]
+    nees = [m["nees_mean"] for m in ms]
+    assert abs(np.mean(nees) - 3.0) < 1.0, nees
+    assert 0.88 <= np.mean([m["nees_in_bounds_fraction"] for m in ms]) <= 1.0
+    full = [m["nees_full_mean"] for m in ms]  # attitude and bias against the gyro's true bias
+    assert 3.0 < np.mean(full) < 9.0, full
 
 
 def test_end_point_gyro_rule_was_the_cause():
@@ -314,7 +320,7 @@ def test_reworked_scenario_runs_with_requirements_and_consistency(name):
     m = o.metrics
     for key in ("nees_mean", "nis_mean", "nees_in_bounds", "nis_in_bounds",
                 "nees_in_bounds_fraction", "nees_full_mean", "filter_rejections",
-                "estimation_error_max_deg"):  # fmt: skip
+                "estimation_error_max_deg", "nees_effective_samples"):  # fmt: skip
         assert key in m and np.isfinite(m[key]), key
     assert m["filter_rejections"] == 0
     assert 20 <= m["filter_updates"] <= 30  # one per 5 Hz sample after the first, less outages

@@ -213,12 +213,34 @@ def test_a_controller_without_a_kernel_says_so_once(caplog):
     assert len(lines) == 1 and "Plain" in lines[0]
 
 
+def test_an_unbatched_controller_is_named_in_the_log_line(caplog):
+    class OneAtATime(AttitudeController):
+        batched = False
+
+        def reset(self, t0, batch_size):
+            pass
+
+        def command(self, t, state, reference):
+            return -10.0 * state.omega
+
+    plant, ref, x0 = _setup(B=2)
+    with caplog.at_level(logging.INFO, logger="spacecraft.simulator"):
+        simulate(plant, OneAtATime(), ref, x0, 0.5, 0.05)
+    lines = [r.getMessage() for r in caplog.records if r.name == "spacecraft.simulator"]
+    assert len(lines) == 1 and "OneAtATime" in lines[0] and "batched = False" in lines[0]
+
+
 # ------------------------------------------------------------------ bad kernels, in words
 if JIT_ENABLED:
 
     @njit
     def _three_args(t, R, w):
         return None
+
+    @njit
+    def _typing_error(t, R, w, R_d, w_d, dw_d, params, state, u_out, diag_out):
+        M = np.linalg.inv(params)  # params is 1-D: numba cannot type this
+        u_out[0] = M[0, 0]
 
     @njit
     def _nan_law(t, R, w, R_d, w_d, dw_d, params, state, u_out, diag_out):
@@ -231,6 +253,7 @@ if JIT_ENABLED:
     "kwargs, words",
     [
         ({"law": "_three_args"}, ["UserPI", "signature"]),
+        ({"law": "_typing_error"}, ["UserPI", "_typing_error", "inv", "2-D"]),
         ({"law": "plain"}, ["UserPI", "law", "@njit"]),
         ({"law": "_nan_law"}, ["UserPI", "non-finite torque"]),
         ({"params": np.array([1, 2, 3])}, ["UserPI", "params", "float64"]),
@@ -340,6 +363,7 @@ def test_fault_tolerant_law_in_the_fused_loop_equals_the_python_loop(kw, monkeyp
         {"error": "large_angle", "frequencies": (0.2,), "disturbance_bound": 0.02,
          "inertia_bound": 0.01, "G": None, "gamma_theta": 1e4, "gamma_phi": 50.0},
         {"error": "large_angle", "disturbance_bound": 1.0},
+        {"error": "log", "frequencies": (0.3,), "disturbance_bound": 0.05},
     ],
 )  # fmt: skip
 def test_adaptive_law_in_the_fused_loop_equals_the_python_loop(kw, monkeypatch):
@@ -428,6 +452,27 @@ def test_euler_tsm_in_the_fused_loop_equals_the_python_loop(kw, monkeypatch):
     _assert_same(fast, slow)
     for a, b in zip(init, ctrl.law.initial_conditions, strict=True):
         np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-15)
+
+
+def test_keep_out_pd_in_the_fused_loop_equals_the_python_loop(monkeypatch):
+    """A slew of the boresight (body x) past a 25° keep-out cone, and a keep-in cone on body z;
+    a start inside the keep-out cone gives the controller's own error."""
+    from liecontrol.control.constrained import ConstrainedGeometricPD, KeepInCone, KeepOutCone
+
+    plant = Spacecraft(RigidBody(J), IdealTorqueActuator(max_torque=2.0))
+    out = KeepOutCone((1.0, 0.0, 0.0), (np.cos(0.9), np.sin(0.9), 0.1), 25.0)
+    keep_in = KeepInCone((0.0, 0.0, 1.0), (0.0, 0.0, 1.0), 80.0)
+    ref = ConstantAttitude(so3.exp(np.array([0.0, 0.0, 1.8])))
+    x0 = plant.initial_state(np.eye(3), batch=2)
+    ctrl = ConstrainedGeometricPD(J, 20.0, 90.0, keep_out=[out], keep_in=[keep_in])
+    args = (plant, ctrl, ref, x0, 30.0, 0.1)
+    fast = _fused(monkeypatch, *args, control_period=0.2, log_every=2)
+    slow = _python_loop(monkeypatch, *args, control_period=0.2, log_every=2)
+    _assert_same(fast, slow)
+    assert slow.controller["min_slack"].min() < 0.5  # the barrier was active
+    bad = plant.initial_state(so3.exp(np.array([0.0, 0.0, 0.9])))
+    with pytest.raises(ValueError, match="inside keep-out cone"):
+        simulate(plant, ctrl, ref, bad, 1.0, 0.1)
 
 
 def test_every_builtin_kernel_is_a_controller_kernel():

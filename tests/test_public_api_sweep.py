@@ -498,6 +498,8 @@ def _fault_overrides() -> dict[str, dict[str, Callable[[], Any]]]:
         },
         mod + "fault_units": {"faults": stuck, "n_units": lambda: 4},
         mod + "FaultyActuator": {"inner": cmg, "faults": stuck},
+        mod + "default_detector": {"actuator": cmg},
+
         mod + "ReconfiguredSteering": {"law": law, "faults": stuck, "reduced_law": law},
         mod + "reduced_singularity_measure": {
             "cluster": _cluster,
@@ -571,8 +573,45 @@ def _small_figure() -> Any:
     return fig
 
 
+def _detumble_law() -> Any:
+    from spacecraft.detumble import DetumbleLaw
+
+    return DetumbleLaw(1e-4)
+
+
 OVERRIDES: dict[str, dict[str, Callable[[], Any]]] = {
     "benchmarks.figure_layout.layout_problems": {"fig": _small_figure},
+    # planned slews and Wie & Lu's eigenaxis law (tests/test_modes.py)
+    "liecontrol.control.slew_profile.EigenaxisSlewProfile": {
+        "R_start": lambda: R_EX.copy(),
+        "R_target": lambda: np.eye(3),
+        "max_rate": lambda: 0.02,
+        "max_accel": lambda: 5e-4,
+        "max_jerk": lambda: 1e-4,
+    },
+    "liecontrol.control.slew_profile.eigenaxis_accel_limit": {
+        "axis": lambda: np.array([1.0, 1.0, 1.0]),
+        "max_torque": lambda: 5.0,
+    },
+    "spacecraft.detumble.separation_tumble": {"n": lambda: 2},
+    "spacecraft.detumble.simulate_detumble": {
+        "law": lambda: _detumble_law(),
+        "omega0": lambda: np.array([0.1, -0.05, 0.08]),
+        "t_final": lambda: 20.0,
+        "threshold": lambda: 0.01,
+        "dt": lambda: 1.0,
+    },
+    "benchmarks.planned_slews.format_table": {
+        "rows": lambda: [
+            {"controller": "pd", "variant": "step", "time_to_target_s": 270.0},
+            {"controller": "pd", "variant": "planned", "time_to_target_s": 118.0},
+        ]
+    },
+    "liecontrol.control.eigenaxis.RateLimitedEigenaxis": {
+        "k": lambda: 0.0018,
+        "c": lambda: 0.054,
+        "max_rate": lambda: 0.02,
+    },
     # adaptive geometric control: gains of the seed-000 bus at ω_n = 0.03 rad/s
     "liecontrol.control.adaptive.AdaptiveGeometricSO3": {
         "k_R": lambda: 7.3,
@@ -791,6 +830,7 @@ OVERRIDES: dict[str, dict[str, Callable[[], Any]]] = {
     },
     "benchmarks.metrics.compute_metrics": {"result": _sim_result},
     "benchmarks.ranking.wilson_interval": {"k": lambda: 3, "n": lambda: 8},
+    "liecontrol.control.kernel.resolve": {"controller": _pd_controller, "batch_size": lambda: 2},
     "benchmarks.tuning_report.not_equivalent": {"response": lambda: {"overshoot_pct": 1.0}},
     "benchmarks.ranking.cell_verdict": {"k": lambda: 3, "n": lambda: 8},
     "benchmarks.dispersion.member_scenarios": {"scenario": _scenario, "n": lambda: 2},
@@ -1083,6 +1123,9 @@ NOT_SWEPT: dict[str, str] = {
     "benchmarks.perf_lie.run": "a timing run",
     "benchmarks.perf_lie.main": "a timing script entry point",
     "benchmarks.singular_transit.main": "the command line (parses sys.argv; seconds per run)",
+    "benchmarks.planned_slews.main": "the command line (parses sys.argv; minutes per run)",
+    "spacecraft.detumble.DetumbleResult": "a log container built by simulate_detumble",
+    "benchmarks.planned_slews.planned_vs_step": "runs two scenarios × every controller (minutes)",
     "benchmarks.singular_transit.run_comparison": "runs the whole comparison (seconds per call); "
     "its laws argument is tested in test_steering_laws, the rest is swept via track_path",
     "benchmarks.singular_transit.TransitResult": "a result record built by track_path",
@@ -1151,6 +1194,10 @@ NOT_SWEPT: dict[str, str] = {
             "benchmarks.ranking.CellSummary",
         )
     },
+    "liecontrol.control.kernel.check": "needs a compiled @njit law; its argument checks (law, "
+    "params, state, signature) are tested in test_kernel_seam",
+    "liecontrol.control.kernel.ControllerKernel": "a record built by a controller's "
+    "fused_kernel() and validated by kernel.check (tested in test_kernel_seam)",
     # report sections over a whole SuiteResult: their argument check (a SuiteResult, named
     # ``result``) is tested in test_dispersion_ranking; a call runs simulations (seconds)
     **{

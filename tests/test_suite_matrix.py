@@ -27,9 +27,10 @@ ALWAYS = (
     "effort_Nms",
     "effort_sq_N2m2s",
     "path_angle_deg",
-    "controller_time_us",
     "sim_wall_time_s",
 )
+# ``controller_time_us`` is NaN for a run that flew the fused loop (no call to time: the report
+# measures controller cost apart, benchmarks.controller_cost); it is finite for the others
 
 
 @pytest.fixture(scope="module")
@@ -66,6 +67,8 @@ def test_every_applicable_pair_runs_with_finite_metrics(matrix):
         if s.initial_error_deg >= 1.0:
             need += ["overshoot_deg", "unwinding_ratio"]
         bad = [k for k in need if not math.isfinite(m[k])]
+        t_us = m["controller_time_us"]
+        assert math.isnan(t_us) or t_us > 0, (o.scenario, o.controller, t_us)
         assert bad == [], (o.scenario, o.controller, bad)
         assert o.series["t"][-1] == pytest.approx(s.duration)
 

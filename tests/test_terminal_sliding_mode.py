@@ -4,6 +4,8 @@ polynomial, σ(0) = 0, the σ dynamics identity, gimbal lock and bad input."""
 
 from __future__ import annotations
 
+import zlib
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -69,7 +71,9 @@ def _start_angles(seq, rng):
 def test_b_and_A_against_finite_differences_of_the_euler_kinematics(seq):
     """ÿ from a second central difference of scipy's Euler angles along the true rigid-body
     trajectory (full inertia, random torque) equals b + A J⁻¹L."""
-    rng = np.random.default_rng(abs(hash(seq)) % 2**32)
+    # a stable seed: hash(str) changes with every process (PYTHONHASHSEED), which made the draw
+    # — and whether the O(h²) difference error stays under atol — differ from run to run
+    rng = np.random.default_rng(zlib.crc32(seq.encode()))
     a0 = _start_angles(seq, rng)
     w0 = rng.normal(size=3) * 0.5
     L = rng.normal(size=3)

@@ -65,6 +65,7 @@ EST = ("tests/test_estimation_filters.py", "tests/test_estimation_core.py")
 MET = ("tests/test_metrics.py", "tests/test_benchmarks_hand_checks.py")
 PROPS = "tests/test_planted_bug_properties.py"
 KT = "tests/test_kernels.py"
+NUMPY_ROUTE = PROPS + "::test_batched_numpy_route_equals_the_kernel_route"
 #: the mutations of the compiled kernels and the families added with them (``--kernels``)
 KERNEL_IDS = (
     "sgcmg-rate-scan-skips-gimbal-0", "ideal-clip-flag-strict", "adaptive-regressor-index",
@@ -276,13 +277,15 @@ MUTATIONS: tuple[Mutation, ...] = (
         "geometric-pd-damping-sign", "liecontrol/control/geometric_pd.py",
         "M = ff - _apply_gain(self.k_R, e_R) - _apply_gain(self.k_Omega, e_W)",
         "M = ff - _apply_gain(self.k_R, e_R) + _apply_gain(self.k_Omega, e_W)",
-        ("tests/test_geometric_pd.py",), "damping term with the wrong sign",
+        ("tests/test_geometric_pd.py", NUMPY_ROUTE),
+        "damping term with the wrong sign (the numpy route: batches without numba)",
     ),
     Mutation(
         "geometric-pd-feedforward", "liecontrol/control/geometric_pd.py",
         "ff = _cross(w, Jw) - (_cross(w, w_d_body) - dw_d_body) @ J.T",
         "ff = _cross(w, Jw) - (_cross(w, w_d_body) + dw_d_body) @ J.T",
-        ("tests/test_geometric_pd.py",), "tracking feed-forward with the wrong ω̇_d sign",
+        ("tests/test_geometric_pd.py", NUMPY_ROUTE),
+        "tracking feed-forward with the wrong ω̇_d sign (the numpy route: batches without numba)",
     ),
     Mutation(
         "adrc-eso-polynomial", "liecontrol/control/adrc.py",

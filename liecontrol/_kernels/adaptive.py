@@ -1,7 +1,7 @@
 """Kernel of the adaptive geometric tracking law on SO(3)
 (:class:`liecontrol.control.AdaptiveGeometricSO3`; equations, Lyapunov function and sources in
 :mod:`liecontrol.control.adaptive`, whose numpy route is the reference this kernel is tested
-against), for the trace and large-angle error functions. One spacecraft per call::
+against), for the trace, large-angle and logarithmic error functions. One spacecraft per call::
 
     M = −K_s s − k_R e_R + W θ̂ − Φ(t) φ̂,   s = e_Ω + c e_R,   a_r = α_d − c E(R̃) e_Ω,
     W θ̂ = ω × Ĵω + Ĵ a_r,   θ̂̇ = −γ_θ (Y(ω)ᵀ(s × ω) + Y(a_r)ᵀ s),   φ̂̇ = γ_φ Φ(t)ᵀ s,
@@ -61,7 +61,7 @@ def adaptive_law(
     params: np.ndarray, state: np.ndarray, M_out: np.ndarray, diag_out: np.ndarray,
 ) -> None:  # fmt: skip
     """A law of the compiled-kernel seam (:mod:`liecontrol.control.kernel`). ``params``: the
-    zero-gain geometric PD's 37 (error code 0 large-angle or 2 trace, J, 0, 0, G), K_s (9),
+    zero-gain geometric PD's 37 (error code 0 large-angle, 1 log or 2 trace, J, 0, 0, G), K_s (9),
     k_R, c, γ_θ, γ_φ, θ₀ (6), inertia radius, disturbance bound, K, then the K frequencies;
     ``state``: :data:`N_STATE` values, then φ̂ and its rate; ``diag_out``: :data:`N_DIAG`
     values, then φ̂, the two projection flags."""
@@ -112,6 +112,22 @@ def adaptive_law(
         for i in range(3):
             for j in range(3):
                 Er[i, j] = 0.5 * ((tr if i == j else 0.0) - Er[i, j])
+    elif int(params[0]) == 1:
+        # J_r(e_R)⁻¹ = I + (θ/2) n^ + (1 − (θ/2)cot(θ/2)) n^² (lie.so3.right_jacobian_inv)
+        th = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+        sf = th if th > 0.0 else 1.0
+        n0, n1, n2 = e0 / sf, e1 / sf, e2 / sf
+        h = 0.5 * th
+        if th >= 0.1:
+            d = 1.0 - h * math.cos(h) / math.sin(h)
+        else:
+            t2 = th * th
+            d = th * th * (1.0 / 12.0 + t2 / 720.0 + t2 * t2 / 30240.0 + t2 * t2 * t2 / 1209600.0)
+        N = np.array([[0.0, -n2, n1], [n2, 0.0, -n0], [-n1, n0, 0.0]])
+        for i in range(3):
+            for j in range(3):
+                NN = N[i, 0] * N[0, j] + N[i, 1] * N[1, j] + N[i, 2] * N[2, j]
+                Er[i, j] = ((1.0 if i == j else 0.0) + h * N[i, j]) + d * NN
     else:
         tr = T[0] + T[4] + T[8]
         root = math.sqrt(max(1.0 + tr, 1e-300))

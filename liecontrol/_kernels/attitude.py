@@ -11,7 +11,7 @@ from .._jit import njit
 from .so3 import log9, matvec3
 
 
-@njit
+@njit(inline="always")
 def body_from_desired(R: np.ndarray, R_d: np.ndarray) -> tuple[float, ...]:
     """Entries (row-major) of T = Rᵀ R_d = R̃ᵀ, with R̃ = R_dᵀ R the attitude error: T maps
     desired-frame vectors into the body frame; R̃'s entry (i, j) is T's (j, i)."""
@@ -28,13 +28,13 @@ def body_from_desired(R: np.ndarray, R_d: np.ndarray) -> tuple[float, ...]:
     )
 
 
-@njit
+@njit(inline="always")
 def error_log(t: tuple) -> tuple[float, float, float]:
     """log(R̃)^∨ of the attitude error, given T = R̃ᵀ (:func:`body_from_desired`)."""
     return log9(t[0], t[3], t[6], t[1], t[4], t[7], t[2], t[5], t[8])
 
 
-@njit
+@njit(inline="always")
 def half_sinc(theta: float) -> float:
     """sin(θ/2)/θ, with its Taylor polynomial below 1e-3."""
     if theta < 1e-3:
@@ -43,7 +43,7 @@ def half_sinc(theta: float) -> float:
     return math.sin(0.5 * theta) / theta
 
 
-@njit
+@njit(inline="always")
 def large_angle_error(t: tuple) -> tuple[float, float, float, float, float]:
     """Lee's large-angle error of R̃ given T = R̃ᵀ: ``(Ψ, θ, e_R)`` with Ψ = 2 − 2 cos(θ/2)
     (as 4 sin²(θ/4) below π/2: no cancellation) and e_R = (sin(θ/2)/θ) log(R̃)^∨."""
@@ -58,7 +58,7 @@ def large_angle_error(t: tuple) -> tuple[float, float, float, float, float]:
     return psi, th, hs * p0, hs * p1, hs * p2
 
 
-@njit
+@njit(inline="always")
 def desired_rates_in_body(
     t: tuple, w_d: np.ndarray, dw_d: np.ndarray
 ) -> tuple[float, float, float, float, float, float]:
@@ -75,7 +75,7 @@ def desired_rates_in_body(
     )
 
 
-@njit
+@njit(inline="always")
 def tracking_feedforward(
     J: np.ndarray, x0: float, x1: float, x2: float, v0: float, v1: float, v2: float,
     wb0: float, wb1: float, wb2: float, db0: float, db1: float, db2: float,

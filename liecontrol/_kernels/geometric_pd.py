@@ -24,7 +24,7 @@ from .so3 import matvec3
 ERROR_CODES = {"large_angle": 0, "log": 1, "trace": 2}
 
 
-@njit
+@njit(inline="always")
 def geometric_pd_one(
     error: int,
     J: np.ndarray,

@@ -15,7 +15,7 @@ _TINY = 1e-300
 LOG_SYMMETRIC_COS = -0.999
 
 
-@njit
+@njit(inline="always")
 def exp9(w0: float, w1: float, w2: float) -> tuple[float, ...]:
     """Entries (row-major) of exp(w^), Rodrigues in the half-angle form
     R = I + a w^ + b w^², a = sin θ/θ, b = (1 − cos θ)/θ² = ½ (sin(θ/2)/(θ/2))²,
@@ -53,7 +53,7 @@ def exp_into(w0: float, w1: float, w2: float, out: np.ndarray) -> None:
             out[i, j] = e[3 * i + j]
 
 
-@njit
+@njit(inline="always")
 def right_multiply_exp_into(
     R: np.ndarray, w0: float, w1: float, w2: float, out: np.ndarray
 ) -> None:
@@ -72,7 +72,7 @@ def log_of(R: np.ndarray) -> tuple[float, float, float]:
     return log9(R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1], R[2, 2])
 
 
-@njit
+@njit(inline="always")
 def log9(
     m00: float, m01: float, m02: float, m10: float, m11: float, m12: float,
     m20: float, m21: float, m22: float,
@@ -105,7 +105,7 @@ def log9(
     return c0 * f, c1 * f, c2 * f
 
 
-@njit
+@njit(inline="always")
 def dexpinv_rkmk4(
     t0: float, t1: float, t2: float, w0: float, w1: float, w2: float
 ) -> tuple[float, float, float]:
@@ -120,7 +120,7 @@ def dexpinv_rkmk4(
     )
 
 
-@njit
+@njit(inline="always")
 def matvec3(A: np.ndarray, x0: float, x1: float, x2: float) -> tuple[float, float, float]:
     """``A x`` for a 3×3 ``A``."""
     return (

@@ -23,6 +23,7 @@ from .consensus import (
     PoseFormation,
 )
 from .constrained import ConstrainedGeometricPD, KeepInCone, KeepOutCone
+from .eigenaxis import RateLimitedEigenaxis, wie_lu_gains
 from .finite_time import FiniteTimeSO3, FixedTimeSO3
 from .geometric_pd import GeometricPD, gains_from_bandwidth
 from .geometric_pid import IntegralPD, IntrinsicPID, integral_gain
@@ -39,6 +40,7 @@ from .se3_control import (
     SE3TrackingController,
     pose_gains_from_bandwidth,
 )
+from .slew_profile import EigenaxisSlewProfile, eigenaxis_accel_limit, scurve_timing
 from .terminal_sliding_mode import TerminalSlidingMode, TerminalSlidingModeSO3
 from .tuning import (
     ActuatorLimits,
@@ -52,6 +54,11 @@ __all__ = [
     "AttitudeReference",
     "AttitudeState",
     "ConstantAttitude",
+    "EigenaxisSlewProfile",
+    "eigenaxis_accel_limit",
+    "scurve_timing",
+    "RateLimitedEigenaxis",
+    "wie_lu_gains",
     "GeometricPD",
     "gains_from_bandwidth",
     "SO3MPC",

@@ -80,6 +80,7 @@ import numpy as np
 from .._kernels.adaptive import N_DIAG as AD_DIAG
 from .._kernels.adaptive import N_STATE as AD_STATE
 from .._kernels.adaptive import adaptive_law
+from .._kernels.geometric_pd import ERROR_CODES
 from .._validation import (
     as_array,
     as_scalar,
@@ -548,16 +549,15 @@ class AdaptiveGeometricSO3(AttitudeController):
         self, batch_size: int, control_period: float | None = None
     ) -> ControllerKernel | None:
         """The compiled law (:func:`liecontrol._kernels.adaptive.adaptive_law`) for the
-        simulator's fused loop (:mod:`liecontrol.control.kernel`), carrying the estimates;
-        ``None`` for the log error (its rate matrix J_r⁻¹ has no kernel yet)."""
-        if self._batch is None or self.error == "log":
+        simulator's fused loop (:mod:`liecontrol.control.kernel`), carrying the estimates."""
+        if self._batch is None:
             return None
         B = int(batch_size)
         G = np.zeros((3, 3)) if self.G is None else np.asarray(self.G, dtype=np.float64)
         nu = self.frequencies
         params = np.concatenate(
             [
-                [0.0 if self.error == "large_angle" else 2.0],
+                [float(ERROR_CODES[self.error])],
                 np.ascontiguousarray(self.J, dtype=np.float64).ravel(),
                 np.zeros(18),
                 G.ravel(),
@@ -584,7 +584,7 @@ class AdaptiveGeometricSO3(AttitudeController):
         return ControllerKernel(adaptive_law, params, state, AD_DIAG + m + 2, rows, self._finish)
 
     def _kernel_reason(self) -> str:
-        return "the log error function (or a controller that was not reset)"
+        return "a controller that was not reset"
 
     def _finish(self, state: np.ndarray, diag: np.ndarray) -> None:
         """Estimates, their rates and diagnostics after a compiled run."""

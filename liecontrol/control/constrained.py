@@ -73,6 +73,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._kernels.constrained import constrained_pd_law
 from .._validation import as_array, as_int, as_scalar, check_inertia_3x3, check_rotation_matrix
 from ..errors import _large_angle_error_unchecked
 from .base import (
@@ -82,7 +83,8 @@ from .base import (
     check_state_batch,
     finite_command,
 )
-from .geometric_pd import _apply_gain, _cross, check_gain
+from .geometric_pd import _apply_gain, _as_matrix, _cross, check_gain
+from .kernel import ControllerKernel
 
 __all__ = [
     "KeepOutCone",
@@ -430,6 +432,49 @@ class ConstrainedGeometricPD(AttitudeController):
     def diagnostics(self) -> dict[str, np.ndarray]:
         """Last ``Psi``, ``e_R``, ``e_Omega``, ``min_slack`` (empty before the first command)."""
         return dict(self._diag)
+
+    def fused_kernel(
+        self, batch_size: int, control_period: float | None = None
+    ) -> ControllerKernel | None:
+        """The compiled law (:func:`liecontrol._kernels.constrained.constrained_pd_law`) for the
+        simulator's fused loop (:mod:`liecontrol.control.kernel`)."""
+        if self._batch is None:
+            return None
+        cones = [
+            [*c._b, *c._s, c.cos_half_angle, 0.0 if c.kind == "keep_out" else 1.0,
+             c.half_angle_deg]
+            for c in self._cones
+        ]  # fmt: skip
+        J = np.ascontiguousarray(self.J, dtype=np.float64)
+        params = np.concatenate(
+            [
+                [0.0],
+                J.ravel(),
+                np.zeros(27),
+                _as_matrix(self.k_R).ravel(),
+                _as_matrix(self.k_Omega).ravel(),
+                [self.barrier_weight, SLACK_FLOOR, float(len(cones))],
+                np.ravel(np.asarray(cones, dtype=np.float64)),
+            ]
+        )
+        state = np.zeros((int(batch_size), 1))
+        state[:, 0] = 0.0 if self._first else 1.0
+
+        def finish(st: np.ndarray, diag: np.ndarray) -> None:
+            self._first = bool(st[0, 0] == 0.0)
+            self._diag = _constrained_rows(diag)
+
+        return ControllerKernel(constrained_pd_law, params, state, 8, _constrained_rows, finish)
+
+
+def _constrained_rows(rows: np.ndarray) -> dict[str, np.ndarray]:
+    """The controller's diagnostics from its kernel rows ``(..., 8)``."""
+    return {
+        "Psi": rows[..., 0].copy(),
+        "e_R": rows[..., 1:4].copy(),
+        "e_Omega": rows[..., 4:7].copy(),
+        "min_slack": rows[..., 7].copy(),
+    }
 
 
 # ------------------------------------------------------------------ sampled-data safe constraints

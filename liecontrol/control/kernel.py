@@ -59,6 +59,7 @@ controller has a kernel and every run takes the Python loop.
 from __future__ import annotations
 
 import inspect
+import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -72,7 +73,6 @@ __all__ = [
     "LAW_SIGNATURE",
     "NonFiniteTorque",
     "check",
-    "non_finite_error",
     "resolve",
 ]
 
@@ -137,11 +137,27 @@ def _owner(cls: type, attr: str) -> type | None:
     return None
 
 
+#: The largest batch a kernel is built for (a guard against a mistyped size).
+_MAX_BATCH = 100_000_000
+
+
 def resolve(
     controller: Any, batch_size: int, control_period: float | None = None
 ) -> tuple[ControllerKernel | None, str]:
     """``(kernel, "")`` for a controller with a kernel, else ``(None, reason)``: why it keeps
     the Python loop, in words (used for the simulator's one log line)."""
+    from liecontrol._validation import as_int, check_positive_scalar
+
+    if not callable(getattr(controller, "command", None)):
+        raise TypeError(
+            f"controller: expected an attitude controller (with command), got "
+            f"{type(controller).__name__}"
+        )
+    batch_size = as_int(batch_size, "batch_size", 1)
+    if batch_size > _MAX_BATCH:
+        raise ValueError(f"batch_size: at most {_MAX_BATCH} spacecraft, got {batch_size}")
+    if control_period is not None:
+        control_period = check_positive_scalar(control_period, "control_period")
     label = type(controller).__name__
     if not JIT_ENABLED:
         return None, "numba is not available"
@@ -188,6 +204,20 @@ def _array(label: str, name: str, a: Any, ndim: int, shape0: int | None = None) 
     return np.ascontiguousarray(a).copy()
 
 
+def _summary(exc: Exception) -> str:
+    """The informative lines of a numba typing error, in one line (the header, the failing
+    call, the nested reason and the source line)."""
+    text = re.sub(r"\x1b\[[0-9;]*m", "", str(exc))
+    lines = [x.strip() for x in text.splitlines() if x.strip()]
+    if not lines:
+        return type(exc).__name__
+    keep = lines[:2] + [
+        x for x in lines[2:] if x.startswith((">>>", "File ", "During: typing of")) or "Error:" in x
+    ]
+    out = "; ".join(dict.fromkeys(keep))
+    return out if len(out) <= 600 else out[:597] + "..."
+
+
 def check(
     controller: Any,
     spec: ControllerKernel,
@@ -216,7 +246,7 @@ def check(
         if LAW_SIGNATURE.args not in law.overloads:
             law.compile(LAW_SIGNATURE)
     except (NumbaError, TypeError, ValueError) as exc:
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        first = _summary(exc)
         raise ValueError(
             f"controller {label}: kernel law {lname} does not compile for the documented "
             "signature law(t, R, omega, R_d, omega_d, omega_dot_d, params, state, u_out, "
@@ -238,7 +268,8 @@ class NonFiniteTorque(ValueError):
 
 def non_finite_error(controller: Any, spec: ControllerKernel, t: float) -> NonFiniteTorque:
     """The error of a law that returns a non-finite torque at the first sample ``t`` (the
-    simulator's fused loop checks every sample; the first one is checked before any step)."""
+    simulator's fused loop checks every sample; the first one is checked before any step).
+    Internal: the simulator builds it from a resolved kernel (not an input check)."""
     label = type(controller).__name__
     lname = spec.name or getattr(spec.law, "__name__", repr(spec.law))
     return NonFiniteTorque(

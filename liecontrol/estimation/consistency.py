@@ -16,11 +16,12 @@ Time-average test of one run (Bar-Shalom et al. §5.4.2): the average of ``K`` i
 the NIS average uses ``K`` directly. NEES samples of successive steps are correlated (the error
 changes on the filter's time constant, not from one step to the next), so :func:`time_average_test`
 replaces ``K`` by the effective number of independent samples ``K_eff = K / τ``, with the
-integrated autocorrelation time ``τ = 1 + 2 Σ_l ρ_l`` summed until the autocorrelation ``ρ_l``
-first drops to zero or below (:func:`effective_sample_size`; Sokal, "Monte Carlo methods in
-statistical mechanics", in *Functional Integration*, Springer 1997) — the mean of ``K_eff``
-χ²_n samples has the same mean and variance. Without that correction a consistent filter would
-fail the NEES test of a long run almost surely.
+integrated autocorrelation time ``τ = 1 + 2 Σ_{l ≤ M} ρ_l`` over Sokal's automatic window
+(:func:`effective_sample_size`; Sokal, "Monte Carlo methods in statistical mechanics: foundations
+and new algorithms", in *Functional Integration*, Springer 1997) — the mean of ``K_eff``
+χ²_n samples has the same mean and variance (an approximation: τ is itself estimated from the
+run). Without that correction a consistent filter would fail the NEES test of a long run almost
+surely.
 
 :func:`in_interval_fraction` is the per-sample check: the fraction of samples inside the
 two-sided 95 % interval of χ²_n (0.95 for a consistent filter, whatever the correlation).
@@ -89,10 +90,15 @@ def chi2_mean_bounds(K: float, n: int, level: float = 0.95) -> tuple[float, floa
     return float(chi2.ppf(a, dof) / K), float(chi2.ppf(1.0 - a, dof) / K)
 
 
+#: Sokal's window constant: the autocorrelation sum runs to the first lag M ≥ c·τ(M).
+_SOKAL_C = 5.0
+
+
 def effective_sample_size(samples: object) -> float:
-    """``K / τ`` with ``τ = 1 + 2 Σ_{l ≥ 1} ρ_l`` the integrated autocorrelation time of the
-    series ``samples`` (K,), the sum stopped before the first lag whose sample autocorrelation
-    is ≤ 0; clipped to ``[1, K]``. A constant series gives 1."""
+    """``K / τ`` with ``τ = 1 + 2 Σ_{l=1}^{M} ρ_l`` the integrated autocorrelation time of the
+    series ``samples`` (K,), ``ρ_l`` its sample autocorrelation and ``M`` Sokal's automatic
+    window (the smallest lag with ``M ≥ 5 τ(M)``); clipped to ``[1, K]``. A constant series
+    gives 1."""
     x = as_array(samples, "samples")
     if x.ndim != 1 or x.shape[0] < 1:
         raise ValueError(f"samples: expected a non-empty 1-D series, got shape {x.shape}")
@@ -106,12 +112,11 @@ def effective_sample_size(samples: object) -> float:
     nfft = 1 << (2 * K - 1).bit_length()
     f = np.fft.rfft(d, nfft)
     acf = np.fft.irfft(f * np.conj(f), nfft)[:K] / var
-    tau = 1.0
-    for lag in range(1, K):
-        if acf[lag] <= 0.0:
-            break
-        tau += 2.0 * float(acf[lag])
-    return float(min(max(K / tau, 1.0), K))
+    # τ(M) = 1 + 2 Σ_{l ≤ M} ρ_l with Sokal's automatic window: the smallest M ≥ 5 τ(M)
+    tau_m = np.cumsum(np.concatenate(([1.0], 2.0 * acf[1:])))
+    window = np.arange(K) >= _SOKAL_C * tau_m
+    tau = float(tau_m[int(np.argmax(window))] if window.any() else tau_m[-1])
+    return float(min(max(K / max(tau, 1.0), 1.0), K))
 
 
 def in_interval_fraction(samples: object, n: int, level: float = 0.95) -> float:
