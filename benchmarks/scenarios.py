@@ -1411,21 +1411,26 @@ DUMPING_ORBIT = OrbitSpec(530.0, 97.5, 0.0)
 DUMPING_MAX_DIPOLE = 3000.0
 
 
-def _momentum_dumping_pair() -> tuple[Scenario, Scenario]:
-    """Earth pointing under the constant + harmonic torque for 5 orbits, with and without
-    magnetorquer dumping (same orbit, time grid and tolerance)."""
-    orbit = DUMPING_ORBIT
+def _dumping_common(orbit: OrbitSpec) -> dict[str, object]:
+    """The fields the momentum-management pairs share: Earth pointing for 5 orbits under the
+    constant + harmonic torque at the orbit rate, 1 s steps, a 0.5° tolerance."""
     dt = 1.0
-    duration = dt * math.ceil(5.0 * orbit.period / dt)
-    common = {
+    return {
         "reference": ReferenceSpec("earth-pointing", n=orbit.n),
         "disturbances": (DisturbanceSpec("constant-harmonic", {"n": orbit.n}),),
         "orbit": orbit,
-        "duration": duration,
+        "duration": dt * math.ceil(5.0 * orbit.period / dt),
         "dt": dt,
         "control_period": 1.0,
         "attitude_tolerance_deg": 0.5,
     }
+
+
+def _momentum_dumping_pair() -> tuple[Scenario, Scenario]:
+    """Earth pointing under the constant + harmonic torque for 5 orbits, with and without
+    magnetorquer dumping (same orbit, time grid and tolerance)."""
+    orbit = DUMPING_ORBIT
+    common = _dumping_common(orbit)
     return (
         Scenario(
             name="momentum-dumping",
@@ -1463,17 +1468,7 @@ def _low_inclination_dumping_pair() -> tuple[Scenario, Scenario]:
     magnetorquers (the pre-run check warns, the run is flagged ``dumping-insufficient``) vs
     thruster unloading (holds)."""
     orbit = LOW_INCLINATION_ORBIT
-    dt = 1.0
-    duration = dt * math.ceil(5.0 * orbit.period / dt)
-    common = {
-        "reference": ReferenceSpec("earth-pointing", n=orbit.n),
-        "disturbances": (DisturbanceSpec("constant-harmonic", {"n": orbit.n}),),
-        "orbit": orbit,
-        "duration": duration,
-        "dt": dt,
-        "control_period": 1.0,
-        "attitude_tolerance_deg": 0.5,
-    }
+    common = _dumping_common(orbit)
     return (
         Scenario(
             name="momentum-dumping-low-inclination",
