@@ -21,7 +21,9 @@ __all__ = [
 
 
 def _check_result(result: Any) -> None:
-    if not all(hasattr(result, a) for a in ("scenarios", "controllers", "cells", "outcome")):
+    from .runner import SuiteResult
+
+    if not isinstance(result, SuiteResult):
         raise TypeError(
             "result: expected a SuiteResult (from benchmarks.runner.run_suite), got "
             f"{type(result).__name__}"

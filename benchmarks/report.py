@@ -737,13 +737,6 @@ SETTLING_NOTE = (
 )
 
 
-WALL_TIME_NOTE = (
-    "Runs batched together (one vectorised simulation of several spacecraft) share one "
-    "wall-time measurement: `sim_wall_time_s` is the batch's, and the per-step time is the "
-    "batch's time divided among its spacecraft. Microsecond timings on a shared machine are "
-    "noisy; compare orders of magnitude, not digits."
-)
-
 #: Relative band around the median settling time inside which a step-5 run is "in the spread".
 SPREAD_BAND = 0.30
 
