@@ -7,7 +7,11 @@ The arguments :func:`spacecraft._fused._fused_loop` receives are captured from o
 library kernels, they hold no formula of their own) run each part of one loop step over the batch
 the way the fused loop does, ``--reps`` times:
 
-- ``law (pointer)``: the controller's law through the seam's function pointer, per spacecraft;
+- ``law (pointer)``: the controller's law through the seam's function pointer, per spacecraft,
+  with the arrays as the fused loop passes them: views that own nothing
+  (:func:`spacecraft._fused.unowned_view`), so no reference counting;
+- ``law (pointer, owned views)``: the same with ordinary (reference-counted) views, as the loop
+  passed them before: the price of numba's reference counting is the difference;
 - ``law (direct)``: the same law called directly (numba dispatcher type, inlinable): the price
   of the pointer is the difference;
 - ``empty law (pointer)``: a law that only writes its torque, through the pointer: the price of
@@ -15,7 +19,8 @@ the way the fused loop does, ``--reps`` times:
 - ``law arithmetic``: the geometric PD's kernel (``geometric_pd_one``) called from the harness
   with ready 3×3 parameter arrays, where numba inlines it: the law without the seam's call and
   its parameter views;
-- ``command``: the SGCMG command (momentum, Jacobian, SR steering, rate limit) per spacecraft;
+- ``command``: the SGCMG command (momentum, Jacobian, SR steering, rate limit) per spacecraft,
+  on unowned views as the loop (so is the step below);
   ``command (constant code)``: the same with the steering code a constant at the call site (no
   gain measured, so the fused loop keeps the runtime code there);
 - ``RKMK4 step``: the integration step (4 field evaluations, dexp⁻¹, exp) per spacecraft, as
@@ -23,7 +28,8 @@ the way the fused loop does, ``--reps`` times:
 - ``RKMK4 step (runtime codes)``: the same with the codes as runtime values (the loop before
   its call sites were specialised): the price of runtime branching;
 - ``finite check``: the non-finite state test over the batch;
-- ``whole loop``: :func:`_fused_loop` itself (logging every 600th step).
+- ``whole loop``: :func:`_fused_loop` itself (logging every 600th step; since the loop runs
+  each spacecraft's steps before the next, it is not the sum of these batch-inner parts).
 
 Figures are ns per spacecraft-step, best of ``--repeat`` timings (the machine is shared), per
 CPU-second of this process; the parts and the whole are alternated in one process. The
@@ -51,6 +57,7 @@ from liecontrol._kernels.geometric_pd import geometric_pd_one  # noqa: E402
 from liecontrol.control import kernel as seam  # noqa: E402
 from spacecraft import _fused, simulate  # noqa: E402
 from spacecraft import _kernels as K  # noqa: E402
+from spacecraft._fused import unowned_view  # noqa: E402
 
 #: operation count per spacecraft-step of the benchmark loop (hand count of the kernels'
 #: arithmetic: + − × ÷ each one flop; transcendental calls listed apart), docs/performance.md
@@ -85,7 +92,11 @@ def capture_args(batch: int, t_final: float) -> tuple[tuple, int]:
 
 # ----------------------------------------------------------------- measurement harnesses
 @numba.njit
-def _law_part(reps, law, R, x, ref_R, ref_w, ref_dw, cparams, cstate, u_cmd, diag):  # noqa: ANN001, ANN202
+def _law_part(reps, law, R, x, ref_R, ref_w, ref_dw, cparams, cstate, u_cmd, diag, unowned):  # noqa: ANN001, ANN202
+    if unowned:  # as the fused loop passes them: views without reference counts
+        R, x, cparams = unowned_view(R), unowned_view(x), unowned_view(cparams)
+        ref_R, ref_w, ref_dw = unowned_view(ref_R), unowned_view(ref_w), unowned_view(ref_dw)
+        cstate, u_cmd, diag = unowned_view(cstate), unowned_view(u_cmd), unowned_view(diag)
     for _ in range(reps):
         for b in range(R.shape[0]):
             rb = b if ref_R.shape[1] > 1 else 0
@@ -110,10 +121,16 @@ def _pd_part(reps, R, x, ref_R, ref_w, ref_dw, P, u_cmd, diag):  # noqa: ANN001,
 @numba.njit
 def _command_part(reps, S0, C0, steer, sp, rate_limit, u_cmd, x, specialise):  # noqa: ANN001, ANN202
     B, n = x.shape
-    held = np.zeros((B, n - 3))
-    hd = np.empty(3)
-    A = np.empty((3, n - 3))
-    trig = np.empty((B, 2, n - 3))
+    held_own = np.zeros((B, n - 3))
+    scratch = np.empty(3 + 3 * (n - 3) + B * 2 * (n - 3))
+    trig_own = scratch[3 + 3 * (n - 3) :].reshape((B, 2, n - 3))
+    # unowned views, as the fused loop uses (the owners live to the return)
+    S0, C0, sp, u_cmd, x = (unowned_view(S0), unowned_view(C0), unowned_view(sp),
+                            unowned_view(u_cmd), unowned_view(x))  # fmt: skip
+    held, raw = unowned_view(held_own), unowned_view(scratch)
+    hd = raw[:3]
+    A = raw[3 : 3 + 3 * (n - 3)].reshape((3, n - 3))
+    trig = raw[3 + 3 * (n - 3) :].reshape((B, 2, n - 3))
     s = 0
     for _ in range(reps):
         for b in range(B):
@@ -127,15 +144,20 @@ def _command_part(reps, S0, C0, steer, sp, rate_limit, u_cmd, x, specialise):  #
                     S0, C0, steer, sp, rate_limit, u_cmd[b], x[b, :3], x[b, 3:], 0.0, held[b],
                     hd, A, trig[b, 0], trig[b, 1],
                 )  # fmt: skip
-    return s, held, trig
+    return s, held_own, trig_own
 
 
 @numba.njit
 def _step_part(reps, act, J, J_inv, S0, C0, dist, dp, R, x, held, trig, dt, specialise):  # noqa: ANN001, ANN202
     B, n = x.shape
-    R_next = np.empty_like(R)
-    x_next = np.empty_like(x)
-    work = np.empty(7 * n)
+    R_own = np.empty_like(R)
+    x_own = np.empty_like(x)
+    work_own = np.empty(7 * n)
+    # unowned views, as the fused loop uses (the owners live to the return)
+    J, J_inv, S0, C0, dp = (unowned_view(J), unowned_view(J_inv), unowned_view(S0),
+                            unowned_view(C0), unowned_view(dp))  # fmt: skip
+    R, x, held, trig = unowned_view(R), unowned_view(x), unowned_view(held), unowned_view(trig)
+    R_next, x_next, work = unowned_view(R_own), unowned_view(x_own), unowned_view(work_own)
     for _ in range(reps):
         for b in range(B):
             for i in range(n - 3):
@@ -151,7 +173,7 @@ def _step_part(reps, act, J, J_inv, S0, C0, dist, dp, R, x, held, trig, dt, spec
                     act, J[0], J_inv[0], S0, C0, dist, dp, 0.0, R[b], x[b], held[b], dt,
                     R_next[b], x_next[b], work, True,
                 )  # fmt: skip
-    return R_next, x_next
+    return R_own, x_own, work_own
 
 
 @numba.njit
@@ -197,11 +219,12 @@ def breakdown(batch: int, reps: int, repeat: int) -> dict[str, float]:
     x = np.ascontiguousarray(x)
     u = np.zeros((batch, 3))
     diag = np.zeros((batch, int(logs[-1].shape[1])))
-    law_args = (reps, law, R, x, ref_R, ref_w, ref_dw, cparams, cstate, u, diag)
+    law_args = (reps, law, R, x, ref_R, ref_w, ref_dw, cparams, cstate, u, diag, True)
     assert cparams[0] == 0.0  # the large-angle error
     P = np.ascontiguousarray(cparams[1:37].reshape((4, 3, 3)))
     law_ptr = _with_law_pointer(_law_part, law_args, 1)
     empty_args = (reps, _empty_law, *law_args[2:])
+    owned_args = (*law_args[:-1], False)
     law(0.0, R[0], x[0, :3], ref_R[0, 0], ref_w[0, 0], ref_dw[0, 0], cparams, cstate[0], u[0],
         diag[0])  # fmt: skip
     _, held, trig = _command_part(1, S0, C0, steer, sp, limit, u, x, False)
@@ -214,6 +237,7 @@ def breakdown(batch: int, reps: int, repeat: int) -> dict[str, float]:
 
     parts = {
         "law (pointer)": lambda: law_ptr(*law_args),
+        "law (pointer, owned views)": lambda: law_ptr(*owned_args),
         "law (direct)": lambda: _law_part(*law_args),
         "empty law (pointer)": lambda: law_ptr(*empty_args),
         "law arithmetic": lambda: _pd_part(reps, R, x, ref_R, ref_w, ref_dw, P, u, diag),
@@ -250,6 +274,7 @@ def main(argv: list[str] | None = None) -> None:
         reps = max(a.reps, a.reps * 1000 // B)
         res = breakdown(B, reps, a.repeat)
         skip = ("whole loop", "law (direct)", "law arithmetic", "empty law (pointer)",
+                "law (pointer, owned views)",
                 "command (constant code)", "RKMK4 step (runtime codes)")  # fmt: skip
         parts = sum(v for k, v in res.items() if k not in skip)
         print(f"batch {B}: ns per spacecraft-step (best of {a.repeat}, per CPU-s)")

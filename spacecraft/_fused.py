@@ -30,13 +30,40 @@ from typing import Any
 
 import numpy as np
 
-from liecontrol._jit import JIT_ENABLED, njit
+from liecontrol._jit import JIT_ENABLED, njit, prange
 from liecontrol.control import kernel as seam
 
 from . import _kernels as K
 
 #: reference samples held in memory by the fused loop at most (else the Python loop runs)
 _MAX_REFERENCE_BYTES = 256 * 2**20
+
+
+def _unowned_view_impl() -> Any:
+    """``unowned_view(a)``: the C-contiguous array ``a`` as a view that owns nothing (numba's
+    ``carray`` on its data pointer): views and arguments made from it carry no reference count.
+    The caller keeps an owner of the memory alive for as long as the view is used."""
+    if not JIT_ENABLED:
+        return None
+    from numba import carray, types
+    from numba.core import cgutils
+    from numba.extending import intrinsic
+
+    @intrinsic
+    def _address_to_pointer(typingctx: Any, address: Any) -> Any:
+        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+            return builder.inttoptr(args[0], cgutils.voidptr_t)
+
+        return types.voidptr(types.uintp), codegen
+
+    @njit(inline="always")
+    def unowned_view(a: np.ndarray) -> np.ndarray:
+        return carray(_address_to_pointer(a.ctypes.data), a.shape, a.dtype)
+
+    return unowned_view
+
+
+unowned_view = _unowned_view_impl()
 
 
 @dataclass(frozen=True)
@@ -177,6 +204,159 @@ class ControllerPlan:
 
 
 @njit
+def _one_spacecraft(
+    b: int, n_steps: int, t0: float, dt: float, every_ctrl: int, log_every: int,
+    R: np.ndarray, x: np.ndarray,
+    act: int, J: np.ndarray, J_inv: np.ndarray, S0: np.ndarray, C0: np.ndarray,
+    dist: int, dp: np.ndarray, clip_on: bool, clip: np.ndarray,
+    steer: int, sp: np.ndarray, rate_limit: float,
+    law: Any, cparams: np.ndarray, cstate: np.ndarray,
+    ref_index: np.ndarray, ref_R: np.ndarray, ref_w: np.ndarray, ref_dw: np.ndarray,
+    log_R: np.ndarray, log_w: np.ndarray, log_Rd: np.ndarray,
+    log_wd: np.ndarray, log_ucmd: np.ndarray, log_u: np.ndarray, log_dist: np.ndarray,
+    log_act: np.ndarray, log_sat: np.ndarray, log_diag: np.ndarray, diag: np.ndarray,
+) -> tuple[int, float]:  # fmt: skip
+    """The whole run of spacecraft ``b`` (the loop's body, see :func:`_fused_loop`): every step
+    of one spacecraft before the next, its state, command and scratch in locals and views made
+    once, so the law's call and the step read the same few cache lines throughout. Returns
+    ``(status, t)`` as the loop does. The final state is written back into ``R[b]``, ``x[b]``."""
+    n = x.shape[1]
+    m = n - 3
+    mm = max(m, 1)
+    n_held = 3 if act == K.ACT_IDEAL else m
+    kb = 0 if J.shape[0] == 1 else b
+    rb = b if ref_R.shape[1] > 1 else 0
+    # Every array of the run as a view without an owner (unowned_view): numba then skips the
+    # reference counting it does for each view it makes and each array it passes (atomic
+    # operations that cost as much as the geometric PD's arithmetic per law call). The owners
+    # outlive every view: the caller's arrays the whole call, and ``buf`` (the run's own
+    # state and scratch, one allocation) is used after the loop.
+    Jb = unowned_view(J[kb])
+    Jib = unowned_view(J_inv[kb])
+    S0 = unowned_view(S0)
+    C0 = unowned_view(C0)
+    sp = unowned_view(sp)
+    dp = unowned_view(dp)
+    clip = unowned_view(clip)
+    cparams = unowned_view(cparams)
+    st = unowned_view(cstate[b])
+    dg = unowned_view(diag[b])
+    buf = np.empty(18 + 2 * n + 3 + n_held + 3 + 7 * n + 3 * mm + 2 * mm)
+    raw = unowned_view(buf)
+    Rc = raw[0:9].reshape((3, 3))
+    Rn = raw[9:18].reshape((3, 3))
+    o = 18
+    xc = raw[o : o + n]
+    xn = raw[o + n : o + 2 * n]
+    o += 2 * n
+    u_cmd = raw[o : o + 3]
+    held = raw[o + 3 : o + 3 + n_held]
+    hd = raw[o + 3 + n_held : o + 6 + n_held]
+    o += 6 + n_held
+    work = raw[o : o + 7 * n]
+    o += 7 * n
+    A = raw[o : o + 3 * mm].reshape((3, mm))
+    scratch = raw[o + 3 * mm : o + 5 * mm]
+    sat_own = np.zeros(3 if act == K.ACT_IDEAL else 1, dtype=np.bool_)
+    sat = unowned_view(sat_own)
+    for i in range(3):
+        u_cmd[i] = 0.0
+        for j in range(3):
+            Rc[i, j] = R[b, i, j]
+    for i in range(n):
+        xc[i] = x[b, i]
+    for i in range(n_held):
+        held[i] = 0.0
+    wc = xc[:3]
+    wn = xn[:3]
+    rR = unowned_view(ref_R)
+    rw = unowned_view(ref_w)
+    rdw = unowned_view(ref_dw)
+    # the command's sin/cos of the gimbal angles land where the step's first stage reads them
+    sn = work[5 * n : 5 * n + mm]
+    cs = work[6 * n : 6 * n + mm]
+    rows = 0
+    status = 0
+    t = t0
+    for k in range(n_steps + 1):
+        t = t0 + k * dt
+        r = ref_index[k]
+        if k % every_ctrl == 0:
+            law(t, Rc, wc, rR[r, rb], rw[r, rb], rdw[r, rb], cparams, st, u_cmd, dg)
+            if not np.isfinite(u_cmd[0] + u_cmd[1] + u_cmd[2]):
+                status = 2
+                break
+        if act == K.ACT_SGCMG:
+            sat[0] = K.sgcmg_command(
+                S0, C0, steer, sp, rate_limit, u_cmd, wc, xc[3:], t, held, hd, A, sn, cs
+            )  # fmt: skip
+        else:
+            K.ideal_command(u_cmd, clip_on, clip, held, sat)
+        if k % log_every == 0 or k == n_steps:
+            for i in range(3):
+                log_w[rows, b, i] = xc[i]
+                log_wd[rows, b, i] = ref_w[r, rb, i]
+                log_ucmd[rows, b, i] = u_cmd[i]
+                for j in range(3):
+                    log_R[rows, b, i, j] = Rc[i, j]
+                    log_Rd[rows, b, i, j] = ref_R[r, rb, i, j]
+            u0, u1, u2 = K.actuator_torque(act, S0, C0, xc[0], xc[1], xc[2], xc, 3, held, scratch)
+            log_u[rows, b, 0] = u0
+            log_u[rows, b, 1] = u1
+            log_u[rows, b, 2] = u2
+            d0, d1, d2 = K.disturbance_at(dist, dp, t)
+            log_dist[rows, b, 0] = d0
+            log_dist[rows, b, 1] = d1
+            log_dist[rows, b, 2] = d2
+            for i in range(m):
+                log_act[rows, b, i] = xc[3 + i]
+            for i in range(n_held):
+                log_act[rows, b, m + i] = held[i]
+            for i in range(sat.shape[0]):
+                log_sat[rows, b, i] = sat[i]
+            for i in range(dg.shape[0]):
+                log_diag[rows, b, i] = dg[i]
+            rows += 1
+        if k == n_steps:
+            break
+        # call sites with the actuator (and the common disturbance) code as constants: the
+        # inlined step is specialised per configuration (a quarter of its cost is runtime
+        # branching otherwise, docs/performance.md); the arithmetic is the same
+        if act == K.ACT_SGCMG:
+            if dist == K.DIST_NONE:
+                K.rkmk4_step(
+                    K.ACT_SGCMG, Jb, Jib, S0, C0, K.DIST_NONE, dp, t, Rc, xc, held, dt, Rn, xn,
+                    work, True,
+                )  # fmt: skip
+            else:
+                K.rkmk4_step(
+                    K.ACT_SGCMG, Jb, Jib, S0, C0, dist, dp, t, Rc, xc, held, dt, Rn, xn, work,
+                    True,
+                )  # fmt: skip
+        else:
+            K.rkmk4_step(
+                K.ACT_IDEAL, Jb, Jib, S0, C0, dist, dp, t, Rc, xc, held, dt, Rn, xn, work, False
+            )  # fmt: skip
+        total = 0.0
+        for i in range(n):
+            total += xn[i]
+        for i in range(3):
+            for j in range(3):
+                total += Rn[i, j]
+        if not np.isfinite(total):
+            status = 1
+            break
+        Rc, Rn = Rn, Rc
+        xc, xn = xn, xc
+        wc, wn = wn, wc
+    R[b] = Rc
+    x[b] = xc
+    if buf.shape[0] == 0 or sat_own.shape[0] == 0:  # the owners' last use (see above)
+        status = -1
+    return status, t
+
+
+@njit
 def _fused_loop(
     n_steps: int, t0: float, dt: float, every_ctrl: int, log_every: int,
     R: np.ndarray, x: np.ndarray,
@@ -194,113 +374,73 @@ def _fused_loop(
     LAW_SIGNATURE`) at every ``every_ctrl``-th step (zero-order hold) with its parameters
     ``cparams`` and its internal state rows ``cstate (B, n_s)`` (carried in place), the
     actuator's command, a log row every ``log_every``-th step and at the end, one RKMK4 step.
-    Returns ``(status, rows, t)``: status 0 = done, 1 = state non-finite, 2 = non-finite
-    torque (at time ``t``)."""
+    The spacecraft are independent, so each runs all its steps before the next
+    (:func:`_one_spacecraft`). Returns ``(status, rows, t)``: status 0 = done, 1 = state
+    non-finite, 2 = non-finite torque, at the earliest time ``t`` over the batch."""
+    status, t_fail = 0, np.inf
+    for b in range(R.shape[0]):
+        s, tb = _one_spacecraft(
+            b, n_steps, t0, dt, every_ctrl, log_every, R, x, act, J, J_inv, S0, C0, dist, dp,
+            clip_on, clip, steer, sp, rate_limit, law, cparams, cstate, ref_index, ref_R, ref_w,
+            ref_dw, log_R, log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_act, log_sat,
+            log_diag, diag,
+        )  # fmt: skip
+        # the earliest failure; at one time the law's (before the step) comes first
+        if s != 0 and (tb < t_fail or (tb == t_fail and s == 2)):
+            status, t_fail = s, tb
+    return _log_times(n_steps, t0, dt, log_every, log_t, status, t_fail)
+
+
+@njit(parallel=True)
+def _fused_loop_parallel(
+    n_steps: int, t0: float, dt: float, every_ctrl: int, log_every: int,
+    R: np.ndarray, x: np.ndarray,
+    act: int, J: np.ndarray, J_inv: np.ndarray, S0: np.ndarray, C0: np.ndarray,
+    dist: int, dp: np.ndarray, clip_on: bool, clip: np.ndarray,
+    steer: int, sp: np.ndarray, rate_limit: float,
+    law: Any, cparams: np.ndarray, cstate: np.ndarray,
+    ref_index: np.ndarray, ref_R: np.ndarray, ref_w: np.ndarray, ref_dw: np.ndarray,
+    log_t: np.ndarray, log_R: np.ndarray, log_w: np.ndarray, log_Rd: np.ndarray,
+    log_wd: np.ndarray, log_ucmd: np.ndarray, log_u: np.ndarray, log_dist: np.ndarray,
+    log_act: np.ndarray, log_sat: np.ndarray, log_diag: np.ndarray, diag: np.ndarray,
+) -> tuple[int, int, float]:  # fmt: skip
+    """:func:`_fused_loop` with the spacecraft spread over numba's threads (``prange``): each
+    spacecraft's run is the same arithmetic in the same order, so the results are bit-identical
+    to the serial loop's for any thread count."""
     B = R.shape[0]
-    n = x.shape[1]
-    n_held = 3 if act == K.ACT_IDEAL else n - 3
-    shared = J.shape[0] == 1
-    u_cmd = np.zeros((B, 3))
-    held = np.zeros((B, n_held))
-    hd = np.empty(3)
-    # saturation flags as logged: per axis (ideal actuator), one per spacecraft (SGCMG)
-    sat = np.zeros((B, 3 if act == K.ACT_IDEAL else 1), dtype=np.bool_)
-    R_next = np.empty((B, 3, 3))
-    x_next = np.empty((B, n))
-    work = np.empty(7 * n)
-    A = np.empty((3, max(n - 3, 1)))
-    scratch = np.empty(2 * max(n - 3, 1))
-    # sin/cos of every spacecraft's gimbal angles from its command, reused by its step
-    trig = np.empty((B, 2, max(n - 3, 1)))
+    st = np.zeros(B, dtype=np.int64)
+    tf = np.full(B, np.inf)
+    for i in prange(B):
+        # prange's index may be unsigned: with an int it would unify to float
+        b = np.int64(i)
+        s, tb = _one_spacecraft(
+            b, n_steps, t0, dt, every_ctrl, log_every, R, x, act, J, J_inv, S0, C0, dist, dp,
+            clip_on, clip, steer, sp, rate_limit, law, cparams, cstate, ref_index, ref_R, ref_w,
+            ref_dw, log_R, log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_act, log_sat,
+            log_diag, diag,
+        )  # fmt: skip
+        st[b] = s
+        tf[b] = tb
+    status, t_fail = 0, np.inf
+    for b in range(B):
+        if st[b] != 0 and (tf[b] < t_fail or (tf[b] == t_fail and st[b] == 2)):
+            status, t_fail = st[b], tf[b]
+    return _log_times(n_steps, t0, dt, log_every, log_t, status, t_fail)
+
+
+@njit(inline="always")
+def _log_times(
+    n_steps: int, t0: float, dt: float, log_every: int, log_t: np.ndarray, status: int,
+    t_fail: float,
+) -> tuple[int, int, float]:  # fmt: skip
+    """Fill the log's time column; ``(status, rows, t)`` of the loop."""
     rows = 0
     for k in range(n_steps + 1):
-        t = t0 + k * dt
-        r = ref_index[k]
-        if k % every_ctrl == 0:
-            for b in range(B):
-                rb = b if ref_R.shape[1] > 1 else 0
-                law(
-                    t, R[b], x[b, :3], ref_R[r, rb], ref_w[r, rb], ref_dw[r, rb], cparams,
-                    cstate[b], u_cmd[b], diag[b],
-                )  # fmt: skip
-                tot = u_cmd[b, 0] + u_cmd[b, 1] + u_cmd[b, 2]
-                if not np.isfinite(tot):
-                    return 2, rows, t
-        for b in range(B):
-            if act == K.ACT_SGCMG:
-                sat[b, 0] = K.sgcmg_command(
-                    S0, C0, steer, sp, rate_limit, u_cmd[b], x[b, :3], x[b, 3:], t, held[b], hd,
-                    A, trig[b, 0], trig[b, 1],
-                )  # fmt: skip
-            else:
-                K.ideal_command(u_cmd[b], clip_on, clip, held[b], sat[b])
         if k % log_every == 0 or k == n_steps:
-            log_t[rows] = t
-            for b in range(B):
-                rb = b if ref_R.shape[1] > 1 else 0
-                for i in range(3):
-                    log_w[rows, b, i] = x[b, i]
-                    log_wd[rows, b, i] = ref_w[r, rb, i]
-                    log_ucmd[rows, b, i] = u_cmd[b, i]
-                    for j in range(3):
-                        log_R[rows, b, i, j] = R[b, i, j]
-                        log_Rd[rows, b, i, j] = ref_R[r, rb, i, j]
-                u0, u1, u2 = K.actuator_torque(
-                    act, S0, C0, x[b, 0], x[b, 1], x[b, 2], x[b], 3, held[b], scratch
-                )
-                log_u[rows, b, 0] = u0
-                log_u[rows, b, 1] = u1
-                log_u[rows, b, 2] = u2
-                d0, d1, d2 = K.disturbance_at(dist, dp, t)
-                log_dist[rows, b, 0] = d0
-                log_dist[rows, b, 1] = d1
-                log_dist[rows, b, 2] = d2
-                for i in range(n - 3):
-                    log_act[rows, b, i] = x[b, 3 + i]
-                for i in range(n_held):
-                    log_act[rows, b, n - 3 + i] = held[b, i]
-                for i in range(sat.shape[1]):
-                    log_sat[rows, b, i] = sat[b, i]
-                for i in range(diag.shape[1]):
-                    log_diag[rows, b, i] = diag[b, i]
+            log_t[rows] = t0 + k * dt
             rows += 1
-        if k == n_steps:
-            break
-        for b in range(B):
-            kb = 0 if shared else b
-            # call sites with the actuator (and the common disturbance) code as constants: the
-            # inlined step is specialised per configuration (a quarter of its cost is runtime
-            # branching otherwise, docs/performance.md); the arithmetic is the same
-            if act == K.ACT_SGCMG:
-                for i in range(n - 3):
-                    work[5 * n + i] = trig[b, 0, i]
-                    work[6 * n + i] = trig[b, 1, i]
-                if dist == K.DIST_NONE:
-                    K.rkmk4_step(
-                        K.ACT_SGCMG, J[kb], J_inv[kb], S0, C0, K.DIST_NONE, dp, t, R[b], x[b],
-                        held[b], dt, R_next[b], x_next[b], work, True,
-                    )  # fmt: skip
-                else:
-                    K.rkmk4_step(
-                        K.ACT_SGCMG, J[kb], J_inv[kb], S0, C0, dist, dp, t, R[b], x[b], held[b],
-                        dt, R_next[b], x_next[b], work, True,
-                    )  # fmt: skip
-            else:
-                K.rkmk4_step(
-                    K.ACT_IDEAL, J[kb], J_inv[kb], S0, C0, dist, dp, t, R[b], x[b], held[b], dt,
-                    R_next[b], x_next[b], work, False,
-                )  # fmt: skip
-        total = 0.0
-        for b in range(B):
-            for i in range(n):
-                total += x_next[b, i]
-            for i in range(3):
-                for j in range(3):
-                    total += R_next[b, i, j]
-        if not np.isfinite(total):
-            return 1, rows, t
-        R, R_next = R_next, R
-        x, x_next = x_next, x
+    if status != 0:
+        return status, rows, t_fail
     return 0, rows, t0 + n_steps * dt
 
 
@@ -309,11 +449,13 @@ def _fused_loop(
 _ENTRIES: dict[tuple, Callable[..., Any]] = {}  # by a cheap key of the argument types
 
 
-def _loop_entry(args: tuple, law_index: int) -> Callable[..., Any]:
-    """The compiled :func:`_fused_loop` for these argument types with the law typed as a
-    first-class function of the seam's signature (compiled once, cached on disk)."""
+def _loop_entry(args: tuple, law_index: int, parallel: bool = False) -> Callable[..., Any]:
+    """The compiled :func:`_fused_loop` (``parallel``: :func:`_fused_loop_parallel`) for these
+    argument types with the law typed as a first-class function of the seam's signature
+    (compiled once, cached on disk)."""
+    loop = _fused_loop_parallel if parallel else _fused_loop
     # a cheap key first (numba's typeof costs ~10 µs per argument)
-    key = tuple(
+    key = (parallel,) + tuple(
         (a.dtype.char, a.ndim, a.flags.c_contiguous, a.flags.writeable, a.flags.aligned)
         if isinstance(a, np.ndarray)
         else type(a)
@@ -329,8 +471,8 @@ def _loop_entry(args: tuple, law_index: int) -> Callable[..., Any]:
             types.FunctionType(seam.LAW_SIGNATURE) if i == law_index else numba.typeof(a)
             for i, a in enumerate(args)
         )
-        _fused_loop.compile(sig)
-        entry = _fused_loop.overloads[sig].entry_point
+        loop.compile(sig)
+        entry = loop.overloads[sig].entry_point
         _ENTRIES[key] = entry
     return entry
 
@@ -436,6 +578,7 @@ def run_fused(
     control_period: float,
     make_log: Callable[[int, int], Any],
     notes: list[str] | None = None,
+    workers: int = 1,
 ) -> Any:
     """The whole run in :func:`_fused_loop`; returns the
     :class:`~spacecraft.simulator.SimulationResult`, or ``None`` when the run must go through
@@ -480,7 +623,18 @@ def run_fused(
         log.t, log.R, log.omega, log.R_d, log.omega_d, log.u_cmd, log.u, log.disturbance,
         log_act, log_sat, log_diag, diag,
     )  # fmt: skip
-    status, rows, t_fail = _loop_entry(args, 19)(*args)
+    if workers > 1 and B > 1:
+        import numba
+
+        entry = _loop_entry(args, 19, parallel=True)
+        previous = numba.get_num_threads()
+        numba.set_num_threads(min(workers, B))  # this thread's setting only (numba's rule)
+        try:
+            status, rows, t_fail = entry(*args)
+        finally:
+            numba.set_num_threads(previous)
+    else:
+        status, rows, t_fail = _loop_entry(args, 19)(*args)
     if status == 2 and t_fail == t0:
         raise seam.non_finite_error(controller, spec, t0)
     if status != 0:

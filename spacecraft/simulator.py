@@ -589,6 +589,23 @@ def _check_sensors(
     return tuple(out)
 
 
+def _check_workers(workers: Any) -> int:
+    """``workers`` as an int in [1, the threads numba may use]."""
+    from liecontrol._jit import JIT_ENABLED
+
+    workers = as_int(workers, "workers", 1)
+    if JIT_ENABLED:
+        import numba
+
+        most = int(numba.config.NUMBA_NUM_THREADS)
+        if workers > most:
+            raise ValueError(
+                f"workers: at most {most} threads (numba.config.NUMBA_NUM_THREADS, set by the "
+                f"NUMBA_NUM_THREADS environment variable), got {workers}"
+            )
+    return workers
+
+
 def simulate(
     plant: Spacecraft,
     controller: AttitudeController,
@@ -605,6 +622,7 @@ def simulate(
     | None = None,
     rng: np.random.Generator | None = None,
     compute_delay: float = 0.0,
+    workers: int = 1,
 ) -> SimulationResult:
     """Run the closed loop from ``t0`` to ``t_final`` with fixed step ``dt``.
 
@@ -641,6 +659,13 @@ def simulate(
             delayed command arrives. ``result.u_cmd`` logs the command applied from ``t`` on
             (computed at ``t − τ``). Default 0: applied at once, as without the argument.
             A delay not shorter than the run (no command would arrive) is rejected.
+        workers: threads over which the compiled loop spreads the batch's spacecraft (numba's
+            threading layer; each spacecraft's run is the same arithmetic in the same order, so
+            the result is bit-identical for any count). Default 1: one thread. Opt-in because a
+            process that has run a parallel region must not ``fork`` and use it again under
+            GNU OpenMP (the ``process`` executor of :mod:`benchmarks` forks): use it in a main
+            program, or with ``spawn``. At most ``numba.config.NUMBA_NUM_THREADS``; ignored
+            (with the log line) when the run takes the Python loop.
 
     Returns:
         :class:`SimulationResult`.
@@ -685,6 +710,7 @@ def simulate(
             "actuator)"
         )
     log_every = as_int(log_every, "log_every", 1)
+    workers = _check_workers(workers)
     sensor_list = _check_sensors(sensors, dt)
     if sensor_list and not isinstance(rng, np.random.Generator):
         raise ValueError(
@@ -728,7 +754,7 @@ def simulate(
         try:
             result = run_fused(
                 fused, plant, ctrl, reference, state.R, state.packed(), t0, n_steps, dt,
-                every_ctrl, log_every, control_period, _Log, reasons,
+                every_ctrl, log_every, control_period, _Log, reasons, workers=workers,
             )  # fmt: skip
         except NonFiniteTorque:
             # the controller's own (Python) command at the first sample: a built-in law raises
@@ -749,6 +775,8 @@ def simulate(
                 f"controller {type(controller).__name__} is unbatched (batched = False: one "
                 "Python copy per spacecraft)"
             )
+        if workers > 1:
+            why += f" (workers = {workers} applies to the compiled loop only: one thread runs)"
         _logger.info("simulate: the Python loop runs: %s", why)
     for _, sensor, _ in sensor_list:
         if callable(getattr(sensor, "reset", None)):

@@ -554,3 +554,49 @@ def test_the_fused_loop_imports_no_controller_class_and_no_circle():
     for mod in ("actuators", "steering", "disturbances", "sgcmg", "_kernels", "cmg_dynamics"):
         assert "_fused" not in graph[mod] and "simulator" not in graph[mod], mod
     assert "simulator" not in graph["_fused"]
+
+
+def _batch_setup(B: int, seed: int = 3):
+    rng = np.random.default_rng(seed)
+    plant = Spacecraft(RigidBody(J), SgcmgActuator(SgcmgPyramid(h0=10.0)))
+    R0 = so3.exp(rng.normal(size=(B, 3)))
+    state = plant.initial_state(R0, 0.02 * rng.normal(size=(B, 3)))
+    ctrl = GeometricPD(J, 10.0, 60.0, error="large_angle")
+    return plant, ctrl, ConstantAttitude(np.eye(3)), state
+
+
+def test_workers_spread_the_batch_and_give_the_serial_result_bit_for_bit(monkeypatch):
+    plant, ctrl, ref, state = _batch_setup(7)
+    one = _fused(monkeypatch, plant, ctrl, ref, state, 20.0, 0.1, log_every=3)
+    two = _fused(monkeypatch, plant, ctrl, ref, state, 20.0, 0.1, log_every=3, workers=2)
+    for name in ("t", "R", "omega", "u_cmd", "u"):
+        np.testing.assert_array_equal(getattr(two, name), getattr(one, name))
+    for k in one.actuator:
+        np.testing.assert_array_equal(two.actuator[k], one.actuator[k])
+    for k in one.controller:
+        np.testing.assert_array_equal(two.controller[k], one.controller[k])
+    # and the batch's spacecraft are each the single run of that spacecraft
+    single = plant.initial_state(state.R[4:5], state.omega[4:5])
+    alone = _fused(monkeypatch, plant, ctrl, ref, single, 20.0, 0.1, log_every=3)
+    np.testing.assert_array_equal(one.R[:, 4], alone.R[:, 0])
+
+
+@pytest.mark.parametrize("bad", [0, -1, 2.5, "2", 10**6])
+def test_workers_must_be_a_thread_count(bad):
+    plant, ctrl, ref, state = _batch_setup(2)
+    with pytest.raises((TypeError, ValueError), match="^workers"):
+        simulate(plant, ctrl, ref, state, 1.0, 0.1, workers=bad)
+
+
+def test_workers_on_the_python_loop_are_named_in_its_log_line(caplog):
+    class Slow(AttitudeController):
+        def reset(self, t0, batch_size):
+            pass
+
+        def command(self, t, state, ref):
+            return -state.omega
+
+    plant, _, ref, state = _batch_setup(2)
+    with caplog.at_level(logging.INFO, logger="spacecraft.simulator"):
+        simulate(plant, Slow(), ref, state, 1.0, 0.1, workers=2)
+    assert "workers = 2 applies to the compiled loop only" in caplog.text
