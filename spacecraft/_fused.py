@@ -34,6 +34,7 @@ from liecontrol._jit import JIT_ENABLED, njit, prange
 from liecontrol.control import kernel as seam
 
 from . import _kernels as K
+from ._kernels_vscmg import vscmg_command_one, vscmg_derivatives_one, vscmg_rkmk4_step_batch
 
 #: reference samples held in memory by the fused loop at most (else the Python loop runs)
 _MAX_REFERENCE_BYTES = 256 * 2**20
@@ -444,18 +445,277 @@ def _log_times(
     return 0, rows, t0 + n_steps * dt
 
 
+@dataclass(frozen=True)
+class VscmgPlan:
+    """The kernel parameters of a plant flying the full CMG model
+    (:class:`spacecraft.cmg_dynamics.VscmgActuator`) in the fused loop: no gimbal stops, a
+    regularised steering law with a kernel, a time-only disturbance with a kernel, the body's
+    inertia the actuator's bus inertia (:func:`vscmg_plan`)."""
+
+    kinematic: bool
+    variable_speed: bool
+    feedforward: bool
+    par: np.ndarray
+    M: np.ndarray  # (3, 15) = [J_B | S | C | G]
+    dist: int
+    dist_params: np.ndarray
+    steer: int
+    steer_params: np.ndarray
+    rate_limit: float
+
+
+def _vscmg_support(plant: Any) -> tuple[VscmgPlan | None, str]:
+    """``(plan, "")`` or ``(None, why)`` for a plant flying the full CMG model; ``(None, "")``
+    for any other plant."""
+    from .cmg_dynamics import VscmgActuator
+    from .disturbances import disturbance_kernel
+    from .steering import steering_kernel
+
+    act = plant.actuator
+    if type(act) is not VscmgActuator:
+        return None, ""
+    if plant.modes is not None or plant.momentum_management is not None:
+        return None, ""  # the generic reasons apply (plant_reason)
+    if act.stops is not None:
+        return None, "the full CMG model with gimbal stops has no compiled loop (stop contact)"
+    dk = disturbance_kernel(plant.disturbance)
+    if dk is None:
+        return None, ""
+    if plant._coupled_plan is None:
+        return None, "the full CMG model's body inertia differs from its bus_inertia"
+    sk = steering_kernel(act.steering, act.cluster)
+    if sk is None or sk[0] == K.STEER_PINV_NULL:
+        return None, (
+            f"the full CMG model's steering {type(act.steering).__name__} has no compiled "
+            "kernel on this actuator (pseudo-inverse, SR and GSR have)"
+        )
+    kin, var, _bumper, par, M = act._kargs
+    ff = (not kin) and bool(act.servo.gyro_feedforward)
+    plan = VscmgPlan(
+        bool(kin), bool(var), ff, np.ascontiguousarray(par), np.ascontiguousarray(M), dk[0],
+        np.ascontiguousarray(dk[1], dtype=np.float64), sk[0], np.ascontiguousarray(sk[1]),
+        float(act.rate_limit),
+    )  # fmt: skip
+    return plan, ""
+
+
+def vscmg_plan(plant: Any) -> VscmgPlan | None:
+    """The :class:`VscmgPlan` of a plant flying the full CMG model, or ``None``."""
+    return _vscmg_support(plant)[0]
+
+
+#: rows of the full CMG model's per-gimbal log in the fused loop (``log_vs (K, B, 8, 4)``)
+_VS_DELTA, _VS_RATE, _VS_CMD, _VS_SPIN, _VS_GT, _VS_ST, _VS_POWER, _VS_TSAT = range(8)
+
+
+@njit
+def _one_vscmg(
+    b: int, n_steps: int, t0: float, dt: float, every_ctrl: int, log_every: int,
+    R: np.ndarray, x: np.ndarray,
+    kin: bool, var: bool, ff: bool, par: np.ndarray, M: np.ndarray,
+    dist: int, dp: np.ndarray, steer: int, sp: np.ndarray, rate_limit: float,
+    law: Any, cparams: np.ndarray, cstate: np.ndarray,
+    ref_index: np.ndarray, ref_R: np.ndarray, ref_w: np.ndarray, ref_dw: np.ndarray,
+    log_R: np.ndarray, log_w: np.ndarray, log_Rd: np.ndarray,
+    log_wd: np.ndarray, log_ucmd: np.ndarray, log_u: np.ndarray, log_dist: np.ndarray,
+    log_vs: np.ndarray, log_work: np.ndarray, log_sat: np.ndarray, log_diag: np.ndarray,
+    diag: np.ndarray,
+) -> tuple[int, float]:  # fmt: skip
+    """The whole run of spacecraft ``b`` flying the full CMG model (as :func:`_one_spacecraft`
+    for the momentum model): the law at every ``every_ctrl``-th step, the cluster's command
+    (:func:`spacecraft._kernels_vscmg.vscmg_command_one`) and one RKMK4 step
+    (:func:`~spacecraft._kernels_vscmg.vscmg_rkmk4_step_batch` on this spacecraft) at every
+    step, the log's torques from the coupled derivatives under no external torque, as
+    :meth:`~spacecraft.cmg_dynamics.VscmgActuator.body_torque` and ``log`` compute them."""
+    n = x.shape[1]
+    rb = b if ref_R.shape[1] > 1 else 0
+    par = unowned_view(par)
+    M = unowned_view(M)
+    dp = unowned_view(dp)
+    sp = unowned_view(sp)
+    cparams = unowned_view(cparams)
+    st = unowned_view(cstate[b])
+    dg = unowned_view(diag[b])
+    rR = unowned_view(ref_R)
+    rw = unowned_view(ref_w)
+    rdw = unowned_view(ref_dw)
+    buf = np.empty(18 + 2 * n + 3 + 12 + 12 + 3 + 3 + n + 20)
+    raw = unowned_view(buf)
+    Rc = raw[0:9].reshape((1, 3, 3))
+    Rn = raw[9:18].reshape((1, 3, 3))
+    o = 18
+    xc = raw[o : o + n].reshape((1, n))
+    xn = raw[o + n : o + 2 * n].reshape((1, n))
+    o += 2 * n
+    u_cmd = raw[o : o + 3]
+    held = raw[o + 3 : o + 15].reshape((1, 3, 4))
+    A = raw[o + 15 : o + 27].reshape((3, 4))
+    hdot = raw[o + 27 : o + 30]
+    zero = raw[o + 30 : o + 33]
+    out = raw[o + 33 : o + 33 + n]
+    det = raw[o + 33 + n : o + 53 + n].reshape((5, 4))
+    for i in range(3):
+        u_cmd[i] = 0.0
+        zero[i] = 0.0
+        for j in range(3):
+            Rc[0, i, j] = R[b, i, j]
+    for i in range(n):
+        xc[0, i] = x[b, i]
+    status = 0
+    rows = 0
+    t = t0
+    sat = False
+    for k in range(n_steps + 1):
+        t = t0 + k * dt
+        r = ref_index[k]
+        xb = xc[0]
+        if k % every_ctrl == 0:
+            law(t, Rc[0], xb[:3], rR[r, rb], rw[r, rb], rdw[r, rb], cparams, st, u_cmd, dg)
+            if not np.isfinite(u_cmd[0] + u_cmd[1] + u_cmd[2]):
+                status = 2
+                break
+        sat = vscmg_command_one(
+            ff, par, M, steer, sp, rate_limit, xb[:3], xb[3:], u_cmd, t, A, hdot, held[0]
+        )  # fmt: skip
+        if k % log_every == 0 or k == n_steps:
+            Rb = Rc[0]
+            for i in range(3):
+                log_w[rows, b, i] = xb[i]
+                log_wd[rows, b, i] = ref_w[r, rb, i]
+                log_ucmd[rows, b, i] = u_cmd[i]
+                for j in range(3):
+                    log_R[rows, b, i, j] = Rb[i, j]
+                    log_Rd[rows, b, i, j] = ref_R[r, rb, i, j]
+            vscmg_derivatives_one(kin, var, False, False, par, M, xb[:3], xb[3:], held[0], zero,
+                                  out, det)  # fmt: skip
+            w0, w1, w2 = xb[0], xb[1], xb[2]
+            a0, a1, a2 = out[0], out[1], out[2]
+            # J ω̇ + ω × J ω (the bus inertia is M's first three columns)
+            jw0 = w0 * M[0, 0] + w1 * M[0, 1] + w2 * M[0, 2]
+            jw1 = w0 * M[1, 0] + w1 * M[1, 1] + w2 * M[1, 2]
+            jw2 = w0 * M[2, 0] + w1 * M[2, 1] + w2 * M[2, 2]
+            log_u[rows, b, 0] = (a0 * M[0, 0] + a1 * M[0, 1] + a2 * M[0, 2]) + (w1 * jw2 - w2 * jw1)
+            log_u[rows, b, 1] = (a0 * M[1, 0] + a1 * M[1, 1] + a2 * M[1, 2]) + (w2 * jw0 - w0 * jw2)
+            log_u[rows, b, 2] = (a0 * M[2, 0] + a1 * M[2, 1] + a2 * M[2, 2]) + (w0 * jw1 - w1 * jw0)
+            d0, d1, d2 = K.disturbance_at(dist, dp, t)
+            log_dist[rows, b, 0] = d0
+            log_dist[rows, b, 1] = d1
+            log_dist[rows, b, 2] = d2
+            for i in range(4):
+                log_vs[rows, b, _VS_DELTA, i] = xb[3 + i]
+                log_vs[rows, b, _VS_RATE, i] = xb[7 + i]
+                log_vs[rows, b, _VS_CMD, i] = held[0, 0, i]
+                log_vs[rows, b, _VS_SPIN, i] = xb[11 + i]
+                log_vs[rows, b, _VS_GT, i] = det[0, i]
+                log_vs[rows, b, _VS_ST, i] = det[1, i]
+                log_vs[rows, b, _VS_POWER, i] = det[3, i]
+                log_vs[rows, b, _VS_TSAT, i] = det[2, i]
+            log_work[rows, b] = xb[19]
+            log_sat[rows, b] = sat
+            for i in range(dg.shape[0]):
+                log_diag[rows, b, i] = dg[i]
+            rows += 1
+        if k == n_steps:
+            break
+        vscmg_rkmk4_step_batch(
+            kin, var, False, False, par, M, dist, dp, t, Rc, xc, held, dt, Rn, xn
+        )  # fmt: skip
+        total = 0.0
+        for i in range(n):
+            total += xn[0, i]
+        for i in range(3):
+            for j in range(3):
+                total += Rn[0, i, j]
+        if not np.isfinite(total):
+            status = 1
+            break
+        Rc, Rn = Rn, Rc
+        xc, xn = xn, xc
+    R[b] = Rc[0]
+    x[b] = xc[0]
+    if buf.shape[0] == 0:  # the owner's last use (see _one_spacecraft)
+        status = -1
+    return status, t
+
+
+@njit
+def _fused_loop_vscmg(
+    n_steps: int, t0: float, dt: float, every_ctrl: int, log_every: int,
+    R: np.ndarray, x: np.ndarray,
+    kin: bool, var: bool, ff: bool, par: np.ndarray, M: np.ndarray,
+    dist: int, dp: np.ndarray, steer: int, sp: np.ndarray, rate_limit: float,
+    law: Any, cparams: np.ndarray, cstate: np.ndarray,
+    ref_index: np.ndarray, ref_R: np.ndarray, ref_w: np.ndarray, ref_dw: np.ndarray,
+    log_t: np.ndarray, log_R: np.ndarray, log_w: np.ndarray, log_Rd: np.ndarray,
+    log_wd: np.ndarray, log_ucmd: np.ndarray, log_u: np.ndarray, log_dist: np.ndarray,
+    log_vs: np.ndarray, log_work: np.ndarray, log_sat: np.ndarray, log_diag: np.ndarray,
+    diag: np.ndarray,
+) -> tuple[int, int, float]:  # fmt: skip
+    """:func:`_fused_loop` for the full CMG model (:func:`_one_vscmg` per spacecraft)."""
+    status, t_fail = 0, np.inf
+    for b in range(R.shape[0]):
+        s, tb = _one_vscmg(
+            b, n_steps, t0, dt, every_ctrl, log_every, R, x, kin, var, ff, par, M, dist, dp,
+            steer, sp, rate_limit, law, cparams, cstate, ref_index, ref_R, ref_w, ref_dw, log_R,
+            log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_vs, log_work, log_sat,
+            log_diag, diag,
+        )  # fmt: skip
+        if s != 0 and (tb < t_fail or (tb == t_fail and s == 2)):
+            status, t_fail = s, tb
+    return _log_times(n_steps, t0, dt, log_every, log_t, status, t_fail)
+
+
+@njit(parallel=True)
+def _fused_loop_vscmg_parallel(
+    n_steps: int, t0: float, dt: float, every_ctrl: int, log_every: int,
+    R: np.ndarray, x: np.ndarray,
+    kin: bool, var: bool, ff: bool, par: np.ndarray, M: np.ndarray,
+    dist: int, dp: np.ndarray, steer: int, sp: np.ndarray, rate_limit: float,
+    law: Any, cparams: np.ndarray, cstate: np.ndarray,
+    ref_index: np.ndarray, ref_R: np.ndarray, ref_w: np.ndarray, ref_dw: np.ndarray,
+    log_t: np.ndarray, log_R: np.ndarray, log_w: np.ndarray, log_Rd: np.ndarray,
+    log_wd: np.ndarray, log_ucmd: np.ndarray, log_u: np.ndarray, log_dist: np.ndarray,
+    log_vs: np.ndarray, log_work: np.ndarray, log_sat: np.ndarray, log_diag: np.ndarray,
+    diag: np.ndarray,
+) -> tuple[int, int, float]:  # fmt: skip
+    """:func:`_fused_loop_vscmg` over numba's threads (bit-identical)."""
+    B = R.shape[0]
+    st = np.zeros(B, dtype=np.int64)
+    tf = np.full(B, np.inf)
+    for i in prange(B):
+        b = np.int64(i)
+        s, tb = _one_vscmg(
+            b, n_steps, t0, dt, every_ctrl, log_every, R, x, kin, var, ff, par, M, dist, dp,
+            steer, sp, rate_limit, law, cparams, cstate, ref_index, ref_R, ref_w, ref_dw, log_R,
+            log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_vs, log_work, log_sat,
+            log_diag, diag,
+        )  # fmt: skip
+        st[b] = s
+        tf[b] = tb
+    status, t_fail = 0, np.inf
+    for b in range(B):
+        if st[b] != 0 and (tf[b] < t_fail or (tf[b] == t_fail and st[b] == 2)):
+            status, t_fail = st[b], tf[b]
+    return _log_times(n_steps, t0, dt, log_every, log_t, status, t_fail)
+
+
 #: compiled entry points of the fused loop, per argument types (the law's type is the seam's
 #: function type, so one compiled loop serves every law)
 _ENTRIES: dict[tuple, Callable[..., Any]] = {}  # by a cheap key of the argument types
 
 
-def _loop_entry(args: tuple, law_index: int, parallel: bool = False) -> Callable[..., Any]:
-    """The compiled :func:`_fused_loop` (``parallel``: :func:`_fused_loop_parallel`) for these
-    argument types with the law typed as a first-class function of the seam's signature
-    (compiled once, cached on disk)."""
-    loop = _fused_loop_parallel if parallel else _fused_loop
+def _loop_entry(
+    args: tuple, law_index: int, parallel: bool = False, vscmg: bool = False
+) -> Callable[..., Any]:
+    """The compiled :func:`_fused_loop` (``parallel``: :func:`_fused_loop_parallel`; ``vscmg``:
+    the full CMG model's :func:`_fused_loop_vscmg`) for these argument types with the law typed
+    as a first-class function of the seam's signature (compiled once, cached on disk)."""
+    if vscmg:
+        loop = _fused_loop_vscmg_parallel if parallel else _fused_loop_vscmg
+    else:
+        loop = _fused_loop_parallel if parallel else _fused_loop
     # a cheap key first (numba's typeof costs ~10 µs per argument)
-    key = (parallel,) + tuple(
+    key = (parallel, vscmg) + tuple(
         (a.dtype.char, a.ndim, a.flags.c_contiguous, a.flags.writeable, a.flags.aligned)
         if isinstance(a, np.ndarray)
         else type(a)
@@ -488,7 +748,7 @@ def fused_supported(
     control_period: float | None = None,
     reasons: list[str] | None = None,
     **extra: Any,
-) -> tuple[PlantKernel, seam.ControllerKernel] | None:
+) -> tuple[PlantKernel | VscmgPlan, seam.ControllerKernel] | None:
     """``(plant kernel, controller kernel)`` when :func:`run_fused` applies, else ``None`` —
     and then, when ``reasons`` is given, one sentence appended to it saying which part keeps
     the Python loop."""
@@ -510,7 +770,9 @@ def fused_supported(
             return no(f"{name} = {v!r} needs the Python loop")
     pk = plant._kernel_plan
     if pk is None:
-        return no(plant_reason(plant))
+        pk, why = _vscmg_support(plant)
+        if pk is None:
+            return no(why or plant_reason(plant))
     spec, why = seam.resolve(controller, batch_size, control_period)
     if spec is None:
         return no(why)
@@ -564,7 +826,7 @@ def _reference_samples(
 
 
 def run_fused(
-    plan: tuple[PlantKernel, seam.ControllerKernel],
+    plan: tuple[PlantKernel | VscmgPlan, seam.ControllerKernel],
     plant: Any,
     controller: Any,
     reference: Any,
@@ -607,6 +869,11 @@ def run_fused(
     cparams, cstate = seam.check(controller, spec, B, None)
     Kr = n_steps // log_every + 1 + (1 if n_steps % log_every else 0)
     log = make_log(Kr, B)
+    if isinstance(pk, VscmgPlan):
+        return _run_vscmg(
+            pk, spec, plant, controller, index, ref_R, ref_w, ref_dw, R0, x0, t0, n_steps, dt,
+            every_ctrl, log_every, control_period, log, Kr, cparams, cstate, notes, workers,
+        )  # fmt: skip
     n_held = 3 if pk.act == K.ACT_IDEAL else n - 3
     log_act = np.empty((Kr, B, (n - 3) + n_held))
     n_sat = 3 if pk.act == K.ACT_IDEAL else 1
@@ -623,27 +890,8 @@ def run_fused(
         log.t, log.R, log.omega, log.R_d, log.omega_d, log.u_cmd, log.u, log.disturbance,
         log_act, log_sat, log_diag, diag,
     )  # fmt: skip
-    if workers > 1 and B > 1:
-        import numba
-
-        entry = _loop_entry(args, 19, parallel=True)
-        previous = numba.get_num_threads()
-        numba.set_num_threads(min(workers, B))  # this thread's setting only (numba's rule)
-        try:
-            status, rows, t_fail = entry(*args)
-        finally:
-            numba.set_num_threads(previous)
-    else:
-        status, rows, t_fail = _loop_entry(args, 19)(*args)
-    if status == 2 and t_fail == t0:
-        raise seam.non_finite_error(controller, spec, t0)
-    if status != 0:
-        if notes is not None:
-            what = "the state became non-finite" if status == 1 else (
-                f"controller {type(controller).__name__}'s compiled law returned a non-finite "
-                "torque"
-            )  # fmt: skip
-            notes.append(f"{what} at t = {t_fail!r}; the run is repeated in the Python loop")
+    status, rows, t_fail = _call_loop(args, 19, workers, B, vscmg=False)
+    if not _finished(status, t_fail, t0, controller, spec, notes):
         return None
     log.rows = rows
     d = log.dicts
@@ -654,5 +902,85 @@ def run_fused(
     elif pk.clip is not None:
         d["actuator"]["saturated"] = log_sat
     d["controller"].update(spec.diagnostics(log_diag))
+    spec.finish(cstate, diag.copy())
+    return log.result(dt, control_period, plant)
+
+
+def _call_loop(args: tuple, law_index: int, workers: int, B: int, vscmg: bool) -> Any:
+    """Run the compiled loop on ``args``: over ``workers`` threads (numba's, this thread's
+    setting restored after) when more than one and more than one spacecraft."""
+    if workers > 1 and B > 1:
+        import numba
+
+        entry = _loop_entry(args, law_index, parallel=True, vscmg=vscmg)
+        previous = numba.get_num_threads()
+        numba.set_num_threads(min(workers, B))  # this thread's setting only (numba's rule)
+        try:
+            return entry(*args)
+        finally:
+            numba.set_num_threads(previous)
+    return _loop_entry(args, law_index, vscmg=vscmg)(*args)
+
+
+def _finished(
+    status: int, t_fail: float, t0: float, controller: Any, spec: seam.ControllerKernel,
+    notes: list[str] | None,
+) -> bool:  # fmt: skip
+    """Whether the compiled run finished; a law's non-finite torque at the first sample raises,
+    another failure adds its sentence to ``notes`` (the run is repeated in the Python loop)."""
+    if status == 2 and t_fail == t0:
+        raise seam.non_finite_error(controller, spec, t0)
+    if status != 0:
+        if notes is not None:
+            what = "the state became non-finite" if status == 1 else (
+                f"controller {type(controller).__name__}'s compiled law returned a non-finite "
+                "torque"
+            )  # fmt: skip
+            notes.append(f"{what} at t = {t_fail!r}; the run is repeated in the Python loop")
+        return False
+    return True
+
+
+def _run_vscmg(
+    vp: VscmgPlan, spec: seam.ControllerKernel, plant: Any, controller: Any,
+    index: np.ndarray, ref_R: np.ndarray, ref_w: np.ndarray, ref_dw: np.ndarray,
+    R0: np.ndarray, x0: np.ndarray, t0: float, n_steps: int, dt: float, every_ctrl: int,
+    log_every: int, control_period: float, log: Any, Kr: int, cparams: np.ndarray,
+    cstate: np.ndarray, notes: list[str] | None, workers: int,
+) -> Any:  # fmt: skip
+    """:func:`run_fused` for the full CMG model (:func:`_fused_loop_vscmg`)."""
+    B = x0.shape[0]
+    n_diag = int(spec.n_diag)
+    diag = np.zeros((B, n_diag))
+    log_diag = np.empty((Kr, B, n_diag))
+    log_vs = np.empty((Kr, B, 8, 4))
+    log_work = np.empty((Kr, B))
+    log_sat = np.empty((Kr, B), dtype=np.bool_)
+    args = (
+        n_steps, float(t0), float(dt), every_ctrl, log_every, R0, x0,
+        vp.kinematic, vp.variable_speed, vp.feedforward, vp.par, vp.M, vp.dist, vp.dist_params,
+        vp.steer, vp.steer_params, vp.rate_limit,
+        spec.law, cparams, cstate, index, ref_R, ref_w, ref_dw,
+        log.t, log.R, log.omega, log.R_d, log.omega_d, log.u_cmd, log.u, log.disturbance,
+        log_vs, log_work, log_sat, log_diag, diag,
+    )  # fmt: skip
+    status, rows, t_fail = _call_loop(args, 17, workers, B, vscmg=True)
+    if not _finished(status, t_fail, t0, controller, spec, notes):
+        return None
+    log.rows = rows
+    a = log.dicts["actuator"]
+    a["delta"] = log_vs[:, :, _VS_DELTA]
+    a["delta_dot"] = log_vs[:, :, _VS_RATE]
+    a["delta_dot_cmd"] = log_vs[:, :, _VS_CMD]
+    a["wheel_speed"] = log_vs[:, :, _VS_SPIN]
+    a["gimbal_torque"] = log_vs[:, :, _VS_GT]
+    a["spin_torque"] = log_vs[:, :, _VS_ST]
+    a["gimbal_power"] = log_vs[:, :, _VS_POWER]
+    a["actuator_work"] = log_work
+    a["saturated"] = log_sat
+    a["torque_saturated"] = log_vs[:, :, _VS_TSAT] > 0.5
+    a["stop_contact"] = np.zeros((Kr, B, 4), dtype=np.bool_)
+    a["stop_limited"] = np.zeros((Kr, B, 4), dtype=np.bool_)
+    log.dicts["controller"].update(spec.diagnostics(log_diag))
     spec.finish(cstate, diag.copy())
     return log.result(dt, control_period, plant)

@@ -36,7 +36,7 @@ import numpy as np
 from liecontrol._jit import njit
 from liecontrol._kernels.so3 import dexpinv_rkmk4, right_multiply_exp_into
 
-from ._kernels import disturbance_at
+from ._kernels import disturbance_at, steer_regularised
 
 #: ``par`` layout of :func:`vscmg_derivatives_one` (then the stops: lower ``par[_LO:_LO + 4]``,
 #: upper ``par[_HI:_HI + 4]``)
@@ -329,6 +329,36 @@ def vscmg_command_inputs_one(
     hdot_out[0] = -(u_cmd[0] + (w1 * h2 - w2 * h1))
     hdot_out[1] = -(u_cmd[1] + (w2 * h0 - w0 * h2))
     hdot_out[2] = -(u_cmd[2] + (w0 * h1 - w1 * h0))
+
+
+@njit(inline="always")
+def vscmg_command_one(
+    feedforward: bool, par: np.ndarray, M: np.ndarray, steer: int, sp: np.ndarray,
+    rate_limit: float, w: np.ndarray, xa: np.ndarray, u_cmd: np.ndarray, t: float,
+    A: np.ndarray, hdot: np.ndarray, held: np.ndarray,
+) -> bool:  # fmt: skip
+    """The full CMG model's hardware command of one spacecraft (the compiled route of
+    :meth:`spacecraft.cmg_dynamics.VscmgActuator.command_unchecked` without stops):
+    :func:`vscmg_command_inputs_one`, a regularised steering law
+    (:func:`spacecraft._kernels.steer_regularised`, code ``steer`` with parameters ``sp``) on
+    ``A`` and ``ḣ_cmd``, and the uniform scaling to the gimbal-rate limit. Writes the held
+    command ``held (3, 4)`` (rate command, gimbal feed-forward torque, zero spin torque); ``A``
+    ``(3, 4)`` and ``hdot`` ``(3,)`` are scratch. Returns whether the rates were scaled."""
+    ff = held[HELD_FF]
+    vscmg_command_inputs_one(feedforward, par, M, w, xa, u_cmd, A, hdot, ff)
+    dd = held[HELD_CMD]
+    steer_regularised(steer, sp, t, A, hdot[0], hdot[1], hdot[2], dd)
+    for i in range(4):
+        held[HELD_SPIN, i] = 0.0
+    peak = 0.0
+    for i in range(4):
+        peak = max(peak, abs(dd[i]))
+    if peak > rate_limit:
+        scale = rate_limit / peak
+        for i in range(4):
+            dd[i] = dd[i] * scale
+        return True
+    return False
 
 
 @njit

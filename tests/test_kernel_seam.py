@@ -600,3 +600,69 @@ def test_workers_on_the_python_loop_are_named_in_its_log_line(caplog):
     with caplog.at_level(logging.INFO, logger="spacecraft.simulator"):
         simulate(plant, Slow(), ref, state, 1.0, 0.1, workers=2)
     assert "workers = 2 applies to the compiled loop only" in caplog.text
+
+
+# ------------------------------------------------------------- the full CMG model, fused
+def _vscmg_plant(servo, variable_speed=False, disturbance=None, stops=None):
+    from spacecraft.cmg_dynamics import CmgInertias, VscmgActuator
+    from spacecraft.steering import SingularityRobust
+
+    Jb = np.diag([900.0, 800.0, 600.0])
+    act = VscmgActuator(
+        Jb, CmgInertias(0.5, 0.25, (0.1, 0.1, 0.1)), SgcmgPyramid(h0=20.0), SingularityRobust(),
+        servo=servo, variable_speed=variable_speed, stops=stops,
+    )  # fmt: skip
+    kw = {} if disturbance is None else {"disturbance": disturbance}
+    return Spacecraft(RigidBody(Jb), act, **kw), Jb
+
+
+def _vscmg_cases():
+    from spacecraft.actuators import FirstOrderServo
+    from spacecraft.cmg_dynamics import GimbalServo
+    from spacecraft.disturbances import ConstantTorque
+
+    return [
+        ({"servo": GimbalServo(5.0, 50.0)}, 1, 0.05, 1),
+        ({"servo": GimbalServo(5.0, 50.0, gyro_feedforward=True)}, 3, 0.2, 3),
+        (
+            {
+                "servo": GimbalServo(5.0, 2.0),
+                "variable_speed": True,
+                "disturbance": ConstantTorque([0.01, -0.02, 0.005]),
+            },
+            2,
+            0.1,
+            1,
+        ),  # fmt: skip
+        ({"servo": FirstOrderServo(0.2)}, 2, 0.1, 2),
+    ]
+
+
+@pytest.mark.parametrize("case", range(4))
+def test_full_cmg_model_in_the_fused_loop_equals_the_python_loop(case, monkeypatch):
+    kw, B, period, log_every = _vscmg_cases()[case]
+    plant, Jb = _vscmg_plant(**kw)
+    rng = np.random.default_rng(case)
+    state = plant.initial_state(
+        so3.exp(0.8 * rng.normal(size=(B, 3))), 0.01 * rng.normal(size=(B, 3))
+    )
+    ctrl = GeometricPD(Jb, 20.0, 200.0)
+    args = (plant, ctrl, ConstantAttitude(np.eye(3)), state, 20.0, 0.05)
+    opts = {"control_period": period, "log_every": log_every}
+    fused = _fused(monkeypatch, *args, **opts)
+    python = _python_loop(monkeypatch, *args, **opts)
+    _assert_same(fused, python)
+    assert fused.actuator["torque_saturated"].dtype == bool
+    # the gimbal servo's torque limit is reached in the low-torque case: its flag is exercised
+    if case == 2:
+        assert python.actuator["torque_saturated"].any()
+
+
+def test_full_cmg_model_with_stops_keeps_the_python_loop_and_says_why(caplog):
+    from spacecraft.cmg_dynamics import GimbalServo, GimbalStops
+
+    plant, Jb = _vscmg_plant(GimbalServo(5.0, 50.0), stops=GimbalStops(-1.2, 1.2))
+    state = plant.initial_state(np.eye(3), np.zeros(3))
+    with caplog.at_level(logging.INFO, logger="spacecraft.simulator"):
+        simulate(plant, GeometricPD(Jb, 20.0, 200.0), ConstantAttitude(np.eye(3)), state, 0.2, 0.1)
+    assert "gimbal stops has no compiled loop" in caplog.text
