@@ -338,6 +338,7 @@ def test_prescribed_performance_in_the_fused_loop_equals_the_python_loop(kw, mon
     [
         {"gamma_k": 0.5, "gamma_beta": 0.05, "beta_max": 0.2, "max_torque": 0.6},
         {"gamma_k": 2.0, "gamma_beta": 0.5, "sigma": 0.05, "k_max": 2.0},
+        {"gamma_k": 2.0, "gamma_beta": 0.5, "sigma": 0.05, "k_max": 2.0, "adaptive_sigma": True},
         {},
     ],
 )
@@ -666,3 +667,24 @@ def test_full_cmg_model_with_stops_keeps_the_python_loop_and_says_why(caplog):
     with caplog.at_level(logging.INFO, logger="spacecraft.simulator"):
         simulate(plant, GeometricPD(Jb, 20.0, 200.0), ConstantAttitude(np.eye(3)), state, 0.2, 0.1)
     assert "gimbal stops has no compiled loop" in caplog.text
+
+
+@pytest.mark.parametrize("u_max", [None, 40.0])
+@pytest.mark.parametrize("B", [1, 3])
+def test_rate_limited_eigenaxis_in_the_fused_loop_equals_the_python_loop(u_max, B, monkeypatch):
+    from liecontrol.control.eigenaxis import RateLimitedEigenaxis, wie_lu_gains
+
+    plant = Spacecraft(RigidBody(J), IdealTorqueActuator())
+    rng = np.random.default_rng(B)
+    # large slews (the coast at the rate limit) and one near the antipode
+    phi = rng.normal(size=(B, 3))
+    phi *= (np.linspace(2.0, 3.1, B) / np.linalg.norm(phi, axis=1))[:, None]
+    state = plant.initial_state(so3.exp(phi), 0.01 * rng.normal(size=(B, 3)))
+    ctrl = RateLimitedEigenaxis(J, **wie_lu_gains(0.3, 0.9), max_rate=0.05, u_max=u_max)
+    args = (plant, ctrl, ConstantAttitude(np.eye(3)), state, 60.0, 0.1)
+    fused = _fused(monkeypatch, *args, control_period=0.2)
+    python = _python_loop(monkeypatch, *args, control_period=0.2)
+    _assert_same(fused, python)
+    assert python.controller["rate_saturated"].any()  # the coast is exercised
+    np.testing.assert_array_equal(ctrl.diagnostics()["rate_saturated"], fused.controller[
+        "rate_saturated"][-1])  # fmt: skip

@@ -26,8 +26,9 @@ from .mrp_pd import mrp_pd_one
 N_STATE = 34
 #: diagnostics row: z₁, z₂, z₃, v₁, v₂, τ₀, ESO error (3 each), σ (3), switched
 N_DIAG = 25
-#: parameter vector length
-N_PARAMS = 90
+#: parameter vector length (the last 9 entries are zeros: the chart kernel's null gains, kept in
+#: the parameters so that the law allocates nothing per call)
+N_PARAMS = 99
 
 
 @njit
@@ -75,7 +76,7 @@ def mrp_adrc_law(
 ) -> None:  # fmt: skip
     """A law of the compiled-kernel seam (:mod:`liecontrol.control.kernel`). ``params (90,)``:
     threshold², J (9), J⁻¹ (9), α, β, k₁ (3), k₂ (3), measured-init flag, Φ (3 × 3 × 3),
-    Γ₀ (3 × 3), Γ₁/h (3 × 3), Γ_z (3 × 3), Φ_td (2 × 2), T₀ (2), T₁/h (2);
+    Γ₀ (3 × 3), Γ₁/h (3 × 3), Γ_z (3 × 3), Φ_td (2 × 2), T₀ (2), T₁/h (2), zeros (9);
     ``state`` and ``diag_out`` as :data:`N_STATE`, :data:`N_DIAG`."""
     mats = params[1:19].reshape((2, 3, 3))
     J = mats[0]
@@ -98,7 +99,7 @@ def mrp_adrc_law(
     yd_prev = state[28:31]
     pd_prev = state[31:34]
     # the chart: σ with continuity and shadow switching (the MRP PD kernel with no gains)
-    zero = np.zeros((3, 3))
+    zero = params[90:99].reshape((3, 3))
     switched = mrp_pd_one(
         2, params[0], J, zero, zero, R, w, R_d, w_d, dw_d, state[3] != 0.0, state[0:3],
         u_out, diag_out[21:25],
@@ -165,11 +166,9 @@ def mrp_adrc_law(
         y_prev[a] = pv[a]
         yd_prev[a] = yv[a]
         pd_prev[a] = 0.0
-    x = np.empty(3)
     for a in range(3):
-        tau0 = k1[a] * (v[a, 0] - z[a, 0]) + k2[a] * (v[a, 1] - z[a, 1])
-        diag_out[15 + a] = tau0
-        x[a] = tau0 - z[a, 2]
+        diag_out[15 + a] = k1[a] * (v[a, 0] - z[a, 0]) + k2[a] * (v[a, 1] - z[a, 1])
+    x = (diag_out[15] - z[0, 2], diag_out[16] - z[1, 2], diag_out[17] - z[2, 2])
     # τ = J G(p)⁻¹(τ₀ − z₃), G⁻¹ = 8[½ c a I − a pa^ + pa paᵀ] (charts.mrp.kinematics_matrix_inv)
     n = math.sqrt(n2)
     if n > 1.0:

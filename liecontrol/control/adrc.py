@@ -489,6 +489,7 @@ class MrpADRC(MrpChartAdapter):
                 np.broadcast_to(P.k2, (3,)),
                 [1.0 if law.eso_init == "measured" else 0.0],
                 *(np.ravel(a) for a in (Phi, G0, G1, Gz, Phi_td, T0, T1)),
+                np.zeros(9),
             ]
         )
         state = np.zeros((B, ADRC_STATE))

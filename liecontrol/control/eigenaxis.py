@@ -40,6 +40,7 @@ import math
 
 import numpy as np
 
+from .._jit import JIT_ENABLED
 from .._linalg import cross as _cross
 from .._validation import as_array, check_inertia_3x3, check_positive_scalar
 from ..lie import so3
@@ -51,6 +52,7 @@ from .base import (
     finite_command,
     validated_rotation_and_rate,
 )
+from .kernel import ControllerKernel
 
 __all__ = ["RateLimitedEigenaxis", "wie_lu_gains"]
 
@@ -78,6 +80,11 @@ def _box(u_max: object) -> np.ndarray | None:
     out = np.array(np.broadcast_to(a, (3,)), dtype=np.float64)
     out.setflags(write=False)
     return out
+
+
+def _eigenaxis_rows(rows: np.ndarray) -> dict[str, np.ndarray]:
+    """The diagnostics from the kernel's rows ``(..., 2)``."""
+    return {"rate_saturated": rows[..., 0], "attitude_error_rad": rows[..., 1]}
 
 
 class RateLimitedEigenaxis(AttitudeController):
@@ -147,6 +154,28 @@ class RateLimitedEigenaxis(AttitudeController):
             "attitude_error_rad": 2.0 * np.arcsin(np.clip(nq, 0.0, 1.0)),
         }
         return finite_command(u, w)
+
+    def fused_kernel(
+        self, batch_size: int, control_period: float | None = None
+    ) -> ControllerKernel | None:
+        """The compiled law (:func:`liecontrol._kernels.eigenaxis.rate_limited_eigenaxis_law`)
+        for the simulator's fused loop, through the public seam :mod:`liecontrol.control.
+        kernel`."""
+        if not JIT_ENABLED:
+            return None
+        from .._kernels.eigenaxis import rate_limited_eigenaxis_law
+
+        box = self.u_max if self.u_max is not None else np.ones(3)
+        params = np.concatenate(
+            [[self.k, self.c, self.max_rate, float(self.u_max is not None)], box, self.J.ravel()]
+        )
+        return ControllerKernel(
+            rate_limited_eigenaxis_law, params, np.zeros((batch_size, 0)), 2,
+            diagnostics=_eigenaxis_rows, finish=lambda state, diag: self._set_rows(diag),
+        )  # fmt: skip
+
+    def _set_rows(self, diag: np.ndarray) -> None:
+        self._diag = {k: v.copy() for k, v in _eigenaxis_rows(diag).items()}
 
     def diagnostics(self) -> dict[str, np.ndarray]:
         """``rate_saturated`` (1 while the attitude term is at its rate-limit bound) and

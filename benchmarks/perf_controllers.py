@@ -1,0 +1,103 @@
+"""Per-step cost of every registered attitude controller in the simulator's loop, against the
+large-angle geometric PD, in one process: ``python -m benchmarks.perf_controllers [--scenario
+NAME] [--t-final T] [--repeat N]``.
+
+Each controller is built by the registry for the scenario (its tuned gains), on the scenario's
+plant, and flies ``simulate`` from the scenario's initial state for ``--t-final`` seconds at the
+scenario's step and control period, logging every step, as the suite does. The figure is the
+best of ``--repeat`` CPU times per simulated step (``time.process_time``), after one warm-up run
+(compilation and cache loading are not counted); the ratio is to ``geometric-pd-large-angle``
+timed in the same rounds. The column ``loop`` says whether the run took the compiled loop
+(``fused``) or the Python loop, and why not. The MPC laws stay in the Python loop by design:
+their OSQP solve is a Python call.
+"""
+
+from __future__ import annotations
+
+from benchmarks._perf import pin_blas_threads
+
+pin_blas_threads()  # before numpy is imported
+
+import argparse  # noqa: E402
+import os  # noqa: E402
+import time  # noqa: E402
+from typing import Any  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+__all__ = ["controller_step_costs", "main"]
+
+BASELINE = "geometric-pd-large-angle"
+
+
+def _run(name: str, scenario: Any, t_final: float) -> tuple[Any, str]:
+    """A closure running one simulation of controller ``name`` on ``scenario``; and the loop
+    it takes."""
+    from benchmarks.controllers import ControllerContext, get_controller
+    from benchmarks.runner import build_plant, build_reference, initial_state
+    from spacecraft import simulate
+    from spacecraft._fused import fused_supported
+
+    info = get_controller(name)
+    plant = build_plant(scenario.spacecraft, scenario.disturbances)
+    ref = build_reference(scenario)
+    period = info.control_period or scenario.control_period or scenario.dt
+    R0, w0 = initial_state(scenario)
+    state = plant.initial_state(R0, w0)
+    ctx = ControllerContext(
+        spacecraft=scenario.spacecraft, control_period=period, batch_size=1, reference=ref
+    )
+    ctrl = info.factory(ctx)
+    ctrl.reset(0.0, 1)
+    why: list[str] = []
+    ok = fused_supported(plant, ctrl, None, None, False, control_period=period, reasons=why)
+    loop = "fused" if ok is not None else f"Python: {why[0] if why else '?'}"
+
+    def once() -> None:
+        simulate(plant, ctrl, ref, state, t_final, scenario.dt, control_period=period)
+
+    return once, loop
+
+
+def controller_step_costs(
+    scenario_name: str = "stabilisation", t_final: float = 60.0, repeat: int = 5,
+    names: list[str] | None = None,
+) -> dict[str, tuple[float, float, str]]:  # fmt: skip
+    """``{controller: (µs per simulated step, ratio to the baseline, loop)}`` (module
+    docstring); controllers that do not apply to the scenario's plant are left out."""
+    from benchmarks.controllers import applicable
+    from benchmarks.scenarios import get_scenario
+
+    sc = get_scenario(scenario_name)
+    names = list(names) if names is not None else [n for n in applicable(sc) if n != BASELINE]
+    names = [BASELINE] + [n for n in names if n != BASELINE]
+    runs = {n: _run(n, sc, t_final) for n in names}
+    n_steps = round(t_final / sc.dt)
+    best = dict.fromkeys(names, np.inf)
+    for fn, _ in runs.values():
+        fn()  # warm-up: compilation, cache loading
+    for _ in range(repeat):  # rounds alternate the controllers
+        for n, (fn, _) in runs.items():
+            c = time.process_time()
+            fn()
+            best[n] = min(best[n], time.process_time() - c)
+    base = best[BASELINE]
+    return {n: (1e6 * best[n] / n_steps, best[n] / base, runs[n][1]) for n in names}
+
+
+def main(argv: list[str] | None = None) -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--scenario", default="stabilisation")
+    p.add_argument("--t-final", type=float, default=60.0)
+    p.add_argument("--repeat", type=int, default=5)
+    a = p.parse_args(argv)
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    res = controller_step_costs(a.scenario, a.t_final, a.repeat)
+    print(f"scenario {a.scenario}, {a.t_final:g} s, best of {a.repeat} CPU times; load {load:.1f}")
+    print(f"{'controller':32s} {'µs/step':>9s} {'× GPD':>7s}  loop")
+    for n, (us, ratio, loop) in res.items():
+        print(f"{n:32s} {us:9.2f} {ratio:7.2f}  {loop}")
+
+
+if __name__ == "__main__":
+    main()
