@@ -77,9 +77,9 @@ def capture_args(batch: int, t_final: float) -> tuple[tuple, int]:
     got: dict[str, Any] = {}
     orig = _fused._loop_entry
 
-    def spy(args: tuple, law_index: int) -> Any:
+    def spy(args: tuple, law_index: int, *rest: Any, **kw: Any) -> Any:
         got["args"], got["law_index"] = args, law_index
-        return orig(args, law_index)
+        return orig(args, law_index, *rest, **kw)
 
     _fused._loop_entry = spy
     try:
