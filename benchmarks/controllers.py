@@ -39,6 +39,7 @@ actions place their extra pole at −ω_n/5 with a 0.3 N·m anti-windup clamp
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -55,7 +56,7 @@ from liecontrol.control.tuning import (
     check_actuator,
 )
 
-from .scenarios import ProximitySpec, Scenario, SpacecraftSpec
+from .scenarios import MODE_PLANTS, DetumbleSpec, OrbitSpec, ProximitySpec, Scenario, SpacecraftSpec
 
 __all__ = [
     "ATTITUDE_PLANTS",
@@ -77,6 +78,7 @@ __all__ = [
     "spec_for",
     "tuned_spec",
     "INTEGRAL_LIMIT",
+    "mean_field_squared",
 ]
 
 #: Plant tags of attitude scenarios (the actuator kinds of :class:`SpacecraftSpec`).
@@ -120,6 +122,8 @@ class ControllerContext:
         keep_out: the scenario's keep-out pointing cones (constraint-aware controllers use
             them; the others ignore them and are judged by the same margins).
         keep_in: the scenario's keep-in pointing cones.
+        detumble: the detumble scenario's rods and sensors (:class:`DetumbleSpec`), or ``None``.
+        orbit: the scenario's orbit (:class:`OrbitSpec`), or ``None``.
     """
 
     spacecraft: SpacecraftSpec
@@ -132,6 +136,8 @@ class ControllerContext:
     rule: GainRule = DEFAULT_GAIN_RULE
     keep_out: tuple[KeepOutCone, ...] = ()
     keep_in: tuple[KeepInCone, ...] = ()
+    detumble: DetumbleSpec | None = None
+    orbit: OrbitSpec | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.spacecraft, SpacecraftSpec):
@@ -163,6 +169,10 @@ class ControllerContext:
             if not all(isinstance(c, cls) for c in v):
                 raise ValueError(f"{name}: every item must be a {cls.__name__}, got {v!r}")
             object.__setattr__(self, name, tuple(v))
+        for name, cls in (("detumble", DetumbleSpec), ("orbit", OrbitSpec)):
+            v = getattr(self, name)
+            if v is not None and not isinstance(v, cls):
+                raise ValueError(f"{name}: expected a {cls.__name__} or None, got {v!r}")
 
     @property
     def J(self) -> np.ndarray:
@@ -181,6 +191,8 @@ class ControllerContext:
             proximity=scenario.proximity,
             keep_out=scenario.keep_out,
             keep_in=scenario.keep_in,
+            detumble=scenario.detumble,
+            orbit=scenario.orbit,
             **kw,
         )
 
@@ -198,7 +210,8 @@ class ControllerInfo:
         description: one line for the report.
         batched: ``command`` is vectorized over the batch (one instance steps ``B`` spacecraft);
             ``False``: the runner makes one instance per spacecraft.
-        plants: plant tags it applies to (:data:`ATTITUDE_PLANTS` or ``{"se3"}``).
+        plants: plant tags it applies to (:data:`ATTITUDE_PLANTS`, ``{"se3"}`` or a mode plant
+            of :data:`benchmarks.scenarios.MODE_PLANTS`, e.g. ``{"magnetorquer"}``).
         exclude_tags: scenario tags it does not apply to (with the reason in ``notes``).
         control_period: own sampling period [s], or ``None`` (the scenario's). Longer than the
             scenario's: sampled at its own period and held in between; shorter: the pair is
@@ -247,7 +260,11 @@ class ControllerInfo:
         :class:`~liecontrol.control.tuning.TuningInfeasible` for this scenario (the reason is
         its message). Other factory errors are left for the run to record."""
         if scenario.plant not in self.plants:
-            return False, "SE(3) controller" if "se3" in self.plants else "attitude controller"
+            if "se3" in self.plants:
+                return False, "SE(3) controller"
+            if self.plants & set(MODE_PLANTS):
+                return False, f"{'/'.join(sorted(self.plants))} law (mode scenarios only)"
+            return False, "attitude controller"
         hit = sorted(self.exclude_tags.intersection(scenario.tags))
         if hit:
             return False, self.notes or f"excluded for tag {hit[0]!r}"
@@ -260,6 +277,8 @@ class ControllerInfo:
             rule=rule or DEFAULT_GAIN_RULE,
             keep_out=scenario.keep_out,
             keep_in=scenario.keep_in,
+            detumble=scenario.detumble,
+            orbit=scenario.orbit,
         )
         try:
             self.factory(ctx)
@@ -296,7 +315,7 @@ def register(
     if name in CONTROLLERS and not replace:
         raise ValueError(f"name: controller {name!r} is already registered (replace=True)")
     plants = frozenset(plants)
-    known = ATTITUDE_PLANTS | {"se3"}
+    known = ATTITUDE_PLANTS | {"se3"} | set(MODE_PLANTS)
     if not plants or not plants <= known:
         raise ValueError(f"plants: expected a non-empty subset of {sorted(known)}, got {plants}")
     if control_period is not None:
@@ -770,6 +789,54 @@ def _bullo_murray(ctx: ControllerContext) -> Any:
     return BulloMurrayPD(px.mass, px.J, gravity=ctx.gravity, **_se3_gains(ctx))
 
 
+@functools.lru_cache(maxsize=32)
+def mean_field_squared(orbit: OrbitSpec) -> float:
+    """``⟨‖B‖²⟩`` [T²] over one period of ``orbit`` in the IGRF-2020 tilted dipole
+    (:class:`spacecraft.geomagnetic.TiltedDipoleField`; 400 samples): the factor that turns
+    B-dot's gain into the cross-product law's averaged damping (:mod:`spacecraft.detumble`)."""
+    from spacecraft.geomagnetic import TiltedDipoleField
+
+    if not isinstance(orbit, OrbitSpec):
+        raise ValueError(f"orbit: expected an OrbitSpec, got {type(orbit).__name__}")
+    circ = orbit.circular_orbit()
+    t = np.linspace(0.0, circ.period, 400)
+    B = TiltedDipoleField().inertial(t, circ.position(t))
+    return float(np.mean(np.sum(B * B, axis=-1)))
+
+
+def _detumble_law(law: str) -> ControllerFactory:
+    """Factory of the detumble law ``law`` (``"bdot"`` or ``"cross-product"``) for a detumble
+    scenario. Both get the scenario's damping gain ``k`` (B-dot as ``k/⟨‖B‖²⟩``), so their
+    averaged dynamics ``J ω̇ = −(2/3) d k ω`` are equal — the detumble form of the common
+    tuning; the closed-loop spec ``ctx.rule`` (ω_n, ζ) has no meaning for them and is
+    ignored."""
+
+    def make(ctx: ControllerContext) -> Any:
+        from spacecraft.detumble import DetumbleLaw
+
+        det = ctx.detumble
+        if det is None or ctx.orbit is None:
+            raise ValueError(
+                f"detumble: the {law!r} detumble law needs a detumble scenario's DetumbleSpec "
+                "and orbit (ControllerContext.detumble and .orbit)"
+            )
+        gain = det.gain if law == "cross-product" else det.gain / mean_field_squared(ctx.orbit)
+        return DetumbleLaw(
+            gain,
+            m_max=det.max_dipole,
+            law=law,
+            period=ctx.control_period,
+            duty_cycle=det.duty_cycle,
+            # B-dot ignores the gyro; the same noise draws keep both laws' magnetometer
+            # samples identical for a member
+            gyro_noise_std=det.gyro_noise,
+            rod_power=det.rod_power,
+        )
+
+    make.__doc__ = f"{law} detumble law (spacecraft.detumble.DetumbleLaw)"
+    return make
+
+
 def _register_builtins() -> None:
     for err in ("trace", "log", "large_angle"):
         register(
@@ -850,6 +917,25 @@ def _register_builtins() -> None:
         "would carry m·n²·r and hold ≈ n²r/ω_pos² ≈ 3.3 km off the docking pose)",
         plants={"se3"},
         family="se3",
+    )
+    # detumble laws: the magnetorquer plant of the detumble scenarios only (full suite)
+    register(
+        "detumble-bdot",
+        _detumble_law("bdot"),
+        description="B-dot m = −k_b Ḃ from magnetometer differences, no gyro (Stickler & "
+        "Alfriend 1976), k_b = k/⟨‖B‖²⟩",
+        plants={"magnetorquer"},
+        family="detumble",
+        quick=False,
+    )
+    register(
+        "detumble-cross-product",
+        _detumble_law("cross-product"),
+        description="rate-feedback cross-product m = k (ω × B)/‖B‖² with a gyro (Markley & "
+        "Crassidis 2014, §7.5)",
+        plants={"magnetorquer"},
+        family="detumble",
+        quick=False,
     )
 
 

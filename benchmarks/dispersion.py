@@ -40,6 +40,12 @@ scenario's). The CMG keys describe the *as-built* hardware that the steering law
 to (the law sees the drawn h₀ and β); an uncalibrated misalignment, which the steering would not
 know, is not modelled.
 
+Detumble scenarios (``scenario.detumble``) start at the identity attitude from a separation
+tumble, so the attitude keys and ``rate_deg_s`` do not apply there: member ``k ≥ 1`` draws a new
+tumble instead — a uniformly random axis and a rate uniform in the spec's ``rate_range_deg_s`` —
+with the inertia keys as above and its own magnetometer/gyro noise seed (``sensor_seeds``);
+:func:`detumble_dispersion_note` says so for the report.
+
 A draw that makes the plant unphysical (a non-positive moment or one that breaks the triangle
 inequality, a skew angle outside (0°, 90°), a non-positive h₀) raises ``ValueError`` naming the
 key and the member: such a spread is too wide for the hardware it describes.
@@ -67,6 +73,7 @@ __all__ = [
     "MAX_MEMBERS",
     "member_scenario",
     "member_scenarios",
+    "detumble_dispersion_note",
 ]
 
 #: The float keys of :class:`DispersionSpec` (one-sigma spreads, ≥ 0), in table order.
@@ -264,7 +271,17 @@ def member_scenario(scenario: Any, member: int, dispersion: DispersionSpec | Non
     # scenario may be a degree off, which would make the defaults those of a manoeuvre)
     kw: dict[str, Any] = {"member": k, "requirements": requirements_of(scenario)}
     px = scenario.proximity
-    if px is not None:
+    det = getattr(scenario, "detumble", None)
+    if det is not None:
+        lo, hi = det.rate_range_deg_s
+        axis = _unit(rng)
+        kw["initial_rate"] = tuple(axis * math.radians(rng.uniform(lo, hi)))
+        if d.inertia_moments > 0 or d.inertia_axes_deg > 0:
+            kw["member_inertia"] = _true_inertia(np.asarray(scenario.true_inertia), d, k, rng)
+        if d.sensor_seeds:
+            seed = int(rng.integers(0, 2**31 - 1))
+            kw["detumble"] = dataclasses.replace(det, seed=seed)
+    elif px is not None:
         rv = _initial_rotvec(np.array(px.initial_rotvec), d, rng)
         pos = np.array(px.initial_position) + d.position_m * rng.standard_normal(3)
         kw["proximity"] = dataclasses.replace(
@@ -294,6 +311,27 @@ def member_scenario(scenario: Any, member: int, dispersion: DispersionSpec | Non
             seed = int(rng.integers(0, 2**31 - 1))
             kw["sensors"] = dataclasses.replace(scenario.sensors, seed=seed)
     return dataclasses.replace(scenario, **kw)
+
+
+def detumble_dispersion_note(scenario: Any, dispersion: DispersionSpec | None = None) -> str:
+    """What the members of a detumble scenario draw (``""`` for any other scenario): the text
+    the report shows instead of the attitude keys, which do not apply there."""
+    det = getattr(scenario, "detumble", None)
+    if det is None:
+        return ""
+    d = dispersion or getattr(scenario, "dispersion", None) or DispersionSpec()
+    lo, hi = det.rate_range_deg_s
+    parts = [f"tumble: uniform random axis, rate uniform in [{lo:g}, {hi:g}] deg/s"]
+    kept = ("inertia_moments", "inertia_axes_deg")
+    parts += [f"{key} {getattr(d, key):g}" for key in kept if getattr(d, key) > 0]
+    if d.sensor_seeds:
+        parts.append("own magnetometer/gyro noise seed")
+    skipped = [key for key in DISPERSION_KEYS if getattr(d, key) > 0 and key not in kept]
+    note = ", ".join(parts)
+    if skipped:
+        note += (f" ({', '.join(skipped)} do not apply: a detumble starts at the identity "
+                 "attitude from its drawn tumble)")  # fmt: skip
+    return note
 
 
 def member_scenarios(scenario: Any, n: int, dispersion: DispersionSpec | None = None) -> list:

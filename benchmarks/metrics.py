@@ -339,6 +339,13 @@ RUN_UNITS: dict[str, str] = {
     "propellant_kg_per_orbit": "kg/orbit",
     "fault_detection_delay_s": "s",
     "false_alarms": "-",
+    "time_to_detumble_s": "s",
+    "initial_rate_deg_s": "deg/s",
+    "final_rate_deg_s": "deg/s",
+    "electrical_energy_J": "J",
+    "kinetic_energy_removed_J": "J",
+    "peak_dipole_frac": "-",
+    "averaged_detumble_time_s": "s",
 }
 
 #: One-line meaning of each field (for reports).
@@ -417,6 +424,17 @@ DESCRIPTIONS: dict[str, str] = {
     "CUSUM's first alarm on a faulty unit (NaN: not detected)",
     "false_alarms": "fault scenarios: units flagged by the residual CUSUM that are not faulty, "
     "or flagged before their fault",
+    "time_to_detumble_s": "detumble: first logged time after which ‖ω‖ stays below the "
+    "threshold (NaN: not reached within the run)",
+    "initial_rate_deg_s": "detumble: ‖ω‖ of the separation tumble",
+    "final_rate_deg_s": "detumble: ‖ω‖ at the last sample",
+    "electrical_energy_J": "detumble: the rods' electrical energy Σᵢ∫P_i (mᵢ/m_max)² dt",
+    "kinetic_energy_removed_J": "detumble: rotational kinetic energy ½ωᵀJω at the start minus "
+    "at the end",
+    "peak_dipole_frac": "detumble: max over time and rods of |mᵢ|/m_max (1: saturated)",
+    "averaged_detumble_time_s": "detumble: the time the gain implies — the averaged "
+    "unsaturated dynamics J ω̇ = −(2/3) d k ω from the same tumble to the threshold "
+    "(spacecraft.detumble.averaged_detumble_time; a reference, not a measurement)",
 }
 
 
@@ -741,6 +759,7 @@ FLAGS: tuple[str, ...] = (
     "constraint-violated",
     "dumping-insufficient",
     "fault-injected",
+    "rate-not-damped",
     "exception",
 )
 #: Singularity measure below which a run is flagged ``near-singular``. m = √det(ÂÂᵀ) of the
@@ -783,6 +802,18 @@ def _num(m: dict[str, Any], key: str) -> float:
         return float("nan")
 
 
+def _judge_detumble(metrics: dict[str, Any]) -> tuple[str, tuple[str, ...]]:
+    """A detumble run: ``failed`` (``diverged``) on a non-finite rate or energy, ``failed``
+    (``rate-not-damped``) when ‖ω‖ did not stay below the threshold within the run, else
+    ``success``. Saturated rods are not flagged: a detumble starts saturated by design."""
+    core = [_num(metrics, k) for k in ("final_rate_deg_s", "electrical_energy_J")]
+    if not all(math.isfinite(v) for v in core):
+        return "failed", ("diverged",)
+    if not math.isfinite(_num(metrics, "time_to_detumble_s")):
+        return "failed", ("rate-not-damped",)
+    return "success", ()
+
+
 def judge(
     scenario: Any,
     metrics: dict[str, Any],
@@ -820,6 +851,8 @@ def judge(
     :data:`DUMPING_INSUFFICIENT_GROWTH` (0.05 of the envelope per
     orbit; momentum-management scenarios, NaN: not checked)
     the scenario injects actuator faults (``scenario.faults``)      fault-injected          (none)
+    detumble (plant ``magnetorquer``): ‖ω‖ not below the threshold  rate-not-damped         failed
+    for good within the run (only the detumble rules apply there)
     none of the above                                              —                       success
     ============================================================  ======================  =========
 
@@ -845,6 +878,8 @@ def judge(
         return "error", ("diverged",) if diverged else ("exception",)
     if not isinstance(metrics, dict):
         raise TypeError(f"metrics: expected a dict of metric values, got {type(metrics).__name__}")
+    if getattr(scenario, "plant", None) == "magnetorquer":
+        return _judge_detumble(metrics)
     tol = float(scenario.attitude_tolerance_deg)
     flags: list[str] = []
     failed = False

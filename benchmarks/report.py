@@ -51,6 +51,8 @@ from .tuning_report import tuning_section
 __all__ = [
     "TABLE_METRICS",
     "POSE_METRICS",
+    "DETUMBLE_METRICS",
+    "ATTITUDE_OR_POSE",
     "METRIC_PLANTS",
     "NOT_APPLICABLE",
     "PALETTE",
@@ -102,7 +104,19 @@ POSE_METRICS: tuple[tuple[str, str], ...] = (
     ("peak_force_N", "SE(3): peak force ‖F‖ [N]"),
     ("force_effort_Ns", "SE(3): force effort ∫‖F‖dt [N·s]"),
 )
-#: Plants on which a metric is defined (tables show only those scenarios); absent: all.
+#: Extra tables when a suite has detumble runs (plant ``magnetorquer``).
+DETUMBLE_METRICS: tuple[tuple[str, str], ...] = (
+    ("time_to_detumble_s", "Detumble: time until ‖ω‖ stays below the threshold [s]"),
+    ("averaged_detumble_time_s", "Detumble: time the gain implies (averaged dynamics) [s]"),
+    ("final_rate_deg_s", "Detumble: final rate ‖ω‖ [deg/s]"),
+    ("electrical_energy_J", "Detumble: rod electrical energy [J]"),
+    ("peak_dipole_frac", "Detumble: peak rod dipole / limit [-]"),
+)
+#: Plant tags of the attitude and SE(3) scenarios: the plants of a metric that
+#: :data:`METRIC_PLANTS` does not list (the attitude-error metrics).
+ATTITUDE_OR_POSE = frozenset({"sgcmg", "wheels", "ideal", "se3"})
+#: Plants on which a metric is defined (tables show only those scenarios); absent:
+#: :data:`ATTITUDE_OR_POSE`.
 METRIC_PLANTS: dict[str, frozenset[str]] = {
     "saturation_time_s": frozenset({"sgcmg", "wheels", "ideal"}),
     "peak_gimbal_rate_rad_s": frozenset({"sgcmg"}),
@@ -119,6 +133,7 @@ METRIC_PLANTS: dict[str, frozenset[str]] = {
     "position_settling_time_s": frozenset({"se3"}),
     "peak_force_N": frozenset({"se3"}),
     "force_effort_Ns": frozenset({"se3"}),
+    **{key: frozenset({"magnetorquer"}) for key, _ in DETUMBLE_METRICS},
 }
 #: Cell text of a pair whose controller does not apply to the scenario.
 NOT_APPLICABLE = "does not apply"
@@ -227,6 +242,8 @@ def _cell(o: RunOutcome, key: str) -> str:
     unset = v is None or (isinstance(v, float) and math.isnan(v))
     if key == "position_settling_time_s" and unset:
         return f"not settled ({_fmt(o.metrics.get('final_position_error_m'))} m at end)"
+    if key == "time_to_detumble_s" and unset:
+        return f"not reached ({_fmt(o.metrics.get('final_rate_deg_s'))}°/s at end)"
     if key == "command_reversals" and isinstance(v, (int, float)) and math.isfinite(v):
         return str(int(round(v)))
     s = _fmt(v)
@@ -247,6 +264,13 @@ def _summary_cell(o: RunOutcome) -> str:
     if o.status != "ok":
         return f"{_verdict_text(o)}: the run raised " + _esc(o.error or "", 90)
     m = o.metrics
+    if "time_to_detumble_s" in m:
+        td = float(m["time_to_detumble_s"])
+        if math.isfinite(td):
+            txt = f"t_detumble = {_fmt(td)} s"
+        else:
+            txt = f"‖ω‖_f = {_fmt(m.get('final_rate_deg_s'))}°/s (threshold not reached)"
+        return f"{_verdict_text(o)}; {txt}, E = {_fmt(m.get('electrical_energy_J'))} J"
     ts = float(m.get("settling_time_s", float("nan")))
     converged = o.verdict != "failed" and "attitude-not-converged" not in o.flags
     att = "attitude " if "final_position_error_m" in m else ""
@@ -293,7 +317,7 @@ def _table(
 
 
 def _check_run(scenario: Any, metrics: Any) -> None:
-    if getattr(scenario, "plant", None) not in ("sgcmg", "wheels", "ideal", "se3"):
+    if getattr(scenario, "plant", None) not in ATTITUDE_OR_POSE | {"magnetorquer"}:
         raise TypeError(f"scenario: expected a Scenario, got {type(scenario).__name__}")
     if not isinstance(metrics, Mapping):
         raise TypeError(f"metrics: expected a mapping of metrics, got {type(metrics).__name__}")
@@ -303,8 +327,12 @@ def performance(scenario: Any, metrics: Mapping[str, Any]) -> tuple[float, str]:
     """The performance axis of the Pareto figure: SE(3) — the position settling time [s];
     attitude — the settling time [s] when the scenario starts outside its attitude tolerance (a
     manoeuvre), else the RMS attitude error over the final 10 % [deg] (regulation: nothing to
-    settle). Returns ``(value, label)``; a run that does not settle gives NaN."""
+    settle); detumble — the time to detumble [s]. Returns ``(value, label)``; a run that does
+    not settle gives NaN."""
     _check_run(scenario, metrics)
+    if scenario.plant == "magnetorquer":
+        v = metrics.get("time_to_detumble_s")
+        return (float("nan") if v is None else float(v)), "time to detumble [s]"
     if scenario.plant == "se3":
         v = metrics.get("position_settling_time_s")
         return (float("nan") if v is None else float(v)), "position settling time [s]"
@@ -315,13 +343,15 @@ def performance(scenario: Any, metrics: Mapping[str, Any]) -> tuple[float, str]:
 
 def peak_actuator_use(scenario: Any, metrics: Mapping[str, Any]) -> tuple[float, str]:
     """Peak actuator use by plant: SGCMG — peak gimbal rate / limit; wheels — peak wheel speed
-    / limit; ideal torque — peak ‖u‖ [N·m]; SE(3) — peak ‖F‖ [N]. Returns ``(value, label)``."""
+    / limit; ideal torque — peak ‖u‖ [N·m]; SE(3) — peak ‖F‖ [N]; magnetorquers — peak rod
+    dipole / limit. Returns ``(value, label)``."""
     _check_run(scenario, metrics)
     key, label = {
         "sgcmg": ("peak_gimbal_rate_frac", "peak gimbal rate / limit [-]"),
         "wheels": ("peak_wheel_speed_frac", "peak wheel speed / limit [-]"),
         "ideal": ("peak_torque_Nm", "peak torque ‖u‖ [N·m]"),
         "se3": ("peak_force_N", "peak force ‖F‖ [N]"),
+        "magnetorquer": ("peak_dipole_frac", "peak rod dipole / limit [-]"),
     }[scenario.plant]
     v = metrics.get(key)
     return (float("nan") if v is None else float(v)), label
@@ -329,7 +359,10 @@ def peak_actuator_use(scenario: Any, metrics: Mapping[str, Any]) -> tuple[float,
 
 def _effort(scenario: Any, metrics: Mapping[str, Any]) -> tuple[float, str]:
     """Control effort of the Pareto figure: ∫‖u‖dt [N·m·s]; SE(3): ∫‖F‖dt [N·s] (the force
-    dominates the approach's cost)."""
+    dominates the approach's cost); detumble: the rods' electrical energy [J]."""
+    if scenario.plant == "magnetorquer":
+        v = metrics.get("electrical_energy_J")
+        return (float("nan") if v is None else float(v)), "rod electrical energy [J]"
     if scenario.plant == "se3":
         v = metrics.get("force_effort_Ns")
         return (float("nan") if v is None else float(v)), "force effort ∫‖F‖dt [N·s]"
@@ -641,12 +674,21 @@ def write_pareto_figure(result: SuiteResult, scenario: Any, path: Path) -> Path 
 
 
 def _tolerance_text(s: Any) -> str:
+    if s.plant == "magnetorquer":
+        return f"‖ω‖ < {s.detumble.threshold_deg_s:g}°/s"
     if s.plant == "se3":
         return f"θ ≤ {s.attitude_tolerance_deg:g}°, ‖Δp‖ ≤ {s.position_tolerance_m:g} m"
     return f"θ ≤ {s.attitude_tolerance_deg:g}°"
 
 
 def _plant_text(s: Any) -> str:
+    if s.plant == "magnetorquer":
+        d, o = s.detumble, s.orbit
+        return (
+            f"3 magnetorquer rods ≤ {d.max_dipole:g} A·m² on {d.duty_cycle:.0%} of each "
+            f"period; magnetometer {d.magnetometer_noise:g} T noise; {o.altitude_km:g} km, "
+            f"{o.inclination_deg:g}° orbit, tilted dipole; damping gain k {d.gain:g} N·m·s"
+        )
     if s.plant == "se3":
         px = s.proximity
         if px is None:
@@ -670,6 +712,14 @@ def _plant_text(s: Any) -> str:
         est = s.sensors.estimator
         txt += "; sensed" + ("" if est == "none" else f" via {est.upper()}")
     return txt
+
+
+def _initial_text(s: Any) -> str:
+    """The scenario table's initial error [deg]; a detumble starts at the identity attitude,
+    so its cell gives the tumble rate instead (saying so)."""
+    if s.plant == "magnetorquer":
+        return f"— (tumble ‖ω₀‖ {math.degrees(math.hypot(*s.initial_rate)):.1f}°/s)"
+    return f"{s.initial_error_deg:.1f}"
 
 
 def _disturbance_text(s: Any) -> str:
@@ -722,7 +772,10 @@ VERDICT_RULES = (
     "out of tolerance (`attitude-not-converged`, `position-not-converged`) or `diverged` (ends "
     "at least 30° farther from the target than it started, or a non-finite state); "
     "**error** — the run raised (its message is listed under Errors); "
-    "**not-applicable** — the controller is not defined for that plant."
+    "**not-applicable** — the controller is not defined for that plant. Detumble scenarios "
+    "(plant `magnetorquer`) have their own rule: **success** when ‖ω‖ stays below the "
+    "threshold before the run ends, **failed** (`rate-not-damped`) when it does not, or "
+    "`diverged` on a non-finite state."
 )
 
 
@@ -871,7 +924,7 @@ def _write_report(
         lines.append(
             f"| {s.name} | {_esc(s.description)} | {_esc(_plant_text(s))} "
             f"| {_esc(_disturbance_text(s))} | {_esc(_faults_cell(s))} "
-            f"| {s.initial_error_deg:.1f} | {_tolerance_text(s)} | {s.duration:g} "
+            f"| {_initial_text(s)} | {_tolerance_text(s)} | {s.duration:g} "
             f"| {s.dt:g} | {s.control_period if s.control_period is not None else s.dt:g} |"
         )
     lines += ["", "## Controllers", ""]
@@ -899,7 +952,8 @@ def _write_report(
         "Per scenario, the controllers no other controller beats in both performance (settling "
         "time; for regulation scenarios the steady RMS error) and cost — control effort ∫‖u‖dt, "
         "or peak actuator use (gimbal rate or wheel speed as a fraction of its limit; torque or "
-        "force on ideal and SE(3) plants). Only success/degraded runs compete. Ties: two values "
+        "force on ideal and SE(3) plants; detumble: time to detumble against the rods' energy "
+        "and peak dipole / limit). Only success/degraded runs compete. Ties: two values "
         f"within {PARETO_REL_TOL:.0%} (settling times also within one control period) are "
         "equivalent; a controller is off the front only if another is better beyond that "
         "tolerance on one axis and not worse beyond it on the other, so identical runs are both "
@@ -917,8 +971,10 @@ def _write_report(
     tables = list(TABLE_METRICS)
     if any(s.plant == "se3" for s in result.scenarios):
         tables += list(POSE_METRICS)
+    if any(s.plant == "magnetorquer" for s in result.scenarios):
+        tables += list(DETUMBLE_METRICS)
     for key, title in tables:
-        plants = METRIC_PLANTS.get(key)
+        plants = METRIC_PLANTS.get(key, ATTITUDE_OR_POSE)
         if plants is not None and not any(s.plant in plants for s in result.scenarios):
             continue
         lines += ["", f"### {title}", ""]
@@ -1093,6 +1149,9 @@ _PANELS: tuple[tuple[str, str, bool, frozenset[str], tuple[float, str] | None], 
     ("torque_Nm", "torque ‖u‖ [N·m]", False, frozenset({"ideal"}), None),
     ("position_error_m", "position error ‖p − p_d‖ [m]", True, frozenset({"se3"}), None),
     ("force_N", "force ‖F‖ [N]", False, frozenset({"se3"}), None),
+    ("body_rate_deg_s", "body rate ‖ω‖ [deg/s]", True, frozenset({"magnetorquer"}), None),
+    ("dipole_Am2", "rod dipole ‖m‖ [A·m²]", False, frozenset({"magnetorquer"}), None),
+    ("kinetic_energy_J", "kinetic energy ½ωᵀJω [J]", True, frozenset({"magnetorquer"}), None),
 )  # fmt: skip
 
 
@@ -1171,6 +1230,8 @@ def write_figures(
                 ax.axhline(s.attitude_tolerance_deg, color="0.4", ls=":", lw=0.9)
             if key == "position_error_m":
                 ax.axhline(s.position_tolerance_m, color="0.4", ls=":", lw=0.9)
+            if key == "body_rate_deg_s" and s.plant == "magnetorquer":
+                ax.axhline(s.detumble.threshold_deg_s, color="0.4", ls=":", lw=0.9)
             if ref is not None:
                 ax.axhline(ref[0], color="0.4", ls=":", lw=0.9)
             title = label
@@ -1178,6 +1239,8 @@ def write_figures(
                 title += f"  (log; values < {LOG_FLOOR:g} drawn at {LOG_FLOOR:g})"
             elif key in ("error_deg", "position_error_m"):
                 title += "  (dotted: tolerance)"
+            elif key == "body_rate_deg_s":
+                title += "  (dotted: detumble threshold)"
             ax.set_title(_wrap_title(title, 0.9 * fig.get_figwidth() / ncol, 8), fontsize=8)
             ax.set_ylabel(label, fontsize=8)
             ax.set_xlabel("t [s]", fontsize=8)
@@ -1229,8 +1292,10 @@ def _overview_figure(result: SuiteResult, path: Path) -> Path | None:
                 ts = o.metrics.get("settling_time_s", float("nan"))
                 if s.plant == "se3":  # the pose settles when the position does
                     ts = o.metrics.get("position_settling_time_s", float("nan"))
+                if s.plant == "magnetorquer":  # a detumble "settles" when the rate does
+                    ts = o.metrics.get("time_to_detumble_s", float("nan"))
                 short = {"attitude-not-converged": "no conv.", "position-not-converged": "pos.",
-                         "diverged": "diverged"}  # fmt: skip
+                         "diverged": "diverged", "rate-not-damped": "not damped"}  # fmt: skip
                 if v == "failed":
                     text[i][j] = short.get(o.flags[0], o.flags[0]) if o.flags else "failed"
                 elif isinstance(ts, float) and math.isfinite(ts):
@@ -1252,7 +1317,8 @@ def _overview_figure(result: SuiteResult, path: Path) -> Path | None:
     ax.set_title(
         _wrap_title(
             "single-run verdict of each nominal run (the cell verdicts over the members are in "
-            "report.md); number: settling time [s] (SE(3): position); *: degraded (flags "
+            "report.md); number: settling time [s] (SE(3): position; detumble: time to "
+            "detumble); *: degraded (flags "
             "in report.md); —: does not apply\n"
             "failed cells name the first flag: 'no conv.' attitude not converged, 'pos.' "
             "position not converged; 'error': the run raised",

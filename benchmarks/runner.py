@@ -78,6 +78,8 @@ __all__ = [
     "with_verdict",
     "run_suite",
     "run_group",
+    "detumble_inputs",
+    "detumble_metrics",
     "MAX_SERIES_POINTS",
 ]
 
@@ -1433,6 +1435,116 @@ def _simulate_pose_pair(
     )
 
 
+def detumble_inputs(scenario: Scenario, law: Any) -> dict[str, Any]:
+    """The arguments of :func:`spacecraft.detumble.simulate_detumble` for a detumble
+    ``scenario`` flown with ``law`` (a :class:`spacecraft.detumble.DetumbleLaw`): the true
+    inertia, the tumble, the run length, the threshold, the orbit, the magnetometer, the step,
+    the noise seed and every step logged (the log holds each step's duty-weighted dipole: a
+    sparser log could sample only the partly-on steps and understate the peak dipole)."""
+    from spacecraft.detumble import Magnetometer
+
+    _need(scenario, Scenario, "scenario")
+    det = scenario.detumble
+    if det is None:
+        raise ValueError(f"scenario: {scenario.name!r} is not a detumble scenario (no detumble)")
+    return {
+        "J": scenario.true_inertia,
+        "law": law,
+        "omega0": np.asarray(scenario.initial_rate, dtype=np.float64),
+        "t_final": scenario.duration,
+        "threshold": det.threshold,
+        "orbit": scenario.orbit.circular_orbit(),
+        "magnetometer": Magnetometer(noise_std=det.magnetometer_noise, bias=det.magnetometer_bias),
+        "dt": scenario.dt,
+        "seed": det.seed,
+        "log_every": 1,
+    }
+
+
+def detumble_metrics(
+    res: Any, J: Any, law: Any, gain: float, b: int = 0
+) -> tuple[dict[str, float], dict[str, np.ndarray]]:
+    """Metrics and figure series of spacecraft ``b`` of a
+    :class:`spacecraft.detumble.DetumbleResult` (``benchmarks.metrics.DESCRIPTIONS``):
+    ``time_to_detumble_s``, ``initial_rate_deg_s``, ``final_rate_deg_s``,
+    ``electrical_energy_J``, ``kinetic_energy_removed_J``, ``peak_dipole_frac`` and
+    ``averaged_detumble_time_s``, the time the averaged damping ``gain`` [N·m·s] implies from
+    the same tumble (:func:`spacecraft.detumble.averaged_detumble_time`; ``J`` the inertia,
+    ``law`` the :class:`~spacecraft.detumble.DetumbleLaw` for its rod limits and duty cycle)."""
+    from spacecraft.detumble import averaged_detumble_time
+
+    w = np.asarray(res.omega)[:, b]
+    rate = np.rad2deg(np.linalg.norm(w, axis=-1))
+    ke = np.asarray(res.kinetic_energy)[:, b]
+    m = np.asarray(res.dipole)[:, b]
+    avg = averaged_detumble_time(J, gain, w[0], res.threshold, law.duty_cycle)
+    # a logged step holds the commanded dipole times its on-fraction, at most this much
+    t = np.asarray(res.t)
+    dt = float(t[1] - t[0]) if t.size > 1 else law.period
+    on = min(law.duty_cycle * max(1.0, round(law.period / dt)), 1.0)
+    metrics = {
+        "time_to_detumble_s": float(res.time_to_threshold[b]),
+        "initial_rate_deg_s": float(rate[0]),
+        "final_rate_deg_s": float(rate[-1]),
+        "electrical_energy_J": float(res.electrical_energy[b]),
+        "kinetic_energy_removed_J": float(ke[0] - ke[-1]),
+        "peak_dipole_frac": float((np.abs(m) / law._m_max).max() / on),
+        "averaged_detumble_time_s": float(avg),
+    }
+    idx = _decimate(rate.shape[0])
+    series = {
+        "t": np.asarray(res.t)[idx],
+        "body_rate_deg_s": rate[idx],
+        "dipole_Am2": np.linalg.norm(m[idx], axis=-1),
+        "kinetic_energy_J": ke[idx],
+    }
+    return metrics, series
+
+
+def _simulate_detumble_pair(
+    scenario: Scenario,
+    name: str,
+    info: ControllerInfo,
+    rule: GainRule | None = None,
+    histories: bool = False,
+) -> RunOutcome:
+    """One detumble run: the law ``info`` builds for the scenario, through
+    :func:`spacecraft.detumble.simulate_detumble` (the whole loop: no controller proxy, so no
+    ``controller_time_us``)."""
+    from spacecraft.detumble import DetumbleLaw, simulate_detumble
+
+    ctx = ControllerContext(
+        spacecraft=scenario.spacecraft,
+        control_period=info.control_period or scenario.control_period or scenario.dt,
+        rule=rule or DEFAULT_GAIN_RULE,
+        detumble=scenario.detumble,
+        orbit=scenario.orbit,
+    )
+    law = info.factory(ctx)
+    if not isinstance(law, DetumbleLaw):
+        raise TypeError(
+            f"factory: {name!r} returned {type(law).__name__} on a detumble scenario; expected "
+            "a spacecraft.detumble.DetumbleLaw"
+        )
+    kw = detumble_inputs(scenario, law)
+    t_start = time.perf_counter()
+    res = simulate_detumble(**kw)
+    wall = time.perf_counter() - t_start
+    m, series = detumble_metrics(res, kw["J"], law, scenario.detumble.gain)
+    m["sim_wall_time_s"] = wall
+    hist: dict[str, np.ndarray] = {}
+    if histories:
+        hist = {
+            "t": np.asarray(res.t),
+            "omega": np.asarray(res.omega)[:, 0],
+            "dipole": np.asarray(res.dipole)[:, 0],
+            "kinetic_energy": np.asarray(res.kinetic_energy)[:, 0],
+        }
+    return RunOutcome(
+        scenario.name, name, "ok", None, m, series, histories=hist, member=scenario.member
+    )
+
+
 def _failed(s: Scenario, c: str, exc: BaseException, histories: bool = False) -> RunOutcome:
     partial = getattr(exc, "result", None)
     series: dict[str, np.ndarray] = {}
@@ -1452,11 +1564,13 @@ def run_group(task: GroupTask) -> list[RunOutcome]:
     """Run one task (executor entry point): one batch; on failure isolate the failing pairs by
     re-running them one by one. Never raises for a controller/plant failure."""
     pairs, infos = task.pairs, task.infos
-    if pairs[0][0].plant == "se3":
+    one_by_one = {"se3": _simulate_pose_pair, "magnetorquer": _simulate_detumble_pair}
+    run_pair = one_by_one.get(pairs[0][0].plant)
+    if run_pair is not None:
         out = []
         for s, c in pairs:
             try:
-                out.append(_simulate_pose_pair(s, c, infos[c], task.rule, task.histories))
+                out.append(run_pair(s, c, infos[c], task.rule, task.histories))
             except Exception as exc:  # noqa: BLE001 - failures are data in a benchmark report
                 out.append(_failed(s, c, exc, task.histories))
         return out
@@ -1618,8 +1732,9 @@ def run_suite(
                 # loop (a stack of several laws cannot), and its batch does not depend on which
                 # other controllers were selected
                 key = s_run.batch_key() + (c,)
-                if s.plant == "se3" or s.sensors is not None:
-                    # SE(3): one pair per run; sensors: every controller sees the same noise
+                if s.plant in ("se3", "magnetorquer") or s.sensors is not None:
+                    # SE(3), detumble: one pair per run; sensors: every controller sees the
+                    # same noise
                     key = key + (c, s.name, s_k.member)
                 groups.setdefault(key, []).append((s_run, c))
     own = not isinstance(executor, Executor)

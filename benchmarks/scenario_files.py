@@ -77,6 +77,11 @@ apply to every scenario (a scenario's own keys win)::
     # kind = "thrusters" only: thrust [N], arm [m] (default layout: six couples), isp [s],
     #   min_on_time [s] (>= dt), pulse_period [s], deadband [N·m·s], or a custom layout:
     #   positions = [[x, y, z], ...] [m] and directions = [[dx, dy, dz], ...]
+    [scenario.detumble]              # a detumble scenario (plant "magnetorquer"; needs the orbit,
+    threshold_deg_s = 1.0            #   initial rotvec 0, the tumble as initial rate; no
+    gain = 5e-5                      #   disturbance, sensors, cones or faults): k [N·m·s],
+    max_dipole = 0.2                 #   also duty_cycle, rod_power, magnetometer_noise,
+    seed = 3                         #   magnetometer_bias, gyro_noise, rate_range_deg_s
 
     [scenario.dispersion]            # the members' spread (benchmarks.dispersion; 1-sigma)
     attitude_angle_deg = 2.0         # also attitude_axis_deg, rate_deg_s, inertia_moments,
@@ -122,6 +127,7 @@ from .scenarios import (
     MINI_CMG_SPACECRAFT,
     PAYLOAD_SPACECRAFT,
     SGCMG_SPACECRAFT,
+    DetumbleSpec,
     DisturbanceSpec,
     MomentumManagementSpec,
     OrbitSpec,
@@ -179,6 +185,7 @@ _TOP_KEYS = (
     "reconfiguration",
     "dispersion",
     "requirement",
+    "detumble",
 )
 _REQUIREMENT_KEYS = ("metric", "limit", "sense", "window_s", "name")
 _FAULT_KEYS = ("kind", "unit", "time", "efficiency", "bias")
@@ -428,7 +435,11 @@ def _scenario(table: Any, defaults: Mapping[str, Any], where: str) -> Scenario:
     for k, cls in (("keep_out", KeepOutCone), ("keep_in", KeepInCone)):
         if k in t:
             kw[k] = _cones(t[k], cls, f"{where}.{k}")
-    for k, cls in (("orbit", OrbitSpec), ("momentum_management", MomentumManagementSpec)):
+    for k, cls in (
+        ("orbit", OrbitSpec),
+        ("momentum_management", MomentumManagementSpec),
+        ("detumble", DetumbleSpec),
+    ):
         if k in t:
             fields = tuple(f.name for f in dataclasses.fields(cls))
             kw[k] = _construct(cls, dict(_check_keys(t[k], fields, f"{where}.{k}")), f"{where}.{k}")
@@ -654,6 +665,10 @@ def scenario_to_dict(scenario: Scenario) -> dict[str, Any]:
             }
             for r in s.requirements
         ]
+    if s.detumble is not None:
+        out["detumble"] = {
+            f.name: _plain(getattr(s.detumble, f.name)) for f in dataclasses.fields(DetumbleSpec)
+        }
     if s.proximity is not None:
         out["proximity"] = {
             f.name: _plain(getattr(s.proximity, f.name))

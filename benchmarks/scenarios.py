@@ -38,6 +38,9 @@ with null motion climbing the singularity measure):
   payload;
 - ``proximity-approach``: the SE(3) chaser (500 kg) reaching a docking pose 5 m behind a target
   in circular orbit from 150° / 100 m;
+- ``detumble-sso`` / ``detumble-iss``: a 3U CubeSat's magnetorquers damping a 9.5 °/s separation
+  tumble below 1 °/s on a 530 km orbit at 97.5° / 51.6° (:class:`DetumbleSpec`, plant
+  ``magnetorquer``: only the detumble laws apply; ``docs/modes.md``);
 
 and scenarios built to separate controllers (the quick suite runs the first two):
 
@@ -115,6 +118,8 @@ __all__ = [
     "UncertaintySpec",
     "ProximitySpec",
     "SensorSpec",
+    "DetumbleSpec",
+    "MODE_PLANTS",
     "ESTIMATORS",
     "WHEEL_LAYOUTS",
     "NULL_MOTION_EQUILIBRIUM_DEG",
@@ -783,6 +788,80 @@ class ProximitySpec:
         return np.array(self.inertia)
 
 
+#: Plant tags of the mode scenarios (the runner simulates them with their own plant, not the
+#: attitude loop): ``"magnetorquer"`` — a :class:`DetumbleSpec` run of
+#: :func:`spacecraft.detumble.simulate_detumble`.
+MODE_PLANTS: tuple[str, ...] = ("magnetorquer",)
+
+
+@dataclass(frozen=True)
+class DetumbleSpec:
+    """Magnetic detumbling after separation (``[scenario.detumble]``): three rods and a
+    magnetometer on the scenario's orbit in the tilted-dipole field, simulated by
+    :func:`spacecraft.detumble.simulate_detumble` from the tumble ``initial_rate`` at the
+    identity attitude. The law (B-dot or cross-product) is the controller of the cell; its
+    control period is the scenario's ``control_period`` (one magnetometer sample and one dipole
+    each; the rods are on for ``duty_cycle`` of it).
+
+    Attributes:
+        threshold_deg_s: detumbled when ``‖ω‖`` stays below it [deg/s] (> 0; the rates settle
+            near twice the orbit rate, ≈ 0.13 °/s in LEO, so it must lie above that).
+        gain: averaged damping gain ``k`` [N·m·s] (> 0) every law is given: the cross-product
+            law's own gain, B-dot's ``k_b = k/⟨‖B‖²⟩`` over the orbit, so both have the same
+            averaged dynamics ``J ω̇ = −(2/3) d k ω`` (:mod:`spacecraft.detumble`).
+        max_dipole: per-rod dipole limit [A·m²] (> 0).
+        duty_cycle: fraction of the control period the rods are on, in (0, 1].
+        rod_power: electrical power of one rod at full dipole [W] (> 0).
+        magnetometer_noise: white noise per axis [T] (≥ 0).
+        magnetometer_bias: constant bias [T] ``(3,)``.
+        gyro_noise: white noise of the gyro the cross-product law reads [rad/s] (≥ 0).
+        rate_range_deg_s: ``(low, high)`` [deg/s]: a dispersed member ``k ≥ 1`` draws its tumble
+            as a uniform random axis and a rate uniform in this range
+            (:func:`benchmarks.dispersion.member_scenario`).
+        seed: seed of the magnetometer and gyro noise.
+    """
+
+    threshold_deg_s: float = 1.0
+    gain: float = 5e-5
+    max_dipole: float = 0.2
+    duty_cycle: float = 0.8
+    rod_power: float = 0.2
+    magnetometer_noise: float = 1e-7
+    magnetometer_bias: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    gyro_noise: float = 0.0
+    rate_range_deg_s: tuple[float, float] = (5.0, 10.0)
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        for name in ("threshold_deg_s", "gain", "max_dipole", "rod_power"):
+            object.__setattr__(self, name, check_positive_scalar(getattr(self, name), name))
+        d = as_scalar(self.duty_cycle, "duty_cycle")
+        if not 0.0 < d <= 1.0:
+            raise ValueError(f"duty_cycle: must be in (0, 1], got {self.duty_cycle!r}")
+        object.__setattr__(self, "duty_cycle", d)
+        for name in ("magnetometer_noise", "gyro_noise"):
+            v = as_scalar(getattr(self, name), name)
+            if not v >= 0.0:
+                raise ValueError(f"{name}: must be >= 0, got {v}")
+            object.__setattr__(self, name, v)
+        object.__setattr__(
+            self, "magnetometer_bias", _tuple3(self.magnetometer_bias, "magnetometer_bias")
+        )
+        rr = as_array(self.rate_range_deg_s, "rate_range_deg_s")
+        if rr.shape != (2,) or not 0.0 <= rr[0] <= rr[1] < 1e3:
+            raise ValueError(
+                "rate_range_deg_s: expected (low, high) with 0 <= low <= high < 1000 deg/s, got "
+                f"{self.rate_range_deg_s!r}"
+            )
+        object.__setattr__(self, "rate_range_deg_s", (float(rr[0]), float(rr[1])))
+        object.__setattr__(self, "seed", as_int(self.seed, "seed", 0))
+
+    @property
+    def threshold(self) -> float:
+        """The rate threshold [rad/s]."""
+        return math.radians(self.threshold_deg_s)
+
+
 #: Estimators a :class:`SensorSpec` can put between the sensors and the controller.
 ESTIMATORS: tuple[str, ...] = ("none", "mekf", "ukf")
 
@@ -1001,6 +1080,11 @@ class Scenario:
             (:func:`benchmarks.dispersion.member_scenario` sets it).
         member_inertia: a member's drawn true inertia (``None``: :attr:`true_inertia` follows
             :attr:`uncertainty`).
+        detumble: ``None`` for attitude and SE(3) scenarios; a :class:`DetumbleSpec` makes this
+            a detumble scenario (plant ``"magnetorquer"``): the rods damp the tumble
+            ``initial_rate`` from the identity attitude on :attr:`orbit`, with the cell's
+            detumble law (``reference``, ``attitude_tolerance_deg`` are unused; disturbances,
+            sensors, cones, faults and momentum management are refused).
 
     :func:`benchmarks.metrics.judge` turns a run's metrics into a verdict with these
     tolerances.
@@ -1033,6 +1117,7 @@ class Scenario:
     requirements: tuple[Requirement, ...] = ()
     member: int = 0
     member_inertia: tuple[tuple[float, ...], ...] | None = None
+    detumble: DetumbleSpec | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name or any(c in self.name for c in "/\\ "):
@@ -1195,6 +1280,7 @@ class Scenario:
         if self.member_inertia is not None:
             J_m = _matrix3(self.member_inertia, "member_inertia")
             object.__setattr__(self, "member_inertia", J_m)
+        self._check_detumble()
         # a requirement window must fit in the pointing interval (the final 10 % of the run)
         for r in self.requirements:
             if r.window_s is not None and r.window_s > 0.1 * self.duration * (1 + 1e-9):
@@ -1202,6 +1288,41 @@ class Scenario:
                     f"requirements: {r.name} window_s {r.window_s:g} s is longer than the "
                     f"pointing interval ({0.1 * self.duration:g} s, the final 10 % of the run)"
                 )
+
+    def _check_detumble(self) -> None:
+        """A detumble scenario flies its own plant: refuse what that plant does not model."""
+        det = self.detumble
+        if det is None:
+            return
+        if not isinstance(det, DetumbleSpec):
+            raise ValueError(f"detumble: expected DetumbleSpec or None, got {type(det).__name__}")
+        if self.orbit is None:
+            raise ValueError("detumble: needs the orbit ([scenario.orbit]) the field is felt on")
+        unmodelled = [
+            name
+            for name in ("proximity", "sensors", "momentum_management")
+            if getattr(self, name) is not None
+        ] + [
+            name
+            for name in ("disturbances", "keep_out", "keep_in", "faults")
+            if getattr(self, name)
+        ]
+        if unmodelled:
+            raise ValueError(
+                f"detumble: the detumble plant does not model {', '.join(unmodelled)}; leave "
+                "them out"
+            )
+        if any(self.initial_rotvec):
+            raise ValueError(
+                "initial_rotvec: a detumble run starts at the identity attitude "
+                f"(spacecraft.detumble.simulate_detumble), got {self.initial_rotvec}"
+            )
+        period = self.control_period or self.dt
+        if self.duration < period * (1.0 - 1e-9):
+            raise ValueError(
+                f"duration: {self.duration:g} s is shorter than one detumble control period "
+                f"({period:g} s)"
+            )
 
     # ------------------------------------------------------------------ derived quantities
 
@@ -1216,7 +1337,10 @@ class Scenario:
 
     @property
     def plant(self) -> str:
-        """Plant tag: ``"se3"`` for proximity scenarios, else the actuator kind."""
+        """Plant tag: ``"se3"`` for proximity scenarios, ``"magnetorquer"`` for detumble
+        scenarios, else the actuator kind."""
+        if self.detumble is not None:
+            return "magnetorquer"
         return "se3" if self.proximity is not None else self.spacecraft.actuator
 
     @property
@@ -1300,6 +1424,7 @@ class Scenario:
             self.momentum_management,
             self.faults,
             self.reconfiguration,
+            self.detumble,
         )
 
 
@@ -1326,6 +1451,10 @@ class Suite:
         object.__setattr__(self, "scenarios", tuple(self.scenarios))
         if self.controllers is not None:
             object.__setattr__(self, "controllers", _str_tuple(self.controllers, "controllers"))
+
+
+#: Initial body rate of ``keep-out-sun-slew-rate`` [rad/s]: along the slew, toward the Sun cone.
+KEEP_OUT_APPROACH_RATE = (-0.05, 0.0, 0.0)
 
 
 def rest_to_rest(
@@ -1545,6 +1674,56 @@ ESTIMATOR_REQUIREMENTS: tuple[Requirement, ...] = (
 #: ``‖Jâ‖·ω`` ≈ 280 N·m·s about (1, 1, 1)/√3, a third of the pyramid's 850 N·m·s envelope),
 #: acceleration 5e-4 rad/s² (``max_i |(Jâ)_i|·α`` ≈ 4.9 N·m) and jerk 1e-4 rad/s³ (5 s ramps).
 PLANNED_SLEW_LIMITS: dict[str, float] = {"max_rate": 0.02, "max_accel": 5e-4, "max_jerk": 1e-4}
+
+
+#: The separation tumble of the detumble scenarios [rad/s] (‖ω₀‖ = 9.46 °/s): tumble 0 of
+#: ``spacecraft.detumble.separation_tumble(8, (5, 10), seed=3)`` (the first start of
+#: :mod:`benchmarks.detumble_study`), written out so the catalogue is plain data.
+DETUMBLE_TUMBLE: tuple[float, float, float] = (0.1021837, -0.12795573, 0.02093316)
+#: The 3U CubeSat of the detumble scenarios (:data:`CUBESAT_3U_INERTIA`; the actuator entry is
+#: unused: the rods are the :class:`DetumbleSpec`).
+DETUMBLE_SPACECRAFT = SpacecraftSpec(
+    name="cubesat-3u-magnetorquers", inertia=CUBESAT_3U_INERTIA, actuator="ideal"
+)
+#: Hardware of the detumble scenarios (as :mod:`benchmarks.detumble_study`): three 0.2 A·m²
+#: rods (0.2 W each at full dipole) on 80 % of a 2 s period, a magnetometer with 100 nT noise
+#: and a (0.4, −0.2, 0.3) μT bias, a gyro with 1e-5 rad/s noise; detumbled below 1 °/s; the
+#: damping gain k = 5e-5 N·m·s, whose averaged dynamics bring :data:`DETUMBLE_TUMBLE` below
+#: 1 °/s in 3515 s (:func:`spacecraft.detumble.averaged_detumble_time`; the study's simulated
+#: medians over 8 tumbles at this gain: 3100-4140 s).
+DETUMBLE_HARDWARE = DetumbleSpec(
+    threshold_deg_s=1.0,
+    gain=5e-5,
+    max_dipole=0.2,
+    duty_cycle=0.8,
+    rod_power=0.2,
+    magnetometer_noise=1e-7,
+    magnetometer_bias=(4e-7, -2e-7, 3e-7),
+    gyro_noise=1e-5,
+    rate_range_deg_s=(5.0, 10.0),
+    seed=3,
+)
+
+
+def _detumble_pair() -> tuple[Scenario, Scenario]:
+    """Detumbling the 3U CubeSat from :data:`DETUMBLE_TUMBLE` at 530 km on a sun-synchronous
+    (97.5°) and a 51.6° orbit: 12000 s (≈ 2.1 orbits) in 1 s steps."""
+    return tuple(
+        Scenario(
+            name=name,
+            description=f"3U CubeSat detumbled by 0.2 A·m² magnetorquers from a 9.5 °/s "
+            f"separation tumble to below 1 °/s, 530 km {inc:g}° orbit",
+            spacecraft=DETUMBLE_SPACECRAFT,
+            initial_rate=DETUMBLE_TUMBLE,
+            orbit=OrbitSpec(530.0, inc, 0.0),
+            detumble=DETUMBLE_HARDWARE,
+            duration=12000.0,
+            dt=1.0,
+            control_period=2.0,
+            tags=("detumble", "mode"),
+        )
+        for name, inc in (("detumble-sso", 97.5), ("detumble-iss", 51.6))
+    )
 
 
 def _catalogue() -> tuple[Scenario, ...]:
@@ -1770,6 +1949,20 @@ def _catalogue() -> tuple[Scenario, ...]:
             keep_out=(KeepOutCone((0.0, 0.0, 1.0), _SUN_ON_PATH, 20.0),),
             tags=("constraint", "keep-out"),
         ),
+        # the same slew already turning toward the Sun at 0.05 rad/s about −x (issue 25): a
+        # barrier that holds from rest can be overrun between samples; the sampled-data
+        # guarantee (braking distance at the control period) is what separates the laws here
+        rest_to_rest(
+            120.0,
+            (1.0, 0.0, 0.0),
+            name="keep-out-sun-slew-rate",
+            description="keep-out-sun-slew starting at 0.05 rad/s about −x, carrying the "
+            "body-z star tracker toward the 20° Sun cone",
+            initial_rate=KEEP_OUT_APPROACH_RATE,
+            duration=900.0,
+            keep_out=(KeepOutCone((0.0, 0.0, 1.0), _SUN_ON_PATH, 20.0),),
+            tags=("constraint", "keep-out"),
+        ),
         rest_to_rest(
             120.0,
             (1.0, 0.0, 0.0),
@@ -1806,6 +1999,7 @@ def _catalogue() -> tuple[Scenario, ...]:
             control_period=1.0,
             tags=("quick", "se3"),
         ),
+        *_detumble_pair(),
     )
 
 

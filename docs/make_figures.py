@@ -23,6 +23,8 @@ under two minutes on one core) and is saved at 90 dpi. Names (and the page that 
   step vs the planned 90° slew, Wie & Lu's rate-limited law on a 150° slew.
 - ``detumble.png`` (modes.md): B-dot and cross-product detumbling of a 3U CubeSat at two
   inclinations against the averaged dynamics.
+- ``sun_acquisition.png`` (modes.md): safe-mode Sun acquisition from 20 tumbling starts
+  through an eclipse (``benchmarks.safe_mode``): Sun angle and body rate against time.
 """
 
 from __future__ import annotations
@@ -41,9 +43,7 @@ import numpy as np  # noqa: E402
 
 DPI = 90
 FIG_DIR = pathlib.Path(__file__).resolve().parent / "figures"
-J_BUS = np.array(
-    [[15053.0, 3000.0, -1000.0], [3000.0, 6510.0, 2000.0], [-1000.0, 2000.0, 11122.0]]
-)
+J_BUS = np.array([[15053.0, 3000.0, -1000.0], [3000.0, 6510.0, 2000.0], [-1000.0, 2000.0, 11122.0]])
 
 
 def _save(fig: plt.Figure, out: pathlib.Path, name: str) -> pathlib.Path:
@@ -79,8 +79,9 @@ def geometric_pd_179(out: pathlib.Path) -> pathlib.Path:
         ax.set_xlabel("t [s]")
         ax.grid(True, which="both", alpha=0.3)
     axes[0].legend(fontsize=8)
-    fig.suptitle("Geometric PD, 179° slew, SGCMG-bus inertia, ω_n = 0.03 rad/s, ζ = 0.9",
-                 fontsize=9)
+    fig.suptitle(
+        "Geometric PD, 179° slew, SGCMG-bus inertia, ω_n = 0.03 rad/s, ζ = 0.9", fontsize=9
+    )
     return _save(fig, out, "geometric_pd_179.png")
 
 
@@ -101,8 +102,9 @@ def pid_ppc(out: pathlib.Path) -> pathlib.Path:
     x0 = plant.initial_state(so3.exp(np.deg2rad(30.0) * np.array([1.0, 0.0, 0.0])))
     fig, axes = plt.subplots(1, 2, figsize=(8, 3))
     for c, name in ((pd, "PD"), (pid, "intrinsic PID")):
-        res = simulate(plant, c, ConstantAttitude(np.eye(3)), x0, t_final=80.0, dt=0.05,
-                       log_every=4)
+        res = simulate(
+            plant, c, ConstantAttitude(np.eye(3)), x0, t_final=80.0, dt=0.05, log_every=4
+        )
         axes[0].semilogy(res.t, np.rad2deg(res.attitude_error_angle()[:, 0]), label=name)
     axes[0].set_xlabel("t [s]")
     axes[0].set_ylabel("attitude error [deg]")
@@ -111,8 +113,7 @@ def pid_ppc(out: pathlib.Path) -> pathlib.Path:
     k1, k2, kc = ppc_gains(0.5, 0.9)
     ppc = PrescribedPerformance(J, rho_inf=0.01, decay=0.3, k1=k1, k2=k2, kc=kc)
     x0 = plant.initial_state(so3.exp(np.deg2rad(150.0) * np.array([1.0, 2.0, 3.0]) / np.sqrt(14)))
-    res = simulate(plant, ppc, ConstantAttitude(np.eye(3)), x0, t_final=30.0, dt=0.02,
-                   log_every=2)
+    res = simulate(plant, ppc, ConstantAttitude(np.eye(3)), x0, t_final=30.0, dt=0.02, log_every=2)
     rho = res.controller["rho"][:, 0]
     e = res.controller["e_R"][:, 0]
     axes[1].fill_between(res.t, -rho, rho, color="0.85", label="funnel ±ρ(t)")
@@ -160,8 +161,7 @@ def mpc_torque(out: pathlib.Path) -> pathlib.Path:
     for ax in axes:
         ax.set_xlabel("t [s]")
         ax.grid(True, which="both", alpha=0.3)
-    fig.suptitle("SO(3) MPC (OSQP), 90° manoeuvre, N = 20, box torque |u_i| ≤ 20 N m",
-                 fontsize=9)
+    fig.suptitle("SO(3) MPC (OSQP), 90° manoeuvre, N = 20, box torque |u_i| ≤ 20 N m", fontsize=9)
     return _save(fig, out, "mpc_torque.png")
 
 
@@ -262,10 +262,12 @@ def error_functions(out: pathlib.Path) -> pathlib.Path:
 
     theta = np.linspace(0.0, np.pi, 361)
     fig, axes = plt.subplots(1, 2, figsize=(8, 3))
-    axes_list = [("large_angle", np.array([0.0, 0.0, 1.0]), "large-angle"),
-                 ("log", np.array([0.0, 0.0, 1.0]), "log"),
-                 ("trace", np.array([1.0, 0.0, 0.0]), "trace, axis e1 (g = 0.9)"),
-                 ("trace", np.array([0.0, 0.0, 1.0]), "trace, axis e3 (g = 1.1)")]
+    axes_list = [
+        ("large_angle", np.array([0.0, 0.0, 1.0]), "large-angle"),
+        ("log", np.array([0.0, 0.0, 1.0]), "log"),
+        ("trace", np.array([1.0, 0.0, 0.0]), "trace, axis e1 (g = 0.9)"),
+        ("trace", np.array([0.0, 0.0, 1.0]), "trace, axis e3 (g = 1.1)"),
+    ]
     for kind, n, label in axes_list:
         R = so3.exp(theta[:, None] * n)
         Psi, e_R = errors.attitude_error(kind, R, np.eye(3))
@@ -324,18 +326,24 @@ def se3_docking(out: pathlib.Path) -> pathlib.Path:
     target = OrbitingTarget(CircularOrbit(n=0.0011))
     g_rel = se3.from_rt(so3.exp(np.array([0.0, 0.0, np.pi])), np.array([-5.0, 0.0, 0.0]))
     dock = DockingReference(target, g_rel)
-    ctrl = SE3TrackingController(m, J, gravity=plant.gravity_wrench,
-                                 **pose_gains_from_bandwidth(m, J, omega_att=0.1,
-                                                             omega_pos=0.05))
-    g0, xi0 = dock.offset_state(0.0, np.deg2rad([[150.0, 0.0, 0.0]]),
-                                np.array([[60.0, -50.0, 58.0]]))
+    ctrl = SE3TrackingController(
+        m,
+        J,
+        gravity=plant.gravity_wrench,
+        **pose_gains_from_bandwidth(m, J, omega_att=0.1, omega_pos=0.05),
+    )
+    g0, xi0 = dock.offset_state(
+        0.0, np.deg2rad([[150.0, 0.0, 0.0]]), np.array([[60.0, -50.0, 58.0]])
+    )
     res = simulate_pose(plant, ctrl, dock, g0, xi0, t_final=300.0, dt=1.0, control_period=1.0)
     # chaser position in the target's (LVLH) frame
-    rel = np.array([se3.inverse(target.pose(t)) @ g for t, g in zip(res.t, res.g[:, 0],
-                                                                        strict=True)])
+    rel = np.array(
+        [se3.inverse(target.pose(t)) @ g for t, g in zip(res.t, res.g[:, 0], strict=True)]
+    )
     fig, axes = plt.subplots(1, 2, figsize=(8, 3))
-    axes[0].semilogy(res.t, np.rad2deg(np.maximum(res.attitude_error[:, 0], 1e-12)),
-                     label="attitude error [deg]")
+    axes[0].semilogy(
+        res.t, np.rad2deg(np.maximum(res.attitude_error[:, 0], 1e-12)), label="attitude error [deg]"
+    )
     axes[0].semilogy(res.t, np.maximum(res.position_error[:, 0], 1e-12), label="position error [m]")
     axes[0].set_xlabel("t [s]")
     axes[0].legend(fontsize=7)
@@ -347,8 +355,9 @@ def se3_docking(out: pathlib.Path) -> pathlib.Path:
     axes[1].legend(fontsize=7)
     for ax in axes:
         ax.grid(True, which="both", alpha=0.3)
-    fig.suptitle("SE(3) proximity approach (Jiang, Meng & Yang 2023, eqs. 15–16 tracking)",
-                 fontsize=9)
+    fig.suptitle(
+        "SE(3) proximity approach (Jiang, Meng & Yang 2023, eqs. 15–16 tracking)", fontsize=9
+    )
     return _save(fig, out, "se3_docking.png")
 
 
@@ -383,16 +392,28 @@ def planned_slew(out: pathlib.Path) -> pathlib.Path:
     S = np.array([prof.angle_at(x) for x in t])
     lim = PLANNED_SLEW_LIMITS
     for k, (lab, scale) in enumerate(
-        (("s/θ", 1 / prof.angle), ("ṡ/max_rate", 1 / lim["max_rate"]),
-         ("s̈/max_accel", 1 / lim["max_accel"]), ("s⃛/max_jerk", 1 / lim["max_jerk"]))
+        (
+            ("s/θ", 1 / prof.angle),
+            ("ṡ/max_rate", 1 / lim["max_rate"]),
+            ("s̈/max_accel", 1 / lim["max_accel"]),
+            ("s⃛/max_jerk", 1 / lim["max_jerk"]),
+        )
     ):
         axes[0].plot(t, S[:, k] * scale, label=lab, lw=1.2 if k < 3 else 0.8)
     axes[0].set_title(f"profile: 90°, T = {prof.slew_time:.1f} s", fontsize=9)
     axes[0].legend(fontsize=7)
     gains = tune_geometric_pd(J, ClosedLoopSpec(0.03, 0.9, 0.2), error="large_angle")
     for name, ref in (("step", ConstantAttitude(np.eye(3))), ("planned", prof)):
-        res = simulate(plant, GeometricPD(J, **gains), ref, plant.initial_state(R0), 350.0, 0.1,
-                       control_period=0.2, log_every=5)
+        res = simulate(
+            plant,
+            GeometricPD(J, **gains),
+            ref,
+            plant.initial_state(R0),
+            350.0,
+            0.1,
+            control_period=0.2,
+            log_every=5,
+        )
         to_target = np.rad2deg(np.linalg.norm(so3.log(res.R[:, 0]), axis=-1))
         track = np.rad2deg(res.attitude_error_angle()[:, 0])
         axes[1].semilogy(res.t, np.maximum(to_target, 1e-6), label=f"{name}: to target")
@@ -402,9 +423,16 @@ def planned_slew(out: pathlib.Path) -> pathlib.Path:
     axes[1].set_title("geometric PD, error [deg]", fontsize=9)
     axes[1].legend(fontsize=7)
     c = RateLimitedEigenaxis(J, max_rate=0.02, **wie_lu_gains(0.03, 0.9))
-    res = simulate(plant, c, ConstantAttitude(np.eye(3)),
-                   plant.initial_state(so3.exp(np.deg2rad(150.0) * axis)), 400.0, 0.1,
-                   control_period=0.2, log_every=5)
+    res = simulate(
+        plant,
+        c,
+        ConstantAttitude(np.eye(3)),
+        plant.initial_state(so3.exp(np.deg2rad(150.0) * axis)),
+        400.0,
+        0.1,
+        control_period=0.2,
+        log_every=5,
+    )
     axes[2].plot(res.t, np.rad2deg(np.linalg.norm(res.omega[:, 0], axis=1)), label="‖ω‖")
     axes[2].axhline(np.rad2deg(0.02), color="k", ls="--", lw=0.8, label="max_rate")
     axes[2].set_title("Wie & Lu, 150° slew: body rate [deg/s]", fontsize=9)
@@ -442,8 +470,13 @@ def detumble(out: pathlib.Path) -> pathlib.Path:
         for law in ("bdot", "cross-product"):
             gain = k if law == "cross-product" else k / B2
             res = simulate_detumble(
-                J, DetumbleLaw(gain, m_max=0.2, law=law, period=2.0, duty_cycle=d), w0, 6000.0,
-                threshold=thr, orbit=orbit, magnetometer=Magnetometer(1e-7, (2e-7, -1e-7, 3e-7)),
+                J,
+                DetumbleLaw(gain, m_max=0.2, law=law, period=2.0, duty_cycle=d),
+                w0,
+                6000.0,
+                threshold=thr,
+                orbit=orbit,
+                magnetometer=Magnetometer(1e-7, (2e-7, -1e-7, 3e-7)),
                 dt=1.0,
             )
             ax.plot(res.t, np.rad2deg(np.linalg.norm(res.omega[:, 0], axis=1)), label=law, lw=0.9)
@@ -457,6 +490,29 @@ def detumble(out: pathlib.Path) -> pathlib.Path:
     axes[0].set_ylabel("‖ω‖ [deg/s]")
     axes[0].legend(fontsize=7)
     return _save(fig, out, "detumble.png")
+
+
+def sun_acquisition(out: pathlib.Path) -> pathlib.Path:
+    """Safe-mode Sun acquisition from 20 seeded tumbling starts, coarse Sun sensors and a gyro,
+    through the eclipse (``benchmarks.safe_mode``, rate damping only in the shadow)."""
+    from benchmarks.safe_mode import sun_acquisition_run
+
+    r = sun_acquisition_run(20, seed=0)
+    fig, axes = plt.subplots(1, 2, figsize=(9, 3), sharex=True)
+    for ax in axes:
+        ax.axvspan(r.eclipse_entry_s, r.eclipse_exit_s, color="0.85", lw=0, label="eclipse")
+        ax.grid(True, alpha=0.3)
+        ax.set_xlabel("t [s]")
+    axes[0].plot(r.t, r.sun_angle_deg, lw=0.6)
+    axes[0].axhline(r.tol_deg, color="k", ls="--", lw=0.8, label=f"{r.tol_deg:g}°")
+    axes[0].set_yscale("log")
+    axes[0].set_ylim(0.1, 180.0)
+    axes[0].set_ylabel("Sun angle of +z [deg]")
+    axes[0].legend(fontsize=7, loc="upper right")
+    axes[1].plot(r.t, r.rate_deg_s, lw=0.6)
+    axes[1].set_yscale("log")
+    axes[1].set_ylabel("‖ω‖ [deg/s]")
+    return _save(fig, out, "sun_acquisition.png")
 
 
 FIGURES: dict[str, Callable[[pathlib.Path], object]] = {
@@ -473,6 +529,7 @@ FIGURES: dict[str, Callable[[pathlib.Path], object]] = {
     "survey_lemmas": survey_lemmas_figures,
     "planned_slew": planned_slew,
     "detumble": detumble,
+    "sun_acquisition": sun_acquisition,
 }
 
 

@@ -397,3 +397,32 @@ def test_planned_slew_scenario_round_trips_through_the_file_format():
     sc = get_scenario("slew-90-planned")
     back = scenario_from_dict(scenario_to_dict(sc))
     assert back.reference == sc.reference
+
+
+def test_detumble_study_scenarios_table_and_bad_input():
+    from benchmarks.detumble_study import (
+        DETUMBLE_SCENARIOS,
+        DetumbleScenario,
+        detumble_table,
+        format_table,
+    )
+
+    assert [(s.name, s.inclination_deg) for s in DETUMBLE_SCENARIOS] == [
+        ("detumble-sso", 97.5),
+        ("detumble-iss", 51.6),
+    ]
+    short = DetumbleScenario("short", 51.6, n_tumbles=2, t_final=200.0, threshold_deg_s=20.0)
+    (row,) = detumble_table((1e-4,), ("cross-product",), (short,))
+    # already below 20 °/s: detumbled at t = 0, with the rods' energy counted over the run
+    assert row["t_median_s"] == 0.0 and row["not_reached"] == 0 and row["energy_median_J"] > 0
+    assert "| `short` | 51.6° | cross-product | 1.0e-04 | 0 (0–0) |" in format_table([row])
+    with pytest.raises(ValueError, match="^gains:"):
+        detumble_table((0.0,))
+    with pytest.raises(ValueError, match="^laws:"):
+        detumble_table((1e-4,), ("pd",))
+    with pytest.raises(ValueError, match="^threshold_deg_s:"):
+        DetumbleScenario("x", 51.6, threshold_deg_s=0.0)
+    with pytest.raises(ValueError, match="^inclination_deg:"):
+        DetumbleScenario("x", 200.0)
+    with pytest.raises(ValueError, match="^rows:"):
+        format_table([{"scenario": "x"}])
