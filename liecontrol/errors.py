@@ -60,6 +60,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._array_api import any_true, namespace
 from ._validation import as_array, broadcast_batch, check_rotation_matrix, check_spd
 from .lie import so3
 
@@ -145,12 +146,17 @@ def _skew_vee(A: np.ndarray) -> np.ndarray:
 
 
 def _half_sinc(theta: np.ndarray) -> np.ndarray:
-    """sin(θ/2)/θ, accurate at and near 0 (Taylor branch)."""
+    """sin(θ/2)/θ, accurate at and near 0 (Taylor branch below θ = 1e-3); NumPy or JAX.
+
+    The closed form is evaluated at θ = 1 where the series is taken, so neither the value nor
+    the derivative of the branch not taken is 0/0 (a NaN there would reach the gradient
+    through ``where``)."""
+    xp = namespace(theta)
     small = theta < 1e-3
-    t = np.where(small, 1.0, theta)
-    out = np.sin(0.5 * t) / t
+    t = xp.where(small, 1.0, theta)
+    out = xp.sin(0.5 * t) / t
     t2 = theta * theta
-    return np.where(small, 0.5 * (1.0 - t2 / 24.0 * (1.0 - t2 / 80.0)), out)
+    return xp.where(small, 0.5 * (1.0 - t2 / 24.0 * (1.0 - t2 / 80.0)), out)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -182,30 +188,26 @@ def _trace_error_unchecked(Rt: np.ndarray, G: np.ndarray) -> tuple[np.ndarray, n
 
 def _large_angle_error_unchecked(Rt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """:func:`large_angle_error` on a checked ``R̃``: ``Ψ = 4 sin²(θ/4)``, ``e_R = (sin(θ/2)/θ) φ``
-    with ``φ = log(R̃)^∨`` and θ its angle."""
-    shape = Rt.shape[:-2]
-    phi, theta = so3._log_angle_unchecked(Rt.reshape(-1, 3, 3))
+    with ``φ = log(R̃)^∨`` and θ its angle. Pure: NumPy or JAX arrays (differentiable, finite
+    derivatives at the identity and near π; see :func:`liecontrol.lie.so3._log_angle_unchecked`)."""
+    xp = namespace(Rt)
+    phi, theta = so3._log_angle_unchecked(Rt)
     # 2 − √(1 + tr R̃) = 2 − 2cos(θ/2) = 4 sin²(θ/4): the sine form avoids cancellation at
-    # small θ, the cosine form (on the few θ ≥ π/2 only) gives Ψ = 2 to the last bit at θ = π
-    s = np.sin(0.25 * theta)
-    Psi = s * s
-    Psi *= 4.0
+    # small θ, the cosine form (on θ ≥ π/2 only) gives Ψ = 2 to the last bit at θ = π
+    s = xp.sin(0.25 * theta)
+    Psi = s * s * 4.0
     big = theta >= _HALF_PI
-    if big.any():
-        Psi[big] = 2.0 - 2.0 * np.cos(0.5 * theta[big])
-    if np.any(theta < 1e-3):
-        hs = _half_sinc(theta)
-    else:  # _half_sinc's value where no Taylor branch is needed, without its two np.where
-        hs = np.sin(0.5 * theta)
-        hs /= theta
-    phi *= hs[:, None]
-    return Psi.reshape(shape), phi.reshape(shape + (3,))
+    if any_true(big, xp):
+        Psi = xp.where(big, 2.0 - 2.0 * xp.cos(0.5 * theta), Psi)
+    return Psi, phi * _half_sinc(theta)[..., None]
 
 
 def _log_error_unchecked(Rt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`log_error` on a checked ``R̃``: ``Ψ = ½ ‖φ‖²``, ``e_R = φ = log(R̃)^∨``."""
+    """:func:`log_error` on a checked ``R̃``: ``Ψ = ½ ‖φ‖²``, ``e_R = φ = log(R̃)^∨``; NumPy or
+    JAX."""
+    xp = namespace(Rt)
     phi = so3._log_angle_unchecked(Rt)[0]
-    Psi = 0.5 * np.einsum("...i,...i->...", phi, phi)
+    Psi = 0.5 * xp.einsum("...i,...i->...", phi, phi)
     return Psi, phi
 
 

@@ -13,9 +13,11 @@ inertial.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
+from liecontrol._array_api import cross
 from liecontrol._validation import (
     as_array,
     as_int,
@@ -64,6 +66,15 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     m *= b.take(_P1, axis=-1)
     p -= m
     return p
+
+
+def euler_acceleration(J: Any, J_inv: Any, omega: Any, torque: Any) -> Any:
+    """Euler's equation in body axes, ``ω̇ = J⁻¹ (τ − ω × J ω)``, for a symmetric ``J`` ``(3, 3)``
+    shared by the batch; ``omega``, ``torque`` ``(..., 3)``. Pure: NumPy or JAX arrays (the
+    differentiable closed loop, :mod:`spacecraft.differentiable`, runs this same function).
+    ``J ω`` is formed as the row-vector product ``ωᵀ J`` (equal for symmetric ``J``). Unchecked
+    (not in ``__all__``): :meth:`RigidBody.angular_acceleration` is the validated entry."""
+    return (torque - cross(omega, omega @ J)) @ J_inv
 
 
 def _inertia_columns(M: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -207,8 +218,7 @@ class RigidBody:
             return np.array([a])
         cols = self._J_cols
         if cols is None:
-            Jw = omega @ self.J  # J symmetric: (J ω)ᵀ = ωᵀ J, batched as a row-vector product
-            return (torque - _cross(omega, Jw)) @ self.J_inv
+            return euler_acceleration(self.J, self.J_inv, omega, torque)
         rhs = torque - _cross(omega, self._times(cols, omega))
         return self._times(self._J_inv_cols, rhs)
 

@@ -376,6 +376,7 @@ NONNEGATIVE = frozenset(
 #: free-text string parameters (labels, descriptions): any string is a valid value
 FREE_TEXT = frozenset("name description suite notes family source where label title".split())
 
+
 #: per-callable example overrides: qualified name -> {parameter: factory}
 def _formation_overrides() -> dict[str, dict[str, Callable[[], Any]]]:
     def cons():
@@ -396,10 +397,12 @@ def _formation_overrides() -> dict[str, dict[str, Callable[[], Any]]]:
             "adjacency": lambda: np.ones((3, 3)) - np.eye(3)
         },
         "liecontrol.control.consensus.AttitudeConsensus": {
-            "graph": lambda: cons().CommunicationGraph.ring(3), **gains
+            "graph": lambda: cons().CommunicationGraph.ring(3),
+            **gains,
         },
         "liecontrol.control.consensus.LeaderFollowerConsensus": {
-            "graph": lambda: cons().CommunicationGraph.tree([-1, 0, 0]), **gains
+            "graph": lambda: cons().CommunicationGraph.tree([-1, 0, 0]),
+            **gains,
         },
         "liecontrol.control.consensus.PoseFormation": {
             "graph": lambda: cons().CommunicationGraph.tree([-1, 0]),
@@ -409,7 +412,8 @@ def _formation_overrides() -> dict[str, dict[str, Callable[[], Any]]]:
         "liecontrol.control.consensus.consensus_error": {"R": stack(3)},
         "liecontrol.control.consensus.pairwise_angles": {"R": stack(3)},
         "spacecraft.formation.SpinReference": {
-            "R_0": lambda: R_EX.copy(), "omega_d": lambda: np.array([0.0, 0.0, 0.01])
+            "R_0": lambda: R_EX.copy(),
+            "omega_d": lambda: np.array([0.0, 0.0, 0.01]),
         },
         "spacecraft.formation.FormationScenario": {
             "name": lambda: "x",
@@ -429,7 +433,9 @@ def _formation_overrides() -> dict[str, dict[str, Callable[[], Any]]]:
             "results": lambda: [form().run_formation(small())]
         },
         "spacecraft.formation.measure_throughput": {
-            "n": lambda: 3, "steps": lambda: 2, "repeats": lambda: 2
+            "n": lambda: 3,
+            "steps": lambda: 2,
+            "repeats": lambda: 2,
         },
     }
 
@@ -499,7 +505,6 @@ def _fault_overrides() -> dict[str, dict[str, Callable[[], Any]]]:
         mod + "fault_units": {"faults": stuck, "n_units": lambda: 4},
         mod + "FaultyActuator": {"inner": cmg, "faults": stuck},
         mod + "default_detector": {"actuator": cmg},
-
         mod + "ReconfiguredSteering": {"law": law, "faults": stuck, "reduced_law": law},
         mod + "reduced_singularity_measure": {
             "cluster": _cluster,
@@ -579,6 +584,39 @@ def _detumble_law() -> Any:
     return DetumbleLaw(1e-4)
 
 
+def _cube_normals() -> Any:
+    from spacecraft.sun_sensors import CUBE_NORMALS
+
+    return CUBE_NORMALS
+
+
+def _sun_sensors() -> Any:
+    from spacecraft.orbit import CircularOrbit
+    from spacecraft.sun_sensors import CoarseSunSensors
+
+    return CoarseSunSensors(CircularOrbit())
+
+
+def _safe_mode_run() -> Any:
+    from benchmarks.safe_mode import SunAcquisitionRun
+
+    one = np.array([100.0])
+    return SunAcquisitionRun(
+        t=np.array([0.0, 1.0]),
+        sun_angle_deg=np.zeros((2, 1)),
+        rate_deg_s=np.zeros((2, 1)),
+        eclipse=np.array([False, True]),
+        time_to_acquire_s=one,
+        sun_angle_error_deg=one,
+        peak_rate_eclipse_deg_s=one,
+        sun_angle_exit_deg=one,
+        reacquire_s=one,
+        tol_deg=5.0,
+        eclipse_entry_s=1.0,
+        eclipse_exit_s=2.0,
+    )
+
+
 OVERRIDES: dict[str, dict[str, Callable[[], Any]]] = {
     "benchmarks.figure_layout.layout_problems": {"fig": _small_figure},
     # planned slews and Wie & Lu's eigenaxis law (tests/test_modes.py)
@@ -600,6 +638,37 @@ OVERRIDES: dict[str, dict[str, Callable[[], Any]]] = {
         "t_final": lambda: 20.0,
         "threshold": lambda: 0.01,
         "dt": lambda: 1.0,
+    },
+    # safe-mode Sun acquisition (tests/test_sun_acquisition.py)
+    "liecontrol.control.sun_acquisition.DirectionMeasurement": {
+        "R": lambda: np.eye(3)[None],
+        "omega": lambda: np.array([[0.01, -0.02, 0.005]]),
+        "direction": lambda: np.array([[0.6, 0.0, 0.8]]),
+    },
+    "spacecraft.sun_sensors.SunPointingReference": {"sensors": lambda: _sun_sensors()},
+    "spacecraft.sun_sensors.SunSensorGyro": {"sensors": lambda: _sun_sensors()},
+    "spacecraft.sun_sensors.estimate_sun_vector": {
+        "outputs": lambda: np.array([[0.6, 0.0, 0.0, 0.0, 0.8, 0.0]]),
+        "normals": lambda: np.array(_cube_normals()),
+    },
+    "spacecraft.sun_sensors.sun_sensor_coverage": {"normals": lambda: np.array(_cube_normals())},
+    "benchmarks.safe_mode.format_table": {"runs": lambda: {"damp": _safe_mode_run()}},
+    "benchmarks.detumble_study.DetumbleScenario": {
+        "name": lambda: "d",
+        "inclination_deg": lambda: 51.6,
+    },
+    "benchmarks.detumble_study.format_table": {
+        "rows": lambda: [
+            {
+                "scenario": "d",
+                "inclination_deg": 51.6,
+                "law": "bdot",
+                "k": 5e-5,
+                "t_median_s": 3280.0,
+                "t_min_s": 2570.0,
+                "t_max_s": 4730.0,
+            }
+        ]
     },
     "benchmarks.planned_slews.format_table": {
         "rows": lambda: [
@@ -1050,14 +1119,16 @@ METHODS: dict[str, dict[str, dict[str, Callable[[], Any]]]] = {
         "command": {
             "u_cmd": lambda: np.array([[0.1, -0.2, 0.3]]),
             "omega": lambda: np.zeros((1, 3)),
-            "x_act": lambda: __import__("spacecraft.cmg_dynamics")
-            .cmg_dynamics.VscmgActuator(
-                np.diag([1500.0, 1200.0, 900.0]),
-                __import__("spacecraft.cmg_dynamics").cmg_dynamics.CmgInertias(
-                    0.2, 0.5, (1.0, 1.0, 1.5)
-                ),
-            )
-            .initial_state(1),
+            "x_act": lambda: (
+                __import__("spacecraft.cmg_dynamics")
+                .cmg_dynamics.VscmgActuator(
+                    np.diag([1500.0, 1200.0, 900.0]),
+                    __import__("spacecraft.cmg_dynamics").cmg_dynamics.CmgInertias(
+                        0.2, 0.5, (1.0, 1.0, 1.5)
+                    ),
+                )
+                .initial_state(1)
+            ),
         },
         "open_loop": {"gimbal_torque": lambda: np.array([[0.1, -0.1, 0.2, 0.0]])},
     },
@@ -1125,6 +1196,13 @@ NOT_SWEPT: dict[str, str] = {
     "benchmarks.singular_transit.main": "the command line (parses sys.argv; seconds per run)",
     "benchmarks.planned_slews.main": "the command line (parses sys.argv; minutes per run)",
     "spacecraft.detumble.DetumbleResult": "a log container built by simulate_detumble",
+    "benchmarks.safe_mode.main": "the command line (parses sys.argv; seconds per run)",
+    "benchmarks.detumble_study.main": "the command line (parses sys.argv; a minute per run)",
+    "benchmarks.detumble_study.detumble_table": "runs scenarios × gains × laws (seconds per "
+    "call); its bad input is tested in test_modes",
+    "benchmarks.safe_mode.sun_acquisition_run": "flies the safe-mode scenario (seconds per "
+    "call); its bad input is tested in test_sun_acquisition",
+    "benchmarks.safe_mode.SunAcquisitionRun": "a result record built by sun_acquisition_run",
     "benchmarks.planned_slews.planned_vs_step": "runs two scenarios × every controller (minutes)",
     "benchmarks.singular_transit.run_comparison": "runs the whole comparison (seconds per call); "
     "its laws argument is tested in test_steering_laws, the rest is swept via track_path",
@@ -1227,6 +1305,9 @@ NOT_SWEPT_MODULES: dict[str, str] = {
     "benchmarks.perf_": "timing scripts (benchmarks.perf_*), not library API",
     "benchmarks.finite_time_study": "a study script: every call runs minutes of closed-loop "
     "simulation; its arguments are validated and tested in test_finite_time",
+    "spacecraft.differentiable": "the optional JAX route: needs the [jax] extra (not installed "
+    "in CI) and compiles a program per call (seconds); its bad input is tested in "
+    "test_jax_route",
     "benchmarks.cmg_model_study": "a study script: run_study/main run minutes of closed-loop "
     "simulation; study_scenarios' bad input is tested in test_cmg_model_option",
 }

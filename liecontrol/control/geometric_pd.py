@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from .._array_api import cross, namespace
 from .._jit import JIT_ENABLED
 from .._kernels.geometric_pd import (
     ERROR_CODES,
@@ -54,6 +55,7 @@ from .base import (
 )
 from .kernel import ControllerKernel
 
+# geometric_pd_torque, the unchecked formula (NumPy or JAX arrays), is not part of __all__
 __all__ = ["GeometricPD", "check_gain", "gains_from_bandwidth", "linear_error_slope"]
 
 
@@ -141,21 +143,72 @@ def gains_from_bandwidth(
     return omega_n**2 * lam / s_min, 2.0 * zeta * omega_n * r * lam
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b for ``(B, 3)`` arrays; np.cross's axis handling dominates the cost at small B."""
-    a0, a1, a2 = a[:, 0], a[:, 1], a[:, 2]
-    b0, b1, b2 = b[:, 0], b[:, 1], b[:, 2]
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
-    out[:, 0] = a1 * b2 - a2 * b1
-    out[:, 1] = a2 * b0 - a0 * b2
-    out[:, 2] = a0 * b1 - a1 * b0
-    return out
+# the controllers built on this law (constrained, PID, prescribed performance) import it here
+_cross = cross
 
 
-def _apply_gain(K: float | np.ndarray, x: np.ndarray) -> np.ndarray:
-    if isinstance(K, float):
+def _apply_gain(K: Any, x: Any) -> Any:
+    """K x for a gain that is a scalar (``float`` or a 0-d array, e.g. a traced one) or 3×3."""
+    if isinstance(K, float) or getattr(K, "ndim", 0) == 0:
         return K * x
     return x @ K.T
+
+
+def _law_from_relative(
+    Rt: Any, w: Any, w_d: Any, dw_d: Any, J: Any, k_R: Any, k_Omega: Any, error: str, G: Any
+) -> tuple[Any, Any, Any, Any]:
+    """``(M, Ψ, e_R, e_Ω)`` of the geometric PD law given ``R̃ = R_dᵀR`` ``(..., 3, 3)``; pure,
+    NumPy or JAX (see :func:`geometric_pd_torque`). The error function is the unchecked one of
+    :mod:`liecontrol.errors` for ``error``."""
+    kernel = _KERNELS[error]
+    Psi, e_R = kernel(Rt, G) if error == "trace" else kernel(Rt)
+    # R̃ᵀ = RᵀR_d maps desired-body vectors into the body frame; (3,) references broadcast
+    # against the (..., 3, 3) stack as a column
+    RtT = namespace(Rt).swapaxes(Rt, -1, -2)
+    w_d_body = (RtT @ w_d[..., None])[..., 0]
+    dw_d_body = (RtT @ dw_d[..., None])[..., 0]
+    e_W = w - w_d_body
+    ff = cross(w, w @ J.T) - (cross(w, w_d_body) - dw_d_body) @ J.T
+    M = ff - _apply_gain(k_R, e_R) - _apply_gain(k_Omega, e_W)
+    return M, Psi, e_R, e_W
+
+
+def geometric_pd_torque(
+    R: Any,
+    omega: Any,
+    R_d: Any,
+    omega_d: Any,
+    omega_dot_d: Any,
+    J: Any,
+    k_R: Any,
+    k_Omega: Any,
+    error: str = "large_angle",
+) -> tuple[Any, Any, Any, Any]:
+    """The geometric PD / tracking law as a pure array function (Lee 2012; Jiang, Meng & Yang
+    2023 Lemma 4)::
+
+        M = −K_R e_R − K_Ω e_Ω + Ω × JΩ − J (Ω^ RᵀR_d Ω_d − RᵀR_d Ω̇_d),  e_Ω = Ω − RᵀR_d Ω_d,
+
+    with ``(Ψ, e_R)`` the ``"large_angle"`` or ``"log"`` error of ``R̃ = R_dᵀR``
+    (:mod:`liecontrol.errors`). Returns ``(M, Ψ, e_R, e_Ω)``.
+
+    Arrays broadcast over leading batch axes: ``R``, ``R_d`` ``(..., 3, 3)``, the rates
+    ``(..., 3)``, ``J`` ``(3, 3)``, gains scalars or ``(3, 3)``. NumPy or JAX arrays alike (the
+    same source runs under ``jax.jit``, ``vmap`` and ``grad``, with finite derivatives at
+    R = R_d and near the antipodal set; :mod:`spacecraft.differentiable`). No validation (not
+    in ``__all__``, like the ``*_unchecked`` functions): :class:`GeometricPD` is the validated
+    object; this is the formula it evaluates.
+
+    Sources: T. Lee, "Exponential stability of an attitude tracking control system on SO(3)
+    for large-angle rotational maneuvers", Systems & Control Letters 61 (2012); Jiang, Meng &
+    Yang 2023, Lemma 4.
+    """
+    if error not in ("large_angle", "log"):
+        raise ValueError(
+            f"error: geometric_pd_torque supports 'large_angle' and 'log', got {error!r}"
+        )
+    Rt = namespace(R, R_d).swapaxes(R_d, -1, -2) @ R
+    return _law_from_relative(Rt, omega, omega_d, omega_dot_d, J, k_R, k_Omega, error, None)
 
 
 # ----------------------------------------------------------------------------------- hot path
@@ -163,6 +216,7 @@ def _apply_gain(K: float | np.ndarray, x: np.ndarray) -> np.ndarray:
 # it), but the common case — float64 arrays of the right shape that pass — is checked with a
 # few cheap operations; anything that fails them goes through the canonical validators, which
 # raise the usual messages (or convert, e.g. lists). One spacecraft runs on Python floats.
+
 
 def validated_reference(
     holder: Any, reference: AttitudeReference, B: int
@@ -174,9 +228,7 @@ def validated_reference(
     # steps, so once validated it is not re-checked on this hot path
     if not (isinstance(R_d, np.ndarray) and R_d is holder._checked_R_d):
         # rotations_pass_fast checks the dtype and the (3, 3) tail itself
-        if not (
-            isinstance(R_d, np.ndarray) and R_d.ndim in (2, 3) and rotations_pass_fast(R_d)
-        ):
+        if not (isinstance(R_d, np.ndarray) and R_d.ndim in (2, 3) and rotations_pass_fast(R_d)):
             R_d = check_rotation_matrix(R_d, "R_d")
         if not R_d.flags.writeable and R_d.base is None:
             holder._checked_R_d = R_d
@@ -308,38 +360,19 @@ class GeometricPD(AttitudeController):
         if B == 1 or JIT_ENABLED:
             return finite_command(self._command_kernel(R, w, R_d, w_d, dw_d), w)
 
-        # R̃ = R_dᵀR formed directly; R̃ᵀ = RᵀR_d, which maps desired-body vectors into the body
-        # frame, is its view
+        # R̃ = R_dᵀR formed directly
         if R_d.ndim == 2:
             # one reference for the batch: R_dᵀR_b for every b as one BLAS product
             # (3, 3) @ (3, 3B); numpy's broadcast (3, 3) @ (B, 3, 3) matmul loops over the small
-            # matrices ~3× slower. The (B, 3, 3) result is a transposed view, which the kernels
-            # read without copying.
+            # matrices ~3× slower. The (B, 3, 3) result is a transposed view.
             Rt = (R_d.T @ R.transpose(1, 0, 2).reshape(3, 3 * B)).reshape(3, B, 3)
             Rt = Rt.transpose(1, 0, 2)
         else:
             Rt = np.swapaxes(R_d, -1, -2) @ R
-        RtT = np.swapaxes(Rt, -1, -2)
-        # R, R_d were checked above: the unchecked kernels of liecontrol.errors skip the checks
-        if self.error == "trace":
-            Psi, e_R = self._kernel(Rt, self.G)
-        else:
-            Psi, e_R = self._kernel(Rt)
-        J = self.J
-        Jw = w @ J.T
-        if w_d.any() or dw_d.any():
-            # (3,) references broadcast against the (B, 3, 3) stack as a column
-            w_d_body = (RtT @ w_d[..., None])[..., 0]
-            dw_d_body = (RtT @ dw_d[..., None])[..., 0]
-            e_W = w - w_d_body
-            ff = _cross(w, Jw) - (_cross(w, w_d_body) - dw_d_body) @ J.T
-        else:
-            # regulation (ω_d = ω̇_d = 0, e.g. ConstantAttitude): the feed-forward terms are
-            # exact zeros, so skipping them gives the same values (up to the sign of a zero)
-            # and saves two stacked mat-vecs, a cross product and a matmul per sample
-            e_W = w.copy()
-            ff = _cross(w, Jw)
-        M = ff - _apply_gain(self.k_R, e_R) - _apply_gain(self.k_Omega, e_W)
+        # R, R_d were checked above: the law runs the unchecked errors of liecontrol.errors
+        M, Psi, e_R, e_W = _law_from_relative(
+            Rt, w, w_d, dw_d, self.J, self.k_R, self.k_Omega, self.error, self.G
+        )
         self._diag = {"Psi": Psi, "e_R": e_R, "e_Omega": e_W}
         return finite_command(M, w)
 

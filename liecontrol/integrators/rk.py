@@ -39,6 +39,7 @@ from typing import Any
 
 import numpy as np
 
+from .._array_api import is_numpy, namespace, safe_sqrt
 from .._kernels.so3 import dexpinv_rkmk4, exp_into
 from .._validation import (
     as_array,
@@ -73,47 +74,51 @@ _HAT9.setflags(write=False)
 _TINY = 1e-300
 
 
-def _exp(w: np.ndarray) -> np.ndarray:
-    """Rodrigues exp of rotation vectors ``(..., 3) -> (..., 3, 3)``, branch-free (half angle).
+def _exp(w: Any) -> Any:
+    """Rodrigues exp of rotation vectors ``(..., 3) -> (..., 3, 3)``, branch-free (half angle);
+    NumPy or JAX (pure).
 
     Component-wise: on (B,) slices this is ~2× faster than (B, 3, 3) broadcasting for B ~ 10³.
+    θ/2 is a guarded norm (:func:`liecontrol._array_api.safe_sqrt`) so the derivative at θ = 0
+    is finite; the floor ``_TINY`` only avoids 0/0 in the value.
     """
+    xp = namespace(w)
     x, y, z = w[..., 0], w[..., 1], w[..., 2]
     a2 = x * x + y * y + z * z
-    half = np.sqrt(a2)
-    half *= 0.5
-    np.maximum(half, _TINY, out=half)
-    q = np.sin(half) / half  # sin(θ/2)/(θ/2)
-    a = q * np.cos(half)  # sin θ/θ
+    half = xp.maximum(safe_sqrt(a2, xp) * 0.5, _TINY)
+    q = xp.sin(half) / half  # sin(θ/2)/(θ/2)
+    a = q * xp.cos(half)  # sin θ/θ
     b = 0.5 * q * q  # (1 − cos θ)/θ²
     c = 1.0 - b * a2  # cos θ
     bx, by = b * x, b * y
     bxy, bxz, byz = bx * y, bx * z, by * z
     ax, ay, az = a * x, a * y, a * z
-    R = np.empty(w.shape + (3,))
-    R[..., 0, 0] = c + bx * x
-    R[..., 0, 1] = bxy - az
-    R[..., 0, 2] = bxz + ay
-    R[..., 1, 0] = bxy + az
-    R[..., 1, 1] = c + by * y
-    R[..., 1, 2] = byz - ax
-    R[..., 2, 0] = bxz - ay
-    R[..., 2, 1] = byz + ax
-    R[..., 2, 2] = c + b * z * z
-    return R
+    return xp.stack(
+        (
+            xp.stack((c + bx * x, bxy - az, bxz + ay), axis=-1),
+            xp.stack((bxy + az, c + by * y, byz - ax), axis=-1),
+            xp.stack((bxz - ay, byz + ax, c + b * z * z), axis=-1),
+        ),
+        axis=-2,
+    )
 
 
-def _dexpinv(theta: np.ndarray, omega: np.ndarray) -> np.ndarray:
-    """J_r(θ)⁻¹ ω truncated after the θ^² term: ω + ½ θ×ω + (1/12)(θ (θ·ω) − ω |θ|²)."""
+def _dexpinv(theta: Any, omega: Any) -> Any:
+    """J_r(θ)⁻¹ ω truncated after the θ^² term: ω + ½ θ×ω + (1/12)(θ (θ·ω) − ω |θ|²); NumPy or
+    JAX (pure)."""
+    xp = namespace(theta, omega)
     t0, t1, t2 = theta[..., 0], theta[..., 1], theta[..., 2]
     w0, w1, w2 = omega[..., 0], omega[..., 1], omega[..., 2]
     tw = (t0 * w0 + t1 * w1 + t2 * w2) * (1.0 / 12.0)
     c = 1.0 - (t0 * t0 + t1 * t1 + t2 * t2) * (1.0 / 12.0)
-    out = np.empty(np.broadcast_shapes(theta.shape, omega.shape))
-    out[..., 0] = c * w0 + 0.5 * (t1 * w2 - t2 * w1) + t0 * tw
-    out[..., 1] = c * w1 + 0.5 * (t2 * w0 - t0 * w2) + t1 * tw
-    out[..., 2] = c * w2 + 0.5 * (t0 * w1 - t1 * w0) + t2 * tw
-    return out
+    return xp.stack(
+        (
+            c * w0 + 0.5 * (t1 * w2 - t2 * w1) + t0 * tw,
+            c * w1 + 0.5 * (t2 * w0 - t0 * w2) + t1 * tw,
+            c * w2 + 0.5 * (t0 * w1 - t1 * w0) + t2 * tw,
+        ),
+        axis=-1,
+    )
 
 
 def _exp_f(w0: float, w1: float, w2: float) -> np.ndarray:
@@ -155,8 +160,11 @@ def rkmk4_step_unchecked(
     K₃ = dexp⁻¹_θ₃ ω(t + h/2, R e^θ₃, x + h/2 ẋ₂); θ₄ = h K₃;
     K₄ = dexp⁻¹_θ₄ ω(t + h, R e^θ₄, x + h ẋ₃);
     R_{k+1} = R exp(h/6 (K₁ + 2K₂ + 2K₃ + K₄)), x_{k+1} = x + h/6 (ẋ₁ + 2ẋ₂ + 2ẋ₃ + ẋ₄).
+
+    Pure for NumPy and JAX arrays alike (``f`` pure too): under ``jax.jit``/``vmap``/``grad``
+    this is the same step; one NumPy body takes the equivalent Python-float route.
     """
-    if R.size == 9:
+    if R.size == 9 and is_numpy(namespace(R, x)):
         return _rkmk4_step_one(f, t, R, x, h, stage_attitude)
     h2 = 0.5 * h
     w1, d1 = f(t, R, x)
@@ -170,18 +178,9 @@ def rkmk4_step_unchecked(
     w4, d4 = f(t + h, R @ _exp(th) if stage_attitude else None, x + h * d3)
     k4 = _dexpinv(th, w4)
     h6 = h / 6.0
-    k2 += k3
-    k2 *= 2.0
-    k2 += w1
-    k2 += k4
-    k2 *= h6
-    # in place only on arrays created here: f's outputs may be views the caller still uses
-    dx = d2 + d3
-    dx *= 2.0
-    dx += d1
-    dx += d4
-    dx *= h6
-    return R @ _exp(k2), x + dx
+    theta = (2.0 * (k2 + k3) + w1 + k4) * h6
+    dx = (2.0 * (d2 + d3) + d1 + d4) * h6
+    return R @ _exp(theta), x + dx
 
 
 def _rkmk4_step_one(

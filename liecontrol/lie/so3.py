@@ -21,9 +21,12 @@ robotics* (2018), App. B. The logarithm near π uses the symmetric part of R.
 from __future__ import annotations
 
 import math
+from types import ModuleType
+from typing import Any
 
 import numpy as np
 
+from .._array_api import any_true, is_numpy, namespace, safe_sqrt
 from .._kernels.so3 import exp9 as _exp9
 from .._kernels.so3 import log9 as _log9
 from .._validation import (
@@ -196,16 +199,29 @@ def hat(w: object) -> np.ndarray:
     if _one_vec(w):
         x, y, z = w.tolist()  # type: ignore[attr-defined]
         return np.array(((0.0, -z, y), (z, 0.0, -x), (-y, x, 0.0)))
-    w = _vec(w, "w")
-    W = np.zeros(w.shape + (3,))
+    xp = namespace(w)
+    return _hat(_vec(w, "w") if is_numpy(xp) else _traced(w, "w", (3,)), xp)
+
+
+def _hat(w: Any, xp: ModuleType) -> Any:
+    """:func:`hat` of a checked ``(..., 3)`` array of the namespace ``xp`` (pure)."""
     x, y, z = w[..., 0], w[..., 1], w[..., 2]
-    W[..., 0, 1] = -z
-    W[..., 0, 2] = y
-    W[..., 1, 0] = z
-    W[..., 1, 2] = -x
-    W[..., 2, 0] = -y
-    W[..., 2, 1] = x
-    return W
+    o = xp.zeros_like(x)
+    return xp.stack(
+        (xp.stack((o, -z, y), axis=-1), xp.stack((z, o, -x), axis=-1),
+         xp.stack((-y, x, o), axis=-1)),
+        axis=-2,
+    )  # fmt: skip
+
+
+def _traced(a: Any, name: str, tail: tuple[int, ...]) -> Any:
+    """A JAX array argument, checked for its trailing shape only: under ``jit``, ``vmap`` or
+    ``grad`` its values are unknown when the program is built (finiteness and the rotation
+    check are the NumPy layer's; a traced caller validates its inputs before tracing)."""
+    if a.ndim < len(tail) or tuple(a.shape[a.ndim - len(tail) :]) != tail:
+        want = ", ".join(map(str, tail))
+        raise ValueError(f"{name}: expected shape (..., {want}), got {a.shape}")
+    return a
 
 
 def vee(W: object) -> np.ndarray:
@@ -214,12 +230,20 @@ def vee(W: object) -> np.ndarray:
     Reads the entries (W₂₁, W₀₂, W₁₀). ``W`` must be skew-symmetric to round-off
     (max |W + Wᵀ| ≤ 1e-9 · max(1, max |W|)); skew-symmetrise (W − Wᵀ)/2 first otherwise.
     """
+    xp = namespace(W)
+    if not is_numpy(xp):
+        return _vee(_traced(W, "W", (3, 3)), xp)
     W = _mat(W, "W")
     if W.size:
         asym = float(np.abs(W + np.swapaxes(W, -1, -2)).max())
         if asym > 1e-9 * max(1.0, float(np.abs(W).max())):
             raise ValueError(f"W: not skew-symmetric (max |W + Wᵀ| = {asym:.2e})")
-    return np.stack((W[..., 2, 1], W[..., 0, 2], W[..., 1, 0]), axis=-1)
+    return _vee(W, np)
+
+
+def _vee(W: Any, xp: ModuleType) -> Any:
+    """:func:`vee` of a checked skew ``(..., 3, 3)`` array of the namespace ``xp`` (pure)."""
+    return xp.stack((W[..., 2, 1], W[..., 0, 2], W[..., 1, 0]), axis=-1)
 
 
 def exp(w: object) -> np.ndarray:
@@ -238,64 +262,50 @@ def exp(w: object) -> np.ndarray:
         rows = _exp_rows(*w.tolist())
         if rows is not None:
             return np.array(rows)
+    xp = namespace(w)
+    if not is_numpy(xp):
+        return _exp(_traced(w, "w", (3,)), xp)
     w = _vec(w, "w")
-    shape = w.shape[:-1]
-    f = w.reshape(-1, 3)
-    x, y, z = f[:, 0], f[:, 1], f[:, 2]
-    # every temporary is reused through out= (this is the hot path of simulators and filters)
     with np.errstate(over="ignore"):  # an overflow to inf is caught just below
-        t2 = x * x
-        tmp = y * y
-        t2 += tmp
-        np.multiply(z, z, out=tmp)
-        t2 += tmp
-    if t2.size and not t2.max() < 1e200:
+        big = w.size and not float(np.max(np.sum(w * w, axis=-1))) < 1e200
+    if big:
         # ‖w‖ near or beyond overflow (‖w‖ > 1e100): the axis–angle form stays finite
-        return _exp_axis_angle(f).reshape(shape + (3, 3))
-    q = np.sqrt(t2)
-    q *= 0.25
-    t = np.tan(q)
+        return _exp_axis_angle(w)
+    return _exp(w, np)
+
+
+def _exp(w: Any, xp: ModuleType) -> Any:
+    """:func:`exp` of a checked ``(..., 3)`` array of the namespace ``xp`` (pure; see there
+    for the tan(θ/4) form). Differentiable everywhere: θ = ‖w‖ is a guarded square root
+    (:func:`liecontrol._array_api.safe_sqrt`) and g = (t + z)/(q + z), z = [q = 0], has the
+    derivative of its limit (0) at θ = 0."""
+    x, y, z = w[..., 0], w[..., 1], w[..., 2]
+    t2 = x * x + y * y + z * z
+    q = safe_sqrt(t2, xp) * 0.25
+    t = xp.tan(q)
     # g = tan(θ/4)/(θ/4) → 1 at θ = 0: (t + z)/(q + z) with z = [θ = 0] leaves other entries exact
-    zero = (q == 0.0).astype(np.float64)
-    g = t + zero
-    q += zero
-    g /= q
-    t *= t
+    zero = xp.where(q == 0.0, 1.0, 0.0)
+    g = (t + zero) / (q + zero)
+    t = t * t
     u = t + 1.0
-    g /= u  # g/(1 + t²) = sin(θ/2)/(θ/2)
-    np.subtract(1.0, t, out=t)
-    t /= u  # cos(θ/2)
-    a = t
-    a *= g  # sin θ/θ
-    b = g
-    b *= g
-    b *= 0.5  # (1 − cos θ)/θ²
-    c = np.multiply(b, t2, out=t2)
-    np.subtract(1.0, c, out=c)  # cos θ = 1 − 2 sin²(θ/2)
-    R = np.empty((f.shape[0], 3, 3))
-    bx = np.multiply(b, x, out=u)
-    by = np.multiply(b, y, out=q)
-    az = np.empty_like(tmp)
-    np.multiply(bx, y, out=tmp)
-    np.multiply(a, z, out=az)
-    np.subtract(tmp, az, out=R[:, 0, 1])
-    np.add(tmp, az, out=R[:, 1, 0])
-    np.multiply(bx, z, out=tmp)
-    np.multiply(a, y, out=az)
-    np.add(tmp, az, out=R[:, 0, 2])
-    np.subtract(tmp, az, out=R[:, 2, 0])
-    np.multiply(by, z, out=tmp)
-    np.multiply(a, x, out=az)
-    np.subtract(tmp, az, out=R[:, 1, 2])
-    np.add(tmp, az, out=R[:, 2, 1])
-    np.multiply(bx, x, out=tmp)
-    np.add(c, tmp, out=R[:, 0, 0])
-    np.multiply(by, y, out=tmp)
-    np.add(c, tmp, out=R[:, 1, 1])
-    np.multiply(b, z, out=tmp)
-    tmp *= z
-    np.add(c, tmp, out=R[:, 2, 2])
-    return R.reshape(shape + (3, 3))
+    g = g / u  # g/(1 + t²) = sin(θ/2)/(θ/2)
+    ch = (1.0 - t) / u  # cos(θ/2)
+    a = ch * g  # sin θ/θ
+    b = g * g * 0.5  # (1 − cos θ)/θ²
+    c = 1.0 - b * t2  # cos θ = 1 − 2 sin²(θ/2)
+    bx = b * x
+    by = b * y
+    bxy, az_ = bx * y, a * z
+    bxz, ay_ = bx * z, a * y
+    byz, ax_ = by * z, a * x
+    return xp.stack(
+        (
+            xp.stack((c + bx * x, bxy - az_, bxz + ay_), axis=-1),
+            xp.stack((bxy + az_, c + by * y, byz - ax_), axis=-1),
+            xp.stack((bxz - ay_, byz + ax_, c + b * z * z), axis=-1),
+        ),
+        axis=-2,
+    )
 
 
 def _exp_rows(x: float, y: float, z: float) -> tuple[tuple[float, float, float], ...] | None:
@@ -351,50 +361,58 @@ def _is_rotation9(
     return err <= ARRAY_ROTATION_ATOL and det >= 0.0
 
 
-def _angle_parts(R: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _angle_parts(R: Any, xp: ModuleType = np) -> tuple[Any, Any, Any]:
     """(v, sin θ, cos θ) with v = (R − Rᵀ)^∨ = 2 sin θ · axis."""
-    v = np.stack(
+    v = xp.stack(
         (R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]),
         axis=-1,
     )
-    s = 0.5 * np.sqrt(np.sum(v * v, axis=-1))
+    s = 0.5 * safe_sqrt(xp.sum(v * v, axis=-1), xp)
     c = 0.5 * (R[..., 0, 0] + R[..., 1, 1] + R[..., 2, 2] - 1.0)
     return v, s, c
 
 
 def angle(R: object) -> np.ndarray:
     """Rotation angle θ ∈ [0, π] of R, as atan2(sin θ, cos θ) (accurate at 0 and π)."""
+    if not is_numpy(namespace(R)):
+        return angle_unchecked(_traced(R, "R", (3, 3)))
     return angle_unchecked(_rot(R, "R"))
 
 
-def angle_unchecked(R: np.ndarray) -> np.ndarray:
+def angle_unchecked(R: Any) -> Any:
     """:func:`angle` without any check, for hot paths that have validated the finite float64
-    ``(..., 3, 3)`` rotation array ``R`` themselves (not in ``__all__``)."""
-    _, s, c = _angle_parts(R)
-    return np.arctan2(s, c)
+    ``(..., 3, 3)`` rotation array ``R`` themselves (not in ``__all__``); NumPy or JAX."""
+    xp = namespace(R)
+    _, s, c = _angle_parts(R, xp)
+    return xp.arctan2(s, c)
 
 
-def _log_near_pi(M: np.ndarray, theta: np.ndarray) -> np.ndarray:
-    """Rotation vectors of the rotations ``M`` (flattened ``(m, 9)``) with angles ``theta`` near π.
+def _log_near_pi(
+    m: tuple[Any, ...], c: Any, v: tuple[Any, Any, Any], theta: Any, near: Any, xp: ModuleType
+) -> Any:
+    """Rotation vectors ``(..., 3)`` of rotations with angles ``theta`` near π, from the entries
+    ``m`` (row-major), cos θ ``c`` and v = (R − Rᵀ)^∨; valid where ``near`` (elsewhere finite
+    and unused).
 
     The axis comes from the symmetric part, (R + Rᵀ)/2 − cos θ I = (1 − cos θ) n nᵀ (its column
     with the largest diagonal entry, which is ≥ (1 − cos θ)/3), its sign from
-    (R − Rᵀ)^∨ = 2 sin θ n.
+    (R − Rᵀ)^∨ = 2 sin θ n. The column is chosen with ``where`` (first largest entry, as
+    ``argmax``), and its norm is taken of 1 where not ``near``: near the identity the column is
+    exactly 0 and 0/0 there would poison the derivative of the branch that is taken.
     """
-    m = M.shape[0]
-    R = M.reshape(m, 3, 3)
-    c = 0.5 * (R[:, 0, 0] + R[:, 1, 1] + R[:, 2, 2] - 1.0)
-    v = np.stack((R[:, 2, 1] - R[:, 1, 2], R[:, 0, 2] - R[:, 2, 0], R[:, 1, 0] - R[:, 0, 1]), -1)
-    S = 0.5 * (R + np.swapaxes(R, -1, -2))
-    diag = np.stack((S[:, 0, 0], S[:, 1, 1], S[:, 2, 2]), axis=-1) - c[:, None]
-    rows = np.arange(m)
-    k = np.argmax(diag, axis=-1)
-    col = S[rows, :, k]
-    col[rows, k] = diag[rows, k]
-    norm = np.sqrt(np.sum(col * col, axis=-1))
+    m00, m01, m02, m10, m11, m12, m20, m21, m22 = m
+    d0, d1, d2 = m00 - c, m11 - c, m22 - c
+    s01, s02, s12 = 0.5 * (m01 + m10), 0.5 * (m02 + m20), 0.5 * (m12 + m21)
+    k0 = (d0 >= d1) & (d0 >= d2)
+    k1 = ~k0 & (d1 >= d2)
+    c0 = xp.where(k0, d0, xp.where(k1, s01, s02))
+    c1 = xp.where(k0, s01, xp.where(k1, d1, s12))
+    c2 = xp.where(k0, s02, xp.where(k1, s12, d2))
+    norm = xp.sqrt(xp.where(near, c0 * c0 + c1 * c1 + c2 * c2, 1.0))
     # at θ = π exactly n·v = 0 and both ±π n are logarithms: keep the sign of the column
-    sign = np.where(np.sum(col * v, axis=-1) < 0.0, -1.0, 1.0)
-    return col * (sign * theta / norm)[:, None]
+    sign = xp.where(c0 * v[0] + c1 * v[1] + c2 * v[2] < 0.0, -1.0, 1.0)
+    f = sign * theta / norm
+    return xp.stack((c0 * f, c1 * f, c2 * f), axis=-1)
 
 
 def log(R: object) -> np.ndarray:
@@ -413,6 +431,8 @@ def log(R: object) -> np.ndarray:
         p = _log_floats(*m)
         if p is not None:
             return np.array(p)
+    if not is_numpy(namespace(R)):
+        return _log_angle_unchecked(_traced(R, "R", (3, 3)))[0]
     return _log_angle_unchecked(_rot(R, "R"))[0]
 
 
@@ -422,40 +442,33 @@ def log_unchecked(R: np.ndarray) -> np.ndarray:
     return _log_angle_unchecked(R)[0]
 
 
-def _log_angle_unchecked(R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _log_angle_unchecked(R: Any) -> tuple[Any, Any]:
     """:func:`log` and the angle θ, ``(..., 3)`` and ``(...)``, for an **already validated**
     finite float64 ``(..., 3, 3)`` array (no checks: callers on hot paths that have checked
-    ``R`` themselves). θ is the ``atan2`` angle of :func:`log` (‖ω‖ = θ to round-off)."""
-    shape = R.shape[:-2]
-    # entries as (n,) views: no copy for any layout of a 3-D stack (e.g. a transposed product)
-    M = R.reshape(-1, 3, 3)
-    out = np.empty((M.shape[0], 3))
-    v0 = np.subtract(M[:, 2, 1], M[:, 1, 2], out=out[:, 0])
-    v1 = np.subtract(M[:, 0, 2], M[:, 2, 0], out=out[:, 1])
-    v2 = np.subtract(M[:, 1, 0], M[:, 0, 1], out=out[:, 2])
-    s = v0 * v0
-    tmp = v1 * v1
-    s += tmp
-    np.multiply(v2, v2, out=tmp)
-    s += tmp
-    np.sqrt(s, out=s)
-    s *= 0.5  # sin θ
-    c = np.add(M[:, 0, 0], M[:, 1, 1])
-    c += M[:, 2, 2]
-    c -= 1.0
-    c *= 0.5  # cos θ
-    theta = np.arctan2(s, c)
+    ``R`` themselves), NumPy or JAX. θ is the ``atan2`` angle of :func:`log` (‖ω‖ = θ to
+    round-off).
+
+    Pure and differentiable: sin θ is a guarded norm (its derivative at the identity is 0, not
+    ∞·0), θ/(2 sin θ) is (θ + z)/(2(s + z)) with z = [s = 0], whose derivative at s = 0 is that
+    of the limit, and the near-π branch is selected with ``where`` after being evaluated with
+    a guarded norm everywhere (NumPy evaluates it only when some element takes it).
+    """
+    xp = namespace(R)
+    m = tuple(R[..., i, j] for i in range(3) for j in range(3))
+    m00, m01, m02, m10, m11, m12, m20, m21, m22 = m
+    v = (m21 - m12, m02 - m20, m10 - m01)
+    s = safe_sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2], xp) * 0.5  # sin θ
+    c = (m00 + m11 + m22 - 1.0) * 0.5  # cos θ
+    theta = xp.arctan2(s, c)
     # θ/(2 sin θ) with the 0/0 at θ = 0 replaced by its limit ½: (θ + z)/(2(s + z)), z = [s = 0]
-    zero = (s == 0.0).astype(np.float64)
-    np.add(theta, zero, out=tmp)
-    s += zero
-    s += s
-    tmp /= s
-    out *= tmp[:, None]
-    big = np.flatnonzero(c < _LOG_SYMMETRIC_COS)
-    if big.size:
-        out[big] = _log_near_pi(M[big].reshape(-1, 9), theta[big])
-    return out.reshape(shape + (3,)), theta.reshape(shape)
+    zero = xp.where(s == 0.0, 1.0, 0.0)
+    sz = s + zero
+    k = (theta + zero) / (sz + sz)
+    out = xp.stack((v[0] * k, v[1] * k, v[2] * k), axis=-1)
+    near = c < _LOG_SYMMETRIC_COS
+    if any_true(near, xp):
+        out = xp.where(near[..., None], _log_near_pi(m, c, v, theta, near, xp), out)
+    return out, theta
 
 
 def _log_floats(
@@ -486,7 +499,10 @@ def _unit_jac_coeffs_one(theta: float) -> tuple[float, float]:
 
 
 def _axis_block(
-    out: np.ndarray, n: tuple, c_i: np.ndarray | float, c_p: np.ndarray | float,
+    out: np.ndarray,
+    n: tuple,
+    c_i: np.ndarray | float,
+    c_p: np.ndarray | float,
     c_nn: np.ndarray | float,
 ) -> None:
     """Write c_i I + c_p n^ + c_nn n nᵀ into ``out`` ``(..., 3, 3)`` entry by entry (the SO(3)

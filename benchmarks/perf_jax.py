@@ -1,0 +1,128 @@
+"""The JAX route against the fused numba loop: ``python -m benchmarks.perf_jax``.
+
+Rigid body (``J = diag(10, 20, 30)`` kg·m²) + ideal torque actuator + large-angle geometric PD
+(ω_n = 0.3 rad/s, ζ = 0.9), regulation from Haar-random attitudes, dt = control period = 0.1 s,
+``--t-final`` s (default 60), one log row per control sample on both routes:
+
+- ``spacecraft.simulate`` (the fused numba loop) and
+  :meth:`spacecraft.differentiable.JaxClosedLoop.run` (``jit(vmap(lax.scan))``) for batches of
+  ``--batch`` spacecraft (default 1 and 1000): spacecraft-steps per wall-second, best of
+  ``--repeat`` runs after a warm-up (the machine may be shared: the best run is the least
+  disturbed); the JAX route's first call minus its best run is its compile time;
+- the gradient of the cost ∫θ² dt + 0.01 ∫‖u‖² dt with respect to (k_R, k_Ω) over
+  ``--grad-batch`` starts (default 64): the time of ``value_and_grad`` in units of one compiled
+  forward evaluation of the same cost.
+
+Both routes run on one thread (``NUMBA_NUM_THREADS=1``, XLA's CPU client single-threaded)
+unless the environment sets otherwise, so the figures are per core. The JAX route needs
+``pip install liecontrol[jax]``; on a machine with a GPU, JAX runs there unchanged (set
+``JAX_PLATFORMS=cpu`` to compare on the CPU).
+"""
+
+from __future__ import annotations
+
+import os
+
+from benchmarks._perf import pin_blas_threads
+
+pin_blas_threads()  # before numpy is imported
+os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+os.environ.setdefault(
+    "XLA_FLAGS", "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
+)
+
+import argparse  # noqa: E402
+import time  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from benchmarks._perf import thread_settings  # noqa: E402
+from liecontrol.control import GeometricPD, gains_from_bandwidth  # noqa: E402
+from liecontrol.control.reference import ConstantAttitude  # noqa: E402
+from liecontrol.lie import so3  # noqa: E402
+from spacecraft import RigidBody, Spacecraft, simulate  # noqa: E402
+from spacecraft.actuators import IdealTorqueActuator  # noqa: E402
+from spacecraft.differentiable import closed_loop, require_jax  # noqa: E402
+
+J = np.diag([10.0, 20.0, 30.0])
+DT = 0.1
+
+
+def _setup(t_final: float):
+    kR, kW = gains_from_bandwidth(J, 0.3, 0.9)
+    plant = Spacecraft(RigidBody(J), IdealTorqueActuator())
+    ctrl = GeometricPD(J, kR, kW)
+    ref = ConstantAttitude(np.eye(3))
+    return plant, ctrl, ref, closed_loop(plant, ctrl, ref, t_final, DT)
+
+
+def _best(fn, repeat: int) -> float:
+    best = float("inf")
+    for _ in range(repeat):
+        t = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t)
+    return best
+
+
+def measure(batch: int, t_final: float, repeat: int) -> dict[str, float]:
+    """Seconds per run of each route for ``batch`` spacecraft, and the JAX compile time."""
+    plant, ctrl, ref, loop = _setup(t_final)
+    rng = np.random.default_rng(batch)
+    R0 = so3.random(rng, batch)
+    state = plant.initial_state(R0)
+
+    def fused() -> None:
+        simulate(plant, ctrl, ref, state, t_final, DT, log_every=1)
+
+    t = time.perf_counter()
+    run = loop.run(R0)
+    first = time.perf_counter() - t
+    fused()  # numba's compile (or cache load) is not timed
+    jax_s = _best(lambda: loop.run(R0), repeat)
+    fused_s = _best(fused, repeat)
+    assert not run.diverged.any()
+    return {"fused": fused_s, "jax": jax_s, "compile": first - jax_s}
+
+
+def gradient_cost(batch: int, t_final: float, repeat: int) -> dict[str, float]:
+    """Seconds of one forward cost and of its value and gradient, both compiled."""
+    jax = require_jax()
+    _, ctrl, _, loop = _setup(t_final)
+    rng = np.random.default_rng(7)
+    R0, w0 = so3.random(rng, batch), np.zeros((batch, 3))
+    kR, kW = np.float64(ctrl.k_R), np.float64(ctrl.k_Omega)
+    with jax.enable_x64(True):
+        forward = jax.jit(loop.cost)
+        forward(kR, kW, R0, w0, 0.01).block_until_ready()
+        f_s = _best(lambda: forward(kR, kW, R0, w0, 0.01).block_until_ready(), repeat)
+    loop.value_and_grad(kR, kW, R0, w0, effort_weight=0.01)
+    g_s = _best(lambda: loop.value_and_grad(kR, kW, R0, w0, effort_weight=0.01), repeat)
+    return {"forward": f_s, "grad": g_s}
+
+
+def main(argv: list[str] | None = None) -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--batch", type=int, nargs="+", default=[1, 1000])
+    p.add_argument("--t-final", type=float, default=60.0)
+    p.add_argument("--grad-batch", type=int, default=64)
+    p.add_argument("--repeat", type=int, default=3)
+    a = p.parse_args(argv)
+    jax = require_jax()
+    steps = round(a.t_final / DT)
+    print(f"jax {jax.__version__} on {jax.devices()[0].platform}; {thread_settings()} "
+          f"NUMBA_NUM_THREADS={os.environ['NUMBA_NUM_THREADS']}")  # fmt: skip
+    print(f"{steps} steps of {DT} s; spacecraft-steps per second (best of {a.repeat})")
+    print(f"{'B':>6} {'fused numba':>12} {'JAX':>12} {'JAX/fused time':>15} {'compile s':>10}")
+    for B in a.batch:
+        r = measure(B, a.t_final, a.repeat)
+        print(f"{B:>6} {B * steps / r['fused']:>12.3g} {B * steps / r['jax']:>12.3g} "
+              f"{r['jax'] / r['fused']:>15.2f} {r['compile']:>10.2f}")  # fmt: skip
+    g = gradient_cost(a.grad_batch, a.t_final, a.repeat)
+    ratio = g["grad"] / g["forward"]
+    print(f"gradient over {a.grad_batch} starts: forward {g['forward'] * 1e3:.1f} ms, value and "
+          f"gradient {g['grad'] * 1e3:.1f} ms = {ratio:.2f} forward passes")  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()
