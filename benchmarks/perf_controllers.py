@@ -45,7 +45,12 @@ def _run(name: str, scenario: Any, t_final: float) -> tuple[Any, str]:
     R0, w0 = initial_state(scenario)
     state = plant.initial_state(R0, w0)
     ctx = ControllerContext(
-        spacecraft=scenario.spacecraft, control_period=period, batch_size=1, reference=ref
+        spacecraft=scenario.spacecraft,
+        control_period=period,
+        batch_size=1,
+        reference=ref,
+        keep_out=scenario.keep_out,  # a constraint law without its cones is another law
+        keep_in=scenario.keep_in,
     )
     ctrl = info.factory(ctx)
     ctrl.reset(0.0, 1)

@@ -309,7 +309,67 @@ def test_tracking_a_slewing_reference_on_the_ideal_rigid_body():
 
 
 # ---------------------------------------------------------------------------------------------
-# failure → fallback
+# failure → certified re-solve → fallback
+
+
+def test_iteration_limit_is_resolved_and_reported(caplog):
+    """OSQP stopped after one iteration: the step is re-solved by Clarabel on the same QP, the
+    torque equals the interior-point backend's, and the re-solve is in the diagnostics and the
+    log (once, at its onset), not silent; the fallback is not used."""
+    st = _mixed_states(3)
+    ref = AttitudeReference.regulation(np.eye(3))
+    ctrl = _mpc(solver_settings={"max_iter": 1, "polishing": False})
+    ctrl.reset(0.0, st.batch_size)
+    with caplog.at_level(logging.WARNING, logger="liecontrol.control.mpc"):
+        u = ctrl.command(0.0, st, ref)
+        ctrl.command(T, st, ref)
+    d = ctrl.diagnostics()
+    assert (d["osqp_status"] == -7).all() and d["resolved"].all() and (d["status"] == 1).all()
+    assert not d["fallback_active"].any() and (d["resolve_count"] == 2).all()
+    assert (d["kkt_torque_bound"] <= ctrl.kkt_tolerance).all()
+    assert caplog.text.count("re-solved by Clarabel") == st.batch_size  # onset only
+    ref_ctrl = _mpc(backend="cvxpy")
+    ref_ctrl.reset(0.0, st.batch_size)
+    np.testing.assert_allclose(u, ref_ctrl.command(0.0, st, ref), atol=1e-4)
+
+
+def test_uncertified_answer_without_resolve_falls_back(caplog):
+    """An answer OSQP calls solved but the KKT certificate rejects (a loose tolerance, no
+    polishing, a certificate demanding 1e-9 N·m) is not used: status −13, the fallback."""
+    ctrl = _mpc(
+        solver_settings={"eps_abs": 1e-1, "eps_rel": 1e-1, "polishing": False},
+        kkt_tolerance=1e-9,
+        resolve=False,
+    )
+    st = _mixed_states(2)
+    ctrl.reset(0.0, st.batch_size)
+    with caplog.at_level(logging.WARNING, logger="liecontrol.control.mpc"):
+        ctrl.command(0.0, st, AttitudeReference.regulation(np.eye(3)))
+    d = ctrl.diagnostics()
+    assert (d["osqp_status"] == 1).all() and (d["status"] == -13).all()
+    assert d["fallback_active"].all() and not d["resolved"].any()
+    assert "KKT certificate failed" in caplog.text
+
+
+def test_certified_answers_are_osqp_own():
+    """On a well-conditioned step OSQP's polished answer passes the certificate: no re-solve,
+    and the certified bound is far below the tolerance."""
+    ctrl = _mpc()
+    st = _mixed_states(4)
+    ctrl.reset(0.0, st.batch_size)
+    ctrl.command(0.0, st, AttitudeReference.regulation(np.eye(3)))
+    d = ctrl.diagnostics()
+    assert (d["status"] == 1).all() and not d["resolved"].any()
+    assert (d["kkt_torque_bound"] < 1e-2 * ctrl.kkt_tolerance).all()
+
+
+@pytest.mark.parametrize(
+    ("kw", "match"),
+    [({"kkt_tolerance": 0.0}, "kkt_tolerance"), ({"resolve": "yes"}, "resolve")],
+)
+def test_bad_certificate_arguments(kw, match):
+    with pytest.raises(ValueError, match=f"^{match}"):
+        _mpc(**kw)
 
 
 @pytest.mark.parametrize("backend", ["osqp", "cvxpy"])
@@ -341,7 +401,12 @@ def test_iteration_limit_triggers_configured_fallback_then_recovers(caplog):
             return np.zeros((state.batch_size, 3))
 
     fb = Zero(J, 1.0, 1.0)
-    ctrl = _mpc(fallback=fb, solver_settings={"max_iter": 1, "eps_abs": 1e-12, "eps_rel": 1e-12})
+    # resolve=False: the path without the Clarabel re-solve (test_iteration_limit_is_resolved)
+    ctrl = _mpc(
+        fallback=fb,
+        solver_settings={"max_iter": 1, "eps_abs": 1e-12, "eps_rel": 1e-12},
+        resolve=False,
+    )
     st = _mixed_states(6)
     ctrl.reset(0.0, st.batch_size)
     with caplog.at_level(logging.WARNING, logger="liecontrol.control.mpc"):
@@ -356,7 +421,7 @@ def test_iteration_limit_triggers_configured_fallback_then_recovers(caplog):
 def test_fallback_recorded_in_simulation_log():
     """In a closed loop every fallback step shows up in the simulator's controller log."""
     plant = seed000_spacecraft()
-    ctrl = _mpc(horizon=5, solver_settings={"max_iter": 1, "polishing": False})
+    ctrl = _mpc(horizon=5, solver_settings={"max_iter": 1, "polishing": False}, resolve=False)
     res = simulate(
         plant,
         ctrl,

@@ -5,6 +5,7 @@ reference this kernel is tested against). One spacecraft per call::
 
     s = e_Ω + λ x,  x = log(R̃)^∨,  v = ff − λ J J_r⁻¹(x) e_Ω − K s − β̂ s/(‖s‖ + σ),
     u = k̂ ∘ v (clipped per axis),  k̂̇ = −γ_k s ∘ v (0 when clipped),  β̂̇ = γ_β ‖s‖²/(‖s‖ + σ),
+    σ = σ̄ (1 − (1 − max_i k̂_i/k_max) β̂/β_max) with the adaptive boundary layer, else σ̄,
 
 the estimates advanced from the previous sample with their rates held and clipped to
 ``[1, k_max]``, ``[0, β_max]``.
@@ -22,8 +23,8 @@ from .so3 import matvec3
 
 #: state row: has a previous sample, its time, k̂ (3), β̂, k̂̇ (3), β̂̇
 N_STATE = 10
-#: diagnostics row: e_R (3), e_Ω (3), s (3), k̂ (3), β̂, saturated
-N_DIAG = 14
+#: diagnostics row: e_R (3), e_Ω (3), s (3), k̂ (3), β̂, saturated, σ(t)
+N_DIAG = 15
 
 
 @njit
@@ -31,9 +32,9 @@ def fault_tolerant_law(
     t: float, R: np.ndarray, w: np.ndarray, R_d: np.ndarray, w_d: np.ndarray, dw_d: np.ndarray,
     params: np.ndarray, state: np.ndarray, u_out: np.ndarray, diag_out: np.ndarray,
 ) -> None:  # fmt: skip
-    """A law of the compiled-kernel seam (:mod:`liecontrol.control.kernel`). ``params (29,)``:
-    J (9), K (9), λ, γ_k, γ_β, σ, k_max, β_max, torque-limit flag, limit (3); ``state`` and
-    ``diag_out`` as :data:`N_STATE`, :data:`N_DIAG`."""
+    """A law of the compiled-kernel seam (:mod:`liecontrol.control.kernel`). ``params (30,)``:
+    J (9), K (9), λ, γ_k, γ_β, σ, k_max, β_max, torque-limit flag, limit (3), adaptive-σ flag;
+    ``state`` and ``diag_out`` as :data:`N_STATE`, :data:`N_DIAG`."""
     m = params[0:18].reshape((2, 3, 3))
     J = m[0]
     K = m[1]
@@ -67,6 +68,9 @@ def fault_tolerant_law(
     k0, k1, k2 = matvec3(K, s0, s1, s2)
     ns = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
     beta = state[5]
+    if params[28] != 0.0 and b_max > 0.0:
+        kk = max(state[2], state[3], state[4])
+        sigma = sigma * (1.0 - (1.0 - kk / k_max) * beta / b_max)
     g = beta / (ns + sigma)
     v = (
         f0 - lam * a0 - k0 - g * s0,
@@ -92,3 +96,4 @@ def fault_tolerant_law(
     diag_out[9], diag_out[10], diag_out[11] = state[2], state[3], state[4]
     diag_out[12] = beta
     diag_out[13] = 1.0 if sat else 0.0
+    diag_out[14] = sigma

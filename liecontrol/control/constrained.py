@@ -73,7 +73,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._kernels.constrained import constrained_pd_law
+from .._kernels.constrained import (
+    N_DIAG,
+    N_DIAG_SAFE,
+    N_STATE,
+    constrained_pd_law,
+    sampled_safe_pd_law,
+)
 from .._validation import as_array, as_int, as_scalar, check_inertia_3x3, check_rotation_matrix
 from ..errors import _large_angle_error_unchecked
 from .base import (
@@ -593,6 +599,116 @@ def _efficiency(e: object) -> float:
     return v
 
 
+def braking_filter(
+    u: np.ndarray,
+    R: np.ndarray,
+    w: np.ndarray,
+    J: np.ndarray,
+    cones: Sequence[AttitudeCone],
+    umax: np.ndarray,
+    T: float,
+    efficiency: float = 0.7,
+    buffer_deg: float = 0.5,
+    lam_max: float | None = None,
+) -> tuple[np.ndarray, ...]:
+    """The one-step safety filter of :class:`SampledSafeConstrainedPD` applied to any command
+    ``u`` ``(B, 3)`` within the torque bound ``umax`` at ``(R, ω)`` ``(B, 3, 3), (B, 3)``: the
+    command held over ``T`` keeps the predicted braking-distance-augmented margin of every cone
+    ``≥ 0`` (equations and assumptions in the class docstring). Validated input only (the
+    callers'). Returns ``(u, active (B,), h (B, n) [rad], m (B, n) [rad], v (B, n), a_b (B,
+    n))``: the filtered command, where the filter changed it, and the start-of-period margins
+    the warning of an unrecoverable start is built from."""
+    if lam_max is None:
+        lam_max = float(np.linalg.eigvalsh(J)[-1])
+    buf = math.radians(buffer_deg)
+    B = R.shape[0]
+    terms = [_approach_terms(R, w, J, c) for c in cones]
+    m = np.stack([x[0] for x in terms], axis=-1)
+    v = np.stack([x[1] for x in terms], axis=-1)
+    a_free = np.stack([x[2] for x in terms], axis=-1)
+    p = np.stack([x[3] for x in terms], axis=1)  # (B, n, 3)
+    a_b = _braking_decel(a_free, umax, lam_max, efficiency)
+    h0 = _h(m, v, a_b, T, buf)
+    active = np.zeros(B, dtype=bool)
+    # largest admissible approach acceleration a* per cone: h(m', v') ≥ 0 after one period,
+    # m' = m − vT − ½aT², v' = v + aT (h' decreases with a: bisection on [−a_b, a_hi])
+    a_hi = a_free + np.einsum("bnk,k->bn", np.abs(p), umax)
+    lo = np.minimum(-a_b, a_hi)
+    hi = a_hi.copy()
+
+    def h_next(a: np.ndarray) -> np.ndarray:
+        return _h(m - v * T - 0.5 * a * T * T, v + a * T, a_b, T, buf)
+
+    ok_hi = h_next(hi) >= 0.0
+    for _ in range(30):
+        mid = 0.5 * (lo + hi)
+        good = h_next(mid) >= 0.0
+        lo = np.where(good, mid, lo)
+        hi = np.where(good, hi, mid)
+    a_star = np.where(ok_hi, a_hi, lo)
+    # sequential projection of the command onto pᵀu ≤ a* − a_free, most critical cone last
+    order = np.argsort(-h0, axis=-1)
+    for j in range(len(cones)):
+        idx = order[:, j]
+        pj = p[np.arange(B), idx]
+        lim = (a_star - a_free)[np.arange(B), idx]
+        excess = np.sum(pj * u, axis=-1) - lim
+        need = excess > 0.0
+        if np.any(need):
+            pn2 = np.maximum(np.sum(pj * pj, axis=-1), 1e-300)
+            u = np.where(need[:, None], u - (excess / pn2)[:, None] * pj, u)
+            u = np.clip(u, -umax, umax)
+            active |= need
+    # still violated after clipping: full braking for the most critical cone
+    acc = a_free + np.einsum("bnk,bk->bn", p, u)
+    viol = np.any(acc > a_star + 1e-12 * np.abs(a_star), axis=-1)
+    if np.any(viol):
+        crit = order[:, -1]
+        pc = p[np.arange(B), crit]
+        brake = -np.sign(pc) * umax
+        u = np.where(viol[:, None], brake, u)
+        active |= viol
+    return u, active, h0, m, v, a_b
+
+
+def check_recoverable(
+    h: np.ndarray,
+    m: np.ndarray,
+    v: np.ndarray,
+    a_b: np.ndarray,
+    cones: Sequence[AttitudeCone],
+    max_torque: np.ndarray,
+    sample_period: float,
+    efficiency: float,
+    buffer_deg: float,
+    strict: bool,
+) -> None:
+    """Warn (:class:`UnrecoverableStartWarning`) or, ``strict``, raise ``ValueError`` naming
+    ``R`` for the first spacecraft whose braking margin ``h`` (:func:`braking_filter`) is
+    negative: the message gives the cone, margin, approach rate and the stopping distance
+    needed."""
+    bad = np.argwhere(h < 0.0)
+    if not bad.size:
+        return
+    k, i = (int(x) for x in bad[0])
+    cone = tuple(cones)[i]
+    vp = max(float(v[k, i]), 0.0)
+    need = vp * sample_period + vp * vp / (2.0 * a_b[k, i])
+    msg = (
+        f"R: spacecraft {k} starts in the unrecoverable set of {cone.kind.replace('_', '-')} "
+        f"cone {i}: margin {math.degrees(m[k, i]):.3g}° with the boresight approaching at "
+        f"{vp:.3g} rad/s; stopping needs {math.degrees(need):.3g}° (+{buffer_deg:g}° "
+        f"buffer) at the certified deceleration {a_b[k, i]:.3g} rad/s² "
+        f"(max_torque {max_torque.min():.3g} N·m, efficiency {efficiency:g}) with "
+        f"a {sample_period:g} s sample period — the cone cannot be guaranteed"
+    )
+    if strict:
+        raise ValueError(msg)
+    import warnings
+
+    warnings.warn(msg, UnrecoverableStartWarning, stacklevel=4)
+
+
 class SampledSafeConstrainedPD(AttitudeController):
     """Keep-out/keep-in control that keeps the margin positive at its sample period under a torque
     bound: :class:`ConstrainedGeometricPD` (the log barrier, which steers around the cones) as
@@ -704,26 +820,18 @@ class SampledSafeConstrainedPD(AttitudeController):
         self._diag = {}
 
     def _unrecoverable(self, h: np.ndarray, m: np.ndarray, v: np.ndarray, a_b: np.ndarray) -> None:
-        bad = np.argwhere(h < 0.0)
-        if not bad.size:
-            return
-        k, i = (int(x) for x in bad[0])
-        cone = (self.keep_out + self.keep_in)[i]
-        vp = max(float(v[k, i]), 0.0)
-        need = vp * self.sample_period + vp * vp / (2.0 * a_b[k, i])
-        msg = (
-            f"R: spacecraft {k} starts in the unrecoverable set of {cone.kind.replace('_', '-')} "
-            f"cone {i}: margin {math.degrees(m[k, i]):.3g}° with the boresight approaching at "
-            f"{vp:.3g} rad/s; stopping needs {math.degrees(need):.3g}° (+{self.buffer_deg:g}° "
-            f"buffer) at the certified deceleration {a_b[k, i]:.3g} rad/s² "
-            f"(max_torque {self.max_torque.min():.3g} N·m, efficiency {self.efficiency:g}) with "
-            f"a {self.sample_period:g} s sample period — the cone cannot be guaranteed"
+        check_recoverable(
+            h,
+            m,
+            v,
+            a_b,
+            self.keep_out + self.keep_in,
+            self.max_torque,
+            self.sample_period,
+            self.efficiency,
+            self.buffer_deg,
+            self.strict,
         )
-        if self.strict:
-            raise ValueError(msg)
-        import warnings
-
-        warnings.warn(msg, UnrecoverableStartWarning, stacklevel=3)
 
     def command(self, t: float, state: AttitudeState, reference: AttitudeReference) -> np.ndarray:
         """Body torque ``(B, 3)`` [N·m], within ``max_torque``."""
@@ -733,61 +841,16 @@ class SampledSafeConstrainedPD(AttitudeController):
         umax = self.max_torque
         u = np.clip(u_nom, -umax, umax)
         T = self.sample_period
-        buf = math.radians(self.buffer_deg)
         cones = self.keep_out + self.keep_in
-        B = R.shape[0]
         if not cones:
             self._diag = dict(self.nominal.diagnostics())
             return u
-        terms = [_approach_terms(R, w, self.J, c) for c in cones]
-        m = np.stack([x[0] for x in terms], axis=-1)
-        v = np.stack([x[1] for x in terms], axis=-1)
-        a_free = np.stack([x[2] for x in terms], axis=-1)
-        p = np.stack([x[3] for x in terms], axis=1)  # (B, n, 3)
-        a_b = _braking_decel(a_free, umax, self._lam_max, self.efficiency)
-        h0 = _h(m, v, a_b, T, buf)
+        u, active, h0, m, v, a_b = braking_filter(
+            u, R, w, self.J, cones, umax, T, self.efficiency, self.buffer_deg, self._lam_max
+        )
         if self._first:
             self._first = False
             self._unrecoverable(h0, m, v, a_b)
-        active = np.zeros(B, dtype=bool)
-        # largest admissible approach acceleration a* per cone: h(m', v') ≥ 0 after one period,
-        # m' = m − vT − ½aT², v' = v + aT (h' decreases with a: bisection on [−a_b, a_hi])
-        a_hi = a_free + np.einsum("bnk,k->bn", np.abs(p), umax)
-        lo = np.minimum(-a_b, a_hi)
-        hi = a_hi.copy()
-
-        def h_next(a: np.ndarray) -> np.ndarray:
-            return _h(m - v * T - 0.5 * a * T * T, v + a * T, a_b, T, buf)
-
-        ok_hi = h_next(hi) >= 0.0
-        for _ in range(30):
-            mid = 0.5 * (lo + hi)
-            good = h_next(mid) >= 0.0
-            lo = np.where(good, mid, lo)
-            hi = np.where(good, hi, mid)
-        a_star = np.where(ok_hi, a_hi, lo)
-        # sequential projection of the command onto pᵀu ≤ a* − a_free, most critical cone last
-        order = np.argsort(-h0, axis=-1)
-        for j in range(len(cones)):
-            idx = order[:, j]
-            pj = p[np.arange(B), idx]
-            lim = (a_star - a_free)[np.arange(B), idx]
-            excess = np.sum(pj * u, axis=-1) - lim
-            need = excess > 0.0
-            if np.any(need):
-                pn2 = np.maximum(np.sum(pj * pj, axis=-1), 1e-300)
-                u = np.where(need[:, None], u - (excess / pn2)[:, None] * pj, u)
-                u = np.clip(u, -umax, umax)
-                active |= need
-        # still violated after clipping: full braking for the most critical cone
-        acc = a_free + np.einsum("bnk,bk->bn", p, u)
-        viol = np.any(acc > a_star + 1e-12 * np.abs(a_star), axis=-1)
-        if np.any(viol):
-            crit = order[:, -1]
-            pc = p[np.arange(B), crit]
-            brake = -np.sign(pc) * umax
-            u = np.where(viol[:, None], brake, u)
-            active |= viol
         diag = dict(self.nominal.diagnostics())
         diag.update(
             braking_margin=np.degrees(h0.min(axis=-1)),
@@ -800,3 +863,61 @@ class SampledSafeConstrainedPD(AttitudeController):
     def diagnostics(self) -> dict[str, np.ndarray]:
         """Last diagnostics (class docstring); empty before the first command."""
         return dict(self._diag)
+
+    def fused_kernel(
+        self, batch_size: int, control_period: float | None = None
+    ) -> ControllerKernel | None:
+        """The compiled law (:func:`liecontrol._kernels.constrained.sampled_safe_pd_law`: the
+        barrier law's kernel, then the filter's) for the simulator's fused loop
+        (:mod:`liecontrol.control.kernel`). The filter runs at ``sample_period`` whatever the
+        loop's period, as ``command`` does. The warning of an unrecoverable start is issued
+        when the compiled run returns (the law records the first sample's margins); a
+        ``strict`` controller raises before the first step (the simulator calls ``command``
+        on the law's NaN torque there)."""
+        nom = self.nominal.fused_kernel(batch_size, control_period)
+        if nom is None:
+            return None
+        cones = self.keep_out + self.keep_in
+        n = len(cones)
+        filt = np.concatenate(
+            [
+                self.max_torque,
+                [self.sample_period, self.efficiency, math.radians(self.buffer_deg)],
+                [self._lam_max],
+                np.linalg.inv(self.J).ravel(),
+                [1.0 if self.strict else 0.0],
+                [math.radians(c.half_angle_deg) for c in cones],
+            ]
+        )
+        B = int(batch_size)
+        state = np.zeros((B, N_STATE + 1 + 4 * n))
+        state[:, :N_STATE] = nom.state
+        state[:, N_STATE] = 0.0 if self._first else 1.0
+        first = self._first
+
+        def rows(r: np.ndarray) -> dict[str, np.ndarray]:
+            d = _constrained_rows(r[..., :N_DIAG])
+            if n:
+                d.update(
+                    braking_margin=np.degrees(r[..., N_DIAG]),
+                    margin=np.degrees(r[..., N_DIAG + 1]),
+                    filter_active=r[..., N_DIAG + 2] != 0.0,
+                )
+            return d
+
+        def finish(st: np.ndarray, diag: np.ndarray) -> None:
+            nom.finish(st[:, :N_STATE], diag[:, :N_DIAG])
+            self._first = bool(st[0, N_STATE] == 0.0)
+            self._diag = rows(diag)
+            if first and not self._first:
+                f = st[:, N_STATE + 1 :].reshape(B, n, 4)
+                self._unrecoverable(f[..., 0], f[..., 1], f[..., 2], f[..., 3])
+
+        return ControllerKernel(
+            sampled_safe_pd_law,
+            np.concatenate([nom.params, filt]),
+            state,
+            N_DIAG_SAFE if n else N_DIAG,
+            rows,
+            finish,
+        )

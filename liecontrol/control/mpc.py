@@ -70,10 +70,23 @@ row ``G_k ξ_k − s_k ≤ h_k`` with a slack ``s_k ≥ 0`` costing ``ρ s_k + �
 cones can be met). The rows change every step (a KKT refactorisation per step); slack use is in
 ``diagnostics()`` (``cone_slack_max``, ``cone_slack_used``) and its onset is logged.
 
-Failure: a status other than *solved* (optionally *solved inaccurate*) or a solver exception
-hands the step to the fallback controller (default :class:`GeometricPD` built from the same
-``J``), whose torque is clipped to the box; the status code, the fallback flag and a warning on
-the ``liecontrol.control.mpc`` logger record it.
+Certificate: an OSQP answer is used only if its KKT certificate (``_OsqpQP.certificate``: the
+duality gap with primal violations charged at the multipliers' price, turned into a bound on
+every planned torque's distance from the minimiser by the strong convexity in ``u``) is within
+``kkt_tolerance``; otherwise — and for any status but *solved* (optionally *solved
+inaccurate*) — the same QP is re-solved by Clarabel (interior point, then an exact KKT solve on
+its active set) and that answer must pass the same certificate. Re-solved steps are in
+``diagnostics()`` and their onset is logged.
+
+Braking filter: with cones, the torque goes through the braking-margin filter of
+:class:`~liecontrol.control.constrained.SampledSafeConstrainedPD` at the MPC period and box
+(``safety_filter``): the linearised rows hold only at the samples over the horizon, which can be
+shorter than a fast approach's stopping time; a start the box cannot stop warns first.
+
+Failure: a step neither solver certifies, or a solver exception, hands the step to the
+fallback controller (default :class:`GeometricPD` built from the same ``J``), whose torque is
+clipped to the box; the status code, the fallback flag and a warning on the
+``liecontrol.control.mpc`` logger record it.
 """
 
 from __future__ import annotations
@@ -102,7 +115,7 @@ from .._validation import (
 from ..integrators.lgvi import lgvi_step_unchecked
 from ..lie import so3
 from .base import AttitudeController, AttitudeReference, AttitudeState, check_state_batch
-from .constrained import KeepInCone, KeepOutCone
+from .constrained import KeepInCone, KeepOutCone, braking_filter, check_recoverable
 from .geometric_pd import GeometricPD, gains_from_bandwidth
 
 __all__ = [
@@ -132,6 +145,7 @@ STATUS_NAMES: dict[int, str] = {
     -10: "interrupted",
     -11: "unsolved",
     -12: "update rejected (invalid problem data)",
+    -13: "not converged (KKT certificate failed)",
     -99: "solver exception",
 }
 
@@ -166,9 +180,12 @@ _OSQP_DEFAULTS: dict[str, Any] = {
     "verbose": False,
 }
 
-#: OSQP iteration cap when pointing cones are given (measured on the keep-out scenarios: the
-#: default 4000 is reached on ~1 % of the steps while a cone is active).
-_OSQP_CONE_MAX_ITER = 20000
+#: OSQP iteration cap when pointing cones are given. ADMM on the exact-penalty cone QP often
+#: stalls far from the minimiser: measured on the three keep-out scenarios, answers it reported
+#: "solved" after 20 000 iterations were still off by up to 26 N·m, and a quarter of the steps
+#: fail the KKT certificate whatever the cap. Such a step is re-solved by Clarabel (about a
+#: millisecond), so iterating beyond the default cap only costs time.
+_OSQP_CONE_MAX_ITER = 4000
 
 #: Tolerance factor of the re-solve after a failed polish (see _OSQP_DEFAULTS).
 _POLISH_RETRY_FACTOR = 1e-2
@@ -465,6 +482,9 @@ class _OsqpQP:
         u_max: np.ndarray,
         nc: int = 0,
         slack_weights: tuple[float, float] = (0.0, 0.0),
+        torque_tol: float | None = None,
+        resolve: bool = False,
+        accept_inaccurate: bool = False,
     ) -> None:
         import osqp
 
@@ -478,6 +498,21 @@ class _OsqpQP:
             blocks.append(slack_weights[1] * sp.eye(ns))
         H = sp.block_diag(blocks, format="csc")
         self.R = R
+        # the certificate's data (certificate, _clarabel): H, H⁻¹ blockwise, λ_min(R)
+        self._H = H.tocsr()
+        self._H_upper = sp.triu(H, format="csc")
+        inv_blocks = [np.linalg.inv(Q)] * (N - 1) + [np.linalg.inv(P)]
+        inv_blocks += [np.linalg.inv(R)] * N
+        if ns:
+            inv_blocks.append(sp.eye(ns) / slack_weights[1])
+        self._Hinv = sp.block_diag(inv_blocks, format="csr")
+        self._lam_R = float(np.linalg.eigvalsh(R)[0])
+        self.torque_tol, self.resolve = torque_tol, bool(resolve)
+        self.accept_inaccurate = bool(accept_inaccurate)
+        self.osqp_status = 0
+        self.resolved = False
+        self.resolves = 0
+        self.torque_bound = np.nan
         # COO triplets of the constraint matrix; `slots` remembers where each block lives
         rows: list[np.ndarray] = []
         cols: list[np.ndarray] = []
@@ -527,6 +562,7 @@ class _OsqpQP:
         ids = np.arange(1, count + 1, dtype=np.float64)
         Aid = sp.csc_matrix((ids, (r, c)), shape=(self.n_con, nx + nu + ns))
         Aid.sort_indices()
+        self._A_struct = (Aid.indices.copy(), Aid.indptr.copy(), Aid.shape)
         # position p of the CSC data holds COO entry order[p]
         self.order = Aid.data.astype(np.int64) - 1
 
@@ -657,7 +693,8 @@ class _OsqpQP:
         else:  # pragma: no cover - another osqp version
             self.solver.warm_start(x=x[self._x_shift], y=y[self._y_shift])
 
-    def solve(self) -> tuple[int, np.ndarray | None, int, float]:
+    def _osqp(self) -> tuple[int, np.ndarray | None, np.ndarray | None, int, float]:
+        """One OSQP solve of the current data: ``(status, x, y, iterations, run time)``."""
         s = self._s
         Ax = self.vals[self.order] if self._mat_dirty else None
         q = self.q if self._q_dirty else None
@@ -678,9 +715,8 @@ class _OsqpQP:
                     return self._rejected("update_data_mat", rc)
             rc = s.solve()
             if rc:
-                self._last = None
                 _log.warning("SO3MPC: OSQP solve returned exit code %d", rc)
-                return -_STATUS_EXCEPTION, None, 0, 0.0
+                return -_STATUS_EXCEPTION, None, None, 0, 0.0
             info = s.info
             if self._polish and info.status_val == 1 and info.status_polish != 1:
                 info = self._retry(info)
@@ -688,29 +724,193 @@ class _OsqpQP:
             x, y = sol.x, sol.y
         self._mat_dirty = self._q_dirty = False
         sv = int(info.status_val)
-        status = sv if sv in (1, 2) else -sv
-        if x is None or not np.all(np.isfinite(x)):
+        return sv if sv in (1, 2) else -sv, x, y, int(info.iter), float(info.run_time)
+
+    def solve(self) -> tuple[int, np.ndarray | None, int, float]:
+        """OSQP, its answer checked by :meth:`certificate`; an answer that fails it (or a
+        failed status) is re-solved by Clarabel on the same data when ``resolve`` is set.
+        Returns ``(status, u (N, 3) or None, iterations, run time)`` of the answer used
+        (iterations and time summed over both solvers); ``osqp_status``, ``resolved`` and
+        ``torque_bound`` keep the details."""
+        self.resolved = False
+        self.torque_bound = np.nan
+        status, x, y, iters, rtime = self._osqp()
+        self.osqp_status = status
+        if status == -_STATUS_REJECTED:
+            return status, None, iters, rtime
+        finite = x is not None and y is not None and bool(np.all(np.isfinite(x)))
+        tol = self.torque_tol
+        if tol is not None:
+            accept = status == 1 or (status == 2 and self.accept_inaccurate)
+            bound = self.certificate(x, y)[2] if accept and finite else np.inf
+            if not bound <= tol:
+                if accept:
+                    status = -_STATUS_UNCERTIFIED
+                if self.resolve:
+                    st2, x2, y2, it2, rt2 = self._clarabel()
+                    iters, rtime = iters + it2, rtime + rt2
+                    b2 = self.certificate(x2, y2)[2] if st2 == 1 else np.inf
+                    if b2 <= tol:
+                        status, x, y, bound, finite = 1, x2, y2, b2, True
+                        self.resolved = True
+                        self.resolves += 1
+            self.torque_bound = bound
+        if not finite or status not in (1, 2):
             self._last = None
-            return status, None, int(info.iter), float(info.run_time)
-        self._last = (x, y) if status in (1, 2) else None
+            return status, None, iters, rtime
+        self._last = (x, y)
         nx, nu = self.nx, self.nu
         u = x[nx : nx + nu].reshape(self.N, 3)
         if self.ns:
             self.slack = np.maximum(x[nx + nu :].reshape(self.N, self.nc), 0.0)
             self.xi_plan = x[:nx].reshape(self.N, 6)[:, :3].copy()
-        return status, u, int(info.iter), float(info.run_time)
+        return status, u, iters, rtime
 
-    def _rejected(self, call: str, rc: int) -> tuple[int, None, int, float]:
+    def _matrix(self) -> sp.csc_matrix:
+        """The current constraint matrix ``A`` (CSC, the structure OSQP was set up with)."""
+        return sp.csc_matrix((self.vals[self.order], *self._A_struct[:2]), self._A_struct[2])
+
+    def certificate(self, x: np.ndarray, y: np.ndarray) -> tuple[float, float, float]:
+        """KKT residuals of ``(x, y)`` on the unscaled QP ``min ½xᵀHx + qᵀx, l ≤ Ax ≤ u``:
+        ``(primal residual ‖Ax − Π(Ax)‖∞, dual residual ‖Hx + q + Aᵀy‖∞, torque bound)``.
+
+        The torque bound is ``sqrt(2 Δ / λ_min(R))`` with ``Δ = Σ y₊|u − Ax| + Σ y₋|Ax − l| +
+        ½ rᵀH⁻¹r`` (``r`` the dual residual, multipliers on infinite bounds dropped, each
+        ``|u − Ax|``, ``|Ax − l|`` less a round-off floor ``1e-9 (1 + |bound|)``): for
+        ``x`` feasible, ``Δ`` is the duality gap ``f(x) − g(y)`` (Lagrangian dual ``g``), and
+        strong convexity gives ``½ δuᵀRδu ≤ f(x) − f* ≤ Δ`` for the distance ``δu`` of every
+        planned torque from the minimiser's (Boyd & Vandenberghe, *Convex Optimization*,
+        Cambridge University Press, 2004, §5.5 and §9.1.2). The absolute values charge any
+        primal infeasibility at the multipliers' prices, so a nearly feasible iterate whose
+        multipliers are large (the exact-penalty cone rows) does not pass on a small residual.
+        """
+        A = self._matrix()
+        Ax = A @ x
+        l, u = self.l, self.u
+        r_prim = float(np.max(np.abs(Ax - np.clip(Ax, l, u)), initial=0.0))
+        fin_u, fin_l = u < _OSQP_INF, l > -_OSQP_INF
+        yp = np.where(fin_u, np.maximum(y, 0.0), 0.0)
+        ym = np.where(fin_l, np.maximum(-y, 0.0), 0.0)
+        r = self._H @ x + self.q + A.T @ (yp - ym)
+        # an active bound met to round-off times a multiplier of ~1e8 (the exact penalty) is
+        # no error of the solver: deviations within the feasibility floor are not charged
+        dev_u = np.where(fin_u, np.abs(u - Ax), 0.0)
+        dev_l = np.where(fin_l, np.abs(Ax - l), 0.0)
+        dev_u = np.maximum(dev_u - _KKT_FEAS_FLOOR * (1.0 + np.abs(np.where(fin_u, u, 0.0))), 0.0)
+        dev_l = np.maximum(dev_l - _KKT_FEAS_FLOOR * (1.0 + np.abs(np.where(fin_l, l, 0.0))), 0.0)
+        gap = float(yp @ dev_u + ym @ dev_l + 0.5 * r @ (self._Hinv @ r))
+        bound = float(np.sqrt(2.0 * max(gap, 0.0) / self._lam_R))
+        return r_prim, float(np.max(np.abs(r), initial=0.0)), bound
+
+    def _clarabel(self) -> tuple[int, np.ndarray | None, np.ndarray | None, int, float]:
+        """The same QP by Clarabel (interior point, an independent route to the minimiser):
+        ``(status, x, y in OSQP's sign convention, iterations, solve time)``."""
+        try:
+            import clarabel
+        except ImportError:  # pragma: no cover - clarabel comes with cvxpy
+            _log.warning("SO3MPC: clarabel is not installed; no re-solve")
+            return -_STATUS_EXCEPTION, None, None, 0, 0.0
+        A = self._matrix()
+        l, u = self.l, self.u
+        eq = l == u
+        up = (u < _OSQP_INF) & ~eq
+        lo = (l > -_OSQP_INF) & ~eq
+        # l ≤ Ax ≤ u as Clarabel's Ax + s = b: equalities in the zero cone, each finite
+        # inequality bound as a row of the non-negative orthant
+        Ac = sp.vstack([A[eq], A[up], -A[lo]], format="csc")
+        b = np.concatenate([l[eq], u[up], -l[lo]])
+        cones = [
+            clarabel.ZeroConeT(int(eq.sum())),
+            clarabel.NonnegativeConeT(int(up.sum() + lo.sum())),
+        ]
+        settings = clarabel.DefaultSettings()
+        settings.verbose = False
+        for k, v in _CLARABEL_TOLERANCES.items():
+            setattr(settings, k, v)
+        try:
+            sol = clarabel.DefaultSolver(self._H_upper, self.q, Ac, b, cones, settings).solve()
+        except Exception as exc:  # a failed re-solve leaves the step to the fallback
+            _log.warning("SO3MPC: Clarabel re-solve raised %r", exc)
+            return -_STATUS_EXCEPTION, None, None, 0, 0.0
+        status = _CLARABEL_STATUS.get(str(sol.status), -11)
+        x, z, sl = np.array(sol.x), np.array(sol.z), np.array(sol.s)
+        ne, nu = int(eq.sum()), int(up.sum())
+        y = np.zeros(l.size)
+        y[eq] = z[:ne]
+        y[up] += z[ne : ne + nu]
+        y[lo] -= z[ne + nu :]
+        if status == 1:
+            # an interior point stops ~1e-6 inside the active bounds (its complementarity gap),
+            # which the certificate must charge at the multipliers' price; the exact KKT solve
+            # on the active set it identifies (z > s) is the vertex it converges to
+            act = eq.copy()
+            act[np.flatnonzero(up)[z[ne : ne + nu] > sl[ne : ne + nu]]] = True
+            on_lo = np.flatnonzero(lo)[z[ne + nu :] > sl[ne + nu :]]
+            act[on_lo] = True
+            b_act = np.where(np.isin(np.arange(l.size), on_lo), l, u)[act]
+            polished = self._active_set_solve(A, act, b_act)
+            if polished is not None and (
+                self.certificate(*polished)[2] < self.certificate(x, y)[2]
+            ):
+                x, y = polished
+        return status, x, y, int(sol.iterations), float(sol.solve_time)
+
+    def _active_set_solve(
+        self, A: sp.csc_matrix, act: np.ndarray, b_act: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray] | None:
+        """``(x, y)`` of ``min ½xᵀHx + qᵀx`` s.t. ``A_act x = b_act`` (``None`` if singular)."""
+        import scipy.sparse.linalg as spla
+
+        Aa = A[act]
+        m = Aa.shape[0]
+        K = sp.bmat([[self._H, Aa.T], [Aa, None]], format="csc")
+        rhs = np.concatenate([-self.q, b_act])
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # a singular KKT (degenerate active set): no polish
+            sol = spla.spsolve(K, rhs)
+        if not np.all(np.isfinite(sol)):
+            return None
+        n = self._H.shape[0]
+        y = np.zeros(act.size)
+        y[act] = sol[n : n + m]
+        return sol[:n], y
+
+    def _rejected(self, call: str, rc: int) -> tuple[int, None, None, int, float]:
         """An update OSQP refused (exit code ``rc``): nothing is solved, the warm start is
         dropped and the data are re-sent in full next step."""
         _log.warning("SO3MPC: OSQP %s rejected the problem data (exit code %d)", call, rc)
         self._last = None
         self._mat_dirty = self._q_dirty = True
-        return -_STATUS_REJECTED, None, 0, 0.0
+        return -_STATUS_REJECTED, None, None, 0, 0.0
 
 
 _STATUS_EXCEPTION = 99
 _STATUS_REJECTED = 12
+_STATUS_UNCERTIFIED = 13
+
+#: Relative feasibility floor of the KKT certificate: a bound met within ``1e-9 (1 + |b|)`` counts
+#: as met (round-off of an exact solve; OSQP's loose iterates miss active bounds by ~1e-5).
+_KKT_FEAS_FLOOR = 1e-9
+
+#: Clarabel's status names (``str(SolverStatus)``) as :data:`STATUS_NAMES` codes.
+_CLARABEL_STATUS = {
+    "Solved": 1,
+    "AlmostSolved": 2,
+    "PrimalInfeasible": -3,
+    "AlmostPrimalInfeasible": -4,
+    "DualInfeasible": -5,
+    "AlmostDualInfeasible": -6,
+    "MaxIterations": -7,
+    "MaxTime": -8,
+}
+
+# the re-solve must be the accurate one: the same tolerances as the cvxpy reference backend
+_CLARABEL_TOLERANCES = {
+    "tol_gap_abs": 1e-10,
+    "tol_gap_rel": 1e-10,
+    "tol_feas": 1e-10,
+    "tol_ktratio": 1e-8,
+}
 
 
 class _SolveInfo:
@@ -841,6 +1041,11 @@ def _check_int(v: object, name: str, minimum: int) -> int:
     return int(v)
 
 
+#: Default KKT tolerance of :class:`SO3MPC` relative to the smallest torque limit: an OSQP answer
+#: is used only if its certified distance from the QP's minimiser (``_OsqpQP.certificate``) is
+#: below ``KKT_TORQUE_RTOL · min(u_max)`` in every planned torque.
+KKT_TORQUE_RTOL = 1e-3
+
 #: Slack (cosine units) above which a step counts as having relaxed a cone constraint: the
 #: OSQP primal tolerance (1e-3) — smaller slacks are solver round-off, not a relaxation.
 SLACK_TOLERANCE = 1e-3
@@ -939,6 +1144,14 @@ class SO3MPC(AttitudeController):
             (linear and quadratic); > 0.
         cone_tightening_deg: the cones' half-angles are tightened by this much in the QP
             (keep-out ``α + τ``, keep-in ``β − τ``), in [0, 90).
+        kkt_tolerance: certified torque accuracy [N·m] an OSQP answer must meet (module
+            docstring, *Certificate*); default ``KKT_TORQUE_RTOL · min(u_max)``; ``math.inf``
+            takes OSQP's status as it stands. OSQP backend only.
+        resolve: re-solve a step whose OSQP answer fails the certificate with Clarabel
+            (default ``True``; ``False``: the fallback controller takes the step).
+        safety_filter: with cones, pass the torque through the braking-margin filter at
+            ``dt`` and ``u_max`` and warn (``UnrecoverableStartWarning``) at the first command
+            from a start the box cannot stop before a cone (default ``True``).
 
     Batch handling: ``batched = True``; ``command`` loops over the ``B`` spacecraft internally
     (OSQP: one QP instance each, so every spacecraft keeps its own warm start; cvxpy: one
@@ -947,7 +1160,10 @@ class SO3MPC(AttitudeController):
     ``diagnostics()``: ``status`` ``(B,)`` int (codes in :data:`STATUS_NAMES`); ``solve_time``
     ``(B,)`` [s] (solver-reported: OSQP run time incl. polishing, or cvxpy's solver time);
     ``iterations`` ``(B,)``; ``fallback_active`` ``(B,)`` bool; ``fallback_count`` ``(B,)``
-    (cumulative since ``reset``); ``xi`` and ``e_Omega`` ``(B, 3)`` (error state at the sample).
+    (cumulative since ``reset``); ``xi`` and ``e_Omega`` ``(B, 3)`` (error state at the sample);
+    ``osqp_status``, ``resolved``, ``resolve_count``, ``kkt_torque_bound`` [N·m] (OSQP backend:
+    the certificate); with cones ``cone_slack_max``, ``cone_slack_used`` and, with the filter,
+    ``filter_active``, ``braking_margin`` [deg].
     """
 
     batched = True
@@ -972,6 +1188,9 @@ class SO3MPC(AttitudeController):
         keep_in: Sequence[KeepInCone] = (),
         slack_weight: float = 1.0,
         cone_tightening_deg: float = 1.0,
+        kkt_tolerance: float | None = None,
+        resolve: bool = True,
+        safety_filter: bool = True,
     ) -> None:
         J = check_inertia_3x3(J, "J")
         self.J = J.copy()
@@ -1034,9 +1253,7 @@ class SO3MPC(AttitudeController):
         if backend == "cvxpy" and solver_settings and "solver" in solver_settings:
             base = {}  # the Clarabel tolerances below are not other solvers' keywords
         if backend == "osqp" and (keep_out or keep_in):
-            # the cone rows change the KKT matrix every step, and ADMM on the re-linearised
-            # problem needs more iterations than the default cap while a cone is active
-            base["max_iter"] = _OSQP_CONE_MAX_ITER
+            base["max_iter"] = _OSQP_CONE_MAX_ITER  # a stalled solve goes to the re-solve
         self.solver_settings = {**base, **(solver_settings or {})}
         self.accept_inaccurate = bool(accept_inaccurate)
         self.exact_stage0_jacobian = bool(exact_stage0_jacobian)
@@ -1047,6 +1264,20 @@ class SO3MPC(AttitudeController):
         if not 0.0 <= tau < 90.0:
             raise ValueError(f"cone_tightening_deg: must be in [0, 90) degrees, got {tau}")
         self.cone_tightening_deg = tau
+        if kkt_tolerance is None:
+            self.kkt_tolerance = KKT_TORQUE_RTOL * float(self.u_max.min())
+        elif isinstance(kkt_tolerance, (int, float, np.floating)) and kkt_tolerance == np.inf:
+            self.kkt_tolerance = np.inf  # the check switched off: OSQP's status is taken as is
+        else:
+            self.kkt_tolerance = check_positive_scalar(kkt_tolerance, "kkt_tolerance")
+        if not isinstance(resolve, (bool, np.bool_)):
+            raise ValueError(f"resolve: must be True or False, got {resolve!r}")
+        self.resolve = bool(resolve)
+        if not isinstance(safety_filter, (bool, np.bool_)):
+            raise ValueError(f"safety_filter: must be True or False, got {safety_filter!r}")
+        self.safety_filter = bool(safety_filter) and bool(self.keep_out or self.keep_in)
+        self._lam_max = float(np.linalg.eigvalsh(self.J)[-1])
+        self._filter_first = True
         self._cones = _cone_table(self.keep_out, self.keep_in, tau)
         # exact-penalty weights in the cost's own scale: λ_max(P) is the cost of a unit
         # terminal error, so the slack (in cosine units) costs slack_weight times that
@@ -1066,6 +1297,8 @@ class SO3MPC(AttitudeController):
         self._batch: int | None = None
         self._diag: dict[str, np.ndarray] = {}
         self._fallback_count: np.ndarray = np.zeros(0, dtype=np.int64)
+        self._resolve_count: np.ndarray = np.zeros(0, dtype=np.int64)
+        self._resolve_on: list[bool] = []
         self._t_last: list[float] = []
         self._t0 = 0.0
         self._plans: list[np.ndarray | None] = []
@@ -1086,6 +1319,8 @@ class SO3MPC(AttitudeController):
         new._batch = None
         new._diag = {}
         new._fallback_count = np.zeros(0, dtype=np.int64)
+        new._resolve_count = np.zeros(0, dtype=np.int64)
+        new._resolve_on = []
         new._t_last = []
         new._plans = []
         new._slack_on = []
@@ -1107,16 +1342,26 @@ class SO3MPC(AttitudeController):
             fb.reset(self._t0, 1)
             self._fallbacks.append(fb)
         self._fallback_count = np.zeros(batch_size, dtype=np.int64)
+        self._resolve_count = np.zeros(batch_size, dtype=np.int64)
+        self._resolve_on = [False] * batch_size
         self._diag = {}
         self._t_last = [-np.inf] * batch_size
         self._plans = [None] * batch_size
         self._slack_on = [False] * batch_size
         self._slack_max = np.zeros(batch_size)
+        self._filter_first = True
 
     def _new_qp(self, m: int) -> Any:
         cls = _OsqpQP if self.backend == "osqp" else _CvxpyQP
         nc = len(self._cones[0])
         kw = {"nc": nc, "slack_weights": self._slack_weights} if nc else {}
+        if self.backend == "osqp":
+            tol = None if self.kkt_tolerance == np.inf else self.kkt_tolerance
+            kw |= {
+                "torque_tol": tol,
+                "resolve": self.resolve,
+                "accept_inaccurate": self.accept_inaccurate,
+            }
         return cls(self.N, self.Q, self.R, self.P, m, self.solver_settings, self.u_max, **kw)
 
     def _cone_data(
@@ -1241,6 +1486,9 @@ class SO3MPC(AttitudeController):
         iters = np.zeros(B, dtype=np.int64)
         stime = np.zeros(B)
         fb_on = np.zeros(B, dtype=bool)
+        first = np.zeros(B, dtype=np.int64)
+        resolved = np.zeros(B, dtype=bool)
+        bound = np.full(B, np.nan)
         x0s = _error_fast(R, w, R_d, w_d)
         for b in range(B):
             Rd_b = R_d[b] if R_d.ndim == 3 else R_d
@@ -1249,6 +1497,7 @@ class SO3MPC(AttitudeController):
             u_b, status[b], iters[b], stime[b] = self._solve_one(
                 t, b, R[b], w[b], Rd_b, wd_b, dwd_b, state
             )
+            first[b], resolved[b], bound[b] = self._check_report(t, b, status[b])
             if u_b is None:
                 fb_on[b] = True
                 self._fallback_count[b] += 1
@@ -1271,6 +1520,10 @@ class SO3MPC(AttitudeController):
             "iterations": iters,
             "fallback_active": fb_on,
             "fallback_count": self._fallback_count.copy(),
+            "osqp_status": first,
+            "resolved": resolved,
+            "resolve_count": self._resolve_count.copy(),
+            "kkt_torque_bound": bound,
             "xi": x0s[:, :3],
             "e_Omega": x0s[:, 3:],
         }
@@ -1278,6 +1531,18 @@ class SO3MPC(AttitudeController):
             smax = np.where(fb_on, 0.0, self._slack_max)
             self._diag["cone_slack_max"] = smax
             self._diag["cone_slack_used"] = smax > SLACK_TOLERANCE
+        if self.safety_filter:
+            # the QP's cones hold only as linearised rows at the samples over a short horizon;
+            # the braking filter bounds what the held torque can do before the next sample
+            cones = self.keep_out + self.keep_in
+            out, active, h, m, v, a_b = braking_filter(
+                out, R, w, self.J, cones, self.u_max, self.dt, lam_max=self._lam_max
+            )
+            if self._filter_first:
+                self._filter_first = False
+                check_recoverable(h, m, v, a_b, cones, self.u_max, self.dt, 0.7, 0.5, False)
+            self._diag["filter_active"] = active
+            self._diag["braking_margin"] = np.degrees(h.min(axis=-1))
         return out
 
     def _solve_one(self, t, b, R, w, R_d, w_d, dw_d, state):
@@ -1336,6 +1601,40 @@ class SO3MPC(AttitudeController):
             self._record_slack(t, b, qp)
         # the solver's tolerance may overshoot the box by ~eps: the limit is a hard one
         return np.clip(u[0], -self.u_max, self.u_max), status, iters, stime
+
+    def _check_report(self, t: float, b: int, status: int) -> tuple[int, bool, float]:
+        """OSQP's own status, whether Clarabel's re-solve was used and the accepted answer's
+        certified torque bound for spacecraft ``b``. The onset of a run of re-solved steps is
+        a warning (every step would flood the log: on the cone QP OSQP's answer can fail the
+        certificate for hundreds of steps in a row), its end an INFO line; each step is in
+        ``diagnostics()`` and counted in ``resolve_count``. An answer neither solver certifies
+        is the fallback's, which warns on every step."""
+        qp = self._qps[b]
+        if self.backend != "osqp" or qp is None:
+            return status, False, np.nan
+        first, resolved = int(qp.osqp_status), bool(qp.resolved)
+        if resolved:
+            self._resolve_count[b] += 1
+            if not self._resolve_on[b]:
+                _log.warning(
+                    "SO3MPC: OSQP %s (status %d) at t=%.6g for spacecraft %d; re-solved by "
+                    "Clarabel (certified within %.2g N·m), and so on while OSQP's answers fail",
+                    STATUS_NAMES.get(first, "?") if first != 1 else "answer failed the KKT check",
+                    first,
+                    t,
+                    b,
+                    qp.torque_bound,
+                )
+        elif self._resolve_on[b]:
+            _log.info(
+                "SO3MPC: OSQP's answers certified again at t=%.6g for spacecraft %d (%d steps "
+                "re-solved so far)",
+                t,
+                b,
+                self._resolve_count[b],
+            )
+        self._resolve_on[b] = resolved
+        return first, resolved, float(qp.torque_bound)
 
     def _record_slack(self, t: float, b: int, qp: Any) -> None:
         """Keep the plan for the next linearisation; report the slack (log on its onset)."""
