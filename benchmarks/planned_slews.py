@@ -10,7 +10,9 @@ reference (0 for a profile tracked from the start), so this study measures the t
 ``R_d``. Per controller and variant: that time, the peak tracking error ‖log(R_dᵀR)‖ against
 the variant's own reference, the peak gimbal rate and the effort ∫‖u‖ dt.
 
-Run: ``python -m benchmarks.planned_slews [--controllers a,b] [--out table.md]``.
+Run: ``python -m benchmarks.planned_slews [--controllers a,b] [--slews slew-90,slew-150|all]
+[--out table.md]``; the twins in the catalogue: ``slew-90-planned``, ``slew-150-planned``,
+``slew-120-random-axis-planned`` (:func:`benchmarks.scenarios.planned_twin`).
 """
 
 from __future__ import annotations
@@ -136,9 +138,24 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--controllers", default=None, help="comma-separated names (default: all)")
     ap.add_argument("--out", default=None, help="write the Markdown table here")
+    ap.add_argument(
+        "--slews", default="slew-90", help="comma-separated step scenarios with a -planned twin "
+        "(default slew-90; 'all' for every twin in the catalogue)",
+    )  # fmt: skip
     a = ap.parse_args(argv)
     names = None if a.controllers is None else [c for c in a.controllers.split(",") if c]
-    table = format_table(planned_vs_step(names))
+    if a.slews == "all":
+        from .scenarios import SCENARIOS
+
+        steps = [n[: -len("-planned")] for n in SCENARIOS if n.endswith("-planned")]
+    else:
+        steps = [x for x in a.slews.split(",") if x]
+    parts = []
+    for step in steps:
+        parts.append(f"### {step} vs {step}-planned\n\n")
+        parts.append(format_table(planned_vs_step(names, step=step, planned=f"{step}-planned")))
+        parts.append("\n")
+    table = "".join(parts)
     if a.out:
         with open(a.out, "w", encoding="utf-8") as fh:
             fh.write(table)

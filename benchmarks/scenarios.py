@@ -1481,6 +1481,34 @@ def rest_to_rest(
     return Scenario(name=name or f"slew-{angle_deg:g}", initial_rotvec=tuple(rv), **kw)
 
 
+def planned_twin(
+    angle_deg: float,
+    axis: tuple[float, float, float] = SLEW_AXIS,
+    *,
+    step_name: str | None = None,
+) -> Scenario:
+    """The ``-planned`` twin of the rest-to-rest slew :func:`rest_to_rest` (``angle_deg`` about
+    ``axis``, named ``step_name`` or ``slew-<angle>``): the same start and target, with the
+    jerk-limited eigenaxis profile of :data:`PLANNED_SLEW_LIMITS` and its rate and acceleration
+    feed-forward as the reference (:class:`liecontrol.control.slew_profile.EigenaxisSlewProfile`;
+    its slew time is in the description)."""
+    from liecontrol.control.slew_profile import EigenaxisSlewProfile
+    from liecontrol.lie import so3
+
+    a = np.asarray(_tuple3(axis, "axis"))
+    rv = math.radians(as_scalar(angle_deg, "angle_deg")) * a / np.linalg.norm(a)
+    step = step_name or f"slew-{angle_deg:g}"
+    T = EigenaxisSlewProfile(so3.exp(rv), np.eye(3), **PLANNED_SLEW_LIMITS).slew_time
+    return Scenario(
+        name=f"{step}-planned",
+        description=f"the {angle_deg:g}° slew of {step} flown as a planned eigenaxis profile "
+        f"(≤ 0.02 rad/s, 5e-4 rad/s², 1e-4 rad/s³; {T:.1f} s) with rate and acceleration "
+        "feed-forward",
+        reference=ReferenceSpec("eigenaxis-profile", slew_rotvec=tuple(rv), **PLANNED_SLEW_LIMITS),
+        tags=("manoeuvre", "planned"),
+    )
+
+
 SGCMG_SPACECRAFT = SpacecraftSpec()
 #: 3U CubeSat bus inertia [kg·m²]: a uniform 4.0 kg box of 10 × 10 × 34 cm (the 3U mass limit and
 #: envelope of the CubeSat Design Specification, Rev. 14, Cal Poly, 2020),
@@ -1741,20 +1769,11 @@ def _catalogue() -> tuple[Scenario, ...]:
         rest_to_rest(150.0, tags=("manoeuvre", "large-angle")),
         rest_to_rest(179.0, tags=("quick", "manoeuvre", "large-angle")),
         rest_to_rest(120.0, RANDOM_AXIS, name="slew-120-random-axis"),
-        # slew-90 planned: the same start and target, flown as a jerk-limited eigenaxis profile
-        # with its rate/acceleration feed-forward (a 123.5 s slew; PLANNED_SLEW_LIMITS)
-        Scenario(
-            name="slew-90-planned",
-            description="the 90° slew of slew-90 flown as a planned eigenaxis profile "
-            "(≤ 0.02 rad/s, 5e-4 rad/s², 1e-4 rad/s³; 123.5 s) with rate and acceleration "
-            "feed-forward",
-            reference=ReferenceSpec(
-                "eigenaxis-profile",
-                slew_rotvec=tuple(math.radians(90.0) * np.array(SLEW_AXIS)),
-                **PLANNED_SLEW_LIMITS,
-            ),
-            tags=("manoeuvre", "planned"),
-        ),
+        # the planned twins: the same start and target, flown as a jerk-limited eigenaxis
+        # profile with its rate/acceleration feed-forward (PLANNED_SLEW_LIMITS)
+        planned_twin(90.0),
+        planned_twin(150.0),
+        planned_twin(120.0, RANDOM_AXIS, step_name="slew-120-random-axis"),
         rest_to_rest(
             90.0,
             name="unwinding-q",

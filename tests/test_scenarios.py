@@ -260,3 +260,23 @@ def test_file_level_errors(tmp_path):
     assert s.initial_error_deg == pytest.approx(180.0) and math.isclose(
         abs(s.initial_rotvec[2]), math.pi
     )
+
+
+@pytest.mark.parametrize(
+    "step", ["slew-90", "slew-150", "slew-120-random-axis"], ids=lambda s: f"{s}-planned"
+)
+def test_each_planned_twin_flies_its_step_scenarios_start_and_target(step):
+    from benchmarks.runner import build_reference, initial_state
+    from benchmarks.scenarios import get_scenario
+
+    st, pl = get_scenario(step), get_scenario(f"{step}-planned")
+    R_step, w_step = initial_state(st)
+    R_plan, w_plan = initial_state(pl)
+    np.testing.assert_allclose(R_plan, R_step, atol=1e-15)
+    np.testing.assert_array_equal(w_plan, w_step)
+    ref = build_reference(pl)
+    end = ref(pl.duration)
+    np.testing.assert_allclose(end.R_d, build_reference(st)(st.duration).R_d, atol=1e-15)
+    np.testing.assert_allclose(end.omega_d, 0.0, atol=0.0)
+    assert ref.slew_time < 0.5 * pl.duration  # the slew ends well inside the run
+    assert "planned" in pl.tags and pl.plant == st.plant
