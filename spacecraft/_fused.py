@@ -791,8 +791,13 @@ def _reference_samples(
     index = np.zeros(times.shape[0], dtype=np.int64)
     uniq: list[Any] = []
     last = None
+    # a reference that declares itself time-invariant (ConstantAttitude) is sampled once: the
+    # Python calls at every step cost as much as a compiled step of one spacecraft
+    steps = np.flatnonzero(needed).tolist()
+    if getattr(reference, "time_invariant", False) is True:
+        steps = steps[:1]
     try:
-        for k in np.flatnonzero(needed).tolist():
+        for k in steps:
             ref = reference(float(times[k]))
             if ref is not last:
                 uniq.append(ref)

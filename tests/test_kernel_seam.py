@@ -688,3 +688,29 @@ def test_rate_limited_eigenaxis_in_the_fused_loop_equals_the_python_loop(u_max, 
     assert python.controller["rate_saturated"].any()  # the coast is exercised
     np.testing.assert_array_equal(ctrl.diagnostics()["rate_saturated"], fused.controller[
         "rate_saturated"][-1])  # fmt: skip
+
+
+def test_a_time_invariant_reference_is_sampled_once_and_others_at_every_needed_step(monkeypatch):
+    plant = Spacecraft(RigidBody(J), IdealTorqueActuator())
+    state = plant.initial_state(so3.exp(np.array([0.3, -0.2, 0.1])))
+    ctrl = GeometricPD(J, 10.0, 60.0)
+    calls = []
+
+    class Counted:
+        def __init__(self, inner, invariant):
+            self.inner = inner
+            if invariant:
+                self.time_invariant = True
+
+        def __call__(self, t):
+            calls.append(t)
+            return self.inner(t)
+
+    target = ConstantAttitude(np.eye(3))
+    assert target.time_invariant is True
+    once = _fused(monkeypatch, plant, ctrl, Counted(target, True), state, 2.0, 0.1)
+    assert len(calls) == 1
+    calls.clear()
+    every = _fused(monkeypatch, plant, ctrl, Counted(target, False), state, 2.0, 0.1)
+    assert len(calls) == 21
+    _assert_same(once, every)

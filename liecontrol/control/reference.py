@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
@@ -14,8 +15,13 @@ __all__ = ["ConstantAttitude"]
 
 @dataclass(frozen=True)
 class ConstantAttitude:
-    """Regulation to a fixed attitude ``R_d`` (``(3, 3)`` or ``(B, 3, 3)``)."""
+    """Regulation to a fixed attitude ``R_d`` (``(3, 3)`` or ``(B, 3, 3)``).
 
+    ``time_invariant = True`` tells the simulator that every call returns the same reference, so
+    its compiled loop samples it once instead of at every step (any reference callable may
+    declare it; one that does must not depend on ``t``)."""
+
+    time_invariant: ClassVar[bool] = True
     R_d: np.ndarray
     _ref: AttitudeReference = field(init=False, repr=False, compare=False)
 
