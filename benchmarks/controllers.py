@@ -56,7 +56,15 @@ from liecontrol.control.tuning import (
     check_actuator,
 )
 
-from .scenarios import MODE_PLANTS, DetumbleSpec, OrbitSpec, ProximitySpec, Scenario, SpacecraftSpec
+from .scenarios import (
+    MODE_PLANTS,
+    DetumbleSpec,
+    OrbitSpec,
+    ProximitySpec,
+    Scenario,
+    SpacecraftSpec,
+    SunAcquisitionSpec,
+)
 
 __all__ = [
     "ATTITUDE_PLANTS",
@@ -124,6 +132,8 @@ class ControllerContext:
         keep_in: the scenario's keep-in pointing cones.
         detumble: the detumble scenario's rods and sensors (:class:`DetumbleSpec`), or ``None``.
         orbit: the scenario's orbit (:class:`OrbitSpec`), or ``None``.
+        sun_acquisition: the Sun-acquisition scenario's sensors and law settings
+            (:class:`SunAcquisitionSpec`), or ``None``.
     """
 
     spacecraft: SpacecraftSpec
@@ -138,6 +148,7 @@ class ControllerContext:
     keep_in: tuple[KeepInCone, ...] = ()
     detumble: DetumbleSpec | None = None
     orbit: OrbitSpec | None = None
+    sun_acquisition: SunAcquisitionSpec | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.spacecraft, SpacecraftSpec):
@@ -169,7 +180,11 @@ class ControllerContext:
             if not all(isinstance(c, cls) for c in v):
                 raise ValueError(f"{name}: every item must be a {cls.__name__}, got {v!r}")
             object.__setattr__(self, name, tuple(v))
-        for name, cls in (("detumble", DetumbleSpec), ("orbit", OrbitSpec)):
+        for name, cls in (
+            ("detumble", DetumbleSpec),
+            ("orbit", OrbitSpec),
+            ("sun_acquisition", SunAcquisitionSpec),
+        ):
             v = getattr(self, name)
             if v is not None and not isinstance(v, cls):
                 raise ValueError(f"{name}: expected a {cls.__name__} or None, got {v!r}")
@@ -193,6 +208,7 @@ class ControllerContext:
             keep_in=scenario.keep_in,
             detumble=scenario.detumble,
             orbit=scenario.orbit,
+            sun_acquisition=scenario.sun_acquisition,
             **kw,
         )
 
@@ -279,6 +295,7 @@ class ControllerInfo:
             keep_in=scenario.keep_in,
             detumble=scenario.detumble,
             orbit=scenario.orbit,
+            sun_acquisition=scenario.sun_acquisition,
         )
         try:
             self.factory(ctx)
@@ -837,6 +854,29 @@ def _detumble_law(law: str) -> ControllerFactory:
     return make
 
 
+def _sun_acquisition_law(ctx: ControllerContext) -> Any:
+    """Rate damping + Sun pointing ``τ = k_p (b × ŝ) − k_d ω`` for a Sun-acquisition scenario
+    (:class:`liecontrol.control.sun_acquisition.SunAcquisitionLaw`), tuned by the common
+    protocol: :func:`~liecontrol.control.sun_acquisition.sun_acquisition_gains` with the rule's
+    ω_n and ζ on the nominal inertia, so the small-angle loop about the largest principal axis
+    (the slowest) has exactly the closed-loop spec every attitude controller is tuned to; the
+    spec's body axis and eclipse mode, the spacecraft's torque box."""
+    from liecontrol.control.sun_acquisition import SunAcquisitionLaw, sun_acquisition_gains
+
+    sa = ctx.sun_acquisition
+    if sa is None:
+        raise ValueError(
+            "sun_acquisition: the Sun-acquisition law needs a Sun-acquisition scenario's "
+            "SunAcquisitionSpec (ControllerContext.sun_acquisition)"
+        )
+    return SunAcquisitionLaw(
+        **sun_acquisition_gains(ctx.J, ctx.rule.omega_n, ctx.rule.zeta),
+        body_axis=sa.body_axis,
+        max_torque=ctx.spacecraft.max_torque,
+        eclipse=sa.eclipse,
+    )
+
+
 def _register_builtins() -> None:
     for err in ("trace", "log", "large_angle"):
         register(
@@ -935,6 +975,16 @@ def _register_builtins() -> None:
         "Crassidis 2014, §7.5)",
         plants={"magnetorquer"},
         family="detumble",
+        quick=False,
+    )
+    # safe mode: the sun-safe plant of the Sun-acquisition scenario only (full suite)
+    register(
+        "sun-acquisition",
+        _sun_acquisition_law,
+        description="rate damping + Sun pointing τ = k_p (b × ŝ) − k_d ω on coarse Sun sensors "
+        "and a gyro (Chaturvedi, Sanyal & McClamroch 2011, reduced attitude)",
+        plants={"sun-safe"},
+        family="safe-mode",
         quick=False,
     )
 

@@ -46,6 +46,13 @@ tumble instead — a uniformly random axis and a rate uniform in the spec's ``ra
 with the inertia keys as above and its own magnetometer/gyro noise seed (``sensor_seeds``);
 :func:`detumble_dispersion_note` says so for the report.
 
+Sun-acquisition scenarios (``scenario.sun_acquisition``) start from a tumble at an arbitrary
+attitude, so member ``k ≥ 1`` draws a new start rather than a spread about the nominal one: a
+uniformly random (Haar) attitude and a tumble about a uniformly random axis at a rate uniform
+in the spec's ``rate_range_deg_s`` — the starts of :mod:`benchmarks.safe_mode` — with the
+inertia keys as above and its own Sun-sensor/gyro noise seed (``sensor_seeds``); the attitude
+keys and ``rate_deg_s`` do not apply (:func:`sun_acquisition_dispersion_note`).
+
 A draw that makes the plant unphysical (a non-positive moment or one that breaks the triangle
 inequality, a skew angle outside (0°, 90°), a non-positive h₀) raises ``ValueError`` naming the
 key and the member: such a spread is too wide for the hardware it describes.
@@ -74,6 +81,7 @@ __all__ = [
     "member_scenario",
     "member_scenarios",
     "detumble_dispersion_note",
+    "sun_acquisition_dispersion_note",
 ]
 
 #: The float keys of :class:`DispersionSpec` (one-sigma spreads, ≥ 0), in table order.
@@ -272,7 +280,19 @@ def member_scenario(scenario: Any, member: int, dispersion: DispersionSpec | Non
     kw: dict[str, Any] = {"member": k, "requirements": requirements_of(scenario)}
     px = scenario.proximity
     det = getattr(scenario, "detumble", None)
-    if det is not None:
+    sa = getattr(scenario, "sun_acquisition", None)
+    if sa is not None:
+        q = rng.standard_normal(4)
+        # a normalised Gaussian 4-vector is a Haar-uniform unit quaternion
+        kw["initial_rotvec"] = tuple(Rotation.from_quat(q / np.linalg.norm(q)).as_rotvec())
+        lo, hi = sa.rate_range_deg_s
+        kw["initial_rate"] = tuple(_unit(rng) * math.radians(rng.uniform(lo, hi)))
+        if d.inertia_moments > 0 or d.inertia_axes_deg > 0:
+            kw["member_inertia"] = _true_inertia(np.asarray(scenario.true_inertia), d, k, rng)
+        if d.sensor_seeds:
+            seed = int(rng.integers(0, 2**31 - 1))
+            kw["sun_acquisition"] = dataclasses.replace(sa, seed=seed)
+    elif det is not None:
         lo, hi = det.rate_range_deg_s
         axis = _unit(rng)
         kw["initial_rate"] = tuple(axis * math.radians(rng.uniform(lo, hi)))
@@ -313,13 +333,23 @@ def member_scenario(scenario: Any, member: int, dispersion: DispersionSpec | Non
     return dataclasses.replace(scenario, **kw)
 
 
+def _note_args(scenario: Any, dispersion: Any) -> DispersionSpec:
+    """The spread a dispersion note describes (``dispersion``, else the scenario's, else
+    none), after checking the arguments."""
+    if not dataclasses.is_dataclass(scenario) or not hasattr(scenario, "batch_key"):
+        raise TypeError(f"scenario: expected a Scenario, got {type(scenario).__name__}")
+    if dispersion is not None and not isinstance(dispersion, DispersionSpec):
+        raise TypeError(f"dispersion: expected a DispersionSpec, got {type(dispersion).__name__}")
+    return dispersion or getattr(scenario, "dispersion", None) or DispersionSpec()
+
+
 def detumble_dispersion_note(scenario: Any, dispersion: DispersionSpec | None = None) -> str:
     """What the members of a detumble scenario draw (``""`` for any other scenario): the text
     the report shows instead of the attitude keys, which do not apply there."""
+    d = _note_args(scenario, dispersion)
     det = getattr(scenario, "detumble", None)
     if det is None:
         return ""
-    d = dispersion or getattr(scenario, "dispersion", None) or DispersionSpec()
     lo, hi = det.rate_range_deg_s
     parts = [f"tumble: uniform random axis, rate uniform in [{lo:g}, {hi:g}] deg/s"]
     kept = ("inertia_moments", "inertia_axes_deg")
@@ -331,6 +361,32 @@ def detumble_dispersion_note(scenario: Any, dispersion: DispersionSpec | None = 
     if skipped:
         note += (f" ({', '.join(skipped)} do not apply: a detumble starts at the identity "
                  "attitude from its drawn tumble)")  # fmt: skip
+    return note
+
+
+def sun_acquisition_dispersion_note(
+    scenario: Any, dispersion: DispersionSpec | None = None
+) -> str:
+    """What the members of a Sun-acquisition scenario draw (``""`` for any other scenario):
+    the text the report shows instead of the attitude keys, which do not apply there."""
+    d = _note_args(scenario, dispersion)
+    sa = getattr(scenario, "sun_acquisition", None)
+    if sa is None:
+        return ""
+    lo, hi = sa.rate_range_deg_s
+    parts = [
+        f"new start: uniformly random attitude, tumble about a uniform random axis at a rate "
+        f"uniform in [{lo:g}, {hi:g}] deg/s"
+    ]
+    kept = ("inertia_moments", "inertia_axes_deg")
+    parts += [f"{key} {getattr(d, key):g}" for key in kept if getattr(d, key) > 0]
+    if d.sensor_seeds:
+        parts.append("own Sun-sensor/gyro noise seed")
+    skipped = [key for key in DISPERSION_KEYS if getattr(d, key) > 0 and key not in kept]
+    note = ", ".join(parts)
+    if skipped:
+        note += (f" ({', '.join(skipped)} do not apply: a safe-mode start is drawn whole, not "
+                 "spread about the nominal one)")  # fmt: skip
     return note
 
 

@@ -346,6 +346,16 @@ RUN_UNITS: dict[str, str] = {
     "kinetic_energy_removed_J": "J",
     "peak_dipole_frac": "-",
     "averaged_detumble_time_s": "s",
+    "time_to_acquire_s": "s",
+    "sun_angle_error_deg": "deg",
+    "sun_angle_rms_deg": "deg",
+    "peak_rate_eclipse_deg_s": "deg/s",
+    "sun_angle_exit_deg": "deg",
+    "reacquire_s": "s",
+    "initial_sun_angle_deg": "deg",
+    "final_sun_angle_deg": "deg",
+    "eclipse_entry_s": "s",
+    "eclipse_exit_s": "s",
 }
 
 #: One-line meaning of each field (for reports).
@@ -435,6 +445,22 @@ DESCRIPTIONS: dict[str, str] = {
     "averaged_detumble_time_s": "detumble: the time the gain implies — the averaged "
     "unsaturated dynamics J ω̇ = −(2/3) d k ω from the same tumble to the threshold "
     "(spacecraft.detumble.averaged_detumble_time; a reference, not a measurement)",
+    "time_to_acquire_s": "Sun acquisition: first logged time after which the true Sun angle "
+    "(body axis to Sun) stays within the spec's threshold until the eclipse entry (NaN: not "
+    "acquired)",
+    "sun_angle_error_deg": "Sun acquisition: max Sun angle over the spec's window (last "
+    "window_s of sunlight before the eclipse entry)",
+    "sun_angle_rms_deg": "Sun acquisition: RMS Sun angle over the same window",
+    "peak_rate_eclipse_deg_s": "Sun acquisition: max ‖ω‖ in the eclipse (NaN: no eclipse in "
+    "the run)",
+    "sun_angle_exit_deg": "Sun acquisition: Sun angle at the eclipse exit (the drift in the "
+    "shadow; NaN: the run ends before the exit)",
+    "reacquire_s": "Sun acquisition: time after the eclipse exit until the Sun angle stays "
+    "within the threshold to the end (NaN: not re-acquired, or no exit in the run)",
+    "initial_sun_angle_deg": "Sun acquisition: Sun angle at the start",
+    "final_sun_angle_deg": "Sun acquisition: Sun angle at the last sample",
+    "eclipse_entry_s": "Sun acquisition: the orbit's eclipse entry (1 s grid)",
+    "eclipse_exit_s": "Sun acquisition: the orbit's eclipse exit (1 s grid)",
 }
 
 
@@ -760,6 +786,8 @@ FLAGS: tuple[str, ...] = (
     "dumping-insufficient",
     "fault-injected",
     "rate-not-damped",
+    "sun-not-acquired",
+    "sun-not-reacquired",
     "exception",
 )
 #: Singularity measure below which a run is flagged ``near-singular``. m = √det(ÂÂᵀ) of the
@@ -814,6 +842,23 @@ def _judge_detumble(metrics: dict[str, Any]) -> tuple[str, tuple[str, ...]]:
     return "success", ()
 
 
+def _judge_sun_acquisition(metrics: dict[str, Any]) -> tuple[str, tuple[str, ...]]:
+    """A Sun-acquisition run: ``failed`` (``diverged``) on a non-finite Sun angle or rate,
+    ``failed`` (``sun-not-acquired``) when the Sun angle did not stay within the threshold
+    before the eclipse (or the end), ``failed`` (``sun-not-reacquired``) when the run leaves
+    the eclipse and does not get back within it, else ``success``. The torque box is not
+    flagged: safe mode starts saturated by design."""
+    core = [_num(metrics, k) for k in ("final_sun_angle_deg", "final_rate_deg_s")]
+    if not all(math.isfinite(v) for v in core):
+        return "failed", ("diverged",)
+    if not math.isfinite(_num(metrics, "time_to_acquire_s")):
+        return "failed", ("sun-not-acquired",)
+    exited = math.isfinite(_num(metrics, "sun_angle_exit_deg"))
+    if exited and not math.isfinite(_num(metrics, "reacquire_s")):
+        return "failed", ("sun-not-reacquired",)
+    return "success", ()
+
+
 def judge(
     scenario: Any,
     metrics: dict[str, Any],
@@ -853,6 +898,9 @@ def judge(
     the scenario injects actuator faults (``scenario.faults``)      fault-injected          (none)
     detumble (plant ``magnetorquer``): ‖ω‖ not below the threshold  rate-not-damped         failed
     for good within the run (only the detumble rules apply there)
+    Sun acquisition (plant ``sun-safe``): the Sun not within the  sun-not-acquired /      failed
+    threshold for good before the eclipse, or not again after it  sun-not-reacquired
+    (only these rules apply there)
     none of the above                                              —                       success
     ============================================================  ======================  =========
 
@@ -880,6 +928,8 @@ def judge(
         raise TypeError(f"metrics: expected a dict of metric values, got {type(metrics).__name__}")
     if getattr(scenario, "plant", None) == "magnetorquer":
         return _judge_detumble(metrics)
+    if getattr(scenario, "plant", None) == "sun-safe":
+        return _judge_sun_acquisition(metrics)
     tol = float(scenario.attitude_tolerance_deg)
     flags: list[str] = []
     failed = False

@@ -1,14 +1,18 @@
 """The JAX route against the fused numba loop: ``python -m benchmarks.perf_jax``.
 
-Rigid body (``J = diag(10, 20, 30)`` kg·m²) + ideal torque actuator + large-angle geometric PD
-(ω_n = 0.3 rad/s, ζ = 0.9), regulation from Haar-random attitudes, dt = control period = 0.1 s,
-``--t-final`` s (default 60), one log row per control sample on both routes:
+Rigid body (``J = diag(10, 20, 30)`` kg·m²) + large-angle geometric PD (ω_n = 0.3 rad/s,
+ζ = 0.9), regulation from Haar-random attitudes, dt = control period = 0.1 s, ``--t-final`` s
+(default 60), one log row per control sample on both routes, for each ``--config``:
+``ideal`` (ideal torque actuator) and ``sgcmg`` (four-SGCMG pyramid, h₀ = 300 N·m·s, with
+singularity-robust steering and the 1 rad/s gimbal-rate limit, steered at every step):
 
 - ``spacecraft.simulate`` (the fused numba loop) and
-  :meth:`spacecraft.differentiable.JaxClosedLoop.run` (``jit(vmap(lax.scan))``) for batches of
-  ``--batch`` spacecraft (default 1 and 1000): spacecraft-steps per wall-second, best of
-  ``--repeat`` runs after a warm-up (the machine may be shared: the best run is the least
-  disturbed); the JAX route's first call minus its best run is its compile time;
+  :meth:`spacecraft.differentiable.JaxClosedLoop.run` (``jit(vmap(lax.scan))``, the batch
+  padded to its bucket as a user's run is) for batches of ``--batch`` spacecraft (default 1,
+  1000 and 10 000): spacecraft-steps per wall-second, best of ``--repeat`` runs after a warm-up
+  (the machine may be shared: the best run is the least disturbed); the JAX route's first call
+  minus its best run is its compile time (a hit in the persistent compilation cache, see
+  ``docs/jax.md``, makes it small: set ``LIECONTROL_JAX_CACHE=off`` to time a cold compile);
 - the gradient of the cost ∫θ² dt + 0.01 ∫‖u‖² dt with respect to (k_R, k_Ω) over
   ``--grad-batch`` starts (default 64): the time of ``value_and_grad`` in units of one compiled
   forward evaluation of the same cost.
@@ -16,7 +20,9 @@ Rigid body (``J = diag(10, 20, 30)`` kg·m²) + ideal torque actuator + large-an
 Both routes run on one thread (``NUMBA_NUM_THREADS=1``, XLA's CPU client single-threaded)
 unless the environment sets otherwise, so the figures are per core. The JAX route needs
 ``pip install liecontrol[jax]``; on a machine with a GPU, JAX runs there unchanged (set
-``JAX_PLATFORMS=cpu`` to compare on the CPU).
+``JAX_PLATFORMS=cpu`` to compare on the CPU); the first line printed names the device JAX ran
+on. Imports only numpy, scipy, numba, jax and this repository (run from the repository root
+with ``PYTHONPATH=.``, no install needed).
 """
 
 from __future__ import annotations
@@ -41,16 +47,19 @@ from liecontrol.control import GeometricPD, gains_from_bandwidth  # noqa: E402
 from liecontrol.control.reference import ConstantAttitude  # noqa: E402
 from liecontrol.lie import so3  # noqa: E402
 from spacecraft import RigidBody, Spacecraft, simulate  # noqa: E402
-from spacecraft.actuators import IdealTorqueActuator  # noqa: E402
+from spacecraft.actuators import IdealTorqueActuator, SgcmgActuator  # noqa: E402
 from spacecraft.differentiable import closed_loop, require_jax  # noqa: E402
+from spacecraft.steering import SingularityRobust  # noqa: E402
 
 J = np.diag([10.0, 20.0, 30.0])
 DT = 0.1
+CONFIGS = ("ideal", "sgcmg")
 
 
-def _setup(t_final: float):
+def _setup(t_final: float, config: str = "ideal"):
     kR, kW = gains_from_bandwidth(J, 0.3, 0.9)
-    plant = Spacecraft(RigidBody(J), IdealTorqueActuator())
+    act = IdealTorqueActuator() if config == "ideal" else SgcmgActuator(None, SingularityRobust())
+    plant = Spacecraft(RigidBody(J), act)
     ctrl = GeometricPD(J, kR, kW)
     ref = ConstantAttitude(np.eye(3))
     return plant, ctrl, ref, closed_loop(plant, ctrl, ref, t_final, DT)
@@ -65,9 +74,9 @@ def _best(fn, repeat: int) -> float:
     return best
 
 
-def measure(batch: int, t_final: float, repeat: int) -> dict[str, float]:
+def measure(batch: int, t_final: float, repeat: int, config: str = "ideal") -> dict[str, float]:
     """Seconds per run of each route for ``batch`` spacecraft, and the JAX compile time."""
-    plant, ctrl, ref, loop = _setup(t_final)
+    plant, ctrl, ref, loop = _setup(t_final, config)
     rng = np.random.default_rng(batch)
     R0 = so3.random(rng, batch)
     state = plant.initial_state(R0)
@@ -103,21 +112,26 @@ def gradient_cost(batch: int, t_final: float, repeat: int) -> dict[str, float]:
 
 def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--batch", type=int, nargs="+", default=[1, 1000])
+    p.add_argument("--batch", type=int, nargs="+", default=[1, 1000, 10_000])
+    p.add_argument("--config", choices=CONFIGS, nargs="+", default=list(CONFIGS))
     p.add_argument("--t-final", type=float, default=60.0)
     p.add_argument("--grad-batch", type=int, default=64)
     p.add_argument("--repeat", type=int, default=3)
     a = p.parse_args(argv)
     jax = require_jax()
     steps = round(a.t_final / DT)
-    print(f"jax {jax.__version__} on {jax.devices()[0].platform}; {thread_settings()} "
-          f"NUMBA_NUM_THREADS={os.environ['NUMBA_NUM_THREADS']}")  # fmt: skip
+    dev = jax.devices()[0]
+    print(f"jax {jax.__version__} ran on {jax.default_backend()}: {dev} ({dev.device_kind}); "
+          f"{thread_settings()} NUMBA_NUM_THREADS={os.environ['NUMBA_NUM_THREADS']}")  # fmt: skip
     print(f"{steps} steps of {DT} s; spacecraft-steps per second (best of {a.repeat})")
-    print(f"{'B':>6} {'fused numba':>12} {'JAX':>12} {'JAX/fused time':>15} {'compile s':>10}")
-    for B in a.batch:
-        r = measure(B, a.t_final, a.repeat)
-        print(f"{B:>6} {B * steps / r['fused']:>12.3g} {B * steps / r['jax']:>12.3g} "
-              f"{r['jax'] / r['fused']:>15.2f} {r['compile']:>10.2f}")  # fmt: skip
+    print(f"{'config':>6} {'B':>6} {'fused numba':>12} {'JAX':>12} {'JAX/fused time':>15} "
+          f"{'compile s':>10}")  # fmt: skip
+    for config in a.config:
+        for B in a.batch:
+            r = measure(B, a.t_final, a.repeat, config)
+            print(f"{config:>6} {B:>6} {B * steps / r['fused']:>12.3g} "
+                  f"{B * steps / r['jax']:>12.3g} {r['jax'] / r['fused']:>15.2f} "
+                  f"{r['compile']:>10.2f}", flush=True)  # fmt: skip
     g = gradient_cost(a.grad_batch, a.t_final, a.repeat)
     ratio = g["grad"] / g["forward"]
     print(f"gradient over {a.grad_batch} starts: forward {g['forward'] * 1e3:.1f} ms, value and "

@@ -6,7 +6,12 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from .dispersion import DEFAULT_DISPERSION, DISPERSION_KEYS, detumble_dispersion_note
+from .dispersion import (
+    DEFAULT_DISPERSION,
+    DISPERSION_KEYS,
+    detumble_dispersion_note,
+    sun_acquisition_dispersion_note,
+)
 from .ranking import find_aliases, rank_cells
 from .requirements import requirements_of
 
@@ -124,7 +129,7 @@ def not_equivalent_controllers(result: Any) -> set[str]:
 
 def _dispersion_text(s: Any) -> str:
     d = s.dispersion or DEFAULT_DISPERSION
-    note = detumble_dispersion_note(s, d)
+    note = detumble_dispersion_note(s, d) or sun_acquisition_dispersion_note(s, d)
     if note:
         return note
     parts = [f"{k} {getattr(d, k):g}" for k in DISPERSION_KEYS if getattr(d, k) > 0]
@@ -145,7 +150,8 @@ def dispersion_section(result: Any) -> list[str]:
         f"Every cell was flown as {n} member{'s' if n != 1 else ''}: member 0 is the nominal "
         "scenario (the runs of every other table), members 1 … N−1 are seeded draws of its "
         "dispersion (`benchmarks.dispersion`: initial attitude and rate, true inertia, SE(3) "
-        "relative position, a detumble's separation tumble; CMG hardware and disturbance "
+        "relative position, a detumble's separation tumble, a safe-mode start; CMG hardware "
+        "and disturbance "
         "amplitude where a scenario states them). A member passes when it meets every "
         "requirement of the scenario (ECSS-E-ST-60-10C pointing errors: APE over the final 10 % "
         "of the run, RPE over a window; settling time, overshoot, momentum use, cone "

@@ -29,6 +29,7 @@ import platform
 import time
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -52,6 +53,7 @@ __all__ = [
     "TABLE_METRICS",
     "POSE_METRICS",
     "DETUMBLE_METRICS",
+    "SUN_ACQUISITION_METRICS",
     "ATTITUDE_OR_POSE",
     "METRIC_PLANTS",
     "NOT_APPLICABLE",
@@ -112,6 +114,18 @@ DETUMBLE_METRICS: tuple[tuple[str, str], ...] = (
     ("electrical_energy_J", "Detumble: rod electrical energy [J]"),
     ("peak_dipole_frac", "Detumble: peak rod dipole / limit [-]"),
 )
+#: Extra tables when a suite has Sun-acquisition runs (plant ``sun-safe``).
+SUN_ACQUISITION_METRICS: tuple[tuple[str, str], ...] = (
+    ("time_to_acquire_s", "Sun acquisition: time until the Sun angle stays within the "
+     "threshold [s]"),
+    ("sun_angle_rms_deg", "Sun acquisition: RMS Sun angle over the window before the eclipse "
+     "[deg]"),
+    ("sun_angle_error_deg", "Sun acquisition: max Sun angle over the window before the eclipse "
+     "[deg]"),
+    ("peak_rate_eclipse_deg_s", "Sun acquisition: peak rate ‖ω‖ in the eclipse [deg/s]"),
+    ("sun_angle_exit_deg", "Sun acquisition: Sun angle at the eclipse exit [deg]"),
+    ("reacquire_s", "Sun acquisition: time to re-acquire after the eclipse exit [s]"),
+)  # fmt: skip
 #: Plant tags of the attitude and SE(3) scenarios: the plants of a metric that
 #: :data:`METRIC_PLANTS` does not list (the attitude-error metrics).
 ATTITUDE_OR_POSE = frozenset({"sgcmg", "wheels", "ideal", "se3"})
@@ -134,6 +148,10 @@ METRIC_PLANTS: dict[str, frozenset[str]] = {
     "peak_force_N": frozenset({"se3"}),
     "force_effort_Ns": frozenset({"se3"}),
     **{key: frozenset({"magnetorquer"}) for key, _ in DETUMBLE_METRICS},
+    **{key: frozenset({"sun-safe"}) for key, _ in SUN_ACQUISITION_METRICS},
+    # the safe-mode plant is an ideal torque box: its torque tables are measured too
+    "effort_Nms": ATTITUDE_OR_POSE | {"sun-safe"},
+    "peak_torque_Nm": ATTITUDE_OR_POSE | {"sun-safe"},
 }
 #: Cell text of a pair whose controller does not apply to the scenario.
 NOT_APPLICABLE = "does not apply"
@@ -244,6 +262,14 @@ def _cell(o: RunOutcome, key: str) -> str:
         return f"not settled ({_fmt(o.metrics.get('final_position_error_m'))} m at end)"
     if key == "time_to_detumble_s" and unset:
         return f"not reached ({_fmt(o.metrics.get('final_rate_deg_s'))}°/s at end)"
+    if key == "time_to_acquire_s" and unset:
+        return f"not acquired ({_fmt(o.metrics.get('final_sun_angle_deg'))}° at end)"
+    if key == "reacquire_s" and unset:
+        exit_ = o.metrics.get("sun_angle_exit_deg")
+        exited = isinstance(exit_, (int, float)) and math.isfinite(exit_)
+        return "not re-acquired" if exited else "— (run ends before the eclipse exit)"
+    if key in ("peak_rate_eclipse_deg_s", "sun_angle_exit_deg") and unset:
+        return "— (run ends before the eclipse " + ("exit)" if "exit" in key else "entry)")
     if key == "command_reversals" and isinstance(v, (int, float)) and math.isfinite(v):
         return str(int(round(v)))
     s = _fmt(v)
@@ -264,6 +290,16 @@ def _summary_cell(o: RunOutcome) -> str:
     if o.status != "ok":
         return f"{_verdict_text(o)}: the run raised " + _esc(o.error or "", 90)
     m = o.metrics
+    if "time_to_acquire_s" in m:
+        ta = float(m["time_to_acquire_s"])
+        if math.isfinite(ta):
+            txt = f"t_acquire = {_fmt(ta)} s, RMS {_fmt(m.get('sun_angle_rms_deg'))}°"
+            tr = m.get("reacquire_s")
+            if isinstance(tr, (int, float)) and math.isfinite(tr):
+                txt += f", re-acquired {_fmt(tr)} s after the eclipse"
+        else:
+            txt = f"Sun {_fmt(m.get('final_sun_angle_deg'))}° off at end (not acquired)"
+        return f"{_verdict_text(o)}; {txt}"
     if "time_to_detumble_s" in m:
         td = float(m["time_to_detumble_s"])
         if math.isfinite(td):
@@ -317,7 +353,7 @@ def _table(
 
 
 def _check_run(scenario: Any, metrics: Any) -> None:
-    if getattr(scenario, "plant", None) not in ATTITUDE_OR_POSE | {"magnetorquer"}:
+    if getattr(scenario, "plant", None) not in ATTITUDE_OR_POSE | {"magnetorquer", "sun-safe"}:
         raise TypeError(f"scenario: expected a Scenario, got {type(scenario).__name__}")
     if not isinstance(metrics, Mapping):
         raise TypeError(f"metrics: expected a mapping of metrics, got {type(metrics).__name__}")
@@ -330,6 +366,9 @@ def performance(scenario: Any, metrics: Mapping[str, Any]) -> tuple[float, str]:
     settle); detumble — the time to detumble [s]. Returns ``(value, label)``; a run that does
     not settle gives NaN."""
     _check_run(scenario, metrics)
+    if scenario.plant == "sun-safe":
+        v = metrics.get("time_to_acquire_s")
+        return (float("nan") if v is None else float(v)), "time to acquire the Sun [s]"
     if scenario.plant == "magnetorquer":
         v = metrics.get("time_to_detumble_s")
         return (float("nan") if v is None else float(v)), "time to detumble [s]"
@@ -352,6 +391,7 @@ def peak_actuator_use(scenario: Any, metrics: Mapping[str, Any]) -> tuple[float,
         "ideal": ("peak_torque_Nm", "peak torque ‖u‖ [N·m]"),
         "se3": ("peak_force_N", "peak force ‖F‖ [N]"),
         "magnetorquer": ("peak_dipole_frac", "peak rod dipole / limit [-]"),
+        "sun-safe": ("peak_torque_Nm", "peak torque ‖u‖ [N·m]"),
     }[scenario.plant]
     v = metrics.get(key)
     return (float("nan") if v is None else float(v)), label
@@ -674,6 +714,8 @@ def write_pareto_figure(result: SuiteResult, scenario: Any, path: Path) -> Path 
 
 
 def _tolerance_text(s: Any) -> str:
+    if s.plant == "sun-safe":
+        return f"Sun angle ≤ {s.sun_acquisition.threshold_deg:g}°"
     if s.plant == "magnetorquer":
         return f"‖ω‖ < {s.detumble.threshold_deg_s:g}°/s"
     if s.plant == "se3":
@@ -682,6 +724,17 @@ def _tolerance_text(s: Any) -> str:
 
 
 def _plant_text(s: Any) -> str:
+    if s.plant == "sun-safe":
+        sa, o = s.sun_acquisition, s.orbit
+        box = s.spacecraft.max_torque
+        return (
+            f"safe mode: {len(sa.normals)} coarse Sun sensors ({sa.fov_half_angle_deg:g}° "
+            f"half-FOV, {sa.sensor_noise:g} noise, albedo-free) + gyro ({sa.gyro_noise:g} rad/s "
+            f"noise, {sa.gyro_bias:g} rad/s bias 1σ), no star tracker; ideal torque "
+            f"{'unlimited' if box is None else f'≤ {box:g} N·m per axis'}"
+            f"{', gravity gradient' if sa.gravity_gradient else ''}; {o.altitude_km:g} km, "
+            f"{o.inclination_deg:g}° orbit; eclipse: {sa.eclipse}"
+        )
     if s.plant == "magnetorquer":
         d, o = s.detumble, s.orbit
         return (
@@ -716,7 +769,19 @@ def _plant_text(s: Any) -> str:
 
 def _initial_text(s: Any) -> str:
     """The scenario table's initial error [deg]; a detumble starts at the identity attitude,
-    so its cell gives the tumble rate instead (saying so)."""
+    so its cell gives the tumble rate instead (saying so); a Sun acquisition gives the initial
+    Sun angle and the tumble."""
+    if s.plant == "sun-safe":
+        from .safe_mode import _sun_angles
+
+        sa = s.sun_acquisition
+        css = sa.sun_sensors(s.orbit.circular_orbit())
+        start = SimpleNamespace(t=np.zeros(1), R=s.error0[None, None], omega=s.omega0[None, None])
+        ang = float(_sun_angles(start, css, np.asarray(sa.body_axis))[1][0, 0])
+        return (
+            f"— (Sun {ang:.0f}° off, tumble ‖ω₀‖ "
+            f"{math.degrees(math.hypot(*s.initial_rate)):.1f}°/s)"
+        )
     if s.plant == "magnetorquer":
         return f"— (tumble ‖ω₀‖ {math.degrees(math.hypot(*s.initial_rate)):.1f}°/s)"
     return f"{s.initial_error_deg:.1f}"
@@ -727,6 +792,8 @@ def _disturbance_text(s: Any) -> str:
     ‖τ_d‖ over the run at the initial attitude and rate (attitude-dependent torques change as
     the spacecraft turns), computed from the same models the runs use."""
     ds = tuple(getattr(s, "disturbances", ()) or ())
+    if s.plant == "sun-safe":
+        return "gravity gradient" if s.sun_acquisition.gravity_gradient else "none"
     if s.plant == "se3" or not ds:
         return "none"
     names = " + ".join(
@@ -775,7 +842,10 @@ VERDICT_RULES = (
     "**not-applicable** — the controller is not defined for that plant. Detumble scenarios "
     "(plant `magnetorquer`) have their own rule: **success** when ‖ω‖ stays below the "
     "threshold before the run ends, **failed** (`rate-not-damped`) when it does not, or "
-    "`diverged` on a non-finite state."
+    "`diverged` on a non-finite state. Sun-acquisition scenarios (plant `sun-safe`) too: "
+    "**success** when the Sun angle stays within the threshold from some time before the "
+    "eclipse and again after its exit, **failed** (`sun-not-acquired`, "
+    "`sun-not-reacquired`) when it does not, or `diverged`."
 )
 
 
@@ -973,6 +1043,8 @@ def _write_report(
         tables += list(POSE_METRICS)
     if any(s.plant == "magnetorquer" for s in result.scenarios):
         tables += list(DETUMBLE_METRICS)
+    if any(s.plant == "sun-safe" for s in result.scenarios):
+        tables += list(SUN_ACQUISITION_METRICS)
     for key, title in tables:
         plants = METRIC_PLANTS.get(key, ATTITUDE_OR_POSE)
         if plants is not None and not any(s.plant in plants for s in result.scenarios):
@@ -1146,10 +1218,12 @@ _PANELS: tuple[tuple[str, str, bool, frozenset[str], tuple[float, str] | None], 
      (NEAR_SINGULAR_M, "near-singular")),
     ("wheel_speed_frac", "max |Ωᵢ| / Ω_max [-]", False, frozenset({"wheels"}), (1.0, "limit")),
     ("momentum_Nms", "stored momentum ‖h‖ [N·m·s]", False, frozenset({"wheels"}), None),
-    ("torque_Nm", "torque ‖u‖ [N·m]", False, frozenset({"ideal"}), None),
+    ("sun_angle_deg", "Sun angle (body axis to Sun) [deg]", True, frozenset({"sun-safe"}), None),
+    ("torque_Nm", "torque ‖u‖ [N·m]", False, frozenset({"ideal", "sun-safe"}), None),
     ("position_error_m", "position error ‖p − p_d‖ [m]", True, frozenset({"se3"}), None),
     ("force_N", "force ‖F‖ [N]", False, frozenset({"se3"}), None),
-    ("body_rate_deg_s", "body rate ‖ω‖ [deg/s]", True, frozenset({"magnetorquer"}), None),
+    ("body_rate_deg_s", "body rate ‖ω‖ [deg/s]", True, frozenset({"magnetorquer", "sun-safe"}),
+     None),
     ("dipole_Am2", "rod dipole ‖m‖ [A·m²]", False, frozenset({"magnetorquer"}), None),
     ("kinetic_energy_J", "kinetic energy ½ωᵀJω [J]", True, frozenset({"magnetorquer"}), None),
 )  # fmt: skip
@@ -1232,6 +1306,8 @@ def write_figures(
                 ax.axhline(s.position_tolerance_m, color="0.4", ls=":", lw=0.9)
             if key == "body_rate_deg_s" and s.plant == "magnetorquer":
                 ax.axhline(s.detumble.threshold_deg_s, color="0.4", ls=":", lw=0.9)
+            if key == "sun_angle_deg":
+                ax.axhline(s.sun_acquisition.threshold_deg, color="0.4", ls=":", lw=0.9)
             if ref is not None:
                 ax.axhline(ref[0], color="0.4", ls=":", lw=0.9)
             title = label
@@ -1239,8 +1315,10 @@ def write_figures(
                 title += f"  (log; values < {LOG_FLOOR:g} drawn at {LOG_FLOOR:g})"
             elif key in ("error_deg", "position_error_m"):
                 title += "  (dotted: tolerance)"
-            elif key == "body_rate_deg_s":
+            elif key == "body_rate_deg_s" and s.plant == "magnetorquer":
                 title += "  (dotted: detumble threshold)"
+            elif key == "sun_angle_deg":
+                title += "  (dotted: acquisition threshold)"
             ax.set_title(_wrap_title(title, 0.9 * fig.get_figwidth() / ncol, 8), fontsize=8)
             ax.set_ylabel(label, fontsize=8)
             ax.set_xlabel("t [s]", fontsize=8)
@@ -1294,8 +1372,12 @@ def _overview_figure(result: SuiteResult, path: Path) -> Path | None:
                     ts = o.metrics.get("position_settling_time_s", float("nan"))
                 if s.plant == "magnetorquer":  # a detumble "settles" when the rate does
                     ts = o.metrics.get("time_to_detumble_s", float("nan"))
+                if s.plant == "sun-safe":  # safe mode "settles" when it acquires the Sun
+                    ts = o.metrics.get("time_to_acquire_s", float("nan"))
                 short = {"attitude-not-converged": "no conv.", "position-not-converged": "pos.",
-                         "diverged": "diverged", "rate-not-damped": "not damped"}  # fmt: skip
+                         "diverged": "diverged", "rate-not-damped": "not damped",
+                         "sun-not-acquired": "no Sun",
+                         "sun-not-reacquired": "no re-acq."}  # fmt: skip
                 if v == "failed":
                     text[i][j] = short.get(o.flags[0], o.flags[0]) if o.flags else "failed"
                 elif isinstance(ts, float) and math.isfinite(ts):
@@ -1318,7 +1400,7 @@ def _overview_figure(result: SuiteResult, path: Path) -> Path | None:
         _wrap_title(
             "single-run verdict of each nominal run (the cell verdicts over the members are in "
             "report.md); number: settling time [s] (SE(3): position; detumble: time to "
-            "detumble); *: degraded (flags "
+            "detumble; Sun acquisition: time to acquire); *: degraded (flags "
             "in report.md); —: does not apply\n"
             "failed cells name the first flag: 'no conv.' attitude not converged, 'pos.' "
             "position not converged; 'error': the run raised",

@@ -44,6 +44,9 @@ __all__ = [
     "SETTLING_FRACTION",
     "RANGE_EXCURSION_LIMIT",
     "DETUMBLE_ORBITS",
+    "SUN_ACQUISITION_FRACTION",
+    "SUN_POINTING_RMS_FRACTION",
+    "ECLIPSE_DRIFT_DEG",
     "default_requirements",
     "requirements_of",
     "pointing_errors",
@@ -70,6 +73,10 @@ REQUIREMENT_METRICS: dict[str, tuple[str, str]] = {
     "time_to_detumble_s": ("time to detumble", "s"),
     "electrical_energy_J": ("rod energy", "J"),
     "final_rate_deg_s": ("final rate", "deg/s"),
+    "time_to_acquire_s": ("time to acquire the Sun", "s"),
+    "sun_angle_rms_deg": ("Sun-angle RMS before eclipse", "deg"),
+    "peak_rate_eclipse_deg_s": ("peak rate in eclipse", "deg/s"),
+    "reacquire_s": ("time to re-acquire", "s"),
 }
 #: RPE/PDE window of the default requirements [s].
 DEFAULT_RPE_WINDOW_S = 10.0
@@ -82,6 +89,15 @@ RANGE_EXCURSION_LIMIT = 1.5
 #: A detumble must reach its rate threshold for good within this many orbits (default
 #: requirement of a detumble scenario; also at most :data:`SETTLING_FRACTION` of the run).
 DETUMBLE_ORBITS = 1.0
+#: Sun acquisition must be done within this fraction of the sunlit arc before the first
+#: eclipse (default requirement; the re-acquisition after the exit gets the same time).
+SUN_ACQUISITION_FRACTION = 0.5
+#: Bound on the RMS Sun angle before the eclipse, as a fraction of the spec's acquisition
+#: threshold (default requirement).
+SUN_POINTING_RMS_FRACTION = 0.5
+#: Bound on the body rate in the eclipse: the angle [deg] the body may turn over the whole
+#: shadow at that rate (default requirement: 90°, the array still lit at the exit).
+ECLIPSE_DRIFT_DEG = 90.0
 
 
 @dataclass(frozen=True)
@@ -188,12 +204,31 @@ def default_requirements(scenario: Any) -> tuple[Requirement, ...]:
     separation. The catalogue's gain brings the averaged dynamics there in ≈ 3500 s, so a law
     that damps as designed meets it with margin and one that does not misses it. The rods'
     energy is reported, not bounded.
+
+    Sun acquisition (a scenario with ``sun_acquisition``; the library's choices, from the
+    power budget rather than a standard), with ``t_e`` the first eclipse entry (or the end of
+    the run) and ``T_e`` the eclipse's length:
+
+    - time to acquire ≤ :data:`SUN_ACQUISITION_FRACTION` · ``t_e`` (813 s in the catalogue):
+      the array charges the battery for at least the other half of the first sunlit arc, and
+      the accuracy window (the last ``window_s`` of sunlight) lies after the acquisition;
+    - RMS Sun angle over that window ≤ :data:`SUN_POINTING_RMS_FRACTION` · threshold (2.5°):
+      the array's cosine loss is then 0.1 %, and the coarse sensors' floor (a component under
+      the 3 % lit threshold is dropped, ≈ 1.7° per axis, plus ≈ 0.5° from the gyro bias) fits
+      under it;
+    - where the run reaches the eclipse, peak rate in it ≤ :data:`ECLIPSE_DRIFT_DEG` /
+      ``T_e`` (0.043 °/s for the 2077 s shadow): sustained over the whole shadow, a faster
+      turn would leave the array facing away from the Sun at the exit;
+    - where the run leaves the eclipse, time to re-acquire ≤ the acquisition bound. The Sun
+      angle at the exit is reported, not bounded: it is the gyro bias's drift, not the law's.
     """
     _check_scenario(scenario)
     if getattr(scenario, "detumble", None) is not None:
         period = scenario.orbit.period if getattr(scenario, "orbit", None) else math.inf
         limit = min(DETUMBLE_ORBITS * period, SETTLING_FRACTION * float(scenario.duration))
         return (Requirement("time_to_detumble_s", limit),)
+    if getattr(scenario, "sun_acquisition", None) is not None:
+        return _sun_acquisition_requirements(scenario)
     tol = float(scenario.attitude_tolerance_deg)
     out = [Requirement("steady_error_max_deg", tol)]
     manoeuvre = scenario.initial_error_deg >= 1.0
@@ -216,6 +251,27 @@ def default_requirements(scenario: Any) -> tuple[Requirement, ...]:
         out.append(Requirement("min_keep_out_margin_deg", 0.0, sense="min"))
     if scenario.keep_in:
         out.append(Requirement("min_keep_in_margin_deg", 0.0, sense="min"))
+    return tuple(out)
+
+
+def _sun_acquisition_requirements(scenario: Any) -> tuple[Requirement, ...]:
+    """The Sun-acquisition defaults of :func:`default_requirements`."""
+    from .safe_mode import _eclipse_window
+
+    sa = scenario.sun_acquisition
+    entry, exit_ = _eclipse_window(sa.sun_sensors(scenario.orbit.circular_orbit()))
+    end = float(scenario.duration)
+    sunlit = entry if math.isfinite(entry) and entry < end else end
+    acquire = SUN_ACQUISITION_FRACTION * sunlit
+    out = [
+        Requirement("time_to_acquire_s", acquire),
+        Requirement("sun_angle_rms_deg", SUN_POINTING_RMS_FRACTION * sa.threshold_deg),
+    ]
+    if math.isfinite(entry) and entry < end:
+        length = (exit_ if math.isfinite(exit_) else end) - entry
+        out.append(Requirement("peak_rate_eclipse_deg_s", ECLIPSE_DRIFT_DEG / length))
+    if math.isfinite(exit_) and exit_ < end:
+        out.append(Requirement("reacquire_s", acquire))
     return tuple(out)
 
 

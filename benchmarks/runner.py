@@ -1545,6 +1545,93 @@ def _simulate_detumble_pair(
     )
 
 
+def _sun_acquisition_run(
+    scenario: Scenario, law: Any
+) -> tuple[Any, dict[str, np.ndarray], dict[str, Any]]:
+    """Fly a Sun-acquisition ``scenario`` with ``law`` through the safe-mode machinery
+    (:func:`benchmarks.safe_mode._fly`): the true inertia under the spacecraft's torque box,
+    the spec's Sun sensors and gyro through the ``SunSensorGyro`` hook, the noise seed of the
+    spec, a log every 5 s. Returns the result, the per-run metrics of
+    :mod:`benchmarks.safe_mode` and the geometry (``css``, ``t``, Sun angle, rate, eclipse)."""
+    from .safe_mode import _eclipse_window, _fly, _metrics, _sun_angles
+
+    sa = scenario.sun_acquisition
+    if sa is None:
+        raise ValueError(f"scenario: {scenario.name!r} is not a Sun-acquisition scenario")
+    css = sa.sun_sensors(scenario.orbit.circular_orbit())
+    b = np.asarray(sa.body_axis)
+    res = _fly(
+        law,
+        scenario.error0[None],
+        scenario.omega0[None],
+        J=scenario.true_inertia,
+        css=css,
+        gyro=sa.gyro(),
+        body_axis=b,
+        max_torque=scenario.spacecraft.max_torque,
+        t_final=scenario.duration,
+        dt=scenario.dt,
+        control_period=scenario.control_period or scenario.dt,
+        log_every=max(1, int(round(5.0 / scenario.dt))),
+        seed=sa.seed,
+        gravity_gradient=sa.gravity_gradient,
+    )
+    entry, exit_ = _eclipse_window(css)
+    t, ang, rate, ecl = _sun_angles(res, css, b)
+    m = _metrics(t, ang, rate, ecl, entry, exit_, sa.threshold_deg, sa.window_s)
+    geo = {"t": t, "angle": ang, "rate": rate, "eclipse": ecl, "entry": entry, "exit": exit_}
+    return res, {k: v[0] for k, v in m.items()}, geo
+
+
+def _simulate_sun_acquisition_pair(
+    scenario: Scenario,
+    name: str,
+    info: ControllerInfo,
+    rule: GainRule | None = None,
+    histories: bool = False,
+) -> RunOutcome:
+    """One Sun-acquisition run (one spacecraft; the law is not timed: its cost is that of a
+    PD). Metrics: :data:`benchmarks.metrics.DESCRIPTIONS` (``time_to_acquire_s`` …)."""
+    ctx = ControllerContext(
+        spacecraft=scenario.spacecraft,
+        control_period=info.control_period or scenario.control_period or scenario.dt,
+        rule=rule or DEFAULT_GAIN_RULE,
+        orbit=scenario.orbit,
+        sun_acquisition=scenario.sun_acquisition,
+    )
+    law = info.factory(ctx)
+    _check_controller_like(law, "factory")
+    t_start = time.perf_counter()
+    res, per_run, geo = _sun_acquisition_run(scenario, law)
+    wall = time.perf_counter() - t_start
+    t, ang, rate = geo["t"], geo["angle"][:, 0], geo["rate"][:, 0]
+    u = np.linalg.norm(np.asarray(res.u)[:, 0], axis=-1)
+    m = {k: float(v) for k, v in per_run.items()}
+    m.update(
+        initial_sun_angle_deg=float(ang[0]),
+        final_sun_angle_deg=float(ang[-1]),
+        initial_rate_deg_s=float(rate[0]),
+        final_rate_deg_s=float(rate[-1]),
+        eclipse_entry_s=float(geo["entry"]),
+        eclipse_exit_s=float(geo["exit"]),
+        peak_torque_Nm=float(u.max()),
+        effort_Nms=float(np.trapezoid(u, t)),
+        sim_wall_time_s=wall,
+    )
+    idx = _decimate(t.size)
+    series = {
+        "t": t[idx],
+        "sun_angle_deg": ang[idx],
+        "body_rate_deg_s": rate[idx],
+        "torque_Nm": u[idx],
+        "eclipse": geo["eclipse"][idx].astype(np.float64),
+    }
+    hist = history_arrays(res, 0) if histories else {}
+    return RunOutcome(
+        scenario.name, name, "ok", None, m, series, histories=hist, member=scenario.member
+    )
+
+
 def _failed(s: Scenario, c: str, exc: BaseException, histories: bool = False) -> RunOutcome:
     partial = getattr(exc, "result", None)
     series: dict[str, np.ndarray] = {}
@@ -1564,7 +1651,11 @@ def run_group(task: GroupTask) -> list[RunOutcome]:
     """Run one task (executor entry point): one batch; on failure isolate the failing pairs by
     re-running them one by one. Never raises for a controller/plant failure."""
     pairs, infos = task.pairs, task.infos
-    one_by_one = {"se3": _simulate_pose_pair, "magnetorquer": _simulate_detumble_pair}
+    one_by_one = {
+        "se3": _simulate_pose_pair,
+        "magnetorquer": _simulate_detumble_pair,
+        "sun-safe": _simulate_sun_acquisition_pair,
+    }
     run_pair = one_by_one.get(pairs[0][0].plant)
     if run_pair is not None:
         out = []
@@ -1732,9 +1823,9 @@ def run_suite(
                 # loop (a stack of several laws cannot), and its batch does not depend on which
                 # other controllers were selected
                 key = s_run.batch_key() + (c,)
-                if s.plant in ("se3", "magnetorquer") or s.sensors is not None:
-                    # SE(3), detumble: one pair per run; sensors: every controller sees the
-                    # same noise
+                if s.plant in ("se3", "magnetorquer", "sun-safe") or s.sensors is not None:
+                    # SE(3), detumble, Sun acquisition: one pair per run; sensors: every
+                    # controller sees the same noise
                     key = key + (c, s.name, s_k.member)
                 groups.setdefault(key, []).append((s_run, c))
     own = not isinstance(executor, Executor)

@@ -82,6 +82,13 @@ apply to every scenario (a scenario's own keys win)::
     gain = 5e-5                      #   disturbance, sensors, cones or faults): k [N·m·s],
     max_dipole = 0.2                 #   also duty_cycle, rod_power, magnetometer_noise,
     seed = 3                         #   magnetometer_bias, gyro_noise, rate_range_deg_s
+    [scenario.sun_acquisition]       # safe-mode Sun acquisition (plant "sun-safe"; needs the
+    eclipse = "damp"                 #   orbit and an "ideal" actuator; initial rotvec/rate: the
+    threshold_deg = 5.0              #   inertial start): also normals, fov_half_angle_deg,
+    seed = 1                         #   sensor_noise, sensor_threshold, min_intensity,
+                                     #   sensor_period, allow_gaps, gyro_noise, gyro_bias,
+                                     #   gyro_bias_walk, window_s, body_axis, gravity_gradient,
+                                     #   rate_range_deg_s
 
     [scenario.dispersion]            # the members' spread (benchmarks.dispersion; 1-sigma)
     attitude_angle_deg = 2.0         # also attitude_axis_deg, rate_deg_s, inertia_moments,
@@ -136,6 +143,7 @@ from .scenarios import (
     Scenario,
     SensorSpec,
     SpacecraftSpec,
+    SunAcquisitionSpec,
     UncertaintySpec,
 )
 
@@ -186,6 +194,7 @@ _TOP_KEYS = (
     "dispersion",
     "requirement",
     "detumble",
+    "sun_acquisition",
 )
 _REQUIREMENT_KEYS = ("metric", "limit", "sense", "window_s", "name")
 _FAULT_KEYS = ("kind", "unit", "time", "efficiency", "bias")
@@ -439,6 +448,7 @@ def _scenario(table: Any, defaults: Mapping[str, Any], where: str) -> Scenario:
         ("orbit", OrbitSpec),
         ("momentum_management", MomentumManagementSpec),
         ("detumble", DetumbleSpec),
+        ("sun_acquisition", SunAcquisitionSpec),
     ):
         if k in t:
             fields = tuple(f.name for f in dataclasses.fields(cls))
@@ -668,6 +678,11 @@ def scenario_to_dict(scenario: Scenario) -> dict[str, Any]:
     if s.detumble is not None:
         out["detumble"] = {
             f.name: _plain(getattr(s.detumble, f.name)) for f in dataclasses.fields(DetumbleSpec)
+        }
+    if s.sun_acquisition is not None:
+        out["sun_acquisition"] = {
+            f.name: _plain(getattr(s.sun_acquisition, f.name))
+            for f in dataclasses.fields(SunAcquisitionSpec)
         }
     if s.proximity is not None:
         out["proximity"] = {

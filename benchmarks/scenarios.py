@@ -41,6 +41,9 @@ with null motion climbing the singularity measure):
 - ``detumble-sso`` / ``detumble-iss``: a 3U CubeSat's magnetorquers damping a 9.5 °/s separation
   tumble below 1 °/s on a 530 km orbit at 97.5° / 51.6° (:class:`DetumbleSpec`, plant
   ``magnetorquer``: only the detumble laws apply; ``docs/modes.md``);
+- ``safe-mode-sun-acquisition``: a small satellite in safe mode acquiring the Sun with coarse
+  Sun sensors and a gyro from a 1.7 °/s tumble in sunlight, then crossing the Earth's shadow
+  (:class:`SunAcquisitionSpec`, plant ``sun-safe``: only the Sun-acquisition law applies);
 
 and scenarios built to separate controllers (the quick suite runs the first two):
 
@@ -119,6 +122,7 @@ __all__ = [
     "ProximitySpec",
     "SensorSpec",
     "DetumbleSpec",
+    "SunAcquisitionSpec",
     "MODE_PLANTS",
     "ESTIMATORS",
     "WHEEL_LAYOUTS",
@@ -790,8 +794,9 @@ class ProximitySpec:
 
 #: Plant tags of the mode scenarios (the runner simulates them with their own plant, not the
 #: attitude loop): ``"magnetorquer"`` — a :class:`DetumbleSpec` run of
-#: :func:`spacecraft.detumble.simulate_detumble`.
-MODE_PLANTS: tuple[str, ...] = ("magnetorquer",)
+#: :func:`spacecraft.detumble.simulate_detumble`; ``"sun-safe"`` — a :class:`SunAcquisitionSpec`
+#: run of :func:`spacecraft.simulate` on coarse Sun sensors and a gyro.
+MODE_PLANTS: tuple[str, ...] = ("magnetorquer", "sun-safe")
 
 
 @dataclass(frozen=True)
@@ -860,6 +865,147 @@ class DetumbleSpec:
     def threshold(self) -> float:
         """The rate threshold [rad/s]."""
         return math.radians(self.threshold_deg_s)
+
+
+#: Eclipse behaviours of a :class:`SunAcquisitionSpec` (those of
+#: :class:`liecontrol.control.sun_acquisition.SunAcquisitionLaw`).
+SUN_ECLIPSE_MODES: tuple[str, ...] = ("damp", "propagate")
+#: Six coarse Sun sensors on the cube faces (``spacecraft.sun_sensors.CUBE_NORMALS``).
+SUN_SENSOR_CUBE: tuple[tuple[float, float, float], ...] = (
+    (1.0, 0.0, 0.0),
+    (-1.0, 0.0, 0.0),
+    (0.0, 1.0, 0.0),
+    (0.0, -1.0, 0.0),
+    (0.0, 0.0, 1.0),
+    (0.0, 0.0, -1.0),
+)
+
+
+@dataclass(frozen=True)
+class SunAcquisitionSpec:
+    """Safe-mode Sun acquisition (``[scenario.sun_acquisition]``): coarse Sun sensors and a
+    gyro, no star tracker, pointing ``body_axis`` at the Sun on the scenario's orbit (which sets
+    the eclipse) with the ideal torque box of the scenario's spacecraft (``max_torque``) and,
+    with ``gravity_gradient``, the gravity-gradient torque of the true inertia — the machinery
+    of :mod:`benchmarks.safe_mode`. The start is the inertial attitude
+    ``exp(initial_rotvec^)`` and body rate ``initial_rate``; the law is the cell's controller.
+
+    Sensors (:class:`spacecraft.sun_sensors.CoarseSunSensors`, cosine response, cylindrical
+    shadow, **albedo-free**): ``normals`` (unit normals in body axes, default the six cube
+    faces), ``fov_half_angle_deg`` (0, 90], ``sensor_noise`` (σ in full-scale units, ≥ 0),
+    ``sensor_threshold`` [0, 1) (lit above it), ``min_intensity`` [0, 1), ``sensor_period`` [s]
+    (> 0), ``allow_gaps`` (accept a set that leaves Sun directions unobservable; otherwise
+    ``ValueError("normals: …")`` names the missing axis or the uncovered directions). Gyro
+    (:class:`spacecraft.sensors.RateGyro`, sampled at ``sensor_period``): white noise
+    ``gyro_noise`` [rad/s], initial bias ``gyro_bias`` [rad/s] 1σ, bias random walk
+    ``gyro_bias_walk`` [rad/s^{3/2}] (each ≥ 0).
+
+    Attributes (beyond the sensors):
+        eclipse: the law's behaviour without a Sun vector (:data:`SUN_ECLIPSE_MODES`).
+        threshold_deg: acquired when the true Sun angle stays within it [deg], in (0, 90).
+        window_s: the accuracy window: the last ``window_s`` [s] of sunlight before the
+            eclipse entry (> 0).
+        body_axis: the body axis to point at the Sun (the array normal; non-zero, normalised).
+        gravity_gradient: add the gravity-gradient torque.
+        rate_range_deg_s: ``(low, high)`` [deg/s]: a dispersed member ``k ≥ 1`` draws a
+            uniformly random attitude and a tumble about a uniformly random axis at a rate
+            uniform in this range (:func:`benchmarks.dispersion.member_scenario`).
+        seed: seed of the sensor noise (Sun sensors and gyro).
+    """
+
+    normals: tuple[tuple[float, float, float], ...] = SUN_SENSOR_CUBE
+    fov_half_angle_deg: float = 90.0
+    sensor_noise: float = 0.01
+    sensor_threshold: float = 0.03
+    min_intensity: float = 0.3
+    sensor_period: float = 0.5
+    allow_gaps: bool = False
+    gyro_noise: float = 5e-5
+    gyro_bias: float = 1e-4
+    gyro_bias_walk: float = 1e-6
+    eclipse: str = "damp"
+    threshold_deg: float = 5.0
+    window_s: float = 300.0
+    body_axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    gravity_gradient: bool = True
+    rate_range_deg_s: tuple[float, float] = (1.0, 2.0)
+    seed: int = 1
+
+    def __post_init__(self) -> None:
+        n = as_array(self.normals, "normals")
+        if n.ndim != 2 or n.shape[1] != 3 or n.shape[0] < 1:
+            raise ValueError(f"normals: expected an (n, 3) array of normals, got {self.normals!r}")
+        object.__setattr__(self, "normals", tuple(tuple(float(x) for x in r) for r in n))
+        fov = as_scalar(self.fov_half_angle_deg, "fov_half_angle_deg")
+        if not 0.0 < fov <= 90.0:
+            raise ValueError(f"fov_half_angle_deg: expected a value in (0, 90], got {fov!r}")
+        object.__setattr__(self, "fov_half_angle_deg", fov)
+        for name, hi in (("sensor_threshold", 1.0), ("min_intensity", 1.0)):
+            v = as_scalar(getattr(self, name), name)
+            if not 0.0 <= v < hi:
+                raise ValueError(f"{name}: expected a value in [0, {hi:g}), got {v!r}")
+            object.__setattr__(self, name, v)
+        for name in ("sensor_noise", "gyro_noise", "gyro_bias", "gyro_bias_walk"):
+            v = as_scalar(getattr(self, name), name)
+            if not 0.0 <= v < math.inf:
+                raise ValueError(f"{name}: expected a finite value >= 0, got {v!r}")
+            object.__setattr__(self, name, v)
+        for name in ("sensor_period", "window_s"):
+            object.__setattr__(self, name, check_positive_scalar(getattr(self, name), name))
+        object.__setattr__(self, "allow_gaps", check_bool(self.allow_gaps, "allow_gaps"))
+        object.__setattr__(
+            self, "gravity_gradient", check_bool(self.gravity_gradient, "gravity_gradient")
+        )
+        if not isinstance(self.eclipse, str) or self.eclipse not in SUN_ECLIPSE_MODES:
+            raise ValueError(f"eclipse: expected one of {SUN_ECLIPSE_MODES}, got {self.eclipse!r}")
+        thr = as_scalar(self.threshold_deg, "threshold_deg")
+        if not 0.0 < thr < 90.0:
+            raise ValueError(f"threshold_deg: expected a value in (0, 90) deg, got {thr!r}")
+        object.__setattr__(self, "threshold_deg", thr)
+        b = np.array(_tuple3(self.body_axis, "body_axis"))
+        nb = float(np.linalg.norm(b))
+        if not 0.0 < nb < math.inf:
+            raise ValueError(
+                f"body_axis: expected a finite non-zero vector, got {self.body_axis!r}"
+            )
+        object.__setattr__(self, "body_axis", tuple(float(x) for x in b / nb))
+        rr = as_array(self.rate_range_deg_s, "rate_range_deg_s")
+        if rr.shape != (2,) or not 0.0 <= rr[0] <= rr[1] < 30.0:
+            raise ValueError(
+                "rate_range_deg_s: expected (low, high) with 0 <= low <= high < 30 deg/s, got "
+                f"{self.rate_range_deg_s!r}"
+            )
+        object.__setattr__(self, "rate_range_deg_s", (float(rr[0]), float(rr[1])))
+        object.__setattr__(self, "seed", as_int(self.seed, "seed", 0))
+        # the coverage check of the sensors themselves: an unobservable set is refused here,
+        # naming the axis or the directions (the orbit plays no part in it)
+        self.sun_sensors(CircularOrbit.from_altitude(530e3))
+
+    def sun_sensors(self, orbit: CircularOrbit) -> Any:
+        """The :class:`spacecraft.sun_sensors.CoarseSunSensors` on ``orbit``."""
+        from spacecraft.sun_sensors import CoarseSunSensors
+
+        return CoarseSunSensors(
+            orbit,
+            normals=self.normals,
+            fov_half_angle=math.radians(self.fov_half_angle_deg),
+            noise_std=self.sensor_noise,
+            threshold=self.sensor_threshold,
+            min_intensity=self.min_intensity,
+            period=self.sensor_period,
+            allow_gaps=self.allow_gaps,
+        )
+
+    def gyro(self) -> Any:
+        """The :class:`spacecraft.sensors.RateGyro`."""
+        from spacecraft.sensors import RateGyro
+
+        return RateGyro(
+            white_std=self.gyro_noise,
+            initial_bias_std=self.gyro_bias,
+            bias_rw_std=self.gyro_bias_walk,
+            period=self.sensor_period,
+        )
 
 
 #: Estimators a :class:`SensorSpec` can put between the sensors and the controller.
@@ -1085,6 +1231,13 @@ class Scenario:
             ``initial_rate`` from the identity attitude on :attr:`orbit`, with the cell's
             detumble law (``reference``, ``attitude_tolerance_deg`` are unused; disturbances,
             sensors, cones, faults and momentum management are refused).
+        sun_acquisition: ``None``, or a :class:`SunAcquisitionSpec` that makes this a safe-mode
+            Sun-acquisition scenario (plant ``"sun-safe"``): the cell's law points the spec's
+            body axis at the Sun from the inertial attitude ``exp(initial_rotvec^)`` and rate
+            ``initial_rate`` on :attr:`orbit`, through the spec's Sun sensors and gyro, with
+            the ideal actuator's ``max_torque`` (``reference``, ``attitude_tolerance_deg`` are
+            unused; disturbances other than the spec's gravity gradient, sensors, cones,
+            faults, momentum management and a detumble are refused).
 
     :func:`benchmarks.metrics.judge` turns a run's metrics into a verdict with these
     tolerances.
@@ -1118,6 +1271,7 @@ class Scenario:
     member: int = 0
     member_inertia: tuple[tuple[float, ...], ...] | None = None
     detumble: DetumbleSpec | None = None
+    sun_acquisition: SunAcquisitionSpec | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name or any(c in self.name for c in "/\\ "):
@@ -1281,6 +1435,7 @@ class Scenario:
             J_m = _matrix3(self.member_inertia, "member_inertia")
             object.__setattr__(self, "member_inertia", J_m)
         self._check_detumble()
+        self._check_sun_acquisition()
         # a requirement window must fit in the pointing interval (the final 10 % of the run)
         for r in self.requirements:
             if r.window_s is not None and r.window_s > 0.1 * self.duration * (1 + 1e-9):
@@ -1324,6 +1479,44 @@ class Scenario:
                 f"({period:g} s)"
             )
 
+    def _check_sun_acquisition(self) -> None:
+        """A Sun-acquisition scenario flies the safe-mode plant: refuse what it does not model."""
+        sa = self.sun_acquisition
+        if sa is None:
+            return
+        if not isinstance(sa, SunAcquisitionSpec):
+            raise ValueError(
+                f"sun_acquisition: expected SunAcquisitionSpec or None, got {type(sa).__name__}"
+            )
+        if self.orbit is None:
+            raise ValueError(
+                "sun_acquisition: needs the orbit ([scenario.orbit]) that sets the eclipse"
+            )
+        if self.spacecraft.actuator != "ideal":
+            raise ValueError(
+                "sun_acquisition: the safe-mode plant is an ideal torque box (spacecraft "
+                f"actuator 'ideal' with max_torque), got {self.spacecraft.actuator!r}"
+            )
+        unmodelled = [
+            name
+            for name in ("proximity", "sensors", "momentum_management", "detumble")
+            if getattr(self, name) is not None
+        ] + [
+            name
+            for name in ("disturbances", "keep_out", "keep_in", "faults")
+            if getattr(self, name)
+        ]
+        if unmodelled:
+            raise ValueError(
+                f"sun_acquisition: the safe-mode plant does not model {', '.join(unmodelled)}; "
+                "leave them out (gravity gradient is the spec's gravity_gradient)"
+            )
+        period = self.control_period or self.dt
+        if self.duration < max(period, sa.sensor_period) * (1.0 - 1e-9):
+            raise ValueError(
+                f"duration: {self.duration:g} s is shorter than one control or sensor period"
+            )
+
     # ------------------------------------------------------------------ derived quantities
 
     @classmethod
@@ -1338,9 +1531,11 @@ class Scenario:
     @property
     def plant(self) -> str:
         """Plant tag: ``"se3"`` for proximity scenarios, ``"magnetorquer"`` for detumble
-        scenarios, else the actuator kind."""
+        scenarios, ``"sun-safe"`` for Sun-acquisition scenarios, else the actuator kind."""
         if self.detumble is not None:
             return "magnetorquer"
+        if self.sun_acquisition is not None:
+            return "sun-safe"
         return "se3" if self.proximity is not None else self.spacecraft.actuator
 
     @property
@@ -1425,6 +1620,7 @@ class Scenario:
             self.faults,
             self.reconfiguration,
             self.detumble,
+            self.sun_acquisition,
         )
 
 
@@ -1754,6 +1950,44 @@ def _detumble_pair() -> tuple[Scenario, Scenario]:
     )
 
 
+#: The small satellite of the safe-mode scenario (:data:`benchmarks.safe_mode.SAFE_MODE_J`)
+#: with a 10 mN·m per-axis ideal torque box (reaction wheels or thrusters in safe mode).
+SAFE_MODE_SPACECRAFT = SpacecraftSpec(
+    name="safe-mode-smallsat",
+    inertia=((12.0, 0.3, -0.2), (0.3, 10.0, 0.1), (-0.2, 0.1, 8.0)),
+    actuator="ideal",
+    max_torque=0.01,
+)
+#: The start of ``safe-mode-sun-acquisition``: the first start of
+#: ``benchmarks.safe_mode.sun_acquisition_run(1, seed=0)`` (attitude as a rotation vector,
+#: Sun 86° off the array normal; tumble 1.73 °/s), written out so the catalogue is plain data.
+SAFE_MODE_START: tuple[tuple[float, float, float], tuple[float, float, float]] = (
+    (-0.5518168389531354, 2.6751172799924405, 0.43817956138042713),
+    (-0.011110145757001894, 0.007499726447580924, 0.027045844497395766),
+)
+
+
+def _safe_mode_scenario() -> Scenario:
+    """Safe-mode Sun acquisition (:mod:`benchmarks.safe_mode`): 530 km, 51.6°, RAAN 270°
+    from J2000.0, in sunlight 1626 s before a 2077 s shadow; 4800 s in 0.5 s steps so that the
+    run acquires, crosses the eclipse and re-acquires; sensor noise seed 1 (the safe-mode
+    study's ``seed + 1``)."""
+    return Scenario(
+        name="safe-mode-sun-acquisition",
+        description="safe mode: coarse Sun sensors + gyro acquire the Sun from a 1.7 °/s "
+        "tumble in sunlight, hold through the eclipse and re-acquire after it",
+        spacecraft=SAFE_MODE_SPACECRAFT,
+        initial_rotvec=SAFE_MODE_START[0],
+        initial_rate=SAFE_MODE_START[1],
+        orbit=OrbitSpec(530.0, 51.6, 270.0),
+        sun_acquisition=SunAcquisitionSpec(),
+        duration=4800.0,
+        dt=0.5,
+        control_period=0.5,
+        tags=("sun-acquisition", "safe-mode", "mode"),
+    )
+
+
 def _catalogue() -> tuple[Scenario, ...]:
     deg = math.radians
     return (
@@ -2019,6 +2253,7 @@ def _catalogue() -> tuple[Scenario, ...]:
             tags=("quick", "se3"),
         ),
         *_detumble_pair(),
+        _safe_mode_scenario(),
     )
 
 

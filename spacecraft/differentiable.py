@@ -22,24 +22,41 @@ through the scan, one backward sweep for all gains); :meth:`JaxClosedLoop.cost` 
 and :func:`tune_gradient` minimises it with Adam (Kingma & Ba, "Adam: a method for stochastic
 optimization", ICLR 2015) over a batch of dispersed initial states.
 
+With the SGCMG pyramid the packed state is x = (Ω, δ) and, as in :func:`spacecraft.simulate`,
+the actuator's command is recomputed at every integration step from the held torque u_k:
+ḣ_cmd = −(Ω × h(δ) + u_k), δ̇ = SR(A(δ), ḣ_cmd) scaled uniformly to the gimbal-rate limit, held
+over the step, with the bus torque −(Ω × h(δ) + A(δ) δ̇) in the RKMK4 stages and δ̇ as the
+gimbals' rate (ideal servo). The cluster (:mod:`spacecraft.sgcmg`: h, A, bus torque), the
+singularity-robust law and the rate limit (:mod:`spacecraft.steering`) are the numpy layer's own
+functions, run on ``jax.numpy``.
+
 Supported configurations (others raise ``ValueError`` naming the part): a
 :class:`spacecraft.plant.Spacecraft` with a shared inertia ``J`` ``(3, 3)``, an
-:class:`spacecraft.actuators.IdealTorqueActuator` (with or without ``max_torque``), no
-disturbance, flexible modes or momentum management; a
-:class:`liecontrol.control.GeometricPD` with the ``"large_angle"`` or ``"log"`` error; a
-reference whose samples share one attitude across the batch (``R_d`` ``(3, 3)``), sampled at the
-control times before the run.
+:class:`spacecraft.actuators.IdealTorqueActuator` (with or without ``max_torque``) or an
+:class:`spacecraft.actuators.SgcmgActuator` with the ideal servo and
+:class:`spacecraft.steering.SingularityRobust` steering, no disturbance, flexible modes or
+momentum management; a :class:`liecontrol.control.GeometricPD` with the ``"large_angle"`` or
+``"log"`` error; a reference whose samples share one attitude across the batch (``R_d``
+``(3, 3)``), sampled at the control times before the run.
+
+Compilation: :meth:`JaxClosedLoop.run` pads the batch to a bucket (:func:`padded_size`: the next
+power of two up to 1024, then the next multiple of 1024) so that a Monte Carlo of N members
+compiles once per bucket, not once per N; and JAX's persistent compilation cache is switched on
+at the first use (:func:`compilation_cache_dir`), so a new process loads a program compiled
+before instead of compiling it again.
 """
 
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from liecontrol._array_api import cross
 from liecontrol._validation import (
     as_array,
     check_nonnegative,
@@ -51,18 +68,69 @@ from liecontrol.control.geometric_pd import GeometricPD, geometric_pd_torque
 from liecontrol.integrators.rk import rkmk4_step_unchecked
 from liecontrol.lie import so3
 
-from .actuators import IdealTorqueActuator
+from .actuators import IdealTorqueActuator, SgcmgActuator
 from .plant import Spacecraft
 from .rigid_body import euler_acceleration
+from .sgcmg import SgcmgPyramid, bus_torque
+from .steering import SingularityRobust, _saturate_unchecked
 
-__all__ = ["JaxClosedLoop", "JaxRun", "TuningResult", "closed_loop", "require_jax", "tune_gradient"]
+__all__ = [
+    "JaxClosedLoop",
+    "JaxRun",
+    "TuningResult",
+    "closed_loop",
+    "compilation_cache_dir",
+    "padded_size",
+    "require_jax",
+    "simulate_jax",
+    "tune_gradient",
+]
 
 _PERIOD_RTOL = 1e-9
 _INSTALL = "pip install liecontrol[jax]"
+#: environment variable: the persistent compilation cache's directory, or "off"/"0"/"" to opt out
+CACHE_ENV = "LIECONTROL_JAX_CACHE"
+# JAX caches only programs that took at least this long to compile (its default, 1 s, would
+# leave out the closed loop's ≈0.6 s compiles, which are the ones worth keeping)
+_CACHE_MIN_COMPILE_S = 0.1
+_cache_configured = False
+
+
+def compilation_cache_dir() -> str | None:
+    """The directory of JAX's persistent compilation cache that the JAX route switches on, or
+    ``None`` if opted out.
+
+    ``$LIECONTROL_JAX_CACHE`` if set (``off``, ``0``, ``false`` or empty: no cache), else
+    ``$XDG_CACHE_HOME/liecontrol/jax`` (``~/.cache/liecontrol/jax`` without ``XDG_CACHE_HOME``).
+    A directory the user gave JAX itself (``JAX_COMPILATION_CACHE_DIR`` or
+    ``jax.config.update("jax_compilation_cache_dir", ...)``) is left as it is.
+    """
+    value = os.environ.get(CACHE_ENV)
+    if value is not None:
+        return None if value.strip().lower() in ("", "0", "off", "false", "no") else value
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return os.path.join(base, "liecontrol", "jax")
+
+
+def _configure_cache(jax: Any) -> None:
+    """Switch JAX's persistent compilation cache on, once per process, unless the user has
+    configured one or opted out (:func:`compilation_cache_dir`)."""
+    global _cache_configured
+    if _cache_configured:
+        return
+    _cache_configured = True
+    if jax.config.jax_compilation_cache_dir is not None:
+        return  # the user's own cache (or an earlier configuration) wins
+    path = compilation_cache_dir()
+    if path is None:
+        return
+    jax.config.update("jax_compilation_cache_dir", path)
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", _CACHE_MIN_COMPILE_S)
 
 
 def require_jax() -> Any:
-    """The ``jax`` module, or ``ImportError`` saying what is missing and how to install it."""
+    """The ``jax`` module, or ``ImportError`` saying what is missing and how to install it.
+    The first call switches the persistent compilation cache on (:func:`compilation_cache_dir`)."""
     try:
         import jax
         import jax.numpy  # noqa: F401 - the namespace the formulas run in
@@ -71,20 +139,38 @@ def require_jax() -> Any:
             f"the JAX route of the closed loop needs JAX, which is not installed "
             f"({exc.__class__.__name__}: {exc}); install it with `{_INSTALL}`"
         ) from None
+    _configure_cache(jax)
     return jax
+
+
+def padded_size(batch: int) -> int:
+    """The compiled batch size for ``batch`` members: the next power of two up to 1024, then
+    the next multiple of 1024 (at most 1/11 padding beyond 1024, and at most twice the work
+    below). Members are padded with copies of the first and cut off after the run."""
+    batch = int(batch)
+    if batch < 1:
+        raise ValueError(f"batch: expected at least one member, got {batch}")
+    if batch <= 1024:
+        return 1 << (batch - 1).bit_length()
+    return -(-batch // 1024) * 1024
 
 
 @dataclass(frozen=True)
 class JaxRun:
     """A batched run of :meth:`JaxClosedLoop.run` (NumPy arrays, time-major like
-    :class:`spacecraft.simulator.SimulationResult`).
+    :class:`spacecraft.simulator.SimulationResult`, whose fields of the same name they equal).
 
     Attributes:
         t: ``(K,)`` the control sample times t₀ + kT and the final time (K = n_ctrl + 1).
         R: ``(K, B, 3, 3)`` attitudes at those times; omega: ``(K, B, 3)`` body rates.
-        u: ``(K − 1, B, 3)`` the torque held from each control sample (after saturation).
+        u_cmd: ``(K, B, 3)`` the controller's torque at each sample (the last at the final time).
+        u: ``(K, B, 3)`` the torque the actuator delivers on the bus at each sample (ideal: the
+            command after saturation; SGCMG: −(Ω × h + A δ̇) with the step's gimbal rates).
         diverged: ``(B,)`` whether the member's state became non-finite.
         diverged_at: ``(B,)`` the first logged time with a non-finite state (NaN if none).
+        actuator: the actuator's log ``(K, B, ...)``: ideal with ``max_torque``: ``saturated``
+            ``(K, B, 3)``; SGCMG: ``delta``, ``delta_dot`` ``(K, B, 4)``, ``saturated`` ``(K, B)``.
+        controller: the geometric PD's ``Psi`` ``(K, B)``, ``e_R``, ``e_Omega`` ``(K, B, 3)``.
     """
 
     t: np.ndarray
@@ -93,6 +179,9 @@ class JaxRun:
     u: np.ndarray
     diverged: np.ndarray
     diverged_at: np.ndarray
+    u_cmd: np.ndarray | None = None
+    actuator: dict = field(default_factory=dict)
+    controller: dict = field(default_factory=dict)
 
 
 def _gain(k: Any, name: str) -> Any:
@@ -110,7 +199,10 @@ class JaxClosedLoop:
     model inertia ``J_ctrl``, gains ``k_R``/``k_Omega`` (floats or 3×3), ``error``,
     ``max_torque`` (``None``, a float or ``(3,)``), the reference samples ``R_d`` ``(n_ctrl, 3,
     3)`` or ``(3, 3)`` when constant (likewise ``omega_d``, ``omega_dot_d``), the step ``dt``,
-    ``n_sub`` steps per control period and ``n_ctrl`` periods from ``t0``.
+    ``n_sub`` steps per control period and ``n_ctrl`` periods from ``t0``; with the SGCMG
+    cluster its ``cluster``, ``steering`` law, gimbal ``rate_limit`` and ``delta0`` ``(4,)`` or
+    ``(B, 4)`` (``None`` for the ideal actuator). The reference arrays hold ``n_ctrl + 1``
+    samples when they vary (the last at the final time).
     """
 
     J: np.ndarray
@@ -127,7 +219,16 @@ class JaxClosedLoop:
     n_sub: int
     n_ctrl: int
     t0: float
+    cluster: Any = None
+    steering: Any = None
+    rate_limit: float = math.inf
+    delta0: np.ndarray | None = None
     _compiled: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    @property
+    def n_x(self) -> int:
+        """Length of the packed state x = (Ω, δ): 3, or 7 with the SGCMG cluster."""
+        return 3 if self.cluster is None else 7
 
     @property
     def control_period(self) -> float:
@@ -140,10 +241,12 @@ class JaxClosedLoop:
 
     # -- the pure program -------------------------------------------------------------------
 
-    def rollout(self, k_R: Any, k_Omega: Any, R0: Any, omega0: Any) -> tuple[Any, Any, Any]:
-        """One spacecraft: ``(R (n_ctrl + 1, 3, 3), Ω (n_ctrl + 1, 3), u (n_ctrl, 3))`` from
-        ``R0`` ``(3, 3)``, ``omega0`` ``(3,)``. Pure JAX (call under ``jax.enable_x64``):
-        ``jit``, ``vmap`` and ``grad`` apply."""
+    def rollout(self, k_R: Any, k_Omega: Any, R0: Any, x0: Any) -> dict[str, Any]:
+        """One spacecraft from ``R0`` ``(3, 3)`` and the packed state ``x0`` ``(n_x,)`` = (Ω₀, δ₀):
+        the log at the K = n_ctrl + 1 samples as a dict of arrays with a leading ``K`` axis —
+        ``R``, ``x``, ``u_cmd``, ``u``, ``Psi``, ``e_R``, ``e_Omega``, and the actuator's
+        ``delta_dot``, ``saturated`` (SGCMG) or ``held`` (ideal). Pure JAX (call under
+        ``jax.enable_x64``): ``jit``, ``vmap`` and ``grad`` apply."""
         jax = require_jax()
         jnp = jax.numpy
         lax = jax.lax
@@ -152,42 +255,81 @@ class JaxClosedLoop:
         limit = None if self.max_torque is None else jnp.asarray(self.max_torque)
         refs = tuple(jnp.asarray(a) for a in (self.R_d, self.omega_d, self.omega_dot_d))
         varying = self.R_d.ndim == 3
+        cluster, law, rate_limit = self.cluster, self.steering, self.rate_limit
+
+        def command(u_cmd: Any, x: Any) -> tuple:
+            """The actuator's command held over a step from x (simulate's per-step call)."""
+            if cluster is None:
+                return (u_cmd if limit is None else jnp.clip(u_cmd, -limit, limit),)
+            w, d = x[:3], x[3:]
+            h, A = cluster._momentum_and_jacobian(d)
+            h_dot_cmd = -(cross(w, h) + u_cmd)
+            return _saturate_unchecked(law.steer(A, h_dot_cmd, d, 0.0, cluster), rate_limit)
+
+        def torque(x: Any, held: tuple) -> Any:
+            if cluster is None:
+                return held[0]
+            h, A = cluster._momentum_and_jacobian(x[3:])
+            return bus_torque(h, A, held[0], x[:3])
+
+        def sample(R: Any, x: Any, ref: tuple) -> tuple[dict, Any]:
+            """The controller at a sample, and the log row (with the first step's command)."""
+            u_cmd, Psi, e_R, e_W = geometric_pd_torque(R, x[:3], *ref, Jc, k_R, k_Omega, error)
+            held = command(u_cmd, x)
+            row = {"R": R, "x": x, "u_cmd": u_cmd, "u": torque(x, held), "Psi": Psi,
+                   "e_R": e_R, "e_Omega": e_W}  # fmt: skip
+            if cluster is None:
+                row["held"] = held[0]
+            else:
+                row["delta_dot"], row["saturated"] = held
+            return row, u_cmd
 
         def period(carry: tuple, ref: tuple) -> tuple:
-            R, w = carry
-            R_d, w_d, dw_d = ref if varying else refs
-            u = geometric_pd_torque(R, w, R_d, w_d, dw_d, Jc, k_R, k_Omega, error)[0]
-            if limit is not None:
-                u = jnp.clip(u, -limit, limit)
-
-            def field_(t: float, RR: Any, x: Any) -> tuple[Any, Any]:
-                return x, euler_acceleration(J, J_inv, x, u)
+            R, x = carry
+            row, u_cmd = sample(R, x, ref if varying else refs)
 
             def step(c: tuple, _: Any) -> tuple:
+                held = command(u_cmd, c[1])
+
+                def field_(t: float, RR: Any, xx: Any) -> tuple[Any, Any]:
+                    acc = euler_acceleration(J, J_inv, xx[:3], torque(xx, held))
+                    return xx[:3], acc if cluster is None else jnp.concatenate((acc, held[0]))
+
                 return rkmk4_step_unchecked(field_, 0.0, c[0], c[1], dt, stage_attitude=False), None
 
-            (R1, w1), _ = lax.scan(step, (R, w), None, length=n_sub)
-            return (R1, w1), (R, w, u)
+            # the sample's own step recomputes its command: one extra steering call per period
+            # keeps the scan body free of a first-step special case
+            (R1, x1), _ = lax.scan(step, (R, x), None, length=n_sub)
+            return (R1, x1), row
 
-        (Rn, wn), (Rs, ws, us) = lax.scan(
-            period, (R0, omega0), refs if varying else None, length=self.n_ctrl
-        )
-        return (
-            jnp.concatenate((Rs, Rn[None]), axis=0),
-            jnp.concatenate((ws, wn[None]), axis=0),
-            us,
-        )
+        scanned = tuple(a[:-1] for a in refs) if varying else None
+        (Rn, xn), rows = lax.scan(period, (R0, x0), scanned, length=self.n_ctrl)
+        last, _ = sample(Rn, xn, tuple(a[-1] for a in refs) if varying else refs)
+        return {k: jnp.concatenate((v, last[k][None]), axis=0) for k, v in rows.items()}
 
-    def cost_terms(self, k_R: Any, k_Omega: Any, R0: Any, omega0: Any) -> dict[str, Any]:
-        """Per-member terms (pure JAX) on the control grid (rectangle rule, step T):
-        ``angle`` = Σ θ_k² T ≈ ∫θ² dt [rad²·s], θ the angle of R_dᵀR; ``effort`` = Σ ‖u_k‖² T
-        [(N·m)²·s]; ``overshoot`` = Σ max(0, −φ_k·n₀)² T [rad²·s], the error's rotation vector
+    def _pack(self, omega0: Any, delta0: Any = None) -> Any:
+        """``(B, n_x)``: the body rates ``(B, 3)`` and the initial gimbal angles (``delta0``, by
+        default the actuator's)."""
+        if self.cluster is None:
+            return omega0
+        xp = require_jax().numpy if not isinstance(omega0, np.ndarray) else np
+        d0 = self.delta0 if delta0 is None else delta0
+        d0 = xp.broadcast_to(xp.asarray(d0), omega0.shape[:-1] + (4,))
+        return xp.concatenate((omega0, d0), axis=-1)
+
+    def cost_terms(self, k_R: Any, k_Omega: Any, R0: Any, x0: Any) -> dict[str, Any]:
+        """Per-member terms (pure JAX) on the control grid (rectangle rule, step T) from ``R0``
+        and the packed state ``x0`` (:meth:`rollout`): ``angle`` = Σ θ_k² T ≈ ∫θ² dt [rad²·s], θ
+        the angle of R_dᵀR; ``effort`` = Σ ‖u_k‖² T [(N·m)²·s], u the bus torque;
+        ``overshoot`` = Σ max(0, −φ_k·n₀)² T [rad²·s], the error's rotation vector
         φ = log(R_dᵀR)^∨ past the start's error axis n₀ = φ₀/‖φ₀‖ (zero for a start at R_d)."""
         jax = require_jax()
         jnp = jax.numpy
-        Rs, _, us = self.rollout(k_R, k_Omega, R0, omega0)
+        out = self.rollout(k_R, k_Omega, R0, x0)
+        Rs, us = out["R"][:-1], out["u"][:-1]
         R_d = jnp.asarray(self.R_d)
-        Rt = jnp.swapaxes(R_d, -1, -2) @ Rs[:-1]
+        R_d = R_d[:-1] if R_d.ndim == 3 else R_d
+        Rt = jnp.swapaxes(R_d, -1, -2) @ Rs
         phi, theta = so3._log_angle_unchecked(Rt)
         n0 = phi[0] / jnp.maximum(theta[0], 1e-12)
         past = jnp.maximum(-(phi @ n0), 0.0)
@@ -211,7 +353,8 @@ class JaxClosedLoop:
         ``angle + effort_weight·effort + overshoot_weight·overshoot`` (:meth:`cost_terms`);
         pure JAX, differentiable in the gains."""
         jax = require_jax()
-        terms = jax.vmap(self.cost_terms, in_axes=(None, None, 0, 0))(k_R, k_Omega, R0, omega0)
+        x0 = self._pack(omega0)
+        terms = jax.vmap(self.cost_terms, in_axes=(None, None, 0, 0))(k_R, k_Omega, R0, x0)
         weights = {"angle": 1.0, "effort": effort_weight, "overshoot": overshoot_weight}
         return sum(weights[k] * terms[k].mean() for k in terms)
 
@@ -223,26 +366,56 @@ class JaxClosedLoop:
             fn = self._compiled[name] = build()
         return fn
 
-    def run(self, R0: object, omega0: object | None = None, k_R: Any = None, k_Omega: Any = None
-            ) -> JaxRun:  # fmt: skip
-        """The batch of initial states ``R0`` ``(B, 3, 3)``, ``omega0`` ``(B, 3)`` (default zero)
-        through ``jit(vmap(rollout))``; gains default to the controller's. Compiled once per
-        batch size and gain shape."""
+    def run(
+        self, R0: object, omega0: object | None = None, k_R: Any = None, k_Omega: Any = None,
+        pad: bool = True, delta0: object | None = None,
+    ) -> JaxRun:  # fmt: skip
+        """The batch of initial states ``R0`` ``(B, 3, 3)``, ``omega0`` ``(B, 3)`` (default zero;
+        the gimbals start at ``delta0`` ``(4,)`` or ``(B, 4)``, default the actuator's) through
+        ``jit(vmap(rollout))``; gains
+        default to the controller's. With ``pad`` the batch is padded to
+        :func:`padded_size` ``(B)`` members (copies of the first, cut off after the run), so a
+        new B in the same bucket reuses the compiled program; ``pad=False`` compiles for B
+        itself. Compiled once per (padded) batch size and gain shape."""
         jax = require_jax()
         R0, w0 = _initial(R0, omega0)
+        B = R0.shape[0]
+        d0 = None
+        if self.cluster is not None:
+            d0 = self.delta0 if delta0 is None else as_array(delta0, "delta0", (4,))
+            if d0.ndim not in (1, 2) or (d0.ndim == 2 and d0.shape[0] != B):
+                raise ValueError(
+                    f"delta0: expected shape (4,) or ({B}, 4) for the {B} spacecraft of R0, got "
+                    f"{d0.shape}"
+                )
+        x0 = self._pack(w0, d0)
+        n = padded_size(B) if pad else B
+        if n > B:
+            R0 = np.concatenate((R0, np.broadcast_to(R0[:1], (n - B, 3, 3))))
+            x0 = np.concatenate((x0, np.broadcast_to(x0[:1], (n - B, x0.shape[1]))))
         k_R = self.k_R if k_R is None else k_R
         k_Omega = self.k_Omega if k_Omega is None else k_Omega
         with jax.enable_x64(True):
             fn = self._jit(
                 "run", lambda: jax.jit(jax.vmap(self.rollout, in_axes=(None, None, 0, 0)))
             )
-            Rs, ws, us = fn(k_R, k_Omega, R0, w0)
-            Rs, ws, us = (np.moveaxis(np.asarray(a), 0, 1) for a in (Rs, ws, us))
-        bad = ~(np.isfinite(Rs).all(axis=(2, 3)) & np.isfinite(ws).all(axis=2))
+            out = {
+                k: np.moveaxis(np.asarray(v)[:B], 0, 1) for k, v in fn(k_R, k_Omega, R0, x0).items()
+            }
+        Rs, xs = out["R"], out["x"]
+        bad = ~(np.isfinite(Rs).all(axis=(2, 3)) & np.isfinite(xs).all(axis=2))
         diverged = bad.any(axis=0)
         t = self.times
         at = np.where(diverged, t[np.argmax(bad, axis=0)], np.nan)
-        return JaxRun(t, Rs, ws, us, diverged, at)
+        if self.cluster is not None:
+            act = {"delta": xs[..., 3:], "delta_dot": out["delta_dot"],
+                   "saturated": out["saturated"]}  # fmt: skip
+        elif self.max_torque is not None:
+            act = {"saturated": np.abs(out["held"]) >= self.max_torque}
+        else:
+            act = {}
+        ctrl = {"Psi": out["Psi"], "e_R": out["e_R"], "e_Omega": out["e_Omega"]}
+        return JaxRun(t, Rs, xs[..., :3], out["u"], diverged, at, out["u_cmd"], act, ctrl)
 
     def value_and_grad(
         self, k_R: Any, k_Omega: Any, R0: object, omega0: object | None = None,
@@ -253,6 +426,7 @@ class JaxClosedLoop:
         jax = require_jax()
         R0, w0 = _initial(R0, omega0)
         kR, kW = np.asarray(k_R, dtype=np.float64), np.asarray(k_Omega, dtype=np.float64)
+        x0 = self._pack(w0)
         with jax.enable_x64(True):
             fn = self._jit(
                 "value_and_grad",
@@ -261,15 +435,15 @@ class JaxClosedLoop:
             value, (gR, gW) = fn(kR, kW, R0, w0, effort_weight, overshoot_weight)
             value, gR, gW = float(value), np.asarray(gR), np.asarray(gW)
             if not (math.isfinite(value) and np.isfinite(gR).all() and np.isfinite(gW).all()):
-                self._name_bad_term(kR, kW, R0, w0)
+                self._name_bad_term(kR, kW, R0, x0)
         return value, gR, gW
 
-    def _name_bad_term(self, kR: Any, kW: Any, R0: Any, w0: Any) -> None:
+    def _name_bad_term(self, kR: Any, kW: Any, R0: Any, x0: Any) -> None:
         jax = require_jax()
         for term in ("angle", "effort", "overshoot"):
 
             def one(a: Any, b: Any, term: str = term) -> Any:
-                per = jax.vmap(self.cost_terms, in_axes=(None, None, 0, 0))(a, b, R0, w0)
+                per = jax.vmap(self.cost_terms, in_axes=(None, None, 0, 0))(a, b, R0, x0)
                 return per[term].mean()
 
             v, g = jax.value_and_grad(one, argnums=(0, 1))(kR, kW)
@@ -330,12 +504,7 @@ def closed_loop(
     if not isinstance(plant, Spacecraft):
         raise ValueError(f"plant: expected a Spacecraft, got {type(plant).__name__}")
     act = plant.actuator
-    if type(act) is not IdealTorqueActuator:
-        raise ValueError(
-            f"plant.actuator: the JAX route supports IdealTorqueActuator only, got "
-            f"{type(act).__name__} (the SGCMG cluster and its steering are not yet written "
-            "against the array API; run spacecraft.simulate)"
-        )
+    _check_actuator(act)
     for part in ("disturbance", "modes", "momentum_management"):
         if getattr(plant, part) is not None:
             raise ValueError(
@@ -375,15 +544,45 @@ def closed_loop(
             f"t_final: t_final − t0 = {span!r} must be a positive multiple of the control "
             f"period {n_sub * dt!r} on the JAX route"
         )
-    times = t0 + np.arange(n_ctrl) * n_sub * dt
+    times = t0 + np.arange(n_ctrl + 1) * n_sub * dt
     R_d, w_d, dw_d = _reference_samples(reference, times)
-    mt = act.max_torque
+    mt = getattr(act, "max_torque", None)
+    sgcmg = isinstance(act, SgcmgActuator)
     return JaxClosedLoop(
         J=np.array(plant.body.J), J_inv=np.array(plant.body.J_inv), J_ctrl=np.array(controller.J),
         k_R=_gain(controller.k_R, "k_R"), k_Omega=_gain(controller.k_Omega, "k_Omega"),
         error=controller.error, max_torque=None if mt is None else np.asarray(mt, dtype=float),
         R_d=R_d, omega_d=w_d, omega_dot_d=dw_d, dt=dt, n_sub=n_sub, n_ctrl=n_ctrl, t0=t0,
+        cluster=act.cluster if sgcmg else None, steering=act.steering if sgcmg else None,
+        rate_limit=act.rate_limit if sgcmg else math.inf,
+        delta0=np.array(act.delta0) if sgcmg else None,
     )  # fmt: skip
+
+
+def _check_actuator(act: object) -> None:
+    """``ValueError`` naming the part of an actuator the JAX route does not run."""
+    if type(act) is IdealTorqueActuator:
+        return
+    if type(act) is not SgcmgActuator:
+        raise ValueError(
+            f"plant.actuator: the JAX route supports IdealTorqueActuator and SgcmgActuator, got "
+            f"{type(act).__name__}; run spacecraft.simulate"
+        )
+    if act.servo != "ideal":
+        raise ValueError(
+            f"plant.actuator.servo: the JAX route supports the ideal gimbal servo only, got "
+            f"{act.servo!r}; run spacecraft.simulate"
+        )
+    if type(act.steering) is not SingularityRobust:
+        raise ValueError(
+            f"plant.actuator.steering: the JAX route supports SingularityRobust steering only, "
+            f"got {type(act.steering).__name__}; run spacecraft.simulate"
+        )
+    if type(act.cluster) is not SgcmgPyramid:
+        raise ValueError(
+            f"plant.actuator.cluster: the JAX route runs SgcmgPyramid's own formulas, got "
+            f"{type(act.cluster).__name__}; run spacecraft.simulate"
+        )
 
 
 @dataclass(frozen=True)
@@ -453,3 +652,88 @@ def tune_gradient(
     history = np.array(rows)
     best = int(np.argmin(history[:, 2]))
     return TuningResult(float(history[best, 0]), float(history[best, 1]), history)
+
+
+def simulate_jax(
+    plant: Spacecraft,
+    controller: GeometricPD,
+    reference: Callable[[float], AttitudeReference],
+    initial_state: Any,
+    t_final: float,
+    dt: float,
+    control_period: float | None = None,
+    log_every: int = 1,
+    t0: float = 0.0,
+    **options: Any,
+) -> Any:
+    """:func:`spacecraft.simulate` with ``backend="jax"``: the run through
+    :meth:`JaxClosedLoop.run`, returned as the :class:`spacecraft.simulator.SimulationResult`
+    the NumPy route fills for the same configuration (every field: the actuator's derived log —
+    SGCMG singularity measure and momentum — by the actuator's own NumPy function).
+
+    ``log_every`` must log at control samples (a multiple of ``control_period / dt``): the
+    compiled loop keeps the state at the samples only. ``options`` are simulate's other
+    arguments; each must have its default (``sensors``, ``measurement``, ``rng``,
+    ``compute_delay``, ``progress``; ``workers`` is ignored), else ``ValueError`` naming it. A
+    member whose state becomes non-finite raises
+    :class:`spacecraft.simulator.SimulationDiverged` at the first logged time where it is, with
+    the rows before it (the NumPy route reports the step).
+    """
+    from liecontrol._validation import as_int
+
+    from .simulator import SimulationDiverged, SimulationResult
+
+    defaults = {"sensors": None, "measurement": None, "rng": None, "compute_delay": 0.0,
+                "progress": False, "workers": 1}  # fmt: skip
+    for name, value in options.items():
+        if name not in defaults:
+            raise TypeError(f"simulate_jax() got an unexpected keyword argument {name!r}")
+        if name != "workers" and not (value is None or value is False or
+                                      (name == "compute_delay" and value == 0)):  # fmt: skip
+            raise ValueError(
+                f"{name}: not supported by backend='jax' (got {value!r}); use backend='numba'"
+            )
+    loop = closed_loop(plant, controller, reference, t_final, dt, control_period, t0)
+    state = plant.check_state(initial_state, "initial_state")
+    every = as_int(log_every, "log_every", 1)
+    if every % loop.n_sub:
+        raise ValueError(
+            f"log_every: backend='jax' logs at control samples, a multiple of "
+            f"{loop.n_sub} steps here (control_period / dt), got {every}"
+        )
+    x = state.packed()
+    x_act = x[:, plant.act_slice]
+    run = loop.run(state.R, x[:, :3], delta0=x_act[:, :4] if loop.cluster is not None else None)
+    rows = np.arange(0, loop.n_ctrl + 1, every // loop.n_sub)
+    if rows[-1] != loop.n_ctrl:
+        rows = np.append(rows, loop.n_ctrl)  # the final time is always logged
+    B = state.batch_size
+    t = run.t[rows]
+    refs = [reference(float(tk)) for tk in t]
+    act = {k: v[rows] for k, v in run.actuator.items()}
+    derived = getattr(plant.actuator, "derived_log", None)
+    if derived is not None:
+        act.update(derived(act))
+    result = SimulationResult(
+        t=t, R=run.R[rows], omega=run.omega[rows],
+        R_d=np.stack([np.broadcast_to(r.R_d, (B, 3, 3)) for r in refs]),
+        omega_d=np.stack([np.broadcast_to(r.omega_d, (B, 3)) for r in refs]),
+        u_cmd=run.u_cmd[rows], u=run.u[rows], disturbance=np.zeros((len(rows), B, 3)),
+        actuator=act, controller={k: v[rows] for k, v in run.controller.items()},
+        dt=loop.dt, control_period=loop.control_period,
+    )  # fmt: skip
+    if run.diverged.any():
+        t_bad = float(np.nanmin(run.diverged_at))
+        keep = int(np.searchsorted(t, t_bad))
+        cut = SimulationResult(**{
+            k: (v[:keep] if isinstance(v, np.ndarray) else
+                {n: a[:keep] for n, a in v.items()} if isinstance(v, dict) else v)
+            for k, v in vars(result).items()
+        })  # fmt: skip
+        raise SimulationDiverged(
+            f"state became non-finite by t = {t_bad:.6g} s (backend='jax', spacecraft "
+            f"{np.flatnonzero(run.diverged).tolist()})",
+            time=t_bad,
+            result=cut,
+        )
+    return result

@@ -23,6 +23,12 @@ Its gradient follows from Jacobi's formula (derived here, not taken from a paper
 with M = ÂÂᵀ. The adjugate stays finite at rank-deficient M, and the numerator vanishes like m
 as m → 0 (the columns' components along the singular direction are O(m)), so dividing by the
 guarded max(m, 1e-8) never produces NaN/inf and changes nothing for m > 1e-8.
+
+The cluster's formulas (h, A, the bus torque, m and ∇m) are pure functions of the array
+namespace (:mod:`liecontrol._array_api`): the validated methods convert to NumPy, the
+unchecked ones (``_momentum_and_jacobian``, ``_measure_and_gradient``, :func:`bus_torque`) also
+run on ``jax.numpy`` arrays under ``jit``/``vmap``/``grad`` (the JAX route of the closed loop,
+:mod:`spacecraft.differentiable`), with the same NumPy results as before.
 """
 
 from __future__ import annotations
@@ -31,6 +37,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from liecontrol._array_api import cross, namespace
 from liecontrol._validation import as_array, as_scalar
 
 __all__ = ["SgcmgPyramid", "adjugate_sym3", "det_sym3", "MEASURE_FLOOR"]
@@ -58,6 +65,18 @@ def _det_sym3(M: np.ndarray, adj: np.ndarray | None = None) -> np.ndarray:
     if adj is None:
         adj = _adjugate_sym3(M)
     return np.einsum("...j,...j->...", M[..., 0, :], adj[..., :, 0])
+
+
+def bus_torque(
+    h: np.ndarray, A: np.ndarray, delta_dot: np.ndarray, omega: np.ndarray
+) -> np.ndarray:
+    """The torque the cluster exerts on the bus, ``τ = −(ω × h + A δ̇)`` ``(..., 3)`` [N·m], for
+    the stored momentum ``h`` ``(..., 3)``, the Jacobian ``A`` ``(..., 3, n)``, the gimbal rates
+    ``delta_dot`` ``(..., n)`` and the body rate ``omega`` ``(..., 3)``: the reaction to the rate
+    of change of the cluster's momentum seen in the rotating body frame, ḣ + ω × h with
+    ḣ = A δ̇ (so R (J ω + h) is conserved without external torque). Pure and unchecked (NumPy
+    or JAX arrays)."""
+    return -(cross(omega, h) + (A @ delta_dot[..., None])[..., 0])
 
 
 def _check_sym3(M: object, name: str) -> np.ndarray:
@@ -159,7 +178,13 @@ class SgcmgPyramid:
 
     def momentum_and_jacobian(self, delta: object) -> tuple[np.ndarray, np.ndarray]:
         """``(h, A)`` from one sin/cos evaluation (the plant's hot path)."""
-        sn, cs = self._sincos(delta)
+        return self._momentum_and_jacobian(as_array(delta, "delta", (4,)))
+
+    def _momentum_and_jacobian(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`momentum_and_jacobian` without validation: ``d`` a float64 ``(..., 4)`` NumPy
+        or JAX array (pure: the JAX route of the closed loop runs this same formula)."""
+        xp = namespace(d)
+        sn, cs = xp.sin(d)[..., None, :], xp.cos(d)[..., None, :]
         h = (self._S * sn + self._C * cs).sum(axis=-1)
         A = self._S * cs - self._C * sn
         return self.h0 * h, self.h0 * A
@@ -179,8 +204,9 @@ class SgcmgPyramid:
 
     def _measure_and_gradient(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`singularity_measure_and_gradient` without validation (steering hot path):
-        ``d`` a finite float64 ``(..., 4)`` array."""
-        sn, cs = np.sin(d), np.cos(d)
+        ``d`` a finite float64 ``(..., 4)`` NumPy or JAX array (pure)."""
+        xp = namespace(d)
+        sn, cs = xp.sin(d), xp.cos(d)
         S, C = self._S, self._C
         # Row-wise (x, y, z components as (..., 4) arrays): elementwise ops on flat arrays are
         # ~2× faster at B = 1000 than batched 3×3 matmuls (measured), at +10 µs for B = 1.
@@ -190,13 +216,13 @@ class SgcmgPyramid:
         dd, e, f = (ay * ay).sum(-1), (ay * az).sum(-1), (az * az).sum(-1)
         c00, c01, c02 = dd * f - e * e, c * e - b * f, b * e - c * dd
         c11, c12, c22 = a * f - c * c, b * c - a * e, a * dd - b * b
-        m = np.sqrt(np.maximum(a * c00 + b * c01 + c * c02, 0.0))
+        m = xp.sqrt(xp.maximum(a * c00 + b * c01 + c * c02, 0.0))
         # −âᵢᵀ adj(M) ĥᵢ for every column i at once
         w0 = c00[..., None] * hx + c01[..., None] * hy + c02[..., None] * hz
         w1 = c01[..., None] * hx + c11[..., None] * hy + c12[..., None] * hz
         w2 = c02[..., None] * hx + c12[..., None] * hy + c22[..., None] * hz
         num = -(ax * w0 + ay * w1 + az * w2)
-        return m, num / np.maximum(m, MEASURE_FLOOR)[..., None]
+        return m, num / xp.maximum(m, MEASURE_FLOOR)[..., None]
 
     def singularity_measure_gradient(self, delta: object) -> np.ndarray:
         """∇_δ m, ``(..., 4)`` [1/rad]; analytic (Jacobi's formula with the adjugate)."""

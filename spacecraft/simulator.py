@@ -623,6 +623,7 @@ def simulate(
     rng: np.random.Generator | None = None,
     compute_delay: float = 0.0,
     workers: int = 1,
+    backend: str = "numba",
 ) -> SimulationResult:
     """Run the closed loop from ``t0`` to ``t_final`` with fixed step ``dt``.
 
@@ -630,7 +631,9 @@ def simulate(
         plant: the :class:`spacecraft.plant.Spacecraft` (rigid or with flexible modes).
         controller: an :class:`liecontrol.control.base.AttitudeController`; ``reset(t0, B)`` is
             called first (controllers with ``batched = False`` are deep-copied per spacecraft).
-        reference: callable ``t -> AttitudeReference`` (e.g. ``ConstantAttitude(R_d)``).
+        reference: callable ``t -> AttitudeReference`` (e.g. ``ConstantAttitude(R_d)``); one
+            with the attribute ``time_invariant = True`` (as ``ConstantAttitude``) is sampled
+            once by the compiled loop.
         initial_state: :class:`PlantState` of ``B`` spacecraft (``plant.initial_state(...)``).
         t_final: final time [s], at least one step after ``t0`` (a shorter horizon is
             rejected). An integer multiple of ``dt`` (relative tolerance 1e-9) ends exactly at
@@ -666,6 +669,13 @@ def simulate(
             GNU OpenMP (the ``process`` executor of :mod:`benchmarks` forks): use it in a main
             program, or with ``spawn``. At most ``numba.config.NUMBA_NUM_THREADS``; ignored
             (with the log line) when the run takes the Python loop.
+        backend: ``"numba"`` (default): the compiled loop where plant and controller have
+            kernels, else the Python loop. ``"jax"``: the same formulas run as one compiled JAX
+            program (:func:`spacecraft.differentiable.simulate_jax`; needs
+            ``pip install liecontrol[jax]``, else ``ImportError``), returning the same fields;
+            for the configurations it supports (``ValueError`` naming the part otherwise):
+            geometric PD, ideal torque actuator or SGCMG pyramid with singularity-robust
+            steering, no disturbance, sensors or delay, logging at control samples.
 
     Returns:
         :class:`SimulationResult`.
@@ -674,6 +684,16 @@ def simulate(
         ValueError: bad arguments (message starts with the argument's name).
         SimulationDiverged: the state became non-finite; ``.result`` holds the log so far.
     """
+    if backend != "numba":
+        if backend != "jax":
+            raise ValueError(f"backend: expected 'numba' or 'jax', got {backend!r}")
+        from .differentiable import simulate_jax
+
+        return simulate_jax(
+            plant, controller, reference, initial_state, t_final, dt, control_period, log_every,
+            t0, progress=progress, sensors=sensors, measurement=measurement, rng=rng,
+            compute_delay=compute_delay, workers=workers,
+        )  # fmt: skip
     if not isinstance(plant, Spacecraft):
         raise ValueError(f"plant: expected a Spacecraft, got {type(plant).__name__}")
     _check_controller(controller)

@@ -40,6 +40,14 @@ Hot path: every law has an unchecked entry point ``law.steer(A, hdot_cmd, delta,
 and then calls it. For one spacecraft (batch size 1) the 3×3 solve runs on Python floats
 (Cramer's rule, ~5× faster than numpy on 1-element arrays), with LAPACK for a determinant too
 small to trust. Likewise :func:`_saturate_unchecked` behind :func:`saturate_gimbal_rates`.
+
+Array API: the singularity-robust law's formula (:func:`_measure_and_scale`,
+:func:`_apply_right_inverse_small`) and the uniform rate limit (:func:`_saturate_unchecked`) are
+pure functions of the array namespace (:mod:`liecontrol._array_api`). Given ``jax.numpy``
+arrays, :meth:`SingularityRobust.steer` and the rate limit run that same source under
+``jit``/``vmap``/``grad`` (the JAX route of the closed loop, :mod:`spacecraft.differentiable`);
+the NumPy shortcuts (compiled kernel, Python floats for one spacecraft, the row layout of large
+batches) are taken for NumPy arrays only, with the same results as before.
 """
 
 from __future__ import annotations
@@ -50,6 +58,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from liecontrol._array_api import is_numpy, namespace, safe_sqrt
 from liecontrol._jit import JIT_ENABLED
 from liecontrol._validation import as_array, as_scalar
 from spacecraft._kernels import steer_batch
@@ -83,8 +92,8 @@ _DET_REL_TRUST = 1e-10
 # ---------------------------------------------------------------------------- linear algebra
 def _solve_spd3(M: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     """Solve M X = rhs for symmetric positive-definite ``M (..., 3, 3)``, ``rhs (..., 3, k)``
-    (LAPACK LU with partial pivoting, batched)."""
-    return np.linalg.solve(M, rhs)
+    (LU with partial pivoting, batched: LAPACK for NumPy, XLA's for JAX)."""
+    return namespace(M, rhs).linalg.solve(M, rhs)
 
 
 def _gram_entries(A: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -104,7 +113,7 @@ def _floor(tr3: np.ndarray, lam: np.ndarray | float, eps: float) -> np.ndarray:
     """λ + ε tr(M)/3; the ε floor keeps M + ·I positive definite at rank deficiency, and 1 is
     used when the sum is 0 (only if A = 0, where Aᵀx = 0 whatever x)."""
     reg = lam + eps * tr3
-    return np.where(reg > 0.0, reg, 1.0)
+    return namespace(reg).where(reg > 0.0, reg, 1.0)
 
 
 def _off_matrix(off: tuple[float, float, float]) -> np.ndarray:
@@ -120,12 +129,13 @@ def _apply_right_inverse_small(
     eps: float,
     off: tuple[float, float, float] | None = None,
 ) -> np.ndarray:
-    M = A @ np.swapaxes(A, -1, -2)
-    reg = _floor(np.trace(M, axis1=-2, axis2=-1) / 3.0, lam, eps)
+    xp = namespace(A, R, lam)
+    M = A @ xp.swapaxes(A, -1, -2)
+    reg = _floor(xp.trace(M, axis1=-2, axis2=-1) / 3.0, lam, eps)
     Mr = M + reg[..., None, None] * np.eye(3)
     if off is not None:
-        Mr += np.asarray(lam)[..., None, None] * _off_matrix(off)
-    return np.swapaxes(A, -1, -2) @ _solve_spd3(Mr, R)
+        Mr = Mr + xp.asarray(lam)[..., None, None] * _off_matrix(off)
+    return xp.swapaxes(A, -1, -2) @ _solve_spd3(Mr, R)
 
 
 def _batch_rows(A: np.ndarray) -> np.ndarray:
@@ -317,12 +327,15 @@ def _rescaled(a: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
 
 
 def _measure_and_scale(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(m, s²) with s² = ‖A‖²_F/n and m = √det(AAᵀ)/s³ (0 for A = 0)."""
+    """(m, s²) with s² = ‖A‖²_F/n and m = √det(AAᵀ)/s³ (0 for A = 0). Pure (NumPy or JAX):
+    the square root is :func:`~liecontrol._array_api.safe_sqrt`, √x for x > 0 and 0 at an
+    exact singularity (det = 0) with a finite derivative there."""
+    xp = namespace(A)
     a, b, c, d, e, f = _gram_entries(A)
     det = a * (d * f - e * e) + b * (c * e - b * f) + c * (b * e - c * d)
     s2 = (a + d + f) / A.shape[-1]
-    s2_safe = np.where(s2 > 0.0, s2, 1.0)
-    return np.sqrt(np.maximum(det, 0.0) / (s2_safe * s2_safe * s2_safe)), s2
+    s2_safe = xp.where(s2 > 0.0, s2, 1.0)
+    return safe_sqrt(xp.maximum(det, 0.0) / (s2_safe * s2_safe * s2_safe), xp), s2
 
 
 def _measure_scale_rows(
@@ -371,15 +384,21 @@ def saturate_gimbal_rates(delta_dot: object, limit: object) -> tuple[np.ndarray,
 def _saturate_unchecked(dd: np.ndarray, lim: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """:func:`saturate_gimbal_rates` without validation: ``dd`` float64 ``(..., n)``, ``lim`` a
     positive float or a positive array broadcastable to ``(...)``. Same arithmetic (one IEEE
-    division and one product per element) on both routes, so the results are identical."""
-    if isinstance(lim, float) and dd.size == dd.shape[-1]:
+    division and one product per element) on both routes, so the results are identical.
+
+    Pure for JAX arrays (the last route): the divide is guarded (lim / 1 where no scaling
+    happens) so that its derivative stays finite at δ̇ = 0, and the scale is continuous (= 1)
+    at the switch peak = lim, where its derivative jumps but stays finite."""
+    xp = namespace(dd, lim)
+    numpy = is_numpy(xp)
+    if numpy and isinstance(lim, float) and dd.size == dd.shape[-1]:
         # one spacecraft: a Python max over ≤ 4 floats instead of three numpy reductions
         peak = max(map(abs, dd.reshape(-1).tolist()), default=0.0)
         flag = peak > lim
         out = dd * (lim / peak) if flag else dd.copy()
         return out, np.full(dd.shape[:-1], flag)
-    a = np.abs(dd)
-    if a.ndim == 2 and a.shape[0] > _SMALL_BATCH:
+    a = xp.abs(dd)
+    if numpy and a.ndim == 2 and a.shape[0] > _SMALL_BATCH:
         # column-wise maxima: reducing the short last axis of a long (B, n) array is ~5× slower
         # (max is exact and np.maximum propagates NaN like max, so the result is the same)
         peak = a[:, 0].copy()
@@ -388,8 +407,8 @@ def _saturate_unchecked(dd: np.ndarray, lim: float | np.ndarray) -> tuple[np.nda
     else:
         peak = a.max(axis=-1)
     saturated = peak > lim
-    scale = np.where(saturated, lim / np.where(saturated, peak, 1.0), 1.0)
-    return dd * scale[..., None], np.broadcast_to(saturated, peak.shape).copy()
+    scale = xp.where(saturated, lim / xp.where(saturated, peak, 1.0), 1.0)
+    return dd * scale[..., None], xp.broadcast_to(saturated, peak.shape).copy()
 
 
 # ---------------------------------------------------------------------------- laws
@@ -571,6 +590,12 @@ class SingularityRobust(SteeringLaw):
             object.__setattr__(self, name, _check_float(getattr(self, name), name))
 
     def steer(self, A, hdot_cmd, delta=None, t=0.0, cluster=None) -> np.ndarray:
+        xp = namespace(A, hdot_cmd)
+        if not is_numpy(xp):
+            # JAX arrays: the small-batch formula below (pure), batched by vmap or broadcasting
+            m, s2 = _measure_and_scale(A)
+            lam = self.lambda0 * xp.exp(-self.mu * m * m) * s2
+            return _apply_right_inverse_small(A, hdot_cmd[..., None], lam, PINV_EPS)[..., 0]
         if _use_kernel(self, A):
             return _steer_kernel(self, A, hdot_cmd, t)
         m, s2, rows = _measure_scale_rows(A)

@@ -115,3 +115,24 @@ def test_margin_grid_bad_input():
         cm.margin_grid(["barrier"], [-0.1], [1.0])
     with pytest.raises(ValueError, match="^laws"):
         cm.margin_grid(["pid"], [0.0], [1.0])
+
+
+def test_the_grid_is_written_as_csv_and_drawn(tmp_path):
+    import csv
+
+    from benchmarks.constraint_margins import LAWS, MarginCell, plot, write_csv
+
+    cells = [
+        MarginCell(law, T, w, 1.0 - 10.0 * w - T, 50.0, False, False)
+        for law in LAWS
+        for T in (0.1, 0.5)
+        for w in (0.0, 0.05)
+    ]
+    write_csv(cells, tmp_path / "grid.csv")
+    rows = list(csv.DictReader(open(tmp_path / "grid.csv", newline="")))
+    assert len(rows) == len(cells)
+    assert {r["law"] for r in rows} == set(LAWS)
+    got = sorted(float(r["min_margin_deg"]) for r in rows)
+    assert got == sorted(c.min_margin_deg for c in cells)
+    plot(cells, tmp_path / "grid.png")
+    assert (tmp_path / "grid.png").stat().st_size > 10_000

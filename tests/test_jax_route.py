@@ -114,7 +114,11 @@ def test_closed_loop_equals_fused_simulate(error, jax):
     np.testing.assert_allclose(run.t, ref_run.t, rtol=1e-15)
     np.testing.assert_allclose(run.R, ref_run.R, rtol=0, atol=1e-12)
     np.testing.assert_allclose(run.omega, ref_run.omega, rtol=0, atol=1e-12)
-    np.testing.assert_allclose(run.u, ref_run.u[:-1], rtol=0, atol=1e-11)  # after saturation
+    np.testing.assert_allclose(run.u, ref_run.u, rtol=0, atol=1e-11)  # after saturation
+    np.testing.assert_allclose(run.u_cmd, ref_run.u_cmd, rtol=0, atol=1e-11)
+    assert run.actuator.keys() == ref_run.actuator.keys()
+    for k, v in run.actuator.items():
+        np.testing.assert_array_equal(v, ref_run.actuator[k])
     assert not run.diverged.any() and np.isnan(run.diverged_at).all()
     assert so3.distance(run.R[-1], ref.R_d).max() < 1e-3  # converged from 179.9° too
 
@@ -204,8 +208,20 @@ def test_unsupported_configurations_name_the_part(jax):
 
     ref = ConstantAttitude(np.eye(3))
     pd = GeometricPD(J, 1.0, 5.0)
-    with pytest.raises(ValueError, match=r"^plant\.actuator: .*SgcmgActuator"):
-        closed_loop(Spacecraft(RigidBody(J), SgcmgActuator()), pd, ref, 10.0, 0.1)
+    from spacecraft.actuators import FirstOrderServo
+    from spacecraft.steering import PseudoInverse
+
+    class OwnTorque(IdealTorqueActuator):  # a subclass may change the formulas
+        pass
+
+    with pytest.raises(ValueError, match=r"^plant\.actuator: .*OwnTorque"):
+        closed_loop(Spacecraft(RigidBody(J), OwnTorque()), pd, ref, 10.0, 0.1)
+    with pytest.raises(ValueError, match=r"^plant\.actuator\.servo: "):
+        sg = SgcmgActuator(servo=FirstOrderServo(0.05))
+        closed_loop(Spacecraft(RigidBody(J), sg), pd, ref, 10.0, 0.1)
+    with pytest.raises(ValueError, match=r"^plant\.actuator\.steering: .*PseudoInverse"):
+        sg = SgcmgActuator(steering=PseudoInverse())
+        closed_loop(Spacecraft(RigidBody(J), sg), pd, ref, 10.0, 0.1)
     with pytest.raises(ValueError, match=r"^controller\.error: .*'trace'"):
         closed_loop(_plant(), GeometricPD(J, 1.0, 5.0, error="trace"), ref, 10.0, 0.1)
     with pytest.raises(ValueError, match=r"^plant\.disturbance: "):
@@ -220,3 +236,183 @@ def test_unsupported_configurations_name_the_part(jax):
         )
     with pytest.raises(ValueError, match=r"^t_final: "):
         closed_loop(_plant(), pd, ref, 10.05, 0.1)
+
+
+# ---------------------------------------------------------------------------- SGCMG + SR steering
+
+
+def _sgcmg_case(rate_limit: float):
+    from spacecraft.actuators import SgcmgActuator
+    from spacecraft.sgcmg import SgcmgPyramid
+    from spacecraft.steering import SingularityRobust
+
+    kR, kW = gains_from_bandwidth(J, 0.3, 0.9)
+    cluster = SgcmgPyramid(h0=300.0, gimbal_rate_limit=rate_limit)
+    plant = Spacecraft(RigidBody(J), SgcmgActuator(cluster, SingularityRobust()))
+    ctrl = GeometricPD(J * 1.05, kR, kW)
+    ref = ConstantAttitude(so3.exp(np.array([0.2, -0.1, 0.3])))
+    rng = np.random.default_rng(4)
+    ax = rng.normal(size=(4, 3))
+    ax /= np.linalg.norm(ax, axis=1, keepdims=True)
+    R0 = ref.R_d @ so3.exp(ax * np.radians([179.9, 120.0, 30.0, 0.0])[:, None])
+    w0 = rng.normal(size=(4, 3)) * 0.01
+    return plant, ctrl, ref, R0, w0
+
+
+@pytest.mark.parametrize("rate_limit", [1.0, 0.0015])  # free; rate-limited 12 % of the steps
+def test_sgcmg_sr_closed_loop_equals_fused_simulate(rate_limit, jax):
+    from spacecraft.differentiable import closed_loop
+
+    plant, ctrl, ref, R0, w0 = _sgcmg_case(rate_limit)
+    ref_run = simulate(plant, ctrl, ref, plant.initial_state(R0, w0), 60.0, 0.1,
+                       control_period=0.2, log_every=2)  # fmt: skip
+    run = closed_loop(plant, ctrl, ref, 60.0, 0.1, 0.2).run(R0, w0)
+    sat = ref_run.actuator["saturated"]
+    assert sat.any() == (rate_limit < 1.0)
+    assert ref_run.actuator["singularity"].min() > 0.5  # away from the singular sets
+    pairs = [(run.R, ref_run.R, 1e-12), (run.omega, ref_run.omega, 1e-12)]
+    pairs += [(run.u, ref_run.u, 1e-11), (run.u_cmd, ref_run.u_cmd, 1e-11)]
+    for got, want, tol in pairs:
+        np.testing.assert_allclose(got, want, rtol=0, atol=tol)
+    np.testing.assert_allclose(run.actuator["delta"], ref_run.actuator["delta"], atol=1e-12)
+    np.testing.assert_allclose(run.actuator["delta_dot"], ref_run.actuator["delta_dot"], atol=1e-12)
+    np.testing.assert_array_equal(run.actuator["saturated"], sat)
+    assert so3.distance(run.R[-1], ref.R_d).max() < 1e-3  # converged from 179.9° too
+
+
+def test_sgcmg_gradient_finite_through_the_rate_limit_switch(jax):
+    from spacecraft.differentiable import closed_loop
+
+    plant, ctrl, ref, R0, w0 = _sgcmg_case(0.0015)
+    loop = closed_loop(plant, ctrl, ref, 20.0, 0.1, 0.2)
+    assert loop.run(R0, w0).actuator["saturated"].any()  # the switch is crossed in the run
+    kw = {"effort_weight": 0.01, "overshoot_weight": 1.0}
+    v, gR, gW = loop.value_and_grad(ctrl.k_R, ctrl.k_Omega, R0, w0, **kw)
+    assert np.isfinite([v, gR, gW]).all() and gR != 0.0 and gW != 0.0
+    # the rate limit's guarded divide at rest (δ̇ = 0, peak = 0) and exactly at the limit
+    from spacecraft.steering import _saturate_unchecked
+
+    def f(dd):
+        out, _ = _saturate_unchecked(dd, 1.0)
+        return jax.numpy.sum(out * out)
+
+    for dd in ([0.0, 0.0, 0.0, 0.0], [1.0, -0.5, 0.2, 0.0], [3.0, 0.1, 0.0, -2.0]):
+        g = np.asarray(jax.grad(f)(jax.numpy.asarray(dd)))
+        assert np.isfinite(g).all(), dd
+
+
+def test_sgcmg_numpy_formulas_run_under_jax_with_numpy_values(jax):
+    from spacecraft.sgcmg import SgcmgPyramid, bus_torque
+    from spacecraft.steering import SingularityRobust, _saturate_unchecked
+
+    jnp = jax.numpy
+    rng = np.random.default_rng(5)
+    cl = SgcmgPyramid()
+    d = rng.uniform(-3.0, 3.0, (50, 4))
+    d[0] = [np.pi / 2, 0.0, -np.pi / 2, 0.0]  # a singular set: m = 0
+    h, A = cl.momentum_and_jacobian(d)
+    hj, Aj = cl._momentum_and_jacobian(jnp.asarray(d))
+    np.testing.assert_allclose(np.asarray(hj), h, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(np.asarray(Aj), A, rtol=0, atol=1e-12)
+    q = rng.normal(size=(50, 3)) * 30.0
+    law = SingularityRobust()
+    np.testing.assert_allclose(np.asarray(law.steer(Aj, jnp.asarray(q))),
+                               law(A, q), rtol=1e-12, atol=1e-15)  # fmt: skip
+    dd, w = rng.normal(size=(50, 4)), rng.normal(size=(50, 3))
+    np.testing.assert_allclose(np.asarray(bus_torque(hj, Aj, jnp.asarray(dd), jnp.asarray(w))),
+                               bus_torque(h, A, dd, w), rtol=0, atol=1e-11)  # fmt: skip
+    for x, y in zip(_saturate_unchecked(jnp.asarray(dd), 0.8), _saturate_unchecked(dd, 0.8),
+                    strict=True):  # fmt: skip
+        np.testing.assert_array_equal(np.asarray(x), y)
+    # the SR rates' derivative in δ is finite at the exact singularity (guarded √ of det = 0)
+    g = jax.jacfwd(lambda dl: law.steer(cl._momentum_and_jacobian(dl)[1], jnp.asarray(q[0])))
+    assert np.isfinite(np.asarray(g(jnp.asarray(d[0])))).all()
+    gr = jax.grad(lambda dl: jnp.sum(law.steer(cl._momentum_and_jacobian(dl)[1], q[0]) ** 2))
+    assert np.isfinite(np.asarray(gr(jnp.asarray(d[0])))).all()
+
+
+# ---------------------------------------------------------------------------- simulate(backend=)
+
+
+@pytest.mark.parametrize("actuator", ["ideal", "sgcmg"])
+def test_simulate_backend_jax_equals_default(actuator, jax):
+    if actuator == "sgcmg":
+        plant, ctrl, ref, R0, w0 = _sgcmg_case(0.0015)
+    else:
+        plant, ctrl, ref = (
+            _plant(max_torque=2.0),
+            GeometricPD(J, 3.0, 20.0),
+            ConstantAttitude(np.eye(3)),
+        )
+        R0, w0 = so3.random(np.random.default_rng(6), 3), np.zeros((3, 3))
+    state = plant.initial_state(R0, w0)
+    args = (plant, ctrl, ref, state, 20.0, 0.1)
+    want = simulate(*args, control_period=0.2, log_every=4)
+    got = simulate(*args, control_period=0.2, log_every=4, backend="jax")
+    assert type(got) is type(want)
+    for name in ("t", "R", "omega", "R_d", "omega_d", "u_cmd", "u", "disturbance"):
+        np.testing.assert_allclose(getattr(got, name), getattr(want, name), rtol=0, atol=1e-11)
+    for part in ("actuator", "controller", "disturbance_components", "modes", "sensors",
+                 "estimate"):  # fmt: skip
+        a, b = getattr(got, part), getattr(want, part)
+        assert a.keys() == b.keys(), part
+        for k in a:
+            np.testing.assert_allclose(a[k], b[k], rtol=0, atol=1e-11, err_msg=f"{part}.{k}")
+    assert (got.dt, got.control_period) == (want.dt, want.control_period)
+
+
+def test_simulate_backend_jax_bad_input(jax, monkeypatch):
+    plant, ref = _plant(), ConstantAttitude(np.eye(3))
+    state = plant.initial_state(np.eye(3))
+    pd = GeometricPD(J, 1.0, 5.0)
+    with pytest.raises(ValueError, match=r"^backend: "):
+        simulate(plant, pd, ref, state, 1.0, 0.1, backend="torch")
+    with pytest.raises(ValueError, match=r"^compute_delay: .*backend='numba'"):
+        simulate(plant, pd, ref, state, 1.0, 0.1, compute_delay=0.1, backend="jax")
+    with pytest.raises(ValueError, match=r"^log_every: "):
+        simulate(plant, pd, ref, state, 1.0, 0.1, control_period=0.2, backend="jax")
+    with pytest.raises(ValueError, match=r"^controller\.error: "):
+        simulate(plant, GeometricPD(J, 1.0, 5.0, error="trace"), ref, state, 1.0, 0.1,
+                 backend="jax")  # fmt: skip
+    monkeypatch.setitem(sys.modules, "jax", None)
+    with pytest.raises(ImportError, match=r"pip install liecontrol\[jax\]"):
+        simulate(plant, pd, ref, state, 1.0, 0.1, backend="jax")
+
+
+# ---------------------------------------------------------------------------- compilation
+
+
+def test_padded_batch_compiles_once_per_bucket(jax, monkeypatch):
+    from spacecraft.differentiable import JaxClosedLoop, closed_loop, padded_size
+
+    assert [padded_size(n) for n in (1, 2, 3, 5, 8, 9, 1000, 1024, 1025, 10_000)] == [
+        1, 2, 4, 8, 8, 16, 1024, 1024, 2048, 10_240]  # fmt: skip
+    traces = []
+    rollout = JaxClosedLoop.rollout
+
+    def counted(self, *args):
+        traces.append(args[2].shape)  # runs when JAX traces the program, not when it runs it
+        return rollout(self, *args)
+
+    monkeypatch.setattr(JaxClosedLoop, "rollout", counted)
+    loop = closed_loop(_plant(), GeometricPD(J, 1.0, 5.0), ConstantAttitude(np.eye(3)), 2.0, 0.1)
+    R = so3.random(np.random.default_rng(7), 7)
+    a, b = loop.run(R[:5]), loop.run(R)  # 5 and 7 members: both padded to 8
+    assert len(traces) == 1
+    assert a.R.shape[1] == 5 and b.R.shape[1] == 7
+    np.testing.assert_array_equal(a.R, b.R[:, :5])  # padding does not change a member's run
+    loop.run(R[:3])  # 3 → bucket 4: a second program
+    assert len(traces) == 2
+
+
+def test_compilation_cache_dir(monkeypatch, tmp_path):
+    from spacecraft.differentiable import CACHE_ENV, compilation_cache_dir
+
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path))
+    assert compilation_cache_dir() == str(tmp_path)
+    for off in ("off", "0", ""):
+        monkeypatch.setenv(CACHE_ENV, off)
+        assert compilation_cache_dir() is None
+    monkeypatch.delenv(CACHE_ENV)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    assert compilation_cache_dir() == str(tmp_path / "liecontrol" / "jax")

@@ -578,6 +578,12 @@ def _small_figure() -> Any:
     return fig
 
 
+def _orbit_spec() -> Any:
+    from benchmarks.scenarios import OrbitSpec
+
+    return OrbitSpec()
+
+
 def _detumble_law() -> Any:
     from spacecraft.detumble import DetumbleLaw
 
@@ -632,6 +638,7 @@ OVERRIDES: dict[str, dict[str, Callable[[], Any]]] = {
         "max_torque": lambda: 5.0,
     },
     "spacecraft.detumble.separation_tumble": {"n": lambda: 2},
+    "benchmarks.controllers.mean_field_squared": {"orbit": lambda: _orbit_spec()},
     "spacecraft.detumble.simulate_detumble": {
         "law": lambda: _detumble_law(),
         "omega0": lambda: np.array([0.1, -0.05, 0.08]),
@@ -1195,6 +1202,20 @@ NOT_SWEPT: dict[str, str] = {
     "benchmarks.perf_lie.main": "a timing script entry point",
     "benchmarks.singular_transit.main": "the command line (parses sys.argv; seconds per run)",
     "benchmarks.planned_slews.main": "the command line (parses sys.argv; minutes per run)",
+    "benchmarks.constraint_margins.main": "the command line (parses sys.argv; minutes per run)",
+    "benchmarks.constraint_margins.MarginCell": "a result record built by run_cell",
+    "benchmarks.constraint_margins.write_csv": "writes margin_grid's cells (tested in "
+    "test_constraint_margins)",
+    "benchmarks.constraint_margins.plot": "draws margin_grid's cells (tested in "
+    "test_constraint_margins)",
+    "benchmarks.runner.detumble_inputs": "the runner's detumble step, fed by run_suite (tested "
+    "against a direct simulate_detumble call in test_detumble_suite)",
+    "benchmarks.runner.detumble_metrics": "the runner's detumble step on a DetumbleResult "
+    "(tested in test_detumble_suite)",
+    "benchmarks.constraint_margins.margin_grid": "runs laws × rates × periods (minutes); its "
+    "bad input and a 2×2 grid are tested in test_constraint_margins",
+    "benchmarks.constraint_margins.run_cell": "flies one 120 s closed loop (seconds per call); "
+    "tested against a direct simulation in test_constraint_margins",
     "spacecraft.detumble.DetumbleResult": "a log container built by simulate_detumble",
     "benchmarks.safe_mode.main": "the command line (parses sys.argv; seconds per run)",
     "benchmarks.detumble_study.main": "the command line (parses sys.argv; a minute per run)",
