@@ -471,3 +471,10 @@ def njit(*args: Any, **kwargs: Any) -> Callable[..., Any]:
 
 
 prange = range if _NUMBA is None else _NUMBA.prange
+
+
+def max_threads() -> int | None:
+    """The most threads numba's parallel regions may use (``NUMBA_NUM_THREADS``), or ``None``
+    without numba. (Modules that only ask this do not import numba themselves, so editing them
+    does not invalidate the kernel cache, :func:`kernel_sources`.)"""
+    return None if _NUMBA is None else int(_NUMBA.config.NUMBA_NUM_THREADS)

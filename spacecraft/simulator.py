@@ -591,13 +591,11 @@ def _check_sensors(
 
 def _check_workers(workers: Any) -> int:
     """``workers`` as an int in [1, the threads numba may use]."""
-    from liecontrol._jit import JIT_ENABLED
+    from liecontrol._jit import max_threads
 
     workers = as_int(workers, "workers", 1)
-    if JIT_ENABLED:
-        import numba
-
-        most = int(numba.config.NUMBA_NUM_THREADS)
+    most = max_threads()
+    if most is not None:
         if workers > most:
             raise ValueError(
                 f"workers: at most {most} threads (numba.config.NUMBA_NUM_THREADS, set by the "
