@@ -215,7 +215,8 @@ def _one_spacecraft(
     ref_index: np.ndarray, ref_R: np.ndarray, ref_w: np.ndarray, ref_dw: np.ndarray,
     log_R: np.ndarray, log_w: np.ndarray, log_Rd: np.ndarray,
     log_wd: np.ndarray, log_ucmd: np.ndarray, log_u: np.ndarray, log_dist: np.ndarray,
-    log_act: np.ndarray, log_sat: np.ndarray, log_diag: np.ndarray, diag: np.ndarray,
+    log_act: np.ndarray, log_sat: np.ndarray, log_hm: np.ndarray, log_diag: np.ndarray,
+    diag: np.ndarray,
 ) -> tuple[int, float]:  # fmt: skip
     """The whole run of spacecraft ``b`` (the loop's body, see :func:`_fused_loop`): every step
     of one spacecraft before the next, its state, command and scratch in locals and views made
@@ -305,6 +306,15 @@ def _one_spacecraft(
             log_u[rows, b, 0] = u0
             log_u[rows, b, 1] = u1
             log_u[rows, b, 2] = u2
+            if act == K.ACT_SGCMG:
+                # the cluster's momentum and singularity measure of the logged angles, from the
+                # sin/cos the torque above left in scratch (else the numpy pass over the whole
+                # log afterwards, SgcmgActuator.derived_log, costs as much as the loop)
+                h0, h1, h2, mm_ = K.cmg_momentum_and_measure(S0, C0, scratch, 0, m)
+                log_hm[rows, b, 0] = h0
+                log_hm[rows, b, 1] = h1
+                log_hm[rows, b, 2] = h2
+                log_hm[rows, b, 3] = mm_
             d0, d1, d2 = K.disturbance_at(dist, dp, t)
             log_dist[rows, b, 0] = d0
             log_dist[rows, b, 1] = d1
@@ -368,7 +378,8 @@ def _fused_loop(
     ref_index: np.ndarray, ref_R: np.ndarray, ref_w: np.ndarray, ref_dw: np.ndarray,
     log_t: np.ndarray, log_R: np.ndarray, log_w: np.ndarray, log_Rd: np.ndarray,
     log_wd: np.ndarray, log_ucmd: np.ndarray, log_u: np.ndarray, log_dist: np.ndarray,
-    log_act: np.ndarray, log_sat: np.ndarray, log_diag: np.ndarray, diag: np.ndarray,
+    log_act: np.ndarray, log_sat: np.ndarray, log_hm: np.ndarray, log_diag: np.ndarray,
+    diag: np.ndarray,
 ) -> tuple[int, int, float]:  # fmt: skip
     """The closed loop of :func:`spacecraft.simulator.simulate` for ``B`` spacecraft: the
     controller's ``law`` (a first-class function of :data:`liecontrol.control.kernel.
@@ -384,7 +395,7 @@ def _fused_loop(
             b, n_steps, t0, dt, every_ctrl, log_every, R, x, act, J, J_inv, S0, C0, dist, dp,
             clip_on, clip, steer, sp, rate_limit, law, cparams, cstate, ref_index, ref_R, ref_w,
             ref_dw, log_R, log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_act, log_sat,
-            log_diag, diag,
+            log_hm, log_diag, diag,
         )  # fmt: skip
         # the earliest failure; at one time the law's (before the step) comes first
         if s != 0 and (tb < t_fail or (tb == t_fail and s == 2)):
@@ -403,7 +414,8 @@ def _fused_loop_parallel(
     ref_index: np.ndarray, ref_R: np.ndarray, ref_w: np.ndarray, ref_dw: np.ndarray,
     log_t: np.ndarray, log_R: np.ndarray, log_w: np.ndarray, log_Rd: np.ndarray,
     log_wd: np.ndarray, log_ucmd: np.ndarray, log_u: np.ndarray, log_dist: np.ndarray,
-    log_act: np.ndarray, log_sat: np.ndarray, log_diag: np.ndarray, diag: np.ndarray,
+    log_act: np.ndarray, log_sat: np.ndarray, log_hm: np.ndarray, log_diag: np.ndarray,
+    diag: np.ndarray,
 ) -> tuple[int, int, float]:  # fmt: skip
     """:func:`_fused_loop` with the spacecraft spread over numba's threads (``prange``): each
     spacecraft's run is the same arithmetic in the same order, so the results are bit-identical
@@ -418,7 +430,7 @@ def _fused_loop_parallel(
             b, n_steps, t0, dt, every_ctrl, log_every, R, x, act, J, J_inv, S0, C0, dist, dp,
             clip_on, clip, steer, sp, rate_limit, law, cparams, cstate, ref_index, ref_R, ref_w,
             ref_dw, log_R, log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_act, log_sat,
-            log_diag, diag,
+            log_hm, log_diag, diag,
         )  # fmt: skip
         st[b] = s
         tf[b] = tb
@@ -883,6 +895,7 @@ def run_fused(
     log_act = np.empty((Kr, B, (n - 3) + n_held))
     n_sat = 3 if pk.act == K.ACT_IDEAL else 1
     log_sat = np.empty((Kr, B, n_sat), dtype=np.bool_)
+    log_hm = np.empty((Kr, B, 4 if pk.act == K.ACT_SGCMG else 0))  # h (3), singularity measure
     n_diag = int(spec.n_diag)
     diag = np.zeros((B, n_diag))
     log_diag = np.empty((Kr, B, n_diag))
@@ -893,7 +906,7 @@ def run_fused(
         clip, pk.steer, pk.steer_params, pk.rate_limit,
         spec.law, cparams, cstate, index, ref_R, ref_w, ref_dw,
         log.t, log.R, log.omega, log.R_d, log.omega_d, log.u_cmd, log.u, log.disturbance,
-        log_act, log_sat, log_diag, diag,
+        log_act, log_sat, log_hm, log_diag, diag,
     )  # fmt: skip
     status, rows, t_fail = _call_loop(args, 19, workers, B, vscmg=False)
     if not _finished(status, t_fail, t0, controller, spec, notes):
@@ -904,6 +917,8 @@ def run_fused(
         d["actuator"]["delta"] = log_act[:, :, : n - 3]
         d["actuator"]["delta_dot"] = log_act[:, :, n - 3 :]
         d["actuator"]["saturated"] = log_sat[:, :, 0]
+        d["actuator"]["h"] = log_hm[:, :, :3]
+        d["actuator"]["singularity"] = log_hm[:, :, 3]
     elif pk.clip is not None:
         d["actuator"]["saturated"] = log_sat
     d["controller"].update(spec.diagnostics(log_diag))

@@ -569,7 +569,10 @@ class SgcmgActuator(Actuator):
 
     def derived_log(self, log: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """``singularity`` m = √det(ÂÂᵀ) (K,B) and ``h`` (K,B,3) [N·m·s] of the logged gimbal
-        angles, vectorized over the whole log."""
+        angles, vectorized over the whole log (or nothing when the compiled loop already logged
+        both, from the same angles: :func:`spacecraft._kernels.cmg_momentum_and_measure`)."""
+        if "singularity" in log and "h" in log:
+            return {}
         delta = log["delta"]
         return {
             "singularity": self.cluster.singularity_measure(delta),
