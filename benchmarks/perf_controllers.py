@@ -7,7 +7,11 @@ plant, and flies ``simulate`` from the scenario's initial state for ``--t-final`
 scenario's step and control period, logging every step, as the suite does. The figure is the
 best of ``--repeat`` CPU times per simulated step (``time.process_time``), after one warm-up run
 (compilation and cache loading are not counted); the ratio is to ``geometric-pd-large-angle``
-timed in the same rounds. The column ``loop`` says whether the run took the compiled loop
+timed in the same rounds. A run's cost per step includes the plant's, which depends on the
+trajectory the law flies (the steering's near-singular branch, the rate limit), so the column
+``law ns`` also times the compiled law alone: 200 000 calls through the seam's function pointer
+on the scenario's initial state, as the fused loop calls it. The column ``loop`` says whether
+the run took the compiled loop
 (``fused``) or the Python loop, and why not. The MPC laws stay in the Python loop by design:
 their OSQP solve is a Python call.
 """
@@ -25,7 +29,7 @@ from typing import Any  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-__all__ = ["controller_step_costs", "main"]
+__all__ = ["controller_step_costs", "law_call_ns", "main"]
 
 BASELINE = "geometric-pd-large-angle"
 
@@ -90,6 +94,77 @@ def controller_step_costs(
     return {n: (1e6 * best[n] / n_steps, best[n] / base, runs[n][1]) for n in names}
 
 
+def law_call_ns(name: str, scenario_name: str = "stabilisation", calls: int = 200_000) -> float:
+    """CPU ns per call of controller ``name``'s compiled law on the scenario's initial state
+    (NaN for a controller without a kernel)."""
+    import numba
+    from numba.core import types
+
+    from benchmarks.controllers import ControllerContext, get_controller
+    from benchmarks.runner import build_reference, initial_state
+    from benchmarks.scenarios import get_scenario
+    from liecontrol.control import kernel as seam
+
+    sc = get_scenario(scenario_name)
+    info = get_controller(name)
+    ref = build_reference(sc)
+    period = info.control_period or sc.control_period or sc.dt
+    ctx = ControllerContext(
+        spacecraft=sc.spacecraft, control_period=period, batch_size=1, reference=ref,
+        keep_out=sc.keep_out, keep_in=sc.keep_in,
+    )  # fmt: skip
+    ctrl = info.factory(ctx)
+    ctrl.reset(0.0, 1)
+    hook = getattr(ctrl, "fused_kernel", None)
+    spec = hook(1, period) if callable(hook) else None
+    if spec is None:
+        return float("nan")
+    R0, w0 = initial_state(sc)
+    r = ref(0.0)
+    args = [
+        np.ascontiguousarray(np.reshape(R0, (3, 3))), np.ascontiguousarray(np.reshape(w0, 3)),
+        np.ascontiguousarray(np.broadcast_to(r.R_d, (3, 3))),
+        np.ascontiguousarray(np.broadcast_to(r.omega_d, (3,))),
+        np.ascontiguousarray(np.broadcast_to(r.omega_dot_d, (3,))),
+        np.ascontiguousarray(spec.params, dtype=np.float64),
+        np.ascontiguousarray(spec.state[0], dtype=np.float64).copy(), np.zeros(3),
+        np.zeros(int(spec.n_diag)),
+    ]  # fmt: skip
+    sig = (types.intp, types.FunctionType(seam.LAW_SIGNATURE)) + tuple(
+        numba.typeof(a) for a in args
+    )
+    loop = _law_loop()
+    loop.compile(sig)
+    entry = loop.overloads[sig].entry_point
+    entry(1000, spec.law, *args)
+    best = np.inf
+    for _ in range(3):
+        c = time.process_time()
+        entry(calls, spec.law, *args)
+        best = min(best, time.process_time() - c)
+    return 1e9 * best / calls
+
+
+def _law_loop() -> Any:
+    """A compiled loop calling a law ``n`` times as the fused loop does (unowned views)."""
+    import numba
+
+    from spacecraft._fused import unowned_view
+
+    @numba.njit
+    def loop(n, law, R, w, Rd, wd, dwd, P, st, u, dg):  # noqa: ANN001, ANN202
+        R, w, Rd, wd, dwd = (unowned_view(R), unowned_view(w), unowned_view(Rd),
+                             unowned_view(wd), unowned_view(dwd))  # fmt: skip
+        P, st, u, dg = unowned_view(P), unowned_view(st), unowned_view(u), unowned_view(dg)
+        s = 0.0
+        for k in range(n):
+            law(0.1 * k, R, w, Rd, wd, dwd, P, st, u, dg)
+            s += u[0]
+        return s
+
+    return loop
+
+
 def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--scenario", default="stabilisation")
@@ -99,9 +174,11 @@ def main(argv: list[str] | None = None) -> None:
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     res = controller_step_costs(a.scenario, a.t_final, a.repeat)
     print(f"scenario {a.scenario}, {a.t_final:g} s, best of {a.repeat} CPU times; load {load:.1f}")
-    print(f"{'controller':32s} {'µs/step':>9s} {'× GPD':>7s}  loop")
+    laws = {n: law_call_ns(n, a.scenario) for n in res}
+    print(f"{'controller':32s} {'µs/step':>9s} {'× GPD':>7s} {'law ns':>8s} {'× GPD':>7s}  loop")
     for n, (us, ratio, loop) in res.items():
-        print(f"{n:32s} {us:9.2f} {ratio:7.2f}  {loop}")
+        lr = laws[n] / laws[BASELINE]
+        print(f"{n:32s} {us:9.2f} {ratio:7.2f} {laws[n]:8.1f} {lr:7.2f}  {loop}")
 
 
 if __name__ == "__main__":
