@@ -103,7 +103,7 @@ def test_uncertified_cone_answer_is_resolved_not_used(caplog: pytest.LogCaptureF
     loose = {"eps_abs": 0.1, "eps_rel": 0.1, "polishing": False}
     c = _mpc("osqp", keep_out=KO, keep_in=KI, solver_settings=loose)
     c.reset(0.0, 1)
-    with caplog.at_level(logging.WARNING, logger="liecontrol.control.mpc"):
+    with caplog.at_level(logging.INFO, logger="liecontrol.control.mpc"):
         u = c.command(0.0, st, ref)[0]
     d = c.diagnostics()
     assert d["osqp_status"][0] == 1 and d["resolved"][0] and d["status"][0] == 1
