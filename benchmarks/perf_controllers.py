@@ -70,7 +70,7 @@ def _run(name: str, scenario: Any, t_final: float) -> tuple[Any, str]:
 
 def controller_step_costs(
     scenario_name: str = "stabilisation", t_final: float = 60.0, repeat: int = 5,
-    names: list[str] | None = None,
+    names: list[str] | None = None, sequential: bool = False,
 ) -> dict[str, tuple[float, float, str]]:  # fmt: skip
     """``{controller: (µs per simulated step, ratio to the baseline, loop)}`` (module
     docstring); controllers that do not apply to the scenario's plant are left out."""
@@ -89,8 +89,12 @@ def controller_step_costs(
     # allocations churn the caches) are timed in their own rounds after them
     fused = [n for n in names if runs[n][1] == "fused"]
     for group in (fused, [n for n in names if n not in fused]):
-        for _ in range(repeat):
-            for n in group:
+        # sequential: each controller's runs back to back, so its log's memory is reused
+        # (interleaved rounds hand every run fresh pages: their first-touch faults scale with
+        # the diagnostics' width and are counted in the run's CPU time)
+        order = [[n] * repeat for n in group] if sequential else [group] * repeat
+        for chunk in order:
+            for n in chunk:
                 c = time.process_time()
                 runs[n][0]()
                 best[n] = min(best[n], time.process_time() - c)
@@ -174,10 +178,18 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--scenario", default="stabilisation")
     p.add_argument("--t-final", type=float, default=60.0)
     p.add_argument("--repeat", type=int, default=5)
+    p.add_argument(
+        "--sequential", action="store_true",
+        help="time each controller's runs back to back instead of in alternating rounds",
+    )  # fmt: skip
     a = p.parse_args(argv)
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    res = controller_step_costs(a.scenario, a.t_final, a.repeat)
-    print(f"scenario {a.scenario}, {a.t_final:g} s, best of {a.repeat} CPU times; load {load:.1f}")
+    res = controller_step_costs(a.scenario, a.t_final, a.repeat, sequential=a.sequential)
+    how = "back to back" if a.sequential else "alternating rounds"
+    print(
+        f"scenario {a.scenario}, {a.t_final:g} s, best of {a.repeat} CPU times ({how}); "
+        f"load {load:.1f}"
+    )
     laws = {n: law_call_ns(n, a.scenario) for n in res}
     print(f"{'controller':32s} {'µs/step':>9s} {'× GPD':>7s} {'law ns':>8s} {'× GPD':>7s}  loop")
     for n, (us, ratio, loop) in res.items():
