@@ -307,10 +307,12 @@ def _one_spacecraft(
             log_u[rows, b, 1] = u1
             log_u[rows, b, 2] = u2
             if act == K.ACT_SGCMG:
-                # the cluster's momentum and singularity measure of the logged angles, from the
-                # sin/cos the torque above left in scratch (else the numpy pass over the whole
-                # log afterwards, SgcmgActuator.derived_log, costs as much as the loop)
-                h0, h1, h2, mm_ = K.cmg_momentum_and_measure(S0, C0, scratch, 0, m)
+                # the cluster's momentum and singularity measure of the logged angles (else the
+                # numpy pass over the whole log afterwards, SgcmgActuator.derived_log, costs as
+                # much as the loop); A is free until the next command rewrites it
+                h0, h1, h2, mm_ = K.cmg_momentum_and_measure(
+                    S0, C0, xc[3:], A, scratch[:m], scratch[m : 2 * m]
+                )
                 log_hm[rows, b, 0] = h0
                 log_hm[rows, b, 1] = h1
                 log_hm[rows, b, 2] = h2

@@ -105,38 +105,6 @@ def sincos_into(
 
 
 @njit(inline="always")
-def cmg_momentum_and_measure(
-    S0: np.ndarray, C0: np.ndarray, trig: np.ndarray, so: int, co: int
-) -> tuple[float, float, float, float]:
-    """Cluster momentum h = Σᵢ (S0ᵢ sin δᵢ + C0ᵢ cos δᵢ) and singularity measure m = √det(ÂÂᵀ),
-    Â = A/h₀ (A's columns S0ᵢ cos δᵢ − C0ᵢ sin δᵢ; h₀ the norm of S0's first column), from sin δ
-    and cos δ held in ``trig`` from offsets ``so`` and ``co`` — the compiled route of
-    :meth:`spacecraft.sgcmg.SgcmgPyramid.momentum` and ``singularity_measure`` (the numpy
-    reference; the determinant as its row-times-adjugate form)."""
-    h0 = h1 = h2 = 0.0
-    a = b = c = d = e = f = 0.0
-    for i in range(S0.shape[1]):
-        s = trig[so + i]
-        k = trig[co + i]
-        h0 += S0[0, i] * s + C0[0, i] * k
-        h1 += S0[1, i] * s + C0[1, i] * k
-        h2 += S0[2, i] * s + C0[2, i] * k
-        x = S0[0, i] * k - C0[0, i] * s
-        y = S0[1, i] * k - C0[1, i] * s
-        z = S0[2, i] * k - C0[2, i] * s
-        a += x * x
-        b += x * y
-        c += x * z
-        d += y * y
-        e += y * z
-        f += z * z
-    inv = 1.0 / (S0[0, 0] * S0[0, 0] + S0[1, 0] * S0[1, 0] + S0[2, 0] * S0[2, 0])
-    a, b, c, d, e, f = a * inv, b * inv, c * inv, d * inv, e * inv, f * inv
-    det = a * (d * f - e * e) + b * (c * e - b * f) + c * (b * e - c * d)
-    return h0, h1, h2, math.sqrt(max(det, 0.0))
-
-
-@njit(inline="always")
 def cmg_bus_torque_at(
     S0: np.ndarray, C0: np.ndarray, w0: float, w1: float, w2: float,
     trig: np.ndarray, so: int, co: int, delta_dot: np.ndarray,
@@ -201,6 +169,23 @@ def gram(A: np.ndarray) -> tuple[float, float, float, float, float, float]:
         e += y * z
         f += z * z
     return a, b, c, d, e, f
+
+
+@njit(inline="always")
+def cmg_momentum_and_measure(
+    S0: np.ndarray, C0: np.ndarray, delta: np.ndarray, A: np.ndarray, sn: np.ndarray,
+    cs: np.ndarray,
+) -> tuple[float, float, float, float]:  # fmt: skip
+    """Cluster momentum h(δ) and singularity measure m = √det(ÂÂᵀ), Â = A/h₀ (h₀ the norm of
+    S0's first column): :func:`cmg_momentum_jacobian` (``A``, ``sn``, ``cs`` its scratch) and
+    :func:`gram` — the compiled route of :meth:`spacecraft.sgcmg.SgcmgPyramid.momentum` and
+    ``singularity_measure`` (the numpy reference; the determinant as its row·adjugate form)."""
+    h0, h1, h2 = cmg_momentum_jacobian(S0, C0, delta, A, sn, cs)
+    a, b, c, d, e, f = gram(A)
+    inv = 1.0 / (S0[0, 0] * S0[0, 0] + S0[1, 0] * S0[1, 0] + S0[2, 0] * S0[2, 0])
+    a, b, c, d, e, f = a * inv, b * inv, c * inv, d * inv, e * inv, f * inv
+    det = a * (d * f - e * e) + b * (c * e - b * f) + c * (b * e - c * d)
+    return h0, h1, h2, math.sqrt(max(det, 0.0))
 
 
 @njit(inline="always")
