@@ -886,6 +886,9 @@ def run_fused(
     x0 = np.array(x0, dtype=np.float64)
     # the first control sample (k = 0, before any step) is the probe of a non-finite torque
     cparams, cstate = seam.check(controller, spec, B, None)
+    if spec.preflight is not None:
+        # what command() would say of the initial state at its first sample, before any step
+        spec.preflight(float(t0), R0, x0[:, :3], reference(float(t0)))
     Kr = n_steps // log_every + 1 + (1 if n_steps % log_every else 0)
     log = make_log(Kr, B)
     if isinstance(pk, VscmgPlan):

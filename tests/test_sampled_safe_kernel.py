@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -242,3 +243,30 @@ def test_unrecoverable_start_warns_in_the_fused_loop_and_strict_raises(monkeypat
     with pytest.raises(ValueError, match="^R: spacecraft 0 starts in the unrecoverable set"):
         simulate(plant, _ctrl(1.0, strict=True), ref, x0, 4.0, 0.05, control_period=1.0)
     assert calls == [1]  # the compiled loop stopped at its first sample
+
+
+def test_the_fused_loop_warns_of_an_unrecoverable_start_before_its_first_step(monkeypatch):
+    """The warning comes from the kernel's preflight, before the compiled loop runs (as
+    ``command`` warns at its first sample), not after the run."""
+    from spacecraft import _fused
+
+    plant, ref, x0 = _ideal([0.3])
+    entered = []
+    real = _fused._loop_entry
+
+    def spy(*a, **k):
+        entered.append(1)
+        return real(*a, **k)
+
+    monkeypatch.setattr(_fused, "_loop_entry", spy)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UnrecoverableStartWarning)
+        with pytest.raises(UnrecoverableStartWarning, match="^R: spacecraft 0 starts"):
+            simulate(plant, _ctrl(1.0), ref, x0, 4.0, 0.05, control_period=1.0)
+    assert entered == []  # raised (as a warning turned error) before the loop was entered
+    # and a recoverable start says nothing
+    plant, ref, x0 = _ideal([0.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UnrecoverableStartWarning)
+        simulate(plant, _ctrl(1.0), ref, x0, 4.0, 0.05, control_period=1.0)
+    assert entered == [1]

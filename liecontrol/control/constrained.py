@@ -870,10 +870,9 @@ class SampledSafeConstrainedPD(AttitudeController):
         """The compiled law (:func:`liecontrol._kernels.constrained.sampled_safe_pd_law`: the
         barrier law's kernel, then the filter's) for the simulator's fused loop
         (:mod:`liecontrol.control.kernel`). The filter runs at ``sample_period`` whatever the
-        loop's period, as ``command`` does. The warning of an unrecoverable start is issued
-        when the compiled run returns (the law records the first sample's margins); a
-        ``strict`` controller raises before the first step (the simulator calls ``command``
-        on the law's NaN torque there)."""
+        loop's period, as ``command`` does. An unrecoverable start is warned about (``strict``:
+        refused) before the first step, by the kernel's ``preflight`` on the initial state, as
+        ``command`` does at its first sample."""
         nom = self.nominal.fused_kernel(batch_size, control_period)
         if nom is None:
             return None
@@ -909,9 +908,16 @@ class SampledSafeConstrainedPD(AttitudeController):
             nom.finish(st[:, :N_STATE], diag[:, :N_DIAG])
             self._first = bool(st[0, N_STATE] == 0.0)
             self._diag = rows(diag)
-            if first and not self._first:
-                f = st[:, N_STATE + 1 :].reshape(B, n, 4)
-                self._unrecoverable(f[..., 0], f[..., 1], f[..., 2], f[..., 3])
+
+        def preflight(t0: float, R: np.ndarray, w: np.ndarray, reference: object) -> None:
+            if not (first and n):
+                return
+            # the margins do not depend on the command: the braking filter on a zero one
+            _, _, h0, m, v, a_b = braking_filter(
+                np.zeros((B, 3)), R, w, self.J, cones, self.max_torque, self.sample_period,
+                self.efficiency, self.buffer_deg, self._lam_max,
+            )  # fmt: skip
+            self._unrecoverable(h0, m, v, a_b)
 
         return ControllerKernel(
             sampled_safe_pd_law,
@@ -920,4 +926,5 @@ class SampledSafeConstrainedPD(AttitudeController):
             N_DIAG_SAFE if n else N_DIAG,
             rows,
             finish,
+            preflight=preflight,
         )

@@ -117,6 +117,11 @@ class ControllerKernel:
             internal state back into the controller after the run, so that it ends as the
             Python loop would leave it.
         name: the law's name in messages (default: the function's name).
+        preflight: ``(t0, R (B, 3, 3), omega (B, 3), reference) -> None`` or ``None``: called
+            once before the loop with the initial state and the reference at ``t0`` — where
+            ``command`` would warn about, or refuse, the initial state at its first sample
+            (e.g. a start inside a keep-out cone's unrecoverable set), the compiled run does
+            so before its first step too.
     """
 
     law: Callable[..., None]
@@ -128,6 +133,7 @@ class ControllerKernel:
     )
     finish: Callable[[np.ndarray, np.ndarray], None] = field(default=_no_finish, repr=False)
     name: str = ""
+    preflight: Callable[..., None] | None = field(default=None, repr=False)
 
 
 def _owner(cls: type, attr: str) -> type | None:
