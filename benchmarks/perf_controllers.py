@@ -34,7 +34,7 @@ __all__ = ["controller_step_costs", "law_call_ns", "main"]
 BASELINE = "geometric-pd-large-angle"
 
 
-def _run(name: str, scenario: Any, t_final: float) -> tuple[Any, str]:
+def _run(name: str, scenario: Any, t_final: float, log_every: int = 1) -> tuple[Any, str]:
     """A closure running one simulation of controller ``name`` on ``scenario``; and the loop
     it takes."""
     from benchmarks.controllers import ControllerContext, get_controller
@@ -63,14 +63,17 @@ def _run(name: str, scenario: Any, t_final: float) -> tuple[Any, str]:
     loop = "fused" if ok is not None else f"Python: {why[0] if why else '?'}"
 
     def once() -> None:
-        simulate(plant, ctrl, ref, state, t_final, scenario.dt, control_period=period)
+        simulate(
+            plant, ctrl, ref, state, t_final, scenario.dt, control_period=period,
+            log_every=log_every,
+        )  # fmt: skip
 
     return once, loop
 
 
 def controller_step_costs(
     scenario_name: str = "stabilisation", t_final: float = 60.0, repeat: int = 5,
-    names: list[str] | None = None, sequential: bool = False,
+    names: list[str] | None = None, sequential: bool = False, log_every: int = 1,
 ) -> dict[str, tuple[float, float, str]]:  # fmt: skip
     """``{controller: (µs per simulated step, ratio to the baseline, loop)}`` (module
     docstring); controllers that do not apply to the scenario's plant are left out."""
@@ -80,7 +83,7 @@ def controller_step_costs(
     sc = get_scenario(scenario_name)
     names = list(names) if names is not None else [n for n in applicable(sc) if n != BASELINE]
     names = [BASELINE] + [n for n in names if n != BASELINE]
-    runs = {n: _run(n, sc, t_final) for n in names}
+    runs = {n: _run(n, sc, t_final, log_every) for n in names}
     n_steps = round(t_final / sc.dt)
     best = dict.fromkeys(names, np.inf)
     for fn, _ in runs.values():
@@ -179,15 +182,22 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--t-final", type=float, default=60.0)
     p.add_argument("--repeat", type=int, default=5)
     p.add_argument(
+        "--log-every", type=int, default=1,
+        help="log one row every N steps (default 1, as the suite's single runs)",
+    )  # fmt: skip
+    p.add_argument(
         "--sequential", action="store_true",
         help="time each controller's runs back to back instead of in alternating rounds",
     )  # fmt: skip
     a = p.parse_args(argv)
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    res = controller_step_costs(a.scenario, a.t_final, a.repeat, sequential=a.sequential)
+    res = controller_step_costs(
+        a.scenario, a.t_final, a.repeat, sequential=a.sequential, log_every=a.log_every
+    )
     how = "back to back" if a.sequential else "alternating rounds"
     print(
-        f"scenario {a.scenario}, {a.t_final:g} s, best of {a.repeat} CPU times ({how}); "
+        f"scenario {a.scenario}, {a.t_final:g} s, logging every {a.log_every} step(s), best of "
+        f"{a.repeat} CPU times ({how}); "
         f"load {load:.1f}"
     )
     laws = {n: law_call_ns(n, a.scenario) for n in res}
