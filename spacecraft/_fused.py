@@ -391,18 +391,17 @@ def _fused_loop(
     The spacecraft are independent, so each runs all its steps before the next
     (:func:`_one_spacecraft`). Returns ``(status, rows, t)``: status 0 = done, 1 = state
     non-finite, 2 = non-finite torque, at the earliest time ``t`` over the batch."""
-    status, t_fail = 0, np.inf
-    for b in range(R.shape[0]):
-        s, tb = _one_spacecraft(
+    B = R.shape[0]
+    st = np.zeros(B, dtype=np.int64)
+    tf = np.full(B, np.inf)
+    for b in range(B):
+        st[b], tf[b] = _one_spacecraft(
             b, n_steps, t0, dt, every_ctrl, log_every, R, x, act, J, J_inv, S0, C0, dist, dp,
             clip_on, clip, steer, sp, rate_limit, law, cparams, cstate, ref_index, ref_R, ref_w,
             ref_dw, log_R, log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_act, log_sat,
             log_hm, log_diag, diag,
         )  # fmt: skip
-        # the earliest failure; at one time the law's (before the step) comes first
-        if s != 0 and (tb < t_fail or (tb == t_fail and s == 2)):
-            status, t_fail = s, tb
-    return _log_times(n_steps, t0, dt, log_every, log_t, status, t_fail)
+    return _loop_result(st, tf, n_steps, t0, dt, log_every, log_t)
 
 
 @njit(parallel=True)
@@ -436,19 +435,21 @@ def _fused_loop_parallel(
         )  # fmt: skip
         st[b] = s
         tf[b] = tb
-    status, t_fail = 0, np.inf
-    for b in range(B):
-        if st[b] != 0 and (tf[b] < t_fail or (tf[b] == t_fail and st[b] == 2)):
-            status, t_fail = st[b], tf[b]
-    return _log_times(n_steps, t0, dt, log_every, log_t, status, t_fail)
+    return _loop_result(st, tf, n_steps, t0, dt, log_every, log_t)
 
 
 @njit(inline="always")
-def _log_times(
-    n_steps: int, t0: float, dt: float, log_every: int, log_t: np.ndarray, status: int,
-    t_fail: float,
+def _loop_result(
+    st: np.ndarray, tf: np.ndarray, n_steps: int, t0: float, dt: float, log_every: int,
+    log_t: np.ndarray,
 ) -> tuple[int, int, float]:  # fmt: skip
-    """Fill the log's time column; ``(status, rows, t)`` of the loop."""
+    """Fill the log's time column; ``(status, rows, t)`` of the loop from each spacecraft's
+    ``(status, time)``: the earliest failure, at one time the law's (2, before the step)
+    first."""
+    status, t_fail = 0, np.inf
+    for b in range(st.shape[0]):
+        if st[b] != 0 and (tf[b] < t_fail or (tf[b] == t_fail and st[b] == 2)):
+            status, t_fail = st[b], tf[b]
     rows = 0
     for k in range(n_steps + 1):
         if k % log_every == 0 or k == n_steps:
@@ -666,17 +667,17 @@ def _fused_loop_vscmg(
     diag: np.ndarray,
 ) -> tuple[int, int, float]:  # fmt: skip
     """:func:`_fused_loop` for the full CMG model (:func:`_one_vscmg` per spacecraft)."""
-    status, t_fail = 0, np.inf
-    for b in range(R.shape[0]):
-        s, tb = _one_vscmg(
+    B = R.shape[0]
+    st = np.zeros(B, dtype=np.int64)
+    tf = np.full(B, np.inf)
+    for b in range(B):
+        st[b], tf[b] = _one_vscmg(
             b, n_steps, t0, dt, every_ctrl, log_every, R, x, kin, var, ff, par, M, dist, dp,
             steer, sp, rate_limit, law, cparams, cstate, ref_index, ref_R, ref_w, ref_dw, log_R,
             log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_vs, log_work, log_sat,
             log_diag, diag,
         )  # fmt: skip
-        if s != 0 and (tb < t_fail or (tb == t_fail and s == 2)):
-            status, t_fail = s, tb
-    return _log_times(n_steps, t0, dt, log_every, log_t, status, t_fail)
+    return _loop_result(st, tf, n_steps, t0, dt, log_every, log_t)
 
 
 @njit(parallel=True)
@@ -706,11 +707,7 @@ def _fused_loop_vscmg_parallel(
         )  # fmt: skip
         st[b] = s
         tf[b] = tb
-    status, t_fail = 0, np.inf
-    for b in range(B):
-        if st[b] != 0 and (tf[b] < t_fail or (tf[b] == t_fail and st[b] == 2)):
-            status, t_fail = st[b], tf[b]
-    return _log_times(n_steps, t0, dt, log_every, log_t, status, t_fail)
+    return _loop_result(st, tf, n_steps, t0, dt, log_every, log_t)
 
 
 #: compiled entry points of the fused loop, per argument types (the law's type is the seam's
