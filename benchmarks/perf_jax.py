@@ -15,7 +15,11 @@ singularity-robust steering and the 1 rad/s gimbal-rate limit, steered at every 
   ``docs/jax.md``, makes it small: set ``LIECONTROL_JAX_CACHE=off`` to time a cold compile);
 - the gradient of the cost ∫θ² dt + 0.01 ∫‖u‖² dt with respect to (k_R, k_Ω) over
   ``--grad-batch`` starts (default 64): the time of ``value_and_grad`` in units of one compiled
-  forward evaluation of the same cost.
+  forward evaluation of the same cost;
+- the memory of that gradient for the SGCMG loop with and without checkpointing of the scan's
+  period body (``closed_loop(..., checkpoint=True)``): XLA's own count of the compiled
+  program's temporary buffers (``memory_analysis().temp_size_in_bytes``, the peak working set
+  beyond inputs and outputs; exact and independent of the machine's load), and its time.
 
 Both routes run on one thread (``NUMBA_NUM_THREADS=1``, XLA's CPU client single-threaded)
 unless the environment sets otherwise, so the figures are per core. The JAX route needs
@@ -110,6 +114,28 @@ def gradient_cost(batch: int, t_final: float, repeat: int) -> dict[str, float]:
     return {"forward": f_s, "grad": g_s}
 
 
+def gradient_memory(batch: int, t_final: float, repeat: int) -> dict[str, dict[str, float]]:
+    """Temporary bytes and seconds of the SGCMG loop's compiled value-and-gradient, with and
+    without checkpointing (control period 0.2 s = 2 steps)."""
+    jax = require_jax()
+    out = {}
+    rng = np.random.default_rng(7)
+    R0, w0 = so3.random(rng, batch), np.zeros((batch, 3))
+    for ck in (False, True):
+        kR, kW = gains_from_bandwidth(J, 0.3, 0.9)
+        plant = Spacecraft(RigidBody(J), SgcmgActuator(None, SingularityRobust()))
+        loop = closed_loop(plant, GeometricPD(J, kR, kW), ConstantAttitude(np.eye(3)), t_final,
+                           DT, 2 * DT, checkpoint=ck)  # fmt: skip
+        with jax.enable_x64(True):
+            fn = jax.jit(jax.value_and_grad(loop.cost, argnums=(0, 1)))
+            args = (np.float64(kR), np.float64(kW), R0, w0, 0.01)
+            mem = fn.lower(*args).compile().memory_analysis()
+            jax.block_until_ready(fn(*args))
+            sec = _best(lambda fn=fn, args=args: jax.block_until_ready(fn(*args)), repeat)
+        out["checkpoint" if ck else "stored"] = {"temp": float(mem.temp_size_in_bytes), "s": sec}
+    return out
+
+
 def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--batch", type=int, nargs="+", default=[1, 1000, 10_000])
@@ -136,6 +162,10 @@ def main(argv: list[str] | None = None) -> None:
     ratio = g["grad"] / g["forward"]
     print(f"gradient over {a.grad_batch} starts: forward {g['forward'] * 1e3:.1f} ms, value and "
           f"gradient {g['grad'] * 1e3:.1f} ms = {ratio:.2f} forward passes")  # fmt: skip
+    m = gradient_memory(a.grad_batch, a.t_final, a.repeat)
+    for k, v in m.items():
+        print(f"SGCMG gradient over {a.grad_batch} starts, {k:>10}: XLA temporaries "
+              f"{v['temp'] / 2**20:.1f} MiB, {v['s'] * 1e3:.1f} ms")  # fmt: skip
 
 
 if __name__ == "__main__":

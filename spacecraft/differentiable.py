@@ -31,10 +31,11 @@ singularity-robust law and the rate limit (:mod:`spacecraft.steering`) are the n
 functions, run on ``jax.numpy``.
 
 Supported configurations (others raise ``ValueError`` naming the part): a
-:class:`spacecraft.plant.Spacecraft` with a shared inertia ``J`` ``(3, 3)``, an
-:class:`spacecraft.actuators.IdealTorqueActuator` (with or without ``max_torque``) or an
-:class:`spacecraft.actuators.SgcmgActuator` with the ideal servo and
-:class:`spacecraft.steering.SingularityRobust` steering, no disturbance, flexible modes or
+:class:`spacecraft.plant.Spacecraft` with a shared inertia ``J`` ``(3, 3)`` or one per member
+``(B, 3, 3)``, an :class:`spacecraft.actuators.IdealTorqueActuator` (with or without
+``max_torque``) or an :class:`spacecraft.actuators.SgcmgActuator` with the ideal servo and
+:class:`spacecraft.steering.SingularityRobust` or
+:class:`spacecraft.steering.PseudoInverseNullMotion` steering, no disturbance, flexible modes or
 momentum management; a :class:`liecontrol.control.GeometricPD` with the ``"large_angle"`` or
 ``"log"`` error; a reference whose samples share one attitude across the batch (``R_d``
 ``(3, 3)``), sampled at the control times before the run.
@@ -72,7 +73,7 @@ from .actuators import IdealTorqueActuator, SgcmgActuator
 from .plant import Spacecraft
 from .rigid_body import euler_acceleration
 from .sgcmg import SgcmgPyramid, bus_torque
-from .steering import SingularityRobust, _saturate_unchecked
+from .steering import PseudoInverseNullMotion, SingularityRobust, _saturate_unchecked
 
 __all__ = [
     "JaxClosedLoop",
@@ -202,7 +203,12 @@ class JaxClosedLoop:
     ``n_sub`` steps per control period and ``n_ctrl`` periods from ``t0``; with the SGCMG
     cluster its ``cluster``, ``steering`` law, gimbal ``rate_limit`` and ``delta0`` ``(4,)`` or
     ``(B, 4)`` (``None`` for the ideal actuator). The reference arrays hold ``n_ctrl + 1``
-    samples when they vary (the last at the final time).
+    samples when they vary (the last at the final time). ``J``/``J_inv`` are ``(3, 3)`` (one
+    inertia for the batch) or ``(B, 3, 3)`` (each member its own true inertia, as a dispersed
+    batch has; the controller keeps its model ``J_ctrl``). ``checkpoint``: the scan keeps only
+    the state at each control sample for the backward sweep and recomputes the steps of a
+    period (``jax.checkpoint`` of the period's body): memory ∝ samples instead of steps, for
+    about one more forward pass of compute.
     """
 
     J: np.ndarray
@@ -223,6 +229,7 @@ class JaxClosedLoop:
     steering: Any = None
     rate_limit: float = math.inf
     delta0: np.ndarray | None = None
+    checkpoint: bool = False
     _compiled: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @property
@@ -241,8 +248,11 @@ class JaxClosedLoop:
 
     # -- the pure program -------------------------------------------------------------------
 
-    def rollout(self, k_R: Any, k_Omega: Any, R0: Any, x0: Any) -> dict[str, Any]:
-        """One spacecraft from ``R0`` ``(3, 3)`` and the packed state ``x0`` ``(n_x,)`` = (Ω₀, δ₀):
+    def rollout(
+        self, k_R: Any, k_Omega: Any, R0: Any, x0: Any, J: Any = None, J_inv: Any = None
+    ) -> dict[str, Any]:
+        """One spacecraft from ``R0`` ``(3, 3)`` and the packed state ``x0`` ``(n_x,)`` = (Ω₀, δ₀)
+        with the plant inertia ``J``, ``J_inv`` ``(3, 3)`` (default the loop's shared one):
         the log at the K = n_ctrl + 1 samples as a dict of arrays with a leading ``K`` axis —
         ``R``, ``x``, ``u_cmd``, ``u``, ``Psi``, ``e_R``, ``e_Omega``, and the actuator's
         ``delta_dot``, ``saturated`` (SGCMG) or ``held`` (ideal). Pure JAX (call under
@@ -250,7 +260,11 @@ class JaxClosedLoop:
         jax = require_jax()
         jnp = jax.numpy
         lax = jax.lax
-        J, J_inv, Jc = (jnp.asarray(a) for a in (self.J, self.J_inv, self.J_ctrl))
+        J = jnp.asarray(self.J if J is None else J)
+        J_inv = jnp.asarray(self.J_inv if J_inv is None else J_inv)
+        Jc = jnp.asarray(self.J_ctrl)
+        if J.ndim != 2:
+            raise ValueError("J: rollout runs one member; pass its (3, 3) inertia")
         dt, error, n_sub = self.dt, self.error, self.n_sub
         limit = None if self.max_torque is None else jnp.asarray(self.max_torque)
         refs = tuple(jnp.asarray(a) for a in (self.R_d, self.omega_d, self.omega_dot_d))
@@ -302,10 +316,24 @@ class JaxClosedLoop:
             (R1, x1), _ = lax.scan(step, (R, x), None, length=n_sub)
             return (R1, x1), row
 
+        if self.checkpoint:
+            period = jax.checkpoint(period)
         scanned = tuple(a[:-1] for a in refs) if varying else None
         (Rn, xn), rows = lax.scan(period, (R0, x0), scanned, length=self.n_ctrl)
         last, _ = sample(Rn, xn, tuple(a[-1] for a in refs) if varying else refs)
         return {k: jnp.concatenate((v, last[k][None]), axis=0) for k, v in rows.items()}
+
+    def inertias(self, B: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(J, J_inv)`` of the ``B`` members, ``(B, 3, 3)`` each (the shared inertia repeated,
+        or the per-member ones, whose count must then be ``B``)."""
+        if self.J.ndim == 3:
+            if self.J.shape[0] != B:
+                raise ValueError(
+                    f"R0: the plant has {self.J.shape[0]} per-spacecraft inertias, got {B} "
+                    "initial states"
+                )
+            return self.J, self.J_inv
+        return (np.broadcast_to(self.J, (B, 3, 3)), np.broadcast_to(self.J_inv, (B, 3, 3)))
 
     def _pack(self, omega0: Any, delta0: Any = None) -> Any:
         """``(B, n_x)``: the body rates ``(B, 3)`` and the initial gimbal angles (``delta0``, by
@@ -317,7 +345,9 @@ class JaxClosedLoop:
         d0 = xp.broadcast_to(xp.asarray(d0), omega0.shape[:-1] + (4,))
         return xp.concatenate((omega0, d0), axis=-1)
 
-    def cost_terms(self, k_R: Any, k_Omega: Any, R0: Any, x0: Any) -> dict[str, Any]:
+    def cost_terms(
+        self, k_R: Any, k_Omega: Any, R0: Any, x0: Any, J: Any = None, J_inv: Any = None
+    ) -> dict[str, Any]:
         """Per-member terms (pure JAX) on the control grid (rectangle rule, step T) from ``R0``
         and the packed state ``x0`` (:meth:`rollout`): ``angle`` = Σ θ_k² T ≈ ∫θ² dt [rad²·s], θ
         the angle of R_dᵀR; ``effort`` = Σ ‖u_k‖² T [(N·m)²·s], u the bus torque;
@@ -325,7 +355,7 @@ class JaxClosedLoop:
         φ = log(R_dᵀR)^∨ past the start's error axis n₀ = φ₀/‖φ₀‖ (zero for a start at R_d)."""
         jax = require_jax()
         jnp = jax.numpy
-        out = self.rollout(k_R, k_Omega, R0, x0)
+        out = self.rollout(k_R, k_Omega, R0, x0, J, J_inv)
         Rs, us = out["R"][:-1], out["u"][:-1]
         R_d = jnp.asarray(self.R_d)
         R_d = R_d[:-1] if R_d.ndim == 3 else R_d
@@ -354,7 +384,10 @@ class JaxClosedLoop:
         pure JAX, differentiable in the gains."""
         jax = require_jax()
         x0 = self._pack(omega0)
-        terms = jax.vmap(self.cost_terms, in_axes=(None, None, 0, 0))(k_R, k_Omega, R0, x0)
+        J, J_inv = self.inertias(R0.shape[0])
+        terms = jax.vmap(self.cost_terms, in_axes=(None, None, 0, 0, 0, 0))(
+            k_R, k_Omega, R0, x0, J, J_inv
+        )
         weights = {"angle": 1.0, "effort": effort_weight, "overshoot": overshoot_weight}
         return sum(weights[k] * terms[k].mean() for k in terms)
 
@@ -389,18 +422,23 @@ class JaxClosedLoop:
                     f"{d0.shape}"
                 )
         x0 = self._pack(w0, d0)
+        J, J_inv = self.inertias(B)
         n = padded_size(B) if pad else B
         if n > B:
-            R0 = np.concatenate((R0, np.broadcast_to(R0[:1], (n - B, 3, 3))))
-            x0 = np.concatenate((x0, np.broadcast_to(x0[:1], (n - B, x0.shape[1]))))
+            R0, x0, J, J_inv = (
+                np.concatenate((a, np.broadcast_to(a[:1], (n - B,) + a.shape[1:])))
+                for a in (R0, x0, J, J_inv)
+            )
         k_R = self.k_R if k_R is None else k_R
         k_Omega = self.k_Omega if k_Omega is None else k_Omega
         with jax.enable_x64(True):
             fn = self._jit(
-                "run", lambda: jax.jit(jax.vmap(self.rollout, in_axes=(None, None, 0, 0)))
+                "run",
+                lambda: jax.jit(jax.vmap(self.rollout, in_axes=(None, None, 0, 0, 0, 0))),
             )
             out = {
-                k: np.moveaxis(np.asarray(v)[:B], 0, 1) for k, v in fn(k_R, k_Omega, R0, x0).items()
+                k: np.moveaxis(np.asarray(v)[:B], 0, 1)
+                for k, v in fn(k_R, k_Omega, R0, x0, J, J_inv).items()
             }
         Rs, xs = out["R"], out["x"]
         bad = ~(np.isfinite(Rs).all(axis=(2, 3)) & np.isfinite(xs).all(axis=2))
@@ -443,7 +481,10 @@ class JaxClosedLoop:
         for term in ("angle", "effort", "overshoot"):
 
             def one(a: Any, b: Any, term: str = term) -> Any:
-                per = jax.vmap(self.cost_terms, in_axes=(None, None, 0, 0))(a, b, R0, x0)
+                J, J_inv = self.inertias(R0.shape[0])
+                per = jax.vmap(self.cost_terms, in_axes=(None, None, 0, 0, 0, 0))(
+                    a, b, R0, x0, J, J_inv
+                )
                 return per[term].mean()
 
             v, g = jax.value_and_grad(one, argnums=(0, 1))(kR, kW)
@@ -493,9 +534,13 @@ def closed_loop(
     dt: float,
     control_period: float | None = None,
     t0: float = 0.0,
+    checkpoint: bool = False,
 ) -> JaxClosedLoop:
     """Prepare ``plant`` + ``controller`` + ``reference`` for the JAX route (arguments as in
-    :func:`spacecraft.simulate`; ``t_final − t0`` a multiple of ``control_period``).
+    :func:`spacecraft.simulate`; ``t_final − t0`` a multiple of ``control_period``). A plant
+    with per-spacecraft inertias ``(B, 3, 3)`` runs batches of exactly ``B`` members.
+    ``checkpoint``: recompute each control period's steps in the backward sweep instead of
+    storing them (:class:`JaxClosedLoop`).
 
     Raises ``ImportError`` (naming ``liecontrol[jax]``) without JAX and ``ValueError`` naming
     the part for a configuration the route does not support (module docstring).
@@ -511,11 +556,6 @@ def closed_loop(
                 f"plant.{part}: not supported by the JAX route (got "
                 f"{type(getattr(plant, part)).__name__}); run spacecraft.simulate"
             )
-    if plant.body.J.ndim != 2:
-        raise ValueError(
-            f"plant.body.J: the JAX route takes one inertia for the batch, got per-spacecraft "
-            f"inertias of shape {plant.body.J.shape}"
-        )
     if type(controller) is not GeometricPD:
         raise ValueError(
             f"controller: the JAX route supports GeometricPD only, got {type(controller).__name__}"
@@ -555,7 +595,7 @@ def closed_loop(
         R_d=R_d, omega_d=w_d, omega_dot_d=dw_d, dt=dt, n_sub=n_sub, n_ctrl=n_ctrl, t0=t0,
         cluster=act.cluster if sgcmg else None, steering=act.steering if sgcmg else None,
         rate_limit=act.rate_limit if sgcmg else math.inf,
-        delta0=np.array(act.delta0) if sgcmg else None,
+        delta0=np.array(act.delta0) if sgcmg else None, checkpoint=bool(checkpoint),
     )  # fmt: skip
 
 
@@ -573,10 +613,11 @@ def _check_actuator(act: object) -> None:
             f"plant.actuator.servo: the JAX route supports the ideal gimbal servo only, got "
             f"{act.servo!r}; run spacecraft.simulate"
         )
-    if type(act.steering) is not SingularityRobust:
+    if type(act.steering) not in (SingularityRobust, PseudoInverseNullMotion):
         raise ValueError(
-            f"plant.actuator.steering: the JAX route supports SingularityRobust steering only, "
-            f"got {type(act.steering).__name__}; run spacecraft.simulate"
+            f"plant.actuator.steering: the JAX route supports SingularityRobust and "
+            f"PseudoInverseNullMotion steering, got {type(act.steering).__name__}; run "
+            "spacecraft.simulate"
         )
     if type(act.cluster) is not SgcmgPyramid:
         raise ValueError(

@@ -74,6 +74,7 @@ from dataclasses import field as _dc_field
 
 import numpy as np
 
+from liecontrol._array_api import namespace, safe_sqrt
 from liecontrol._validation import as_array, check_positive, check_positive_scalar
 
 from .geomagnetic import TiltedDipoleField
@@ -84,6 +85,7 @@ __all__ = [
     "CrossProductDumping",
     "sgcmg_momentum_capacity",
     "momentum_fraction",
+    "sgcmg_momentum_fraction",
     "DumpingFeasibility",
     "DumpingInfeasibleWarning",
     "magnetic_dumping_feasibility",
@@ -271,8 +273,29 @@ def sgcmg_momentum_capacity(gimbal_axes: object, h0: float, direction: object) -
     dn = np.linalg.norm(d, axis=-1, keepdims=True)
     if np.any(dn == 0.0):
         raise ValueError("direction: zero vector")
-    c = (d / dn) @ G
-    return h0 * np.sum(np.sqrt(np.clip(1.0 - c * c, 0.0, None)), axis=-1)
+    return _capacity_unchecked(G, h0, d / dn)
+
+
+def _capacity_unchecked(G: object, h0: float, d: object) -> object:
+    """σ(d) for a unit ``d`` ``(..., 3)``, unvalidated and pure (NumPy or JAX arrays; the
+    guarded √ keeps the derivative finite where d is along a gimbal axis)."""
+    xp = namespace(d)
+    c = d @ G
+    return h0 * safe_sqrt(xp.maximum(1.0 - c * c, 0.0), xp).sum(-1)
+
+
+def sgcmg_momentum_fraction(gimbal_axes: object, h0: float, h: object) -> object:
+    """‖h‖/σ(ĥ) for cluster momenta ``h`` ``(..., 3)`` [N·m·s] (0 where h = 0), the SGCMG
+    fraction of :func:`momentum_fraction`; unvalidated and pure: the same source runs on JAX
+    arrays (:mod:`spacecraft.robust_tuning` differentiates it), with finite derivatives at
+    h = 0."""
+    xp = namespace(h)
+    n2 = (h * h).sum(-1)
+    hn = safe_sqrt(n2, xp)
+    # at h = 0 any direction gives the fraction 0; x̂ keeps the division and σ finite there
+    safe = xp.where((hn > 0.0)[..., None], h / xp.where(hn > 0.0, hn, 1.0)[..., None],
+                    np.array([1.0, 0.0, 0.0]))  # fmt: skip
+    return hn / _capacity_unchecked(gimbal_axes, h0, safe)
 
 
 def momentum_fraction(actuator: object, x_act: object) -> np.ndarray:
@@ -288,10 +311,7 @@ def momentum_fraction(actuator: object, x_act: object) -> np.ndarray:
             raise ValueError(f"x_act: expected shape (..., {n}), got {xa.shape}")
     if isinstance(actuator, SgcmgActuator):
         h = actuator.momentum(xa.reshape(-1, xa.shape[-1])).reshape(xa.shape[:-1] + (3,))
-        hn = np.linalg.norm(h, axis=-1)
-        safe = np.where(hn[..., None] > 0.0, h, np.array([1.0, 0.0, 0.0]))
-        rho = sgcmg_momentum_capacity(_gimbal_axes(actuator.cluster), actuator.cluster.h0, safe)
-        return hn / rho
+        return sgcmg_momentum_fraction(_gimbal_axes(actuator.cluster), actuator.cluster.h0, h)
     if isinstance(actuator, ReactionWheelAssembly):
         lim = np.broadcast_to(np.asarray(actuator.max_speed, dtype=np.float64), xa.shape[-1:])
         return np.max(np.abs(xa) / lim, axis=-1)

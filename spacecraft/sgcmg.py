@@ -37,7 +37,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from liecontrol._array_api import cross, namespace
+from liecontrol._array_api import cross, namespace, safe_sqrt
 from liecontrol._validation import as_array, as_scalar
 
 __all__ = ["SgcmgPyramid", "adjugate_sym3", "det_sym3", "MEASURE_FLOOR"]
@@ -216,7 +216,9 @@ class SgcmgPyramid:
         dd, e, f = (ay * ay).sum(-1), (ay * az).sum(-1), (az * az).sum(-1)
         c00, c01, c02 = dd * f - e * e, c * e - b * f, b * e - c * dd
         c11, c12, c22 = a * f - c * c, b * c - a * e, a * dd - b * b
-        m = xp.sqrt(xp.maximum(a * c00 + b * c01 + c * c02, 0.0))
+        # safe_sqrt: √ bit for bit where det > 0, with a finite derivative at a singular set
+        # (det = 0), where JAX's reverse mode would otherwise multiply 0 by ∞
+        m = safe_sqrt(xp.maximum(a * c00 + b * c01 + c * c02, 0.0), xp)
         # −âᵢᵀ adj(M) ĥᵢ for every column i at once
         w0 = c00[..., None] * hx + c01[..., None] * hy + c02[..., None] * hz
         w1 = c01[..., None] * hx + c11[..., None] * hy + c12[..., None] * hz

@@ -563,8 +563,11 @@ class PseudoInverseNullMotion(SteeringLaw):
         cl = cluster if cluster is not None else self.cluster
         _, grad = cl._measure_and_gradient(delta)
         # One solve for both right-hand sides: A⁺ḣ_cmd and A⁺(A ∇m).
-        rhs = np.stack([hdot_cmd, (A * grad[..., None, :]).sum(-1)], axis=-1)
-        x = _apply_right_inverse(A, rhs, 0.0, self.eps)
+        xp = namespace(A, hdot_cmd, grad)
+        rhs = xp.stack([hdot_cmd, (A * grad[..., None, :]).sum(-1)], axis=-1)
+        # JAX arrays: the small-batch formula (pure), batched by vmap or broadcasting
+        apply = _apply_right_inverse if is_numpy(xp) else _apply_right_inverse_small
+        x = apply(A, rhs, 0.0, self.eps)
         return x[..., 0] + self.k * (grad - x[..., 1])
 
 
