@@ -36,9 +36,13 @@ Supported configurations (others raise ``ValueError`` naming the part): a
 ``max_torque``) or an :class:`spacecraft.actuators.SgcmgActuator` with the ideal servo and
 :class:`spacecraft.steering.SingularityRobust` or
 :class:`spacecraft.steering.PseudoInverseNullMotion` steering, no disturbance, flexible modes or
-momentum management; a :class:`liecontrol.control.GeometricPD` with the ``"large_angle"`` or
-``"log"`` error; a reference whose samples share one attitude across the batch (``R_d``
-``(3, 3)``), sampled at the control times before the run.
+momentum management; a :class:`liecontrol.control.GeometricPD`, or an
+:class:`~liecontrol.control.IntrinsicPID` / :class:`~liecontrol.control.IntegralPD` (stateful:
+the scan carries the integral state, its held integrand and the anti-windup flags from one
+control sample to the next, through the controllers' own pure functions
+:func:`liecontrol.control.geometric_pid.integral_update` and ``integral_output``), with the
+``"large_angle"`` or ``"log"`` error; a reference whose samples share one attitude across the
+batch (``R_d`` ``(3, 3)``), sampled at the control times before the run.
 
 Compilation: :meth:`JaxClosedLoop.run` pads the batch to a bucket (:func:`padded_size`: the next
 power of two up to 1024, then the next multiple of 1024) so that a Monte Carlo of N members
@@ -66,6 +70,13 @@ from liecontrol._validation import (
 )
 from liecontrol.control.base import AttitudeReference
 from liecontrol.control.geometric_pd import GeometricPD, geometric_pd_torque
+from liecontrol.control.geometric_pid import (
+    IntegralPD,
+    IntrinsicPID,
+    _gamma,
+    integral_output,
+    integral_update,
+)
 from liecontrol.integrators.rk import rkmk4_step_unchecked
 from liecontrol.lie import so3
 
@@ -208,7 +219,8 @@ class JaxClosedLoop:
     batch has; the controller keeps its model ``J_ctrl``). ``checkpoint``: the scan keeps only
     the state at each control sample for the backward sweep and recomputes the steps of a
     period (``jax.checkpoint`` of the period's body): memory ∝ samples instead of steps, for
-    about one more forward pass of compute.
+    about one more forward pass of compute. ``integral``: the integral controllers' state and
+    settings (:class:`_IntegralLaw`), ``None`` for the geometric PD.
     """
 
     J: np.ndarray
@@ -230,6 +242,7 @@ class JaxClosedLoop:
     rate_limit: float = math.inf
     delta0: np.ndarray | None = None
     checkpoint: bool = False
+    integral: Any = None
     _compiled: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @property
@@ -286,21 +299,36 @@ class JaxClosedLoop:
             h, A = cluster._momentum_and_jacobian(x[3:])
             return bus_torque(h, A, held[0], x[:3])
 
-        def sample(R: Any, x: Any, ref: tuple) -> tuple[dict, Any]:
-            """The controller at a sample, and the log row (with the first step's command)."""
+        integ = self.integral
+        T = self.control_period
+
+        def sample(R: Any, x: Any, cs: tuple, ref: tuple) -> tuple[dict, Any, tuple]:
+            """The controller at a sample (its state ``cs`` carried from the previous one), and
+            the log row (with the first step's command)."""
             u_cmd, Psi, e_R, e_W = geometric_pd_torque(R, x[:3], *ref, Jc, k_R, k_Omega, error)
+            extra = {}
+            if integ is not None:
+                # the integral controllers' own pure functions (liecontrol.control.geometric_pid)
+                z, frozen, clamped = integral_update(
+                    *cs, T, integ.k_I, integ.integral_limit, integ.torque_limit,
+                    integ.conditional,
+                )  # fmt: skip
+                u_cmd, u_raw, u_I, sat = integral_output(u_cmd, z, integ.k_I, integ.torque_limit)
+                cs = (z, integ.integrand(z, e_R, e_W), u_raw, sat)
+                extra = {"integral": z, "u_integral": u_I, "pid_saturated": jnp.any(sat),
+                         "integration_frozen": frozen, "integral_clamped": clamped}  # fmt: skip
             held = command(u_cmd, x)
             row = {"R": R, "x": x, "u_cmd": u_cmd, "u": torque(x, held), "Psi": Psi,
-                   "e_R": e_R, "e_Omega": e_W}  # fmt: skip
+                   "e_R": e_R, "e_Omega": e_W, **extra}  # fmt: skip
             if cluster is None:
                 row["held"] = held[0]
             else:
                 row["delta_dot"], row["saturated"] = held
-            return row, u_cmd
+            return row, u_cmd, cs
 
         def period(carry: tuple, ref: tuple) -> tuple:
-            R, x = carry
-            row, u_cmd = sample(R, x, ref if varying else refs)
+            R, x, cs = carry
+            row, u_cmd, cs = sample(R, x, cs, ref if varying else refs)
 
             def step(c: tuple, _: Any) -> tuple:
                 held = command(u_cmd, c[1])
@@ -314,13 +342,15 @@ class JaxClosedLoop:
             # the sample's own step recomputes its command: one extra steering call per period
             # keeps the scan body free of a first-step special case
             (R1, x1), _ = lax.scan(step, (R, x), None, length=n_sub)
-            return (R1, x1), row
+            return (R1, x1, cs), row
 
         if self.checkpoint:
             period = jax.checkpoint(period)
         scanned = tuple(a[:-1] for a in refs) if varying else None
-        (Rn, xn), rows = lax.scan(period, (R0, x0), scanned, length=self.n_ctrl)
-        last, _ = sample(Rn, xn, tuple(a[-1] for a in refs) if varying else refs)
+        z0 = jnp.zeros(3)
+        cs0 = () if integ is None else (z0, z0, z0, jnp.zeros(3, dtype=bool))
+        (Rn, xn, csn), rows = lax.scan(period, (R0, x0, cs0), scanned, length=self.n_ctrl)
+        last, _, _ = sample(Rn, xn, csn, tuple(a[-1] for a in refs) if varying else refs)
         return {k: jnp.concatenate((v, last[k][None]), axis=0) for k, v in rows.items()}
 
     def inertias(self, B: int) -> tuple[np.ndarray, np.ndarray]:
@@ -453,6 +483,10 @@ class JaxClosedLoop:
         else:
             act = {}
         ctrl = {"Psi": out["Psi"], "e_R": out["e_R"], "e_Omega": out["e_Omega"]}
+        if self.integral is not None:
+            ctrl.update({k: out[k] for k in ("integral", "u_integral", "integration_frozen",
+                                             "integral_clamped")})  # fmt: skip
+            ctrl["saturated"] = out["pid_saturated"]
         return JaxRun(t, Rs, xs[..., :3], out["u"], diverged, at, out["u_cmd"], act, ctrl)
 
     def value_and_grad(
@@ -494,6 +528,44 @@ class JaxClosedLoop:
                     f"k_Omega = {kW} (diverging members, or gains out of range)"
                 )
         raise FloatingPointError(f"cost: not finite at k_R = {kR}, k_Omega = {kW}")
+
+
+@dataclass(frozen=True)
+class _IntegralLaw:
+    """:class:`~liecontrol.control.IntrinsicPID` / :class:`~liecontrol.control.IntegralPD` for
+    the scan: gain, anti-windup settings and the integrand ż = f(z, e_R, e_Ω), whose state
+    (z, f, u_raw, saturated) the scan carries from one control sample to the next."""
+
+    k_I: Any
+    integral_limit: float | None
+    torque_limit: Any
+    conditional: bool
+    kind: str
+    J: np.ndarray
+    J_inv: np.ndarray
+    c: float = 0.0
+
+    def integrand(self, z: Any, e_R: Any, e_W: Any) -> Any:
+        if self.kind == "integral_pd":
+            return e_W + self.c * e_R
+        return _gamma(self.J, self.J_inv, e_W, z, self.kind == "survey") + e_R
+
+
+def _integral_law(controller: Any) -> _IntegralLaw | None:
+    if type(controller) is GeometricPD:
+        return None
+    k_I = controller.k_I
+    k_I = float(k_I) if np.ndim(k_I) == 0 else np.asarray(k_I, dtype=np.float64)
+    tl = controller.torque_limit
+    if type(controller) is IntegralPD:
+        kind, c = "integral_pd", float(controller.c)
+    else:
+        kind, c = controller.connection, 0.0
+    return _IntegralLaw(
+        k_I=k_I, integral_limit=controller.integral_limit,
+        torque_limit=None if tl is None else np.array(tl), conditional=controller.conditional,
+        kind=kind, J=np.array(controller.J), J_inv=np.linalg.inv(controller.J), c=c,
+    )  # fmt: skip
 
 
 def _initial(R0: object, omega0: object | None) -> tuple[np.ndarray, np.ndarray]:
@@ -556,9 +628,10 @@ def closed_loop(
                 f"plant.{part}: not supported by the JAX route (got "
                 f"{type(getattr(plant, part)).__name__}); run spacecraft.simulate"
             )
-    if type(controller) is not GeometricPD:
+    if type(controller) not in (GeometricPD, IntrinsicPID, IntegralPD):
         raise ValueError(
-            f"controller: the JAX route supports GeometricPD only, got {type(controller).__name__}"
+            f"controller: the JAX route supports GeometricPD, IntrinsicPID and IntegralPD, got "
+            f"{type(controller).__name__}"
         )
     if controller.error not in ("large_angle", "log"):
         raise ValueError(
@@ -596,6 +669,7 @@ def closed_loop(
         cluster=act.cluster if sgcmg else None, steering=act.steering if sgcmg else None,
         rate_limit=act.rate_limit if sgcmg else math.inf,
         delta0=np.array(act.delta0) if sgcmg else None, checkpoint=bool(checkpoint),
+        integral=_integral_law(controller),
     )  # fmt: skip
 
 

@@ -61,9 +61,11 @@ of z]: ``z = ∫ e_R dt`` (intrinsic, log error: rad·s) or ``∫(e_Ω + c e_R) 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
+from .._array_api import namespace, safe_sqrt
 from .._kernels.geometric_pid import INTEGRAND_CODES, N_DIAG, N_STATE, geometric_pid_law
 from .._validation import (
     as_array,
@@ -75,7 +77,14 @@ from .base import AttitudeController, AttitudeReference, AttitudeState, finite_c
 from .geometric_pd import GeometricPD, _apply_gain, _as_matrix, _cross, check_gain
 from .kernel import ControllerKernel
 
-__all__ = ["IntrinsicPID", "IntegralPD", "integral_gain", "connection_term"]
+__all__ = [
+    "IntrinsicPID",
+    "IntegralPD",
+    "integral_gain",
+    "connection_term",
+    "integral_update",
+    "integral_output",
+]
 
 CONNECTIONS = ("survey", "levi_civita")
 
@@ -119,6 +128,44 @@ def integral_gain(k_R: object, omega_i: float, c: float | None = None) -> float 
     if not np.all(np.isfinite(out)):
         raise ValueError("omega_i: k_I = ω_i k_R overflows float64 for this input (too large)")
     return out
+
+
+def integral_update(
+    z: Any, f_prev: Any, u_raw_prev: Any, sat_prev: Any, dt: Any, k_I: Any,
+    integral_limit: float | None, torque_limit: Any, conditional: bool,
+) -> tuple[Any, Any, Any]:  # fmt: skip
+    """One zero-order-hold update of the integral state with anti-windup (module docstring);
+    pure, NumPy or JAX, batched over leading axes: ``z ← z + dt·f_prev``, the step skipped for
+    a spacecraft whose held command was saturated on an axis the step would drive further
+    (``conditional`` with a ``torque_limit``), then ``z`` scaled back so that
+    ``‖K_I z‖ ≤ integral_limit``. Returns ``(z, frozen, clamped)``. At the first sample
+    ``f_prev = 0`` (and nothing saturated), so the update is the identity there."""
+    xp = namespace(z, f_prev, u_raw_prev, dt)
+    step = dt * f_prev
+    frozen = xp.zeros(z.shape[:-1], dtype=bool)
+    if torque_limit is not None and conditional:
+        du = -_apply_gain(k_I, step)
+        frozen = xp.any(sat_prev & (du * u_raw_prev > 0.0), axis=-1)
+        step = xp.where(frozen[..., None], 0.0, step)
+    z = z + step
+    clamped = xp.zeros(z.shape[:-1], dtype=bool)
+    if integral_limit is not None:
+        v = _apply_gain(k_I, z)
+        n = np.linalg.norm(v, axis=-1) if xp is np else safe_sqrt((v * v).sum(-1), xp)
+        clamped = n > integral_limit
+        z = z * xp.where(clamped, integral_limit / xp.where(clamped, n, 1.0), 1.0)[..., None]
+    return z, frozen, clamped
+
+
+def integral_output(u_pd: Any, z: Any, k_I: Any, torque_limit: Any) -> tuple[Any, Any, Any, Any]:
+    """``(u, u_raw, u_I, saturated)``: the PD torque plus ``u_I = −K_I z``, clipped to the box
+    ``|u_i| ≤ torque_limit_i`` when there is one (``saturated`` per axis); pure, NumPy or JAX."""
+    xp = namespace(u_pd, z)
+    u_I = -_apply_gain(k_I, z)
+    u_raw = u_pd + u_I
+    if torque_limit is None:
+        return u_raw, u_raw, u_I, xp.zeros(u_raw.shape, dtype=bool)
+    return xp.clip(u_raw, -torque_limit, torque_limit), u_raw, u_I, xp.abs(u_raw) > torque_limit
 
 
 def _check_torque_limit(x: object) -> np.ndarray | None:
@@ -220,29 +267,12 @@ class _IntegralController(AttitudeController):
                 raise ValueError(
                     f"t: {t!r} is earlier than the previous control sample {self._t_prev!r}"
                 )
-            step = dt * self._f_prev
-            if self.torque_limit is not None and self.conditional:
-                # skip the step where it would drive an already saturated axis deeper
-                du = -_apply_gain(self.k_I, step)
-                frozen = np.any(self._sat_prev & (du * self._u_raw_prev > 0.0), axis=-1)
-                step[frozen] = 0.0
-            self.z = self.z + step
-            if self.integral_limit is not None:
-                n = np.linalg.norm(_apply_gain(self.k_I, self.z), axis=-1)
-                clamped = n > self.integral_limit
-                if clamped.any():
-                    scale = np.where(clamped, self.integral_limit / np.where(clamped, n, 1.0), 1.0)
-                    self.z = self.z * scale[:, None]
+            self.z, frozen, clamped = integral_update(
+                self.z, self._f_prev, self._u_raw_prev, self._sat_prev, dt, self.k_I,
+                self.integral_limit, self.torque_limit, self.conditional,
+            )  # fmt: skip
         self._t_prev = t
-        u_I = -_apply_gain(self.k_I, self.z)
-        u_raw = u_pd + u_I
-        if self.torque_limit is not None:
-            lim = self.torque_limit
-            sat = np.abs(u_raw) > lim
-            u = np.clip(u_raw, -lim, lim)
-        else:
-            sat = np.zeros((B, 3), dtype=bool)
-            u = u_raw
+        u, u_raw, u_I, sat = integral_output(u_pd, self.z, self.k_I, self.torque_limit)
         self._u_raw_prev = u_raw
         self._sat_prev = sat
         self._f_prev = self._integrand(self.z, e_R, e_W)
