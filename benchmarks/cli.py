@@ -231,6 +231,14 @@ def build_parser(prog: str | None = None) -> argparse.ArgumentParser:
         help="seed of the members' draws (benchmarks.dispersion)",
     )
     r.add_argument(
+        "--backend",
+        choices=("numba", "jax"),
+        default="numba",
+        help="simulate's route for the attitude batches: the fused numba loop (default) or the "
+        "JAX route where the batch's configuration has one (pip install liecontrol[jax]; the "
+        "others stay on numba, each with a log line)",
+    )
+    r.add_argument(
         "--no-sensitivity",
         action="store_true",
         help="skip the re-runs at ω_n × 0.9 and × 1.1 that show which cell verdicts sit on a "
@@ -345,11 +353,14 @@ def _check_selection(scenarios: Sequence, controllers: Sequence[str] | None) -> 
             why.setdefault(reason or "does not apply", []).append(
                 f"{c} (plants: {', '.join(sorted(info.plants))}) on {s.name} (plant: {s.plant})"
             )
-    parts = [f"{', '.join(pairs[:3])}{' …' if len(pairs) > 3 else ''}: {reason}"
-             for reason, pairs in why.items()]
+    parts = [
+        f"{', '.join(pairs[:3])}{' …' if len(pairs) > 3 else ''}: {reason}"
+        for reason, pairs in why.items()
+    ]
     raise ValueError(
         "nothing to run: no selected controller applies to any selected scenario ("
-        + "; ".join(parts) + ")"
+        + "; ".join(parts)
+        + ")"
     )
 
 
@@ -550,6 +561,13 @@ def _cmd_run(args: argparse.Namespace) -> int:
         return _error(f"members: expected an integer >= 1, got {members}")
     if args.dispersion_seed < 0:
         return _error(f"dispersion-seed: expected an integer >= 0, got {args.dispersion_seed}")
+    if args.backend == "jax":  # checked before anything runs
+        from spacecraft.differentiable import require_jax
+
+        try:
+            require_jax()
+        except ImportError as exc:
+            return _error(f"backend: {exc}")
     if keep:  # checked before anything runs
         from .results_file import require_pyarrow
 
@@ -575,8 +593,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
             path = unwinding.write_unwinding_report(res, args.out, figures=figures)
             counts = _count(r.verdict for r in res.records)
             # the unwinding table's own verdicts; "error" means the run raised, as in the suite
-            summary = _runs(len(res.records)) + ": " + ", ".join(
-                f"{counts.get(v, 0)} {v}" for v in unwinding.VERDICTS
+            summary = (
+                _runs(len(res.records))
+                + ": "
+                + ", ".join(f"{counts.get(v, 0)} {v}" for v in unwinding.VERDICTS)
             )
             n_failed = res.n_failed
         elif suite_name == "montecarlo":
@@ -644,9 +664,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
                         scenarios, controllers, suite=f"{suite_name} (ω_n = {w:g} rad/s)",
                         executor=executor, progress=progress, gain_rule=rule,
                         keep_histories=keep, members=members, dispersion_seed=args.dispersion_seed,
+                        backend=args.backend,
                     )  # fmt: skip
-                    sub = write_report(sweep[w], args.out / f"omega_n-{w:g}", figures=figures,
-                                       progress=progress)
+                    sub = write_report(
+                        sweep[w], args.out / f"omega_n-{w:g}", figures=figures, progress=progress
+                    )
                     if keep:
                         from .results_file import write_histories_with_report
 
@@ -659,7 +681,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 result = run_suite(
                     scenarios, controllers, suite=suite_name, executor=executor,
                     progress=progress, keep_histories=keep, members=members,
-                    dispersion_seed=args.dispersion_seed,
+                    dispersion_seed=args.dispersion_seed, backend=args.backend,
                 )  # fmt: skip
                 if not args.no_sensitivity:
                     from .runner import bandwidth_sensitivity

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import logging
 import math
 import time
 from collections.abc import Callable, Collection, Iterable, Sequence
@@ -58,6 +59,8 @@ from .metrics import compute_metrics, error_angle, judge, rate_error, settling_t
 from .ranking import CellSummary, summarise_cell
 from .requirements import pointing_window, requirements_of
 from .scenarios import DisturbanceSpec, ReferenceSpec, Scenario, SensorSpec, SpacecraftSpec
+
+_LOG = logging.getLogger(__name__)
 
 __all__ = [
     "RunOutcome",
@@ -775,9 +778,7 @@ class FilteredAttitude:
         out["nees_in_bounds_fraction"] = (
             in_interval_fraction(log["nees"], 3) if log["nees"] else nan
         )
-        out["nees_effective_samples"] = (
-            effective_sample_size(log["nees"]) if log["nees"] else nan
-        )
+        out["nees_effective_samples"] = effective_sample_size(log["nees"]) if log["nees"] else nan
         out["filter_updates"] = float(len(log["gated"]))
         out["filter_rejections"] = float(sum(log["gated"]))
         tt, err = np.asarray(log["t"]), np.asarray(log["err"])
@@ -1018,9 +1019,13 @@ class GroupTask:
     infos: dict[str, ControllerInfo]
     rule: GainRule | None = None  # closed-loop spec the factories tune to (None: default)
     histories: bool = False  # keep the full logged histories in the outcomes
+    backend: str = "numba"  # simulate's backend for the batches it supports (run_suite)
 
     def __reduce__(self) -> tuple:
-        return (_rebuild_task, (self.pairs, pack_infos(self.infos), self.rule, self.histories))
+        return (
+            _rebuild_task,
+            (self.pairs, pack_infos(self.infos), self.rule, self.histories, self.backend),
+        )
 
 
 def pack_infos(infos: dict[str, ControllerInfo]) -> dict[str, tuple[str, Any]]:
@@ -1064,8 +1069,9 @@ def _rebuild_task(
     packed: dict[str, tuple[str, Any]],
     rule: GainRule | None = None,
     histories: bool = False,
+    backend: str = "numba",
 ) -> GroupTask:
-    return GroupTask(pairs, unpack_infos(packed), rule, histories)
+    return GroupTask(pairs, unpack_infos(packed), rule, histories, backend)
 
 
 def _members(
@@ -1121,8 +1127,12 @@ def _simulate_attitude(
     infos: dict[str, ControllerInfo],
     rule: GainRule | None = None,
     histories: bool = False,
+    backend: str = "numba",
 ) -> list[RunOutcome]:
-    """Simulate ``pairs`` (same :meth:`Scenario.batch_key`) as one batch; raises on failure."""
+    """Simulate ``pairs`` (same :meth:`Scenario.batch_key`) as one batch; raises on failure.
+    ``backend="jax"``: through :func:`spacecraft.simulate`'s JAX route where the batch's
+    configuration has one (one controller instance, no sensors, a reference shared by the
+    members), else the numba loop and one log line (logger ``benchmarks.runner``) saying why."""
     from spacecraft.simulator import simulate
 
     sc0 = pairs[0][0]
@@ -1175,18 +1185,27 @@ def _simulate_attitude(
         sense = {"sensors": sensors, "measurement": hook, "rng": rng}
         if sc0.sensors.compute_delay > 0:
             sense["compute_delay"] = sc0.sensors.compute_delay
+    route = {}
+    if backend == "jax":
+        why = _jax_refusal(fusable, sense, pairs, order)
+        if why is None:
+            # every member flies the same reference (members differ in start, rate, inertia)
+            route = {"backend": "jax"}
+            ref = build_reference(pairs[order[0]][0])
+        else:
+            _LOG.info("backend='jax': %s; %s ran on the numba loop", why, _group_name(pairs))
     t_start = time.perf_counter()
-    result = simulate(
-        plant,
-        ctrl,
-        ref,
-        state,
-        t_final=sc0.duration,
-        dt=sc0.dt,
-        control_period=sc0.control_period,
-        log_every=_log_every(sc0),
-        **sense,
-    )
+    kw = dict(t_final=sc0.duration, dt=sc0.dt, control_period=sc0.control_period,
+              log_every=_log_every(sc0), **sense)  # fmt: skip
+    try:
+        result = simulate(plant, ctrl, ref, state, **kw, **route)
+    except ValueError as exc:
+        if not route:
+            raise
+        # a part the JAX route does not fly (it names it): the numba loop runs the batch
+        _LOG.info("backend='jax': %s; %s ran on the numba loop", exc, _group_name(pairs))
+        ref = StackedReference(tuple(refs), (1,) * len(refs))
+        result = simulate(plant, ctrl, ref, state, **kw)
     wall = time.perf_counter() - t_start
     sp = sc0.spacecraft
     limits = {
@@ -1230,6 +1249,26 @@ def _simulate_attitude(
             )
             b += 1
     return [outcomes[i] for i in range(len(pairs))]
+
+
+def _group_name(pairs: Sequence[tuple[Scenario, str]]) -> str:
+    names = sorted({f"{s.name} × {c}" for s, c in pairs})
+    return ", ".join(names[:3]) + (f" (+{len(names) - 3})" if len(names) > 3 else "")
+
+
+def _jax_refusal(
+    fusable: bool, sense: dict, pairs: Sequence[tuple[Scenario, str]], order: list[int]
+) -> str | None:
+    """Why a batch cannot take the JAX route (``None`` when it can, as far as the runner can
+    tell: the plant and controller are checked by :func:`spacecraft.differentiable.closed_loop`,
+    which names what it does not fly)."""
+    if not fusable:
+        return "the batch stacks several controllers"
+    if sense:
+        return "sensors in the loop"
+    if len({repr(pairs[i][0].reference) for i in order}) > 1:
+        return "the members follow different references"
+    return None
 
 
 def _momentum_management_metrics(
@@ -1666,12 +1705,14 @@ def run_group(task: GroupTask) -> list[RunOutcome]:
                 out.append(_failed(s, c, exc, task.histories))
         return out
     try:
-        return _simulate_attitude(pairs, infos, task.rule, task.histories)
+        return _simulate_attitude(pairs, infos, task.rule, task.histories, task.backend)
     except Exception as exc:  # noqa: BLE001 - failures are data in a benchmark report
         if len(pairs) > 1:
             res: list[RunOutcome] = []
             for p in pairs:
-                res.extend(run_group(GroupTask((p,), infos, task.rule, task.histories)))
+                res.extend(
+                    run_group(GroupTask((p,), infos, task.rule, task.histories, task.backend))
+                )
             return res
         s, c = pairs[0]
         return [_failed(s, c, exc, task.histories)]
@@ -1692,6 +1733,7 @@ def run_suite(
     dispersion: DispersionSpec | None = None,
     dispersion_seed: int | None = None,
     pairs: Collection[tuple[str, str]] | None = None,
+    backend: str = "numba",
 ) -> SuiteResult:
     """Run every scenario with every controller (pairs that do not apply are ``"n/a"``), each
     pair as a cell of ``members`` dispersed members.
@@ -1717,6 +1759,13 @@ def run_suite(
         dispersion_seed: replaces the seed of every scenario's dispersion (``None``: keep it).
         pairs: run only these ``(scenario name, controller name)`` pairs; the others are
             recorded ``"n/a"`` with the reason "not selected" (``None``: every pair).
+        backend: ``"numba"`` (default, the fused loop) or ``"jax"``: the attitude batches
+            whose configuration the JAX route flies (:mod:`spacecraft.differentiable`: the
+            geometric PD and integral laws on the ideal or SGCMG actuator, no disturbance or
+            sensors) run through ``simulate(..., backend="jax")``, the others on the numba
+            loop with one log line each saying why (logger ``benchmarks.runner``). Same
+            metrics to round-off; slower on the CPU (a compile per batch). Needs
+            ``liecontrol[jax]`` (``ImportError`` naming it).
 
     Returns:
         :class:`SuiteResult` with one nominal :class:`RunOutcome` per pair (scenario-major
@@ -1726,6 +1775,13 @@ def run_suite(
     from tqdm.auto import tqdm
 
     from .controllers import available_controllers
+
+    if backend not in ("numba", "jax"):
+        raise ValueError(f"backend: expected 'numba' or 'jax', got {backend!r}")
+    if backend == "jax":
+        from spacecraft.differentiable import require_jax
+
+        require_jax()
 
     if isinstance(scenarios, (str, Scenario)) or not isinstance(scenarios, Iterable):
         raise ValueError(
@@ -1846,7 +1902,9 @@ def run_suite(
     # largest tasks first: better packing over the workers
     tasks = sorted(
         (
-            GroupTask(tuple(g), {c: infos[c] for _, c in g}, gain_rule, bool(keep_histories))
+            GroupTask(
+                tuple(g), {c: infos[c] for _, c in g}, gain_rule, bool(keep_histories), backend
+            )
             for g in chunks
         ),
         key=lambda tk: -len(tk.pairs) * tk.pairs[0][0].duration / tk.pairs[0][0].dt,

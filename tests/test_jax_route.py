@@ -498,3 +498,37 @@ def test_stateful_integral_laws_carry_their_state_through_the_scan(which, jax):
             assert want.controller[key].any(), key  # the anti-windup paths are exercised
     v, gR, gW = loop.value_and_grad(ctrl.k_R, ctrl.k_Omega, R0, w0, effort_weight=0.01)
     assert np.isfinite([v]).all() and np.isfinite(gR).all() and np.isfinite(gW).all()
+
+
+def test_suite_backend_jax_equals_numba(jax, caplog):
+    """run_suite(..., backend="jax"): the batches the JAX route flies give the numba loop's
+    metrics to round-off and the same verdicts; the others stay on numba with a log line."""
+    import logging
+
+    from benchmarks.runner import run_suite
+    from benchmarks.scenarios import get_scenario
+
+    scs = [get_scenario("slew-90").with_duration(60.0)]
+    cs = ["geometric-pd-large-angle", "geometric-integral-pd", "mrp-pd"]
+    a = run_suite(scs, cs, members=2, executor="serial", progress=False)
+    with caplog.at_level(logging.INFO, logger="benchmarks.runner"):
+        b = run_suite(scs, cs, members=2, executor="serial", progress=False, backend="jax")
+    assert "got MrpPD; slew-90 × mrp-pd ran on the numba loop" in caplog.text
+    assert "geometric-pd-large-angle ran on the numba loop" not in caplog.text
+    for oa, ob in zip(a.outcomes + a.member_outcomes, b.outcomes + b.member_outcomes,
+                      strict=True):  # fmt: skip
+        assert (oa.scenario, oa.controller, oa.member, oa.verdict) == (
+            ob.scenario, ob.controller, ob.member, ob.verdict)  # fmt: skip
+        for k, v in oa.metrics.items():
+            if k not in ("controller_time_us", "sim_wall_time_s") and np.isfinite(v):
+                np.testing.assert_allclose(ob.metrics[k], v, rtol=1e-9, atol=1e-12, err_msg=k)
+    with pytest.raises(ValueError, match="^backend: "):
+        run_suite(scs, cs, backend="torch")
+
+
+def test_cli_backend_jax_without_jax_names_the_extra(monkeypatch, capsys):
+    from benchmarks import cli
+
+    monkeypatch.setitem(sys.modules, "jax", None)
+    assert cli.main(["run", "--scenarios", "slew-90", "--backend", "jax", "--out", "x"]) == 2
+    assert "pip install liecontrol[jax]" in capsys.readouterr().err
