@@ -35,8 +35,11 @@ Supported configurations (others raise ``ValueError`` naming the part): a
 ``(B, 3, 3)``, an :class:`spacecraft.actuators.IdealTorqueActuator` (with or without
 ``max_torque``) or an :class:`spacecraft.actuators.SgcmgActuator` with the ideal servo and
 :class:`spacecraft.steering.SingularityRobust` or
-:class:`spacecraft.steering.PseudoInverseNullMotion` steering, no disturbance, flexible modes or
-momentum management; a :class:`liecontrol.control.GeometricPD`, or an
+:class:`spacecraft.steering.PseudoInverseNullMotion` steering, a
+:class:`~spacecraft.disturbances.ConstantTorque` (one for the batch) or
+:class:`~spacecraft.disturbances.ConstantHarmonicTorque` disturbance (at each RKMK4 stage's
+time) or none, no flexible modes or momentum management; a
+:class:`liecontrol.control.GeometricPD`, or an
 :class:`~liecontrol.control.IntrinsicPID` / :class:`~liecontrol.control.IntegralPD` (stateful:
 the scan carries the integral state, its held integrand and the anti-windup flags from one
 control sample to the next, through the controllers' own pure functions
@@ -81,6 +84,7 @@ from liecontrol.integrators.rk import rkmk4_step_unchecked
 from liecontrol.lie import so3
 
 from .actuators import IdealTorqueActuator, SgcmgActuator
+from .disturbances import ConstantHarmonicTorque, ConstantTorque
 from .plant import Spacecraft
 from .rigid_body import euler_acceleration
 from .sgcmg import SgcmgPyramid, bus_torque
@@ -220,7 +224,9 @@ class JaxClosedLoop:
     the state at each control sample for the backward sweep and recomputes the steps of a
     period (``jax.checkpoint`` of the period's body): memory ∝ samples instead of steps, for
     about one more forward pass of compute. ``integral``: the integral controllers' state and
-    settings (:class:`_IntegralLaw`), ``None`` for the geometric PD.
+    settings (:class:`_IntegralLaw`), ``None`` for the geometric PD. ``disturbance``: the
+    body torque ``t -> (3,)`` added in every RKMK4 stage at the stage's time (the plant's own
+    ``ConstantTorque`` / ``ConstantHarmonicTorque``), or ``None``.
     """
 
     J: np.ndarray
@@ -243,6 +249,7 @@ class JaxClosedLoop:
     delta0: np.ndarray | None = None
     checkpoint: bool = False
     integral: Any = None
+    disturbance: Any = None
     _compiled: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @property
@@ -326,27 +333,36 @@ class JaxClosedLoop:
                 row["delta_dot"], row["saturated"] = held
             return row, u_cmd, cs
 
-        def period(carry: tuple, ref: tuple) -> tuple:
+        dist = self.disturbance
+        t0 = self.t0
+
+        def period(carry: tuple, xs: tuple) -> tuple:
             R, x, cs = carry
+            k, ref = xs
             row, u_cmd, cs = sample(R, x, cs, ref if varying else refs)
 
-            def step(c: tuple, _: Any) -> tuple:
+            def step(c: tuple, j: Any) -> tuple:
                 held = command(u_cmd, c[1])
 
-                def field_(t: float, RR: Any, xx: Any) -> tuple[Any, Any]:
-                    acc = euler_acceleration(J, J_inv, xx[:3], torque(xx, held))
+                def field_(t: Any, RR: Any, xx: Any) -> tuple[Any, Any]:
+                    tau = torque(xx, held)
+                    if dist is not None:
+                        tau = tau + dist(t)
+                    acc = euler_acceleration(J, J_inv, xx[:3], tau)
                     return xx[:3], acc if cluster is None else jnp.concatenate((acc, held[0]))
 
-                return rkmk4_step_unchecked(field_, 0.0, c[0], c[1], dt, stage_attitude=False), None
+                # the step's time as simulate computes it, t₀ + i·dt for the i-th step
+                t = t0 + (k * n_sub + j) * dt
+                return rkmk4_step_unchecked(field_, t, c[0], c[1], dt, stage_attitude=False), None
 
             # the sample's own step recomputes its command: one extra steering call per period
             # keeps the scan body free of a first-step special case
-            (R1, x1), _ = lax.scan(step, (R, x), None, length=n_sub)
+            (R1, x1), _ = lax.scan(step, (R, x), jnp.arange(n_sub))
             return (R1, x1, cs), row
 
         if self.checkpoint:
             period = jax.checkpoint(period)
-        scanned = tuple(a[:-1] for a in refs) if varying else None
+        scanned = (jnp.arange(self.n_ctrl), tuple(a[:-1] for a in refs) if varying else None)
         z0 = jnp.zeros(3)
         cs0 = () if integ is None else (z0, z0, z0, jnp.zeros(3, dtype=bool))
         (Rn, xn, csn), rows = lax.scan(period, (R0, x0, cs0), scanned, length=self.n_ctrl)
@@ -568,6 +584,16 @@ def _integral_law(controller: Any) -> _IntegralLaw | None:
     )  # fmt: skip
 
 
+def _disturbance(dist: Any) -> Callable[[Any], Any] | None:
+    """The plant's disturbance as ``t -> (3,)`` on JAX scalars (its own formula)."""
+    if dist is None:
+        return None
+    if type(dist) is ConstantTorque:
+        torque = np.array(dist.torque)
+        return lambda t: torque
+    return dist.torque_at
+
+
 def _initial(R0: object, omega0: object | None) -> tuple[np.ndarray, np.ndarray]:
     R0 = check_rotation_matrix(R0, "R0")
     if R0.ndim == 2:
@@ -622,7 +648,16 @@ def closed_loop(
         raise ValueError(f"plant: expected a Spacecraft, got {type(plant).__name__}")
     act = plant.actuator
     _check_actuator(act)
-    for part in ("disturbance", "modes", "momentum_management"):
+    dist = plant.disturbance
+    if dist is not None and not (
+        type(dist) is ConstantHarmonicTorque
+        or (type(dist) is ConstantTorque and dist.torque.ndim == 1)
+    ):
+        raise ValueError(
+            f"plant.disturbance: the JAX route flies ConstantTorque (one torque for the batch) "
+            f"and ConstantHarmonicTorque, got {type(dist).__name__}; run spacecraft.simulate"
+        )
+    for part in ("modes", "momentum_management"):
         if getattr(plant, part) is not None:
             raise ValueError(
                 f"plant.{part}: not supported by the JAX route (got "
@@ -669,7 +704,7 @@ def closed_loop(
         cluster=act.cluster if sgcmg else None, steering=act.steering if sgcmg else None,
         rate_limit=act.rate_limit if sgcmg else math.inf,
         delta0=np.array(act.delta0) if sgcmg else None, checkpoint=bool(checkpoint),
-        integral=_integral_law(controller),
+        integral=_integral_law(controller), disturbance=_disturbance(dist),
     )  # fmt: skip
 
 
@@ -826,6 +861,10 @@ def simulate_jax(
     t = run.t[rows]
     refs = [reference(float(tk)) for tk in t]
     act = {k: v[rows] for k, v in run.actuator.items()}
+    dist_log = np.zeros((len(rows), B, 3))
+    if plant.disturbance is not None:
+        for i, r in enumerate(rows):  # the plant's own call at the logged times, as simulate's log
+            dist_log[i] = plant.disturbance(float(t[i]), run.R[r], run.omega[r])
     derived = getattr(plant.actuator, "derived_log", None)
     if derived is not None:
         act.update(derived(act))
@@ -833,7 +872,7 @@ def simulate_jax(
         t=t, R=run.R[rows], omega=run.omega[rows],
         R_d=np.stack([np.broadcast_to(r.R_d, (B, 3, 3)) for r in refs]),
         omega_d=np.stack([np.broadcast_to(r.omega_d, (B, 3)) for r in refs]),
-        u_cmd=run.u_cmd[rows], u=run.u[rows], disturbance=np.zeros((len(rows), B, 3)),
+        u_cmd=run.u_cmd[rows], u=run.u[rows], disturbance=dist_log,
         actuator=act, controller={k: v[rows] for k, v in run.controller.items()},
         dt=loop.dt, control_period=loop.control_period,
     )  # fmt: skip

@@ -36,6 +36,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from liecontrol._array_api import namespace
 from liecontrol._validation import as_array, as_scalar, check_positive_scalar
 
 __all__ = [
@@ -104,18 +105,24 @@ class ConstantHarmonicTorque:
         object.__setattr__(self, "scale", s)
 
     def torque_at(self, t: float) -> np.ndarray:
-        """The ``(3,)`` torque at time ``t`` (identical for every spacecraft)."""
-        t = as_scalar(t, "t")  # a Python float passes at the cost of one type test
-        s1 = math.sin(self.n * t)
-        s2 = math.sin(2.0 * self.n * t)
+        """The ``(3,)`` torque at time ``t`` (identical for every spacecraft). ``t`` may be a
+        JAX scalar (the differentiable loop, :mod:`spacecraft.differentiable`): the same
+        formula runs on ``jax.numpy``."""
+        xp = namespace(t)
+        if xp is np:
+            t = as_scalar(t, "t")  # a Python float passes at the cost of one type test
+            sin = math.sin
+        else:
+            sin = xp.sin
+        s1 = sin(self.n * t)
+        s2 = sin(2.0 * self.n * t)
         c = self.scale
-        return np.array(
-            [
-                c * (0.02 + 0.02 * s1 + 0.01 * s2),
-                c * (0.08 + 0.04 * s1 + 0.01 * s2),
-                c * (0.02 + 0.02 * s1 + 0.01 * s2),
-            ]
-        )
+        rows = [
+            c * (0.02 + 0.02 * s1 + 0.01 * s2),
+            c * (0.08 + 0.04 * s1 + 0.01 * s2),
+            c * (0.02 + 0.02 * s1 + 0.01 * s2),
+        ]
+        return np.array(rows) if xp is np else xp.stack(rows)
 
     def __call__(self, t: float, R: np.ndarray, omega: np.ndarray) -> np.ndarray:
         return np.broadcast_to(self.torque_at(t), omega.shape)

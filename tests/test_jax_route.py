@@ -508,13 +508,17 @@ def test_suite_backend_jax_equals_numba(jax, caplog):
     from benchmarks.runner import run_suite
     from benchmarks.scenarios import get_scenario
 
-    scs = [get_scenario("slew-90").with_duration(60.0)]
+    scs = [
+        get_scenario("slew-90").with_duration(60.0),
+        get_scenario("stabilisation").with_duration(30.0),
+    ]  # constant + harmonic torque
     cs = ["geometric-pd-large-angle", "geometric-integral-pd", "mrp-pd"]
     a = run_suite(scs, cs, members=2, executor="serial", progress=False)
     with caplog.at_level(logging.INFO, logger="benchmarks.runner"):
         b = run_suite(scs, cs, members=2, executor="serial", progress=False, backend="jax")
     assert "got MrpPD; slew-90 × mrp-pd ran on the numba loop" in caplog.text
     assert "geometric-pd-large-angle ran on the numba loop" not in caplog.text
+    assert "stabilisation × mrp-pd ran on the numba loop" in caplog.text
     for oa, ob in zip(a.outcomes + a.member_outcomes, b.outcomes + b.member_outcomes,
                       strict=True):  # fmt: skip
         assert (oa.scenario, oa.controller, oa.member, oa.verdict) == (
@@ -532,3 +536,36 @@ def test_cli_backend_jax_without_jax_names_the_extra(monkeypatch, capsys):
     monkeypatch.setitem(sys.modules, "jax", None)
     assert cli.main(["run", "--scenarios", "slew-90", "--backend", "jax", "--out", "x"]) == 2
     assert "pip install liecontrol[jax]" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("which", ["constant", "harmonic"])
+def test_disturbances_in_the_stages_equal_fused_simulate(which, jax):
+    """ConstantTorque and ConstantHarmonicTorque at every RKMK4 stage's own time (here from
+    t₀ = 3 s), their log filled as simulate fills it."""
+    from spacecraft.actuators import SgcmgActuator
+    from spacecraft.disturbances import ConstantHarmonicTorque, ConstantTorque
+
+    J0 = np.diag([20.0, 25.0, 30.0])
+    kR, kW = gains_from_bandwidth(J0, 0.3, 0.9, matrix=True)
+    dist = (ConstantTorque(np.array([0.1, -0.2, 0.05])) if which == "constant"
+            else ConstantHarmonicTorque(n=0.05, scale=3.0))  # fmt: skip
+    plant = Spacecraft(RigidBody(J0), SgcmgActuator(), disturbance=dist)
+    rng = np.random.default_rng(2)
+    ax = rng.normal(size=(3, 3))
+    ax /= np.linalg.norm(ax, axis=1, keepdims=True)
+    R0 = so3.exp(ax * np.radians([179.9, 60.0, 5.0])[:, None])
+    ref = ConstantAttitude(so3.exp(np.array([0.1, 0.2, 0.3])))
+    kw = dict(control_period=0.2, log_every=2, t0=3.0)
+    state = plant.initial_state(R0, rng.normal(size=(3, 3)) * 0.01)
+    want = simulate(plant, GeometricPD(J0, kR, kW), ref, state, 43.0, 0.1, **kw)
+    got = simulate(plant, GeometricPD(J0, kR, kW), ref, state, 43.0, 0.1, backend="jax", **kw)
+    np.testing.assert_allclose(got.R, want.R, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(got.omega, want.omega, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(got.disturbance, want.disturbance, rtol=0, atol=1e-15)
+    assert np.abs(want.disturbance).max() > 0.05
+    # per-spacecraft constant torques are not flown (one torque for the batch only)
+    from spacecraft.differentiable import closed_loop
+
+    per = Spacecraft(RigidBody(J0), SgcmgActuator(), disturbance=ConstantTorque(np.ones((3, 3))))
+    with pytest.raises(ValueError, match=r"^plant\.disturbance: .*ConstantTorque"):
+        closed_loop(per, GeometricPD(J0, kR, kW), ref, 10.0, 0.1)
