@@ -71,15 +71,9 @@ from liecontrol._validation import (
     check_positive_scalar,
     check_rotation_matrix,
 )
+from liecontrol.control.array_law import array_law_of
 from liecontrol.control.base import AttitudeReference
-from liecontrol.control.geometric_pd import GeometricPD, geometric_pd_torque
-from liecontrol.control.geometric_pid import (
-    IntegralPD,
-    IntrinsicPID,
-    _gamma,
-    integral_output,
-    integral_update,
-)
+from liecontrol.control.geometric_pd import GeometricPD
 from liecontrol.integrators.rk import rkmk4_step_unchecked
 from liecontrol.lie import so3
 
@@ -103,6 +97,8 @@ __all__ = [
 ]
 
 _PERIOD_RTOL = 1e-9
+# the controller's diagnostics in a log row (apart from the actuator's keys of the same name)
+_CTRL = "controller/"
 _INSTALL = "pip install liecontrol[jax]"
 #: environment variable: the persistent compilation cache's directory, or "off"/"0"/"" to opt out
 CACHE_ENV = "LIECONTROL_JAX_CACHE"
@@ -223,10 +219,10 @@ class JaxClosedLoop:
     batch has; the controller keeps its model ``J_ctrl``). ``checkpoint``: the scan keeps only
     the state at each control sample for the backward sweep and recomputes the steps of a
     period (``jax.checkpoint`` of the period's body): memory ∝ samples instead of steps, for
-    about one more forward pass of compute. ``integral``: the integral controllers' state and
-    settings (:class:`_IntegralLaw`), ``None`` for the geometric PD. ``disturbance``: the
-    body torque ``t -> (3,)`` added in every RKMK4 stage at the stage's time (the plant's own
-    ``ConstantTorque`` / ``ConstantHarmonicTorque``), or ``None``.
+    about one more forward pass of compute. ``law``: the controller's
+    :class:`liecontrol.control.array_law.ArrayLaw` (its pure step and initial state).
+    ``disturbance``: the body torque ``t -> (3,)`` added in every RKMK4 stage at the stage's
+    time (the plant's own ``ConstantTorque`` / ``ConstantHarmonicTorque``), or ``None``.
     """
 
     J: np.ndarray
@@ -248,7 +244,7 @@ class JaxClosedLoop:
     rate_limit: float = math.inf
     delta0: np.ndarray | None = None
     checkpoint: bool = False
-    integral: Any = None
+    law: Any = None
     disturbance: Any = None
     _compiled: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
@@ -282,10 +278,9 @@ class JaxClosedLoop:
         lax = jax.lax
         J = jnp.asarray(self.J if J is None else J)
         J_inv = jnp.asarray(self.J_inv if J_inv is None else J_inv)
-        Jc = jnp.asarray(self.J_ctrl)
         if J.ndim != 2:
             raise ValueError("J: rollout runs one member; pass its (3, 3) inertia")
-        dt, error, n_sub = self.dt, self.error, self.n_sub
+        dt, n_sub = self.dt, self.n_sub
         limit = None if self.max_torque is None else jnp.asarray(self.max_torque)
         refs = tuple(jnp.asarray(a) for a in (self.R_d, self.omega_d, self.omega_dot_d))
         varying = self.R_d.ndim == 3
@@ -306,27 +301,17 @@ class JaxClosedLoop:
             h, A = cluster._momentum_and_jacobian(x[3:])
             return bus_torque(h, A, held[0], x[:3])
 
-        integ = self.integral
+        ctrl_law = self.law
         T = self.control_period
 
         def sample(R: Any, x: Any, cs: tuple, ref: tuple) -> tuple[dict, Any, tuple]:
             """The controller at a sample (its state ``cs`` carried from the previous one), and
             the log row (with the first step's command)."""
-            u_cmd, Psi, e_R, e_W = geometric_pd_torque(R, x[:3], *ref, Jc, k_R, k_Omega, error)
-            extra = {}
-            if integ is not None:
-                # the integral controllers' own pure functions (liecontrol.control.geometric_pid)
-                z, frozen, clamped = integral_update(
-                    *cs, T, integ.k_I, integ.integral_limit, integ.torque_limit,
-                    integ.conditional,
-                )  # fmt: skip
-                u_cmd, u_raw, u_I, sat = integral_output(u_cmd, z, integ.k_I, integ.torque_limit)
-                cs = (z, integ.integrand(z, e_R, e_W), u_raw, sat)
-                extra = {"integral": z, "u_integral": u_I, "pid_saturated": jnp.any(sat),
-                         "integration_frozen": frozen, "integral_clamped": clamped}  # fmt: skip
+            # the controller's own pure law (liecontrol.control.array_law)
+            u_cmd, cs, diag = ctrl_law.step(k_R, k_Omega, cs, R, x[:3], *ref, T)
             held = command(u_cmd, x)
-            row = {"R": R, "x": x, "u_cmd": u_cmd, "u": torque(x, held), "Psi": Psi,
-                   "e_R": e_R, "e_Omega": e_W, **extra}  # fmt: skip
+            row = {"R": R, "x": x, "u_cmd": u_cmd, "u": torque(x, held),
+                   **{_CTRL + k: v for k, v in diag.items()}}  # fmt: skip
             if cluster is None:
                 row["held"] = held[0]
             else:
@@ -363,8 +348,7 @@ class JaxClosedLoop:
         if self.checkpoint:
             period = jax.checkpoint(period)
         scanned = (jnp.arange(self.n_ctrl), tuple(a[:-1] for a in refs) if varying else None)
-        z0 = jnp.zeros(3)
-        cs0 = () if integ is None else (z0, z0, z0, jnp.zeros(3, dtype=bool))
+        cs0 = tuple(jnp.asarray(a) for a in ctrl_law.state0)
         (Rn, xn, csn), rows = lax.scan(period, (R0, x0, cs0), scanned, length=self.n_ctrl)
         last, _, _ = sample(Rn, xn, csn, tuple(a[-1] for a in refs) if varying else refs)
         return {k: jnp.concatenate((v, last[k][None]), axis=0) for k, v in rows.items()}
@@ -498,11 +482,7 @@ class JaxClosedLoop:
             act = {"saturated": np.abs(out["held"]) >= self.max_torque}
         else:
             act = {}
-        ctrl = {"Psi": out["Psi"], "e_R": out["e_R"], "e_Omega": out["e_Omega"]}
-        if self.integral is not None:
-            ctrl.update({k: out[k] for k in ("integral", "u_integral", "integration_frozen",
-                                             "integral_clamped")})  # fmt: skip
-            ctrl["saturated"] = out["pid_saturated"]
+        ctrl = {k[len(_CTRL) :]: v for k, v in out.items() if k.startswith(_CTRL)}
         return JaxRun(t, Rs, xs[..., :3], out["u"], diverged, at, out["u_cmd"], act, ctrl)
 
     def value_and_grad(
@@ -544,44 +524,6 @@ class JaxClosedLoop:
                     f"k_Omega = {kW} (diverging members, or gains out of range)"
                 )
         raise FloatingPointError(f"cost: not finite at k_R = {kR}, k_Omega = {kW}")
-
-
-@dataclass(frozen=True)
-class _IntegralLaw:
-    """:class:`~liecontrol.control.IntrinsicPID` / :class:`~liecontrol.control.IntegralPD` for
-    the scan: gain, anti-windup settings and the integrand ż = f(z, e_R, e_Ω), whose state
-    (z, f, u_raw, saturated) the scan carries from one control sample to the next."""
-
-    k_I: Any
-    integral_limit: float | None
-    torque_limit: Any
-    conditional: bool
-    kind: str
-    J: np.ndarray
-    J_inv: np.ndarray
-    c: float = 0.0
-
-    def integrand(self, z: Any, e_R: Any, e_W: Any) -> Any:
-        if self.kind == "integral_pd":
-            return e_W + self.c * e_R
-        return _gamma(self.J, self.J_inv, e_W, z, self.kind == "survey") + e_R
-
-
-def _integral_law(controller: Any) -> _IntegralLaw | None:
-    if type(controller) is GeometricPD:
-        return None
-    k_I = controller.k_I
-    k_I = float(k_I) if np.ndim(k_I) == 0 else np.asarray(k_I, dtype=np.float64)
-    tl = controller.torque_limit
-    if type(controller) is IntegralPD:
-        kind, c = "integral_pd", float(controller.c)
-    else:
-        kind, c = controller.connection, 0.0
-    return _IntegralLaw(
-        k_I=k_I, integral_limit=controller.integral_limit,
-        torque_limit=None if tl is None else np.array(tl), conditional=controller.conditional,
-        kind=kind, J=np.array(controller.J), J_inv=np.linalg.inv(controller.J), c=c,
-    )  # fmt: skip
 
 
 def _disturbance(dist: Any) -> Callable[[Any], Any] | None:
@@ -663,16 +605,7 @@ def closed_loop(
                 f"plant.{part}: not supported by the JAX route (got "
                 f"{type(getattr(plant, part)).__name__}); run spacecraft.simulate"
             )
-    if type(controller) not in (GeometricPD, IntrinsicPID, IntegralPD):
-        raise ValueError(
-            f"controller: the JAX route supports GeometricPD, IntrinsicPID and IntegralPD, got "
-            f"{type(controller).__name__}"
-        )
-    if controller.error not in ("large_angle", "log"):
-        raise ValueError(
-            f"controller.error: the JAX route supports 'large_angle' and 'log', got "
-            f"{controller.error!r}"
-        )
+    law = array_law_of(controller)
     if not callable(reference):
         raise ValueError("reference: must be callable as reference(t) -> AttitudeReference")
     dt = check_positive_scalar(dt, "dt")
@@ -697,14 +630,16 @@ def closed_loop(
     mt = getattr(act, "max_torque", None)
     sgcmg = isinstance(act, SgcmgActuator)
     return JaxClosedLoop(
-        J=np.array(plant.body.J), J_inv=np.array(plant.body.J_inv), J_ctrl=np.array(controller.J),
-        k_R=_gain(controller.k_R, "k_R"), k_Omega=_gain(controller.k_Omega, "k_Omega"),
-        error=controller.error, max_torque=None if mt is None else np.asarray(mt, dtype=float),
+        J=np.array(plant.body.J), J_inv=np.array(plant.body.J_inv),
+        J_ctrl=np.array(getattr(controller, "J", plant.body.J)),
+        k_R=_gain(law.k_R, "k_R"), k_Omega=_gain(law.k_Omega, "k_Omega"),
+        error=str(getattr(controller, "error", "")),
+        max_torque=None if mt is None else np.asarray(mt, dtype=float),
         R_d=R_d, omega_d=w_d, omega_dot_d=dw_d, dt=dt, n_sub=n_sub, n_ctrl=n_ctrl, t0=t0,
         cluster=act.cluster if sgcmg else None, steering=act.steering if sgcmg else None,
         rate_limit=act.rate_limit if sgcmg else math.inf,
         delta0=np.array(act.delta0) if sgcmg else None, checkpoint=bool(checkpoint),
-        integral=_integral_law(controller), disturbance=_disturbance(dist),
+        law=law, disturbance=_disturbance(dist),
     )  # fmt: skip
 
 

@@ -516,7 +516,8 @@ def test_suite_backend_jax_equals_numba(jax, caplog):
     a = run_suite(scs, cs, members=2, executor="serial", progress=False)
     with caplog.at_level(logging.INFO, logger="benchmarks.runner"):
         b = run_suite(scs, cs, members=2, executor="serial", progress=False, backend="jax")
-    assert "got MrpPD; slew-90 × mrp-pd ran on the numba loop" in caplog.text
+    assert "MrpPD has no array_law" in caplog.text
+    assert "slew-90 × mrp-pd ran on the numba loop" in caplog.text
     assert "geometric-pd-large-angle ran on the numba loop" not in caplog.text
     assert "stabilisation × mrp-pd ran on the numba loop" in caplog.text
     for oa, ob in zip(a.outcomes + a.member_outcomes, b.outcomes + b.member_outcomes,
@@ -569,3 +570,35 @@ def test_disturbances_in_the_stages_equal_fused_simulate(which, jax):
     per = Spacecraft(RigidBody(J0), SgcmgActuator(), disturbance=ConstantTorque(np.ones((3, 3))))
     with pytest.raises(ValueError, match=r"^plant\.disturbance: .*ConstantTorque"):
         closed_loop(per, GeometricPD(J0, kR, kW), ref, 10.0, 0.1)
+
+
+def test_array_law_seam_refuses_what_it_cannot_fly(jax):
+    from liecontrol.control import MrpPD
+    from liecontrol.control.array_law import ArrayLaw, array_law_of
+    from spacecraft.differentiable import closed_loop
+
+    ref = ConstantAttitude(np.eye(3))
+
+    class OwnCommand(GeometricPD):  # its command is not its parent's law
+        def command(self, t, state, reference):
+            return 2.0 * super().command(t, state, reference)
+
+    with pytest.raises(ValueError, match=r"^controller: OwnCommand overrides command\(\)"):
+        closed_loop(_plant(), OwnCommand(J, 1.0, 5.0), ref, 10.0, 0.1)
+    with pytest.raises(ValueError, match=r"^controller: MrpPD has no array_law"):
+        closed_loop(_plant(), MrpPD(J, 1.0, 5.0), ref, 10.0, 0.1)
+
+    class Bad(GeometricPD):
+        def array_law(self):
+            return "law"
+
+    with pytest.raises(ValueError, match=r"^controller: Bad.array_law\(\) returned str"):
+        array_law_of(Bad(J, 1.0, 5.0))
+    with pytest.raises(ValueError, match=r"^state0: "):
+        ArrayLaw(1.0, 1.0, [np.zeros(3)], lambda *a: a)
+
+    # a subclass that keeps command keeps the law
+    class Renamed(GeometricPD):
+        pass
+
+    assert closed_loop(_plant(), Renamed(J, 1.0, 5.0), ref, 10.0, 0.1).run(np.eye(3)).R.shape

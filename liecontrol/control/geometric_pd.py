@@ -45,6 +45,7 @@ from .._validation import (
     rotations_pass_fast,
 )
 from ..errors import _KERNELS, DEFAULT_G, _check_kind, check_error_weight
+from .array_law import ArrayLaw
 from .base import (
     AttitudeController,
     AttitudeReference,
@@ -402,6 +403,25 @@ class GeometricPD(AttitudeController):
     def _kernel_args(self) -> tuple:
         """``(error code, J, K_R, K_Ω, G)`` of the compiled kernel."""
         return self._kargs
+
+    def array_law(self) -> ArrayLaw:
+        """The law as a pure array function (:func:`geometric_pd_torque`) for the
+        differentiable loop, through the seam :mod:`liecontrol.control.array_law`; memoryless.
+        The ``"trace"`` error has no array form yet (``ValueError`` naming it)."""
+        if self.error not in ("large_angle", "log"):
+            raise ValueError(
+                f"controller.error: the array law supports 'large_angle' and 'log', got "
+                f"{self.error!r}"
+            )
+        J, error = np.array(self.J), self.error
+
+        def step(k_R, k_Omega, state, R, omega, R_d, omega_d, omega_dot_d, T):  # noqa: ANN001
+            M, Psi, e_R, e_W = geometric_pd_torque(
+                R, omega, R_d, omega_d, omega_dot_d, J, k_R, k_Omega, error
+            )
+            return M, state, {"Psi": Psi, "e_R": e_R, "e_Omega": e_W}
+
+        return ArrayLaw(self.k_R, self.k_Omega, (), step)
 
     def fused_kernel(
         self, batch_size: int, control_period: float | None = None

@@ -73,6 +73,7 @@ from .._validation import (
     check_positive,
     check_positive_scalar,
 )
+from .array_law import ArrayLaw
 from .base import AttitudeController, AttitudeReference, AttitudeState, finite_command
 from .geometric_pd import GeometricPD, _apply_gain, _as_matrix, _cross, check_gain
 from .kernel import ControllerKernel
@@ -325,6 +326,33 @@ class _IntegralController(AttitudeController):
 
     def _kernel_reason(self) -> str:
         return "a subclass with its own integrand"
+
+    def array_law(self) -> ArrayLaw:
+        """The law as a pure array function for the differentiable loop
+        (:mod:`liecontrol.control.array_law`): the PD's (:meth:`GeometricPD.array_law`), then
+        :func:`integral_update` and :func:`integral_output` — the functions :meth:`command`
+        calls — with the state (z, held integrand, raw torque, saturated axes) carried from
+        one sample to the next. ``ValueError`` for a subclass with its own integrand (its
+        formula must be pure to fly: define ``array_law``)."""
+        own = type(self)._integrand
+        if own is not IntrinsicPID._integrand and own is not IntegralPD._integrand:
+            raise ValueError(
+                f"controller: {type(self).__name__} has its own integrand; define array_law"
+            )
+        pd = self._pd.array_law()
+        k_I, limit, box, cond = self.k_I, self.integral_limit, self.torque_limit, self.conditional
+        integrand = self._integrand
+
+        def step(k_R, k_Omega, state, R, omega, R_d, omega_d, omega_dot_d, T):  # noqa: ANN001
+            u_pd, _, d = pd.step(k_R, k_Omega, (), R, omega, R_d, omega_d, omega_dot_d, T)
+            z, frozen, clamped = integral_update(*state, T, k_I, limit, box, cond)
+            u, u_raw, u_I, sat = integral_output(u_pd, z, k_I, box)
+            d = {**d, "integral": z, "u_integral": u_I, "saturated": sat.any(-1),
+                 "integration_frozen": frozen, "integral_clamped": clamped}  # fmt: skip
+            return u, (z, integrand(z, d["e_R"], d["e_Omega"]), u_raw, sat), d
+
+        zero = np.zeros(3)
+        return ArrayLaw(self.k_R, self.k_Omega, (zero, zero, zero, np.zeros(3, bool)), step)
 
     def _finish(self, state: np.ndarray, diag: np.ndarray) -> None:
         """The integral state and diagnostics after a compiled run (as the Python loop)."""

@@ -1,0 +1,100 @@
+"""The array-law seam: how a controller hands the differentiable (JAX) loop its law.
+
+The JAX route of the simulator (:mod:`spacecraft.differentiable`) runs the closed loop as one
+``jit(vmap(lax.scan))`` program and differentiates through it. It knows no controller class: a
+controller that wants to fly there defines one more method next to ``reset`` and ``command``::
+
+    def array_law(self) -> ArrayLaw: ...
+
+returning an :class:`ArrayLaw`: the law as a **pure array function** of one spacecraft, its
+initial internal state (an integrator, an observer: the scan carries it from one control sample
+to the next) and the two gains the tuners differentiate. The step is::
+
+    step(k_R, k_Omega, state, R, omega, R_d, omega_d, omega_dot_d, T) -> (u, state, diag)
+
+==================  ============================================================================
+``k_R``, ``k_Omega``  the differentiable gains (scalars or ``(3, 3)``; the law interprets them,
+                    its other parameters it closes over)
+``state``           a tuple of arrays, this spacecraft's internal state before the sample
+                    (``()`` for a memoryless law)
+``R``, ``omega``    ``(3, 3)`` attitude, ``(3,)`` body rate [rad/s]
+``R_d`` …           the reference sample (:class:`~liecontrol.control.base.AttitudeReference`)
+``T``               the control period [s] (the time since the previous sample)
+returns             the torque ``(3,)`` [N·m], the state after the sample (same structure and
+                    shapes), and a dict of per-sample diagnostics (scalars or arrays)
+==================  ============================================================================
+
+Write it with the ``xp`` namespace of :mod:`liecontrol._array_api` (or plain ``jax.numpy``): no
+in-place writes, branches as ``where`` with both sides finite — the same rules as the numpy
+layer, whose pure functions the built-in laws call (``geometric_pd_torque``,
+``integral_update``/``integral_output``): one source per formula, NumPy and JAX alike.
+
+Which controllers fly: :class:`~liecontrol.control.GeometricPD` (large-angle and log errors),
+:class:`~liecontrol.control.IntrinsicPID`, :class:`~liecontrol.control.IntegralPD`, and any
+controller that defines ``array_law`` — a user's own included. A subclass that overrides
+``command`` without its own ``array_law`` would fly its parent's law, so it is refused (as the
+compiled seam, :mod:`liecontrol.control.kernel`, does).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+__all__ = ["ArrayLaw", "array_law_of"]
+
+
+@dataclass(frozen=True)
+class ArrayLaw:
+    """A controller's law for the differentiable loop (module docstring).
+
+    Attributes:
+        k_R, k_Omega: the gains' values (the defaults of the differentiable arguments).
+        state0: one spacecraft's initial internal state, a tuple of NumPy arrays (``()``).
+        step: the pure step function of the module docstring.
+    """
+
+    k_R: Any
+    k_Omega: Any
+    state0: tuple
+    step: Callable[..., tuple[Any, tuple, dict[str, Any]]]
+
+    def __post_init__(self) -> None:
+        if not callable(self.step):
+            raise ValueError("step: must be callable as step(k_R, k_Omega, state, R, omega, ...)")
+        if not isinstance(self.state0, tuple):
+            raise ValueError(
+                f"state0: expected a tuple of arrays, got {type(self.state0).__name__}"
+            )
+
+
+def _owner(cls: type, name: str) -> type | None:
+    return next((k for k in cls.__mro__ if name in vars(k)), None)
+
+
+def array_law_of(controller: Any) -> ArrayLaw:
+    """The controller's :class:`ArrayLaw`; ``ValueError`` naming ``controller`` when it has
+    none (no ``array_law``, or a subclass whose ``command`` its parent's law does not describe)
+    or when its ``array_law`` refuses the configuration (it names the attribute)."""
+    cls = type(controller)
+    fn = getattr(controller, "array_law", None)
+    if not callable(fn):
+        raise ValueError(
+            f"controller: {cls.__name__} has no array_law (the JAX route flies controllers that "
+            "give their law as a pure array function: liecontrol.control.array_law)"
+        )
+    law_owner, cmd_owner = _owner(cls, "array_law"), _owner(cls, "command")
+    if cmd_owner is not None and law_owner is not None and cmd_owner is not law_owner:
+        if issubclass(cmd_owner, law_owner):
+            raise ValueError(
+                f"controller: {cls.__name__} overrides command() but not array_law(): its "
+                f"parent's law ({law_owner.__name__}) would not be its own"
+            )
+    law = fn()
+    if not isinstance(law, ArrayLaw):
+        raise ValueError(
+            f"controller: {cls.__name__}.array_law() returned {type(law).__name__}, expected an "
+            "ArrayLaw"
+        )
+    return law
