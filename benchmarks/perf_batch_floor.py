@@ -62,11 +62,11 @@ from spacecraft._fused import unowned_view  # noqa: E402
 #: operation count per spacecraft-step of the benchmark loop (hand count of the kernels'
 #: arithmetic: + − × ÷ each one flop; transcendental calls listed apart), docs/performance.md
 FLOPS = {
-    "geometric PD (large-angle)": (204, "1 atan2, 3 sqrt, 2 sin, 1 div"),
+    "geometric PD (large-angle, θ ≤ π/2)": (190, "1 sqrt, 2 div"),
     "SGCMG command (h, A, q, SR steering, rate limit)": (257, "4 sin/cos pairs, 1 exp"),
-    "RKMK4: 4 fields (SGCMG torque 116, Euler 42, +3)": (644, "8 sin/cos pairs (stage 3 reuses 2)"),
+    "RKMK4: 3 × (h, Aδ̇) 104, 4 × (ω × h 12, Euler 42, +3)": (540, "8 sin/cos pairs"),
     "RKMK4: stage states, 3 dexp⁻¹, combination": (223, ""),
-    "RKMK4: exp (Rodrigues) and R·exp": (80, "1 sin/cos pair, 1 sqrt"),
+    "RKMK4: exp (Rodrigues, θ ≤ π/2 polynomials) and R·exp": (110, ""),
     "non-finite check": (16, ""),
 }
 
@@ -284,8 +284,8 @@ def main(argv: list[str] | None = None) -> None:
     total = sum(f for f, _ in FLOPS.values())
     print("operation count per spacecraft-step (+ − × ÷; transcendental calls apart):")
     for k, (f, tr) in FLOPS.items():
-        print(f"  {k:52s} {f:5d}  {tr}")
-    print(f"  {'total':52s} {total:5d}  13 sin/cos pairs, 1 exp, 1 atan2, 4 sqrt")
+        print(f"  {k:56s} {f:5d}  {tr}")
+    print(f"  {'total':56s} {total:5d}  12 sin/cos pairs, 1 exp, 1 sqrt")
 
 
 if __name__ == "__main__":

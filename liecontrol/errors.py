@@ -189,8 +189,24 @@ def _trace_error_unchecked(Rt: np.ndarray, G: np.ndarray) -> tuple[np.ndarray, n
 def _large_angle_error_unchecked(Rt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """:func:`large_angle_error` on a checked ``R̃``: ``Ψ = 4 sin²(θ/4)``, ``e_R = (sin(θ/2)/θ) φ``
     with ``φ = log(R̃)^∨`` and θ its angle. Pure: NumPy or JAX arrays (differentiable, finite
-    derivatives at the identity and near π; see :func:`liecontrol.lie.so3._log_angle_unchecked`)."""
+    derivatives at the identity and near π; see :func:`liecontrol.lie.so3._log_angle_unchecked`).
+
+    While cos θ ≥ 0 (tr R̃ ≥ 1) by square roots alone, as the compiled kernel
+    (:func:`liecontrol._kernels.attitude.large_angle_error_algebraic`, the same operations in
+    the same order): with v = (R̃ − R̃ᵀ)^∨ and 1 + tr R̃ = 4 cos²(θ/2),
+    ``e_R = v / (2 √(1 + tr R̃))``, ``Ψ = 2 ‖e_R‖² / (1 + ½ √(1 + tr R̃))``; beyond, the angle."""
     xp = namespace(Rt)
+    tr = (Rt[..., 0, 0] + Rt[..., 1, 1]) + Rt[..., 2, 2]
+    alg = tr >= 1.0
+    q = xp.sqrt(xp.maximum(1.0 + tr, 2.0))  # √(1 + tr) on the algebraic side, finite elsewhere
+    k = 0.5 / q
+    e0 = (Rt[..., 2, 1] - Rt[..., 1, 2]) * k
+    e1 = (Rt[..., 0, 2] - Rt[..., 2, 0]) * k
+    e2 = (Rt[..., 1, 0] - Rt[..., 0, 1]) * k
+    Psi_a = 2.0 * ((e0 * e0 + e1 * e1) + e2 * e2) / (1.0 + 0.5 * q)
+    e_a = xp.stack([e0, e1, e2], axis=-1)
+    if not any_true(~alg, xp):
+        return Psi_a, e_a
     phi, theta = so3._log_angle_unchecked(Rt)
     # 2 − √(1 + tr R̃) = 2 − 2cos(θ/2) = 4 sin²(θ/4): the sine form avoids cancellation at
     # small θ, the cosine form (on θ ≥ π/2 only) gives Ψ = 2 to the last bit at θ = π
@@ -199,7 +215,8 @@ def _large_angle_error_unchecked(Rt: np.ndarray) -> tuple[np.ndarray, np.ndarray
     big = theta >= _HALF_PI
     if any_true(big, xp):
         Psi = xp.where(big, 2.0 - 2.0 * xp.cos(0.5 * theta), Psi)
-    return Psi, phi * _half_sinc(theta)[..., None]
+    e_R = phi * _half_sinc(theta)[..., None]
+    return xp.where(alg, Psi_a, Psi), xp.where(alg[..., None], e_a, e_R)
 
 
 def _log_error_unchecked(Rt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

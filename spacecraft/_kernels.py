@@ -71,7 +71,11 @@ def rigid_acceleration(
 
 @njit(inline="always")
 def cmg_momentum_jacobian(
-    S0: np.ndarray, C0: np.ndarray, delta: np.ndarray, A_out: np.ndarray, sn: np.ndarray,
+    S0: np.ndarray,
+    C0: np.ndarray,
+    delta: np.ndarray,
+    A_out: np.ndarray,
+    sn: np.ndarray,
     cs: np.ndarray,
 ) -> tuple[float, float, float]:
     """Cluster momentum h(δ) = Σᵢ (S0ᵢ sin δᵢ + C0ᵢ cos δᵢ) and Jacobian A = S0 ∘ cos δ − C0 ∘ sin δ
@@ -93,9 +97,7 @@ def cmg_momentum_jacobian(
 
 
 @njit(inline="always")
-def sincos_into(
-    x: np.ndarray, xo: int, m: int, trig: np.ndarray, so: int, co: int
-) -> None:
+def sincos_into(x: np.ndarray, xo: int, m: int, trig: np.ndarray, so: int, co: int) -> None:
     """sin and cos of the m gimbal angles ``x[xo:xo + m]`` into ``trig`` from offsets ``so``,
     ``co``."""
     for i in range(m):
@@ -105,14 +107,14 @@ def sincos_into(
 
 
 @njit(inline="always")
-def cmg_bus_torque_at(
-    S0: np.ndarray, C0: np.ndarray, w0: float, w1: float, w2: float,
-    trig: np.ndarray, so: int, co: int, delta_dot: np.ndarray,
-) -> tuple[float, float, float]:  # fmt: skip
-    """Internal torque of the SGCMG cluster on the bus, u = −A(δ) δ̇ − ω × h(δ), from sin δ and
-    cos δ held in ``trig`` from offsets ``so`` and ``co``: h = Σᵢ (S0ᵢ sin δᵢ + C0ᵢ cos δᵢ),
-    A δ̇ = Σᵢ (S0ᵢ cos δᵢ − C0ᵢ sin δᵢ) δ̇ᵢ. (Offsets into one scratch array rather than
-    slices: a slice costs two reference-count updates in compiled code.)"""
+def cmg_momentum_and_rate_term(
+    S0: np.ndarray, C0: np.ndarray, trig: np.ndarray, so: int, co: int, delta_dot: np.ndarray
+) -> tuple[float, float, float, float, float, float]:
+    """``(h, A δ̇)`` of the SGCMG cluster from sin δ and cos δ held in ``trig`` from offsets
+    ``so`` and ``co``: h = Σᵢ (S0ᵢ sin δᵢ + C0ᵢ cos δᵢ), A δ̇ = Σᵢ (S0ᵢ cos δᵢ − C0ᵢ sin δᵢ) δ̇ᵢ —
+    the part of the bus torque that does not depend on ω (an RK stage pair with the same gimbal
+    angles shares it). (Offsets into one scratch array rather than slices: a slice costs two
+    reference-count updates in compiled code.)"""
     h0 = h1 = h2 = r0 = r1 = r2 = 0.0
     for i in range(S0.shape[1]):
         s = trig[so + i]
@@ -125,7 +127,29 @@ def cmg_bus_torque_at(
         r0 += S0[0, i] * a - C0[0, i] * b
         r1 += S0[1, i] * a - C0[1, i] * b
         r2 += S0[2, i] * a - C0[2, i] * b
+    return h0, h1, h2, r0, r1, r2
+
+
+@njit(inline="always")
+def cmg_bus_torque_from(
+    hr: tuple[float, float, float, float, float, float], w0: float, w1: float, w2: float
+) -> tuple[float, float, float]:
+    """Internal torque of the SGCMG cluster on the bus, u = −A(δ) δ̇ − ω × h(δ), from
+    ``hr = (h, A δ̇)`` (:func:`cmg_momentum_and_rate_term`)."""
+    h0, h1, h2, r0, r1, r2 = hr
     return -(r0 + w1 * h2 - w2 * h1), -(r1 + w2 * h0 - w0 * h2), -(r2 + w0 * h1 - w1 * h0)
+
+
+@njit(inline="always")
+def cmg_bus_torque_at(
+    S0: np.ndarray, C0: np.ndarray, w0: float, w1: float, w2: float,
+    trig: np.ndarray, so: int, co: int, delta_dot: np.ndarray,
+) -> tuple[float, float, float]:  # fmt: skip
+    """Internal torque of the SGCMG cluster on the bus, u = −A(δ) δ̇ − ω × h(δ), from sin δ and
+    cos δ held in ``trig`` from offsets ``so`` and ``co`` (:func:`cmg_momentum_and_rate_term`,
+    :func:`cmg_bus_torque_from`)."""
+    hr = cmg_momentum_and_rate_term(S0, C0, trig, so, co, delta_dot)
+    return cmg_bus_torque_from(hr, w0, w1, w2)
 
 
 @njit
@@ -404,21 +428,33 @@ def actuator_torque(
 
 
 @njit(inline="always")
-def _field(
-    act: int, J: np.ndarray, Jinv: np.ndarray, S0: np.ndarray, C0: np.ndarray,
-    dist: int, dp: np.ndarray, t: float, w0: float, w1: float, w2: float, x: np.ndarray,
-    xo: int, held: np.ndarray, work: np.ndarray, so: int, co: int, trig: bool,
-) -> tuple[float, float, float]:  # fmt: skip
-    """ω̇ of the packed state (ω, x_act) for a held actuator command (the actuator state's own
-    derivative is the held δ̇ of the SGCMG, nothing for the ideal actuator); the rate ω is
-    passed as values, the actuator state is ``x[xo:]``. SGCMG: ``work`` from ``so`` and ``co``
-    holds sin and cos of the gimbal angles, computed here when ``trig`` is set (the RK stages 2
-    and 3 share their angles: x + h/2 δ̇ with the same held δ̇)."""
+def _stage_term(
+    act: int, S0: np.ndarray, C0: np.ndarray, x: np.ndarray, xo: int, held: np.ndarray,
+    work: np.ndarray, so: int, co: int, trig: bool,
+) -> tuple[float, float, float, float, float, float]:  # fmt: skip
+    """The ω-independent part of a stage's actuator torque: SGCMG ``(h, A δ̇)`` at the stage's
+    gimbal angles ``x[xo:]`` (:func:`cmg_momentum_and_rate_term`; ``work`` from ``so`` and
+    ``co`` holds their sin and cos, computed here when ``trig`` is set); zeros otherwise."""
     if act == ACT_SGCMG:
         m = held.shape[0]
         if trig:
             sincos_into(x, xo, m, work, so, co)
-        t0, t1, t2 = cmg_bus_torque_at(S0, C0, w0, w1, w2, work, so, co, held)
+        return cmg_momentum_and_rate_term(S0, C0, work, so, co, held)
+    return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+
+
+@njit(inline="always")
+def _field(
+    act: int, J: np.ndarray, Jinv: np.ndarray, dist: int, dp: np.ndarray, t: float,
+    w0: float, w1: float, w2: float, held: np.ndarray,
+    hr: tuple[float, float, float, float, float, float],
+) -> tuple[float, float, float]:  # fmt: skip
+    """ω̇ of the packed state (ω, x_act) for a held actuator command (the actuator state's own
+    derivative is the held δ̇ of the SGCMG, nothing for the ideal actuator); the rate ω is
+    passed as values. SGCMG: the bus torque from the stage's ``hr = (h, A δ̇)``
+    (:func:`_stage_term`); ideal: the held torque."""
+    if act == ACT_SGCMG:
+        t0, t1, t2 = cmg_bus_torque_from(hr, w0, w1, w2)
     else:
         t0, t1, t2 = held[0], held[1], held[2]
     d0, d1, d2 = disturbance_at(dist, dp, t)
@@ -445,34 +481,26 @@ def rkmk4_step(
     # work: the stage's actuator state at 4n + 3; sin, cos of the gimbal angles at 5n, 6n
     os_, so, co = 4 * n, 5 * n, 6 * n
     x0, x1, x2 = x[0], x[1], x[2]
-    k10, k11, k12 = _field(
-        act, J, Jinv, S0, C0, dist, dp, t, x0, x1, x2, x, 3, held, work, so, co, not trig_ready
-    )
+    hr = _stage_term(act, S0, C0, x, 3, held, work, so, co, not trig_ready)
+    k10, k11, k12 = _field(act, J, Jinv, dist, dp, t, x0, x1, x2, held, hr)
     u0, u1, u2 = h2 * x0, h2 * x1, h2 * x2
     s0, s1, s2 = x0 + h2 * k10, x1 + h2 * k11, x2 + h2 * k12
     for i in range(m):
         work[os_ + 3 + i] = x[3 + i] + h2 * held[i]
-    k20, k21, k22 = _field(
-        act, J, Jinv, S0, C0, dist, dp, t + h2, s0, s1, s2, work, os_ + 3, held, work, so, co,
-        True,
-    )  # fmt: skip
+    # stages 2 and 3 have the same gimbal angles bitwise (ẋ_act = held δ̇ in both): one (h, Aδ̇)
+    hr = _stage_term(act, S0, C0, work, os_ + 3, held, work, so, co, True)
+    k20, k21, k22 = _field(act, J, Jinv, dist, dp, t + h2, s0, s1, s2, held, hr)
     b0, b1, b2 = dexpinv_rkmk4(u0, u1, u2, s0, s1, s2)
     u0, u1, u2 = h2 * b0, h2 * b1, h2 * b2
     s0, s1, s2 = x0 + h2 * k20, x1 + h2 * k21, x2 + h2 * k22
-    # stage 3 has stage 2's gimbal angles bitwise (ẋ_act = held δ̇ in both): reuse sin/cos
-    k30, k31, k32 = _field(
-        act, J, Jinv, S0, C0, dist, dp, t + h2, s0, s1, s2, work, os_ + 3, held, work, so, co,
-        False,
-    )  # fmt: skip
+    k30, k31, k32 = _field(act, J, Jinv, dist, dp, t + h2, s0, s1, s2, held, hr)
     c0, c1, c2 = dexpinv_rkmk4(u0, u1, u2, s0, s1, s2)
     u0, u1, u2 = h * c0, h * c1, h * c2
     s0, s1, s2 = x0 + h * k30, x1 + h * k31, x2 + h * k32
     for i in range(m):
         work[os_ + 3 + i] = x[3 + i] + h * held[i]
-    k40, k41, k42 = _field(
-        act, J, Jinv, S0, C0, dist, dp, t + h, s0, s1, s2, work, os_ + 3, held, work, so, co,
-        True,
-    )  # fmt: skip
+    hr = _stage_term(act, S0, C0, work, os_ + 3, held, work, so, co, True)
+    k40, k41, k42 = _field(act, J, Jinv, dist, dp, t + h, s0, s1, s2, held, hr)
     e0, e1, e2 = dexpinv_rkmk4(u0, u1, u2, s0, s1, s2)
     h6 = h / 6.0
     x_out[0] = x0 + (((k20 + k30) * 2.0 + k10) + k40) * h6

@@ -74,6 +74,39 @@ def test_exp_and_log_kernels_equal_the_numpy_api(shape):
         np.testing.assert_allclose(kso3.log_of(R_ref[idx]), so3.log(R_ref[idx]), atol=1e-12)
 
 
+def test_half_angle_polynomials_of_exp_equal_libm_to_an_ulp():
+    """sin r / r and cos r from z = r² (fdlibm's kernels) against libm over [0, π/4], and
+    exp's two routes (polynomials for θ ≤ π/2, libm beyond) against the numpy API near 0,
+    at the switch and up to π."""
+    r = np.concatenate([np.linspace(0.0, np.pi / 4, 200_001), 10.0 ** np.linspace(-12, -1, 1001)])
+    sinc, cos = np.array([kso3.sinc_cos_of_square(v * v) for v in r[::37]]).T
+    rr = r[::37]
+    ref_sinc = np.where(rr > 0, np.sin(rr) / np.where(rr > 0, rr, 1.0), 1.0)
+    np.testing.assert_allclose(sinc, ref_sinc, rtol=4.5e-16, atol=0)  # 2 ulp
+    np.testing.assert_allclose(cos, np.cos(rr), rtol=4.5e-16, atol=0)  # 2 ulp
+    assert kso3.sinc_cos_of_square(0.0) == (1.0, 1.0)
+    rng = np.random.default_rng(12)
+    axes = rng.normal(size=(3000, 3))
+    axes /= np.linalg.norm(axes, axis=1)[:, None]
+    th = np.concatenate(
+        [10.0 ** rng.uniform(-15, 0, 1000), np.pi / 2 + rng.uniform(-1e-9, 1e-9, 1000),
+         rng.uniform(0.0, np.pi, 1000)]
+    )  # fmt: skip
+    w = axes * th[:, None]
+    R_ref = so3.exp(w)
+    out = np.empty((3, 3))
+    for b in range(w.shape[0]):
+        kso3.exp_into(*w[b].tolist(), out)
+        # the libm route's diagonal c + b w_i² cancels near π (the same before the polynomials)
+        np.testing.assert_allclose(
+            out, R_ref[b], rtol=0, atol=1e-15 if th[b] <= np.pi / 2 else 2e-15
+        )
+    kso3.exp_into(0.0, 0.0, 0.0, out)
+    assert np.array_equal(out, np.eye(3))
+    kso3.exp_into(np.nan, 0.0, 0.0, out)
+    assert np.isnan(out).all()
+
+
 @settings(max_examples=80, deadline=None)
 @given(
     st.floats(0.0, np.pi, allow_nan=False),
@@ -165,6 +198,32 @@ def test_cmg_torque_and_command_kernels_equal_the_cluster_model():
         )
 
 
+def test_cluster_momentum_and_rate_term_equals_the_cluster_model():
+    """(h, A δ̇) of :func:`K.cmg_momentum_and_rate_term` (shared by RK stages 2 and 3) and the
+    bus torque assembled from it against the numpy cluster model to 1e-13, at random angles and
+    at angles near 0 and ±π."""
+    cl = SgcmgPyramid(h0=300.0)
+    act = SgcmgActuator(cl, SingularityRobust())
+    rng = np.random.default_rng(13)
+    deltas = np.concatenate(
+        [rng.uniform(-4.0, 4.0, (20, 4)), rng.uniform(-1e-9, 1e-9, (5, 4)),
+         np.pi + rng.uniform(-1e-9, 1e-9, (5, 4)), -np.pi + rng.uniform(-1e-9, 1e-9, (5, 4))]
+    )  # fmt: skip
+    for delta in deltas:
+        dd = rng.normal(size=4)
+        w = 0.05 * rng.normal(size=3)
+        trig = np.concatenate([np.sin(delta), np.cos(delta)])
+        h0, h1, h2, r0, r1, r2 = K.cmg_momentum_and_rate_term(act._S0, act._C0, trig, 0, 4, dd)
+        h, A = cl.momentum_and_jacobian(delta)
+        scale = cl.h0 * (1.0 + np.abs(dd).sum())
+        np.testing.assert_allclose([h0, h1, h2], h, rtol=0, atol=1e-13 * cl.h0)
+        np.testing.assert_allclose([r0, r1, r2], A @ dd, rtol=0, atol=1e-13 * scale)
+        tau = K.cmg_bus_torque_from((h0, h1, h2, r0, r1, r2), *w)
+        np.testing.assert_allclose(
+            tau, _cluster_torque(cl, w, delta, dd), rtol=0, atol=1e-13 * scale
+        )
+
+
 @pytest.mark.parametrize("per_spacecraft_J", [False, True])
 @pytest.mark.parametrize("which", ["sgcmg", "ideal"])
 def test_plant_step_kernel_equals_rkmk4_on_a_numpy_field(which, per_spacecraft_J):
@@ -201,6 +260,37 @@ def test_plant_step_kernel_equals_rkmk4_on_a_numpy_field(which, per_spacecraft_J
 
 
 # --------------------------------------------------------------------------- geometric PD
+def test_algebraic_large_angle_error_equals_the_numpy_layer_near_0_pi_half_and_pi():
+    """The square-root route of the large-angle error (cos θ ≥ 0) and its fallback (θ > π/2)
+    against :func:`liecontrol.errors.large_angle_error` (atan2 and sines) to 1e-13."""
+    from liecontrol._kernels import attitude as kattitude
+    from liecontrol._kernels.attitude import body_from_desired, large_angle_error_algebraic
+
+    rng = np.random.default_rng(11)
+    axes = rng.normal(size=(400, 3))
+    axes /= np.linalg.norm(axes, axis=1)[:, None]
+    thetas = np.concatenate(
+        [
+            10.0 ** rng.uniform(-12, 0, 100),  # near 0
+            rng.uniform(0.0, np.pi, 100),
+            np.pi / 2 + rng.uniform(-1e-6, 1e-6, 100),  # the switch at cos θ = 0
+            np.pi - 10.0 ** rng.uniform(-9, -1, 100),  # near π (fallback)
+        ]
+    )
+    R_d = so3.random(rng, (400,))
+    R = R_d @ so3.exp(axes * thetas[:, None])
+    for b in range(400):
+        Psi, e_R = large_angle_error(R[b], R_d[b])
+        t = body_from_desired(R[b], R_d[b])
+        got = large_angle_error_algebraic(t)
+        np.testing.assert_allclose(got, [Psi, *e_R], rtol=1e-13, atol=1e-15)
+        # the same R̃ through the angle route: relative agreement, even at θ = 1e-12
+        psi, _, *e = kattitude.large_angle_error(t)
+        np.testing.assert_allclose(got, [psi, *e], rtol=1e-13, atol=0.0)
+    # at the identity exactly zero
+    assert large_angle_error_algebraic(body_from_desired(np.eye(3), np.eye(3))) == (0.0,) * 4
+
+
 @pytest.mark.parametrize("shape", [(), (5,), (2, 3)])
 @pytest.mark.parametrize("error", ["large_angle", "log", "trace"])
 def test_geometric_pd_kernel_equals_the_law_in_numpy(error, shape):

@@ -59,6 +59,31 @@ def large_angle_error(t: tuple) -> tuple[float, float, float, float, float]:
 
 
 @njit(inline="always")
+def large_angle_error_algebraic(t: tuple) -> tuple[float, float, float, float]:
+    """``(Ψ, e_R)`` of :func:`large_angle_error` without the angle, by square roots alone while
+    cos θ ≥ 0 (θ ≤ π/2): with v = (R̃ − R̃ᵀ)^∨ (‖v‖ = 2 sin θ) and 1 + tr R̃ = 4 cos²(θ/2),
+
+        e_R = (sin(θ/2)/θ) log(R̃)^∨ = sin(θ/2)/(2 sin θ) v = v / (2 √(1 + tr R̃)),
+        Ψ = 2 − 2 cos(θ/2) = 2 ‖e_R‖² / (1 + cos(θ/2)),   cos(θ/2) = ½ √(1 + tr R̃)
+
+    (‖e_R‖ = sin(θ/2); the last form has no cancellation at small θ). Equal to the angle route
+    to a few ulp (no atan2, sin or cos: one square root and one division). For θ > π/2, where
+    1 + tr R̃ → 0 at π cancels, and for a non-finite R̃, :func:`large_angle_error` itself."""
+    # R̃'s entry (i, j) is T's (j, i): T = t (row-major)
+    tr = t[0] + t[4] + t[8]
+    if tr >= 1.0:  # cos θ = (tr − 1)/2 ≥ 0
+        q = math.sqrt(1.0 + tr)
+        k = 0.5 / q
+        e0 = (t[5] - t[7]) * k
+        e1 = (t[6] - t[2]) * k
+        e2 = (t[1] - t[3]) * k
+        psi = 2.0 * (e0 * e0 + e1 * e1 + e2 * e2) / (1.0 + 0.5 * q)
+        return psi, e0, e1, e2
+    psi, _, e0, e1, e2 = large_angle_error(t)
+    return psi, e0, e1, e2
+
+
+@njit(inline="always")
 def desired_rates_in_body(
     t: tuple, w_d: np.ndarray, dw_d: np.ndarray
 ) -> tuple[float, float, float, float, float, float]:

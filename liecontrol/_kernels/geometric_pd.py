@@ -15,7 +15,7 @@ from .attitude import (
     body_from_desired,
     desired_rates_in_body,
     error_log,
-    large_angle_error,
+    large_angle_error_algebraic,
     tracking_feedforward,
 )
 from .so3 import matvec3
@@ -61,7 +61,7 @@ def geometric_pd_one(
         e0, e1, e2 = error_log(t)
         psi = 0.5 * (e0 * e0 + e1 * e1 + e2 * e2)
     else:
-        psi, _, e0, e1, e2 = large_angle_error(t)
+        psi, e0, e1, e2 = large_angle_error_algebraic(t)
     wb0, wb1, wb2, db0, db1, db2 = desired_rates_in_body(t, w_d, dw_d)
     x0, x1, x2 = w[0], w[1], w[2]
     E0, E1, E2 = x0 - wb0, x1 - wb1, x2 - wb2

@@ -15,18 +15,56 @@ _TINY = 1e-300
 LOG_SYMMETRIC_COS = -0.999
 
 
+# fdlibm's minimax coefficients of __kernel_sin and __kernel_cos on |r| ≤ π/4 (relative error of
+# the polynomials below 2⁻⁵⁸): sin r = r (1 + z (S1 + … + z⁵ S6)), cos r = 1 − z/2 + z² (C1 + …
+# + z⁵ C6), z = r²; both even in r, so the half-angle sinc and cosine of exp need no √z
+_S1 = -1.66666666666666324348e-01
+_S2 = 8.33333333332248946124e-03
+_S3 = -1.98412698298579493134e-04
+_S4 = 2.75573137070700676789e-06
+_S5 = -2.50507602534068634195e-08
+_S6 = 1.58969099521155010221e-10
+_C1 = 4.16666666666666019037e-02
+_C2 = -1.38888888888741095749e-03
+_C3 = 2.48015872894767294178e-05
+_C4 = -2.75573143513906633035e-07
+_C5 = 2.08757232129817482790e-09
+_C6 = -1.13596475577881948265e-11
+#: θ² up to which exp9 evaluates sin(θ/2)/(θ/2) and cos(θ/2) by the polynomials: θ ≤ π/2
+EXP_POLY_THETA2 = (0.5 * math.pi) ** 2
+
+
+@njit(inline="always")
+def sinc_cos_of_square(z: float) -> tuple[float, float]:
+    """``(sin r / r, cos r)`` from ``z = r²`` for ``0 ≤ z ≤ (π/4)²``: fdlibm's kernels (above),
+    cos in its compensated form w + ((1 − w) − z/2 + z² C(z)), w = 1 − z/2, each within 1 ulp.
+    Only additions and multiplications: no square root, no libm call, exactly (1, 1) at z = 0."""
+    sinc = 1.0 + z * (_S1 + z * (_S2 + z * (_S3 + z * (_S4 + z * (_S5 + z * _S6)))))
+    hz = 0.5 * z
+    w = 1.0 - hz
+    pc = _C1 + z * (_C2 + z * (_C3 + z * (_C4 + z * (_C5 + z * _C6))))
+    return sinc, w + (((1.0 - w) - hz) + (z * z) * pc)
+
+
 @njit(inline="always")
 def exp9(w0: float, w1: float, w2: float) -> tuple[float, ...]:
     """Entries (row-major) of exp(w^), Rodrigues in the half-angle form
-    R = I + a w^ + b w^², a = sin θ/θ, b = (1 − cos θ)/θ² = ½ (sin(θ/2)/(θ/2))²,
-    accurate for every θ (no cancellation near 0). Non-finite w gives NaN entries."""
+    R = I + a w^ + b w^², a = sin θ/θ = q cos(θ/2), b = (1 − cos θ)/θ² = ½ q² with
+    q = sin(θ/2)/(θ/2), accurate for every θ (no cancellation near 0). For θ ≤ π/2 (an
+    integration step's increment, always) q and cos(θ/2) are even polynomials in (θ/2)² = θ²/4
+    (:func:`sinc_cos_of_square`): no square root, sine or cosine on the step's critical path;
+    beyond, libm's sin and cos of θ/2. Non-finite w gives NaN entries."""
     a2 = w0 * w0 + w1 * w1 + w2 * w2
-    if not a2 < math.inf:
-        n = math.nan
-        return n, n, n, n, n, n, n, n, n
-    half = max(0.5 * math.sqrt(a2), _TINY)
-    q = math.sin(half) / half
-    a = q * math.cos(half)
+    if a2 <= EXP_POLY_THETA2:
+        q, ch = sinc_cos_of_square(0.25 * a2)
+    else:
+        if not a2 < math.inf:
+            n = math.nan
+            return n, n, n, n, n, n, n, n, n
+        half = max(0.5 * math.sqrt(a2), _TINY)
+        q = math.sin(half) / half
+        ch = math.cos(half)
+    a = q * ch
     b = 0.5 * q * q
     c = 1.0 - b * a2
     bx = b * w0
