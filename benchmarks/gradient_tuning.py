@@ -28,8 +28,10 @@ from typing import Any
 
 import numpy as np
 
+from liecontrol._validation import as_int
+
 from .controllers import ControllerContext, get_controller, register, unregister
-from .dispersion import DEFAULT_DISPERSION, member_scenario
+from .dispersion import DEFAULT_DISPERSION, MAX_MEMBERS, member_scenario
 from .requirements import requirements_of
 from .runner import build_plant, build_reference, initial_state, run_suite
 from .scenarios import Scenario, get_scenario
@@ -52,6 +54,13 @@ TUNED = "geometric-pd-gradient-tuned"
 _SUPPORTED = ("steady_error_max_deg", "settling_time_s", "overshoot_pct", "peak_momentum_fraction")
 
 
+def _need_scenario(x: Any, name: str = "scenario") -> None:
+    if not isinstance(x, Scenario):
+        raise ValueError(
+            f"{name}: expected a benchmarks.scenarios.Scenario, got {type(x).__name__}"
+        )
+
+
 def scenario_requirements(scenario: Scenario, design_margin: float = 0.8) -> Any:
     """The scenario's requirements as :class:`spacecraft.robust_tuning.TuningRequirements`
     (APE over the same pointing interval; settling in the runner's band, the scenario's attitude
@@ -59,6 +68,7 @@ def scenario_requirements(scenario: Scenario, design_margin: float = 0.8) -> Any
     ``ValueError`` naming it."""
     from spacecraft.robust_tuning import TuningRequirements
 
+    _need_scenario(scenario)
     kw: dict[str, Any] = {"design_margin": design_margin}
     for r in requirements_of(scenario):
         if r.metric not in _SUPPORTED or r.sense != "max":
@@ -80,6 +90,11 @@ def scenario_requirements(scenario: Scenario, design_margin: float = 0.8) -> Any
 
 def protocol_controller(scenario: Scenario, members: Sequence[Scenario]) -> Any:
     """The registry's ``geometric-pd-large-angle`` as the suite builds it for ``members``."""
+    _need_scenario(scenario)
+    if isinstance(members, (str, bytes)) or not isinstance(members, Sequence) or not members:
+        raise ValueError("members: expected a non-empty sequence of Scenario objects")
+    for i, m in enumerate(members):
+        _need_scenario(m, f"members[{i}]")
     info = get_controller(PROTOCOL)
     ctx = ControllerContext(
         spacecraft=scenario.spacecraft,
@@ -96,6 +111,11 @@ def training_batch(
 ) -> tuple[list, Any, np.ndarray, np.ndarray]:
     """Members ``1 … n`` of ``scenario`` drawn with ``seed`` (the scenario's dispersion, else
     the default): ``(members, plant with their true inertias, R0, ω0)``."""
+    _need_scenario(scenario)
+    n = as_int(n, "n", 1)
+    if n > MAX_MEMBERS:
+        raise ValueError(f"n: at most {MAX_MEMBERS} members, got {n}")
+    seed = as_int(seed, "seed", 0)
     d = dataclasses.replace(scenario.dispersion or DEFAULT_DISPERSION, seed=seed)
     members = [member_scenario(scenario, k, d) for k in range(1, n + 1)]
     J = np.stack([m.true_inertia for m in members])

@@ -85,7 +85,6 @@ __all__ = [
     "CrossProductDumping",
     "sgcmg_momentum_capacity",
     "momentum_fraction",
-    "sgcmg_momentum_fraction",
     "DumpingFeasibility",
     "DumpingInfeasibleWarning",
     "magnetic_dumping_feasibility",

@@ -65,13 +65,14 @@ from liecontrol.lie import so3
 from .differentiable import JaxClosedLoop, _initial, require_jax
 from .momentum import sgcmg_momentum_fraction
 
+# gains_from_parameters, requirement_values and requirement_cost are the pure (traceable)
+# formulas: documented, importable, unvalidated (not in __all__, like the numpy layer's
+# *_unchecked functions); tune_requirements is the validated entry point
+
 __all__ = [
     "PARAMETERIZATIONS",
     "TuningRequirements",
     "RobustTuningResult",
-    "gains_from_parameters",
-    "requirement_values",
-    "requirement_cost",
     "tune_requirements",
 ]
 
@@ -411,7 +412,7 @@ def tune_requirements(
         lr, t = learning_rate, 0
         update = True
         # coarse to fine: bandwidth and damping alone for the first half, then every parameter
-        # (Adam's per-coordinate steps on 12 shape parameters from the start jump across the
+        # (Adam's per-coordinate steps on every shape parameter from the start jump across the
         # settling error's kink; the two scales alone descend smoothly)
         mask = np.zeros(n)
         mask[:2] = 1.0
@@ -422,9 +423,9 @@ def tune_requirements(
                 m_, v_, t, lr, update = np.zeros(n), np.zeros(n), 0, learning_rate, True
             if update:
                 t += 1
-                grad = grad * mask
-                m_ = b1 * m_ + (1.0 - b1) * grad
-                v_ = b2 * v_ + (1.0 - b2) * grad * grad
+                g = grad * mask
+                m_ = b1 * m_ + (1.0 - b1) * g
+                v_ = b2 * v_ + (1.0 - b2) * g * g
                 direction = (m_ / (1.0 - b1**t)) / (np.sqrt(v_ / (1.0 - b2**t)) + eps)
             trial = params - lr * direction
             v_trial, g_trial = evaluate(trial)

@@ -677,6 +677,11 @@ OVERRIDES: dict[str, dict[str, Callable[[], Any]]] = {
             }
         ]
     },
+    # the gradient-tuning study's building blocks (tests/test_robust_tuning.py)
+    "benchmarks.gradient_tuning.training_batch": {"n": lambda: 2, "seed": lambda: 1},
+    "benchmarks.gradient_tuning.protocol_controller": {
+        "members": lambda: [_scenario()],
+    },
     "benchmarks.planned_slews.format_table": {
         "rows": lambda: [
             {"controller": "pd", "variant": "step", "time_to_target_s": 270.0},
@@ -1200,6 +1205,15 @@ NOT_SWEPT: dict[str, str] = {
     "arguments are validated by UnwindingConfig, which is swept",
     "benchmarks.perf_lie.run": "a timing run",
     "benchmarks.perf_lie.main": "a timing script entry point",
+    "benchmarks.gradient_tuning.main": "the command line (parses sys.argv; minutes per run)",
+    "spacecraft.robust_tuning.RobustTuningResult": "a result record built by tune_requirements",
+    "spacecraft.robust_tuning.tune_requirements": "needs JAX and a compiled JaxClosedLoop "
+    "(seconds per call); its bad input is tested in test_robust_tuning",
+    "benchmarks.gradient_tuning.tune_scenario": "tunes over a 600 s scenario (a minute per "
+    "call); its parts are swept (training_batch, scenario_requirements) or tested in "
+    "test_robust_tuning (tune_requirements' bad input)",
+    "benchmarks.gradient_tuning.held_out_cells": "runs the suite on a scenario (seconds per "
+    "call; tested in test_robust_tuning)",
     "benchmarks.singular_transit.main": "the command line (parses sys.argv; seconds per run)",
     "benchmarks.planned_slews.main": "the command line (parses sys.argv; minutes per run)",
     "benchmarks.constraint_margins.main": "the command line (parses sys.argv; minutes per run)",

@@ -83,8 +83,6 @@ __all__ = [
     "IntegralPD",
     "integral_gain",
     "connection_term",
-    "integral_update",
-    "integral_output",
 ]
 
 CONNECTIONS = ("survey", "levi_civita")
