@@ -33,6 +33,7 @@ import numpy as np
 from liecontrol._jit import JIT_ENABLED, njit, prange
 from liecontrol.control import kernel as seam
 
+from . import _fused_sensors as FS
 from . import _kernels as K
 from ._kernels_vscmg import vscmg_command_one, vscmg_derivatives_one, vscmg_rkmk4_step_batch
 
@@ -217,6 +218,9 @@ def _one_spacecraft(
     log_wd: np.ndarray, log_ucmd: np.ndarray, log_u: np.ndarray, log_dist: np.ndarray,
     log_act: np.ndarray, log_sat: np.ndarray, log_hm: np.ndarray, log_diag: np.ndarray,
     diag: np.ndarray,
+    s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
+    noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
+    log_y: np.ndarray, log_est: np.ndarray,
 ) -> tuple[int, float]:  # fmt: skip
     """The whole run of spacecraft ``b`` (the loop's body, see :func:`_fused_loop`): every step
     of one spacecraft before the next, its state, command and scratch in locals and views made
@@ -277,14 +281,39 @@ def _one_spacecraft(
     # the command's sin/cos of the gimbal angles land where the step's first stage reads them
     sn = work[5 * n : 5 * n + mm]
     cs = work[6 * n : 6 * n + mm]
+    # the sensors and the measurement hook (spacecraft._fused_sensors; empty arrays without)
+    n_sens = s_int.shape[0]
+    hook = h_int[0]
+    cur = 0
+    s_tmp = np.empty(30)
+    tmp = unowned_view(s_tmp)
+    s_int = unowned_view(s_int)
+    s_par = unowned_view(s_par)
+    pub_thr = unowned_view(pub_thr)
+    pub_sched = unowned_view(pub_sched)
+    h_int = unowned_view(h_int)
+    nz = unowned_view(noise[b])
+    stb = unowned_view(sst[b])
+    yb = unowned_view(sy[b])
+    sb = unowned_view(seen[b])
+    Rs = sb[:9].reshape((3, 3))
+    ws = sb[9:12]
     rows = 0
     status = 0
     t = t0
     for k in range(n_steps + 1):
         t = t0 + k * dt
         r = ref_index[k]
+        if n_sens > 0:
+            cur = FS.sense_stage(
+                k, t, Rc, wc, s_int, s_par, pub_thr, pub_sched, nz, cur, stb, yb, tmp
+            )  # fmt: skip
         if k % every_ctrl == 0:
-            law(t, Rc, wc, rR[r, rb], rw[r, rb], rdw[r, rb], cparams, st, u_cmd, dg)
+            if hook != FS.HOOK_NONE:
+                FS.hook_stage(h_int, yb, sb)
+                law(t, Rs, ws, rR[r, rb], rw[r, rb], rdw[r, rb], cparams, st, u_cmd, dg)
+            else:
+                law(t, Rc, wc, rR[r, rb], rw[r, rb], rdw[r, rb], cparams, st, u_cmd, dg)
             if not np.isfinite(u_cmd[0] + u_cmd[1] + u_cmd[2]):
                 status = 2
                 break
@@ -329,6 +358,10 @@ def _one_spacecraft(
                 log_sat[rows, b, i] = sat[i]
             for i in range(dg.shape[0]):
                 log_diag[rows, b, i] = dg[i]
+            for i in range(yb.shape[0]):
+                log_y[rows, b, i] = yb[i]
+            for i in range(log_est.shape[2]):
+                log_est[rows, b, i] = sb[i]
             rows += 1
         if k == n_steps:
             break
@@ -364,7 +397,7 @@ def _one_spacecraft(
         wc, wn = wn, wc
     R[b] = Rc
     x[b] = xc
-    if buf.shape[0] == 0 or sat_own.shape[0] == 0:  # the owners' last use (see above)
+    if buf.shape[0] == 0 or sat_own.shape[0] == 0 or s_tmp.shape[0] == 0:  # owners' last use
         status = -1
     return status, t
 
@@ -382,6 +415,9 @@ def _fused_loop(
     log_wd: np.ndarray, log_ucmd: np.ndarray, log_u: np.ndarray, log_dist: np.ndarray,
     log_act: np.ndarray, log_sat: np.ndarray, log_hm: np.ndarray, log_diag: np.ndarray,
     diag: np.ndarray,
+    s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
+    noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
+    log_y: np.ndarray, log_est: np.ndarray,
 ) -> tuple[int, int, float]:  # fmt: skip
     """The closed loop of :func:`spacecraft.simulator.simulate` for ``B`` spacecraft: the
     controller's ``law`` (a first-class function of :data:`liecontrol.control.kernel.
@@ -399,7 +435,8 @@ def _fused_loop(
             b, n_steps, t0, dt, every_ctrl, log_every, R, x, act, J, J_inv, S0, C0, dist, dp,
             clip_on, clip, steer, sp, rate_limit, law, cparams, cstate, ref_index, ref_R, ref_w,
             ref_dw, log_R, log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_act, log_sat,
-            log_hm, log_diag, diag,
+            log_hm, log_diag, diag, s_int, s_par, pub_thr, pub_sched, noise, sst, sy, h_int,
+            seen, log_y, log_est,
         )  # fmt: skip
     return _loop_result(st, tf, n_steps, t0, dt, log_every, log_t)
 
@@ -417,6 +454,9 @@ def _fused_loop_parallel(
     log_wd: np.ndarray, log_ucmd: np.ndarray, log_u: np.ndarray, log_dist: np.ndarray,
     log_act: np.ndarray, log_sat: np.ndarray, log_hm: np.ndarray, log_diag: np.ndarray,
     diag: np.ndarray,
+    s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
+    noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
+    log_y: np.ndarray, log_est: np.ndarray,
 ) -> tuple[int, int, float]:  # fmt: skip
     """:func:`_fused_loop` with the spacecraft spread over numba's threads (``prange``): each
     spacecraft's run is the same arithmetic in the same order, so the results are bit-identical
@@ -431,7 +471,8 @@ def _fused_loop_parallel(
             b, n_steps, t0, dt, every_ctrl, log_every, R, x, act, J, J_inv, S0, C0, dist, dp,
             clip_on, clip, steer, sp, rate_limit, law, cparams, cstate, ref_index, ref_R, ref_w,
             ref_dw, log_R, log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_act, log_sat,
-            log_hm, log_diag, diag,
+            log_hm, log_diag, diag, s_int, s_par, pub_thr, pub_sched, noise, sst, sy, h_int,
+            seen, log_y, log_est,
         )  # fmt: skip
         st[b] = s
         tf[b] = tb
@@ -759,10 +800,11 @@ def fused_supported(
     control_period: float | None = None,
     reasons: list[str] | None = None,
     **extra: Any,
-) -> tuple[PlantKernel | VscmgPlan, seam.ControllerKernel] | None:
-    """``(plant kernel, controller kernel)`` when :func:`run_fused` applies, else ``None`` —
-    and then, when ``reasons`` is given, one sentence appended to it saying which part keeps
-    the Python loop."""
+) -> tuple[PlantKernel | VscmgPlan, seam.ControllerKernel, FS.SensorPlan | None] | None:
+    """``(plant kernel, controller kernel, sensor plan)`` when :func:`run_fused` applies (the
+    sensor plan ``None`` without sensors and hook: :func:`spacecraft._fused_sensors.
+    sensor_plan`), else ``None`` — and then, when ``reasons`` is given, one sentence appended
+    to it saying which part keeps the Python loop."""
 
     def no(why: str) -> None:
         if reasons is not None:
@@ -770,10 +812,11 @@ def fused_supported(
 
     if not JIT_ENABLED:
         return no("numba is not available (or LIECONTROL_DISABLE_JIT is set)")
-    if sensors:
-        return no("sensors in the loop have no compiled kernel")
-    if measurement is not None:
-        return no("the measurement hook has no compiled kernel")
+    splan = None
+    if sensors or measurement is not None:
+        splan, why = FS.sensor_plan(sensors or (), measurement)
+        if splan is None:
+            return no(why)
     if progress:
         return no("the progress bar needs the Python loop")
     for name, v in extra.items():
@@ -784,10 +827,12 @@ def fused_supported(
         pk, why = _vscmg_support(plant)
         if pk is None:
             return no(why or plant_reason(plant))
+        if splan is not None:
+            return no("sensors with the full CMG model have no compiled loop yet")
     spec, why = seam.resolve(controller, batch_size, control_period)
     if spec is None:
         return no(why)
-    return pk, spec
+    return pk, spec, splan
 
 
 def _reference_samples(
@@ -842,7 +887,7 @@ def _reference_samples(
 
 
 def run_fused(
-    plan: tuple[PlantKernel | VscmgPlan, seam.ControllerKernel],
+    plan: tuple[PlantKernel | VscmgPlan, seam.ControllerKernel, FS.SensorPlan | None],
     plant: Any,
     controller: Any,
     reference: Any,
@@ -857,6 +902,8 @@ def run_fused(
     make_log: Callable[[int, int], Any],
     notes: list[str] | None = None,
     workers: int = 1,
+    rng: np.random.Generator | None = None,
+    measurement: Any = None,
 ) -> Any:
     """The whole run in :func:`_fused_loop`; returns the
     :class:`~spacecraft.simulator.SimulationResult`, or ``None`` when the run must go through
@@ -864,8 +911,14 @@ def run_fused(
     reports the failure with its partial log; ``notes`` then gets one sentence why).
     ``make_log(rows, B)`` builds the simulator's log. Raises ``ValueError`` naming the
     controller and the argument when its kernel is malformed (:func:`liecontrol.control.
-    kernel.check`)."""
-    pk, spec = plan
+    kernel.check`).
+
+    With sensors (``plan[2]``), the sensors are reset (``reset(B, rng)``, then the hook's
+    ``reset(t0, B)``, as the Python loop does) and their noise is drawn from ``rng`` before the
+    loop (:func:`spacecraft._fused_sensors.draw_noise`); a caller that falls back to the Python
+    loop restores ``rng``'s state first."""
+    pk, spec = plan[0], plan[1]
+    splan = plan[2] if len(plan) > 2 else None
     B, n = x0.shape
     steps = np.arange(n_steps + 1)
     times = t0 + steps * dt
@@ -887,6 +940,20 @@ def run_fused(
         # what command() would say of the initial state at its first sample, before any step
         spec.preflight(float(t0), R0, x0[:, :3], reference(float(t0)))
     Kr = n_steps // log_every + 1 + (1 if n_steps % log_every else 0)
+    if splan is None:
+        sa = FS.empty_arrays(B)
+    else:
+        for sensor in splan.sensors:
+            if callable(getattr(sensor, "reset", None)):
+                sensor.reset(B, rng)
+        if measurement is not None and callable(getattr(measurement, "reset", None)):
+            measurement.reset(t0, B)
+        try:
+            sa = FS.prepare(splan, rng, B, float(t0), float(dt), n_steps)
+        except MemoryError:
+            if notes is not None:
+                notes.append("the sensors' noise of this run does not fit in memory")
+            return None
     log = make_log(Kr, B)
     if isinstance(pk, VscmgPlan):
         return _run_vscmg(
@@ -901,6 +968,8 @@ def run_fused(
     n_diag = int(spec.n_diag)
     diag = np.zeros((B, n_diag))
     log_diag = np.empty((Kr, B, n_diag))
+    log_y = np.empty((Kr, B, sa.y.shape[1]))
+    log_est = np.empty((Kr, B, sa.n_est))
     clip = pk.clip if pk.clip is not None else np.zeros(3)
     args = (
         n_steps, float(t0), float(dt), every_ctrl, log_every, R0, x0,
@@ -909,12 +978,16 @@ def run_fused(
         spec.law, cparams, cstate, index, ref_R, ref_w, ref_dw,
         log.t, log.R, log.omega, log.R_d, log.omega_d, log.u_cmd, log.u, log.disturbance,
         log_act, log_sat, log_hm, log_diag, diag,
+        sa.s_int, sa.s_par, sa.pub_thr, sa.pub_sched, sa.noise, sa.state, sa.y, sa.h_int,
+        sa.seen, log_y, log_est,
     )  # fmt: skip
     status, rows, t_fail = _call_loop(args, 19, workers, B, vscmg=False)
     if not _finished(status, t_fail, t0, controller, spec, notes):
         return None
     log.rows = rows
     d = log.dicts
+    if splan is not None:
+        FS.finish(splan, sa, log_y, log_est, d, B, n_steps, float(t0), float(dt))
     if pk.act == K.ACT_SGCMG:
         d["actuator"]["delta"] = log_act[:, :, : n - 3]
         d["actuator"]["delta_dot"] = log_act[:, :, n - 3 :]
