@@ -576,6 +576,9 @@ def _one_vscmg(
     log_wd: np.ndarray, log_ucmd: np.ndarray, log_u: np.ndarray, log_dist: np.ndarray,
     log_vs: np.ndarray, log_work: np.ndarray, log_sat: np.ndarray, log_diag: np.ndarray,
     diag: np.ndarray,
+    s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
+    noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
+    log_y: np.ndarray, log_est: np.ndarray,
 ) -> tuple[int, float]:  # fmt: skip
     """The whole run of spacecraft ``b`` flying the full CMG model (as :func:`_one_spacecraft`
     for the momentum model): the law at every ``every_ctrl``-th step, the cluster's command
@@ -617,6 +620,23 @@ def _one_vscmg(
             Rc[0, i, j] = R[b, i, j]
     for i in range(n):
         xc[0, i] = x[b, i]
+    # the sensors and the measurement hook (as in _one_spacecraft)
+    n_sens = s_int.shape[0]
+    hook = h_int[0]
+    cur = 0
+    s_tmp = np.empty(30)
+    tmp = unowned_view(s_tmp)
+    s_int = unowned_view(s_int)
+    s_par = unowned_view(s_par)
+    pub_thr = unowned_view(pub_thr)
+    pub_sched = unowned_view(pub_sched)
+    h_int = unowned_view(h_int)
+    nz = unowned_view(noise[b])
+    stb = unowned_view(sst[b])
+    yb = unowned_view(sy[b])
+    sb = unowned_view(seen[b])
+    Rs = sb[:9].reshape((3, 3))
+    ws = sb[9:12]
     status = 0
     rows = 0
     t = t0
@@ -625,8 +645,16 @@ def _one_vscmg(
         t = t0 + k * dt
         r = ref_index[k]
         xb = xc[0]
+        if n_sens > 0:
+            cur = FS.sense_stage(
+                k, t, Rc[0], xb[:3], s_int, s_par, pub_thr, pub_sched, nz, cur, stb, yb, tmp
+            )  # fmt: skip
         if k % every_ctrl == 0:
-            law(t, Rc[0], xb[:3], rR[r, rb], rw[r, rb], rdw[r, rb], cparams, st, u_cmd, dg)
+            if hook != FS.HOOK_NONE:
+                FS.hook_stage(h_int, yb, sb)
+                law(t, Rs, ws, rR[r, rb], rw[r, rb], rdw[r, rb], cparams, st, u_cmd, dg)
+            else:
+                law(t, Rc[0], xb[:3], rR[r, rb], rw[r, rb], rdw[r, rb], cparams, st, u_cmd, dg)
             if not np.isfinite(u_cmd[0] + u_cmd[1] + u_cmd[2]):
                 status = 2
                 break
@@ -670,6 +698,10 @@ def _one_vscmg(
             log_sat[rows, b] = sat
             for i in range(dg.shape[0]):
                 log_diag[rows, b, i] = dg[i]
+            for i in range(yb.shape[0]):
+                log_y[rows, b, i] = yb[i]
+            for i in range(log_est.shape[2]):
+                log_est[rows, b, i] = sb[i]
             rows += 1
         if k == n_steps:
             break
@@ -689,7 +721,7 @@ def _one_vscmg(
         xc, xn = xn, xc
     R[b] = Rc[0]
     x[b] = xc[0]
-    if buf.shape[0] == 0:  # the owner's last use (see _one_spacecraft)
+    if buf.shape[0] == 0 or s_tmp.shape[0] == 0:  # the owners' last use (see _one_spacecraft)
         status = -1
     return status, t
 
@@ -706,6 +738,9 @@ def _fused_loop_vscmg(
     log_wd: np.ndarray, log_ucmd: np.ndarray, log_u: np.ndarray, log_dist: np.ndarray,
     log_vs: np.ndarray, log_work: np.ndarray, log_sat: np.ndarray, log_diag: np.ndarray,
     diag: np.ndarray,
+    s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
+    noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
+    log_y: np.ndarray, log_est: np.ndarray,
 ) -> tuple[int, int, float]:  # fmt: skip
     """:func:`_fused_loop` for the full CMG model (:func:`_one_vscmg` per spacecraft)."""
     B = R.shape[0]
@@ -716,7 +751,8 @@ def _fused_loop_vscmg(
             b, n_steps, t0, dt, every_ctrl, log_every, R, x, kin, var, ff, par, M, dist, dp,
             steer, sp, rate_limit, law, cparams, cstate, ref_index, ref_R, ref_w, ref_dw, log_R,
             log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_vs, log_work, log_sat,
-            log_diag, diag,
+            log_diag, diag, s_int, s_par, pub_thr, pub_sched, noise, sst, sy, h_int, seen, log_y,
+            log_est,
         )  # fmt: skip
     return _loop_result(st, tf, n_steps, t0, dt, log_every, log_t)
 
@@ -733,6 +769,9 @@ def _fused_loop_vscmg_parallel(
     log_wd: np.ndarray, log_ucmd: np.ndarray, log_u: np.ndarray, log_dist: np.ndarray,
     log_vs: np.ndarray, log_work: np.ndarray, log_sat: np.ndarray, log_diag: np.ndarray,
     diag: np.ndarray,
+    s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
+    noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
+    log_y: np.ndarray, log_est: np.ndarray,
 ) -> tuple[int, int, float]:  # fmt: skip
     """:func:`_fused_loop_vscmg` over numba's threads (bit-identical)."""
     B = R.shape[0]
@@ -744,7 +783,8 @@ def _fused_loop_vscmg_parallel(
             b, n_steps, t0, dt, every_ctrl, log_every, R, x, kin, var, ff, par, M, dist, dp,
             steer, sp, rate_limit, law, cparams, cstate, ref_index, ref_R, ref_w, ref_dw, log_R,
             log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_vs, log_work, log_sat,
-            log_diag, diag,
+            log_diag, diag, s_int, s_par, pub_thr, pub_sched, noise, sst, sy, h_int, seen, log_y,
+            log_est,
         )  # fmt: skip
         st[b] = s
         tf[b] = tb
@@ -827,8 +867,6 @@ def fused_supported(
         pk, why = _vscmg_support(plant)
         if pk is None:
             return no(why or plant_reason(plant))
-        if splan is not None:
-            return no("sensors with the full CMG model have no compiled loop yet")
     spec, why = seam.resolve(controller, batch_size, control_period)
     if spec is None:
         return no(why)
@@ -958,7 +996,8 @@ def run_fused(
     if isinstance(pk, VscmgPlan):
         return _run_vscmg(
             pk, spec, plant, controller, index, ref_R, ref_w, ref_dw, R0, x0, t0, n_steps, dt,
-            every_ctrl, log_every, control_period, log, Kr, cparams, cstate, notes, workers,
+            every_ctrl, log_every, control_period, log, Kr, cparams, cstate, notes, workers, sa,
+            splan,
         )  # fmt: skip
     n_held = 3 if pk.act == K.ACT_IDEAL else n - 3
     log_act = np.empty((Kr, B, (n - 3) + n_held))
@@ -1041,7 +1080,8 @@ def _run_vscmg(
     index: np.ndarray, ref_R: np.ndarray, ref_w: np.ndarray, ref_dw: np.ndarray,
     R0: np.ndarray, x0: np.ndarray, t0: float, n_steps: int, dt: float, every_ctrl: int,
     log_every: int, control_period: float, log: Any, Kr: int, cparams: np.ndarray,
-    cstate: np.ndarray, notes: list[str] | None, workers: int,
+    cstate: np.ndarray, notes: list[str] | None, workers: int, sa: FS.SensorArrays,
+    splan: FS.SensorPlan | None,
 ) -> Any:  # fmt: skip
     """:func:`run_fused` for the full CMG model (:func:`_fused_loop_vscmg`)."""
     B = x0.shape[0]
@@ -1051,6 +1091,8 @@ def _run_vscmg(
     log_vs = np.empty((Kr, B, 8, 4))
     log_work = np.empty((Kr, B))
     log_sat = np.empty((Kr, B), dtype=np.bool_)
+    log_y = np.empty((Kr, B, sa.y.shape[1]))
+    log_est = np.empty((Kr, B, sa.n_est))
     args = (
         n_steps, float(t0), float(dt), every_ctrl, log_every, R0, x0,
         vp.kinematic, vp.variable_speed, vp.feedforward, vp.par, vp.M, vp.dist, vp.dist_params,
@@ -1058,11 +1100,15 @@ def _run_vscmg(
         spec.law, cparams, cstate, index, ref_R, ref_w, ref_dw,
         log.t, log.R, log.omega, log.R_d, log.omega_d, log.u_cmd, log.u, log.disturbance,
         log_vs, log_work, log_sat, log_diag, diag,
+        sa.s_int, sa.s_par, sa.pub_thr, sa.pub_sched, sa.noise, sa.state, sa.y, sa.h_int,
+        sa.seen, log_y, log_est,
     )  # fmt: skip
     status, rows, t_fail = _call_loop(args, 17, workers, B, vscmg=True)
     if not _finished(status, t_fail, t0, controller, spec, notes):
         return None
     log.rows = rows
+    if splan is not None:
+        FS.finish(splan, sa, log_y, log_est, log.dicts, B, n_steps, float(t0), float(dt))
     a = log.dicts["actuator"]
     a["delta"] = log_vs[:, :, _VS_DELTA]
     a["delta_dot"] = log_vs[:, :, _VS_RATE]

@@ -3,8 +3,9 @@
 - star tracker + rate gyro (noise, bias walk, scale factor, misalignment, bandwidth,
   quantisation), latency, scheduled and random outages, with and without the
   ``StarTrackerGyro`` hook, over a batch with ``log_every > 1`` and ``control_period > dt``, on
-  the SGCMG pyramid and the ideal actuator: the fused loop equals the Python loop to 1e-12
-  (in fact bit for bit: the same kernels on the same draws), logs included;
+  the SGCMG pyramid, the full CMG model and the ideal actuator: the fused loop equals the
+  Python loop to 1e-12 (in fact bit for bit: the same kernels on the same draws), logs
+  included; so do two threads and one;
 - the generator ends in the same state, the sensors end in the same state (gyro bias, a
   ``TimedSensor``'s history, held output and ``valid``), and a second run with the same seed
   gives the same result;
@@ -89,6 +90,14 @@ def _assert_same(a, b):
 
 
 def _plant(actuator: str) -> Spacecraft:
+    if actuator == "vscmg":
+        from spacecraft.cmg_dynamics import CmgInertias, GimbalServo, VscmgActuator
+
+        act = VscmgActuator(
+            J, CmgInertias(0.5, 0.25, (0.1, 0.1, 0.1)), SgcmgPyramid(h0=10.0),
+            SingularityRobust(), servo=GimbalServo(5.0, 50.0),
+        )  # fmt: skip
+        return Spacecraft(RigidBody(J), act)
     if actuator == "sgcmg":
         return Spacecraft(RigidBody(J), SgcmgActuator(SgcmgPyramid(h0=10.0), SingularityRobust()))
     return Spacecraft(RigidBody(J), IdealTorqueActuator(max_torque=2.0))
@@ -114,13 +123,22 @@ def _full_sensors(output: str = "quaternion", boresight: bool = False):
         tracker = StarTracker(noise_std=np.array([1e-4, 2e-4, 5e-5]), output=output, period=0.4)
     return {
         "star_tracker": TimedSensor(
-            tracker, latency=0.2, outages=[(1.0, 2.2), (5.0, 5.4)], outage_rate=0.3,
+            tracker,
+            latency=0.2,
+            outages=[(1.0, 2.2), (5.0, 5.4)],
+            outage_rate=0.3,
             outage_duration=0.8,
         ),  # fmt: skip
         "gyro": RateGyro(
-            white_std=np.array([1e-5, 2e-5, 1.5e-5]), bias_rw_std=1e-6, initial_bias=[1e-4, 0, 0],
-            initial_bias_std=5e-5, period=0.1, scale_factor=[1e-3, -2e-3, 5e-4],
-            misalignment=[1e-3, 0.0, -2e-3], bandwidth=4.0, quantization=1e-6,
+            white_std=np.array([1e-5, 2e-5, 1.5e-5]),
+            bias_rw_std=1e-6,
+            initial_bias=[1e-4, 0, 0],
+            initial_bias_std=5e-5,
+            period=0.1,
+            scale_factor=[1e-3, -2e-3, 5e-4],
+            misalignment=[1e-3, 0.0, -2e-3],
+            bandwidth=4.0,
+            quantization=1e-6,
         ),  # fmt: skip
     }
 
@@ -140,7 +158,7 @@ def _both(plant, ctrl, ref, x0, t_final=8.0, dt=0.05, sensors_fn=_full_sensors, 
     return out
 
 
-@pytest.mark.parametrize("actuator", ["ideal", "sgcmg"])
+@pytest.mark.parametrize("actuator", ["ideal", "sgcmg", "vscmg"])
 @pytest.mark.parametrize("hook", [True, False])
 def test_sensors_in_the_fused_loop_equal_the_python_loop(actuator, hook):
     """Batch of 3, control period 2 dt, log every 3rd step: every field, the sensors' log and
@@ -278,3 +296,30 @@ def test_a_python_hook_and_a_shared_sensor_keep_the_python_loop():
     assert fused_supported(plant, ctrl, shared, None, False, reasons=why) is None
     assert "shares its RateGyro object" in why[0]
     assert fused_supported(plant, ctrl, sensors, StarTrackerGyro(), False) is not None
+
+
+def test_workers_give_the_same_bits():
+    """The batch over two threads: each spacecraft's draws are its own row, so the result is
+    bit-identical to one thread."""
+    plant, ctrl, ref, x0 = _case("ideal", B=4)
+    out = []
+    for workers in (1, 2):
+        out.append(
+            _fused(
+                plant,
+                copy.deepcopy(ctrl),
+                ref,
+                x0,
+                3.0,
+                0.05,
+                sensors=_full_sensors(),
+                measurement=StarTrackerGyro(),
+                rng=np.random.default_rng(5),
+                control_period=0.1,
+                workers=workers,
+            )  # fmt: skip
+        )
+    for name in ("R", "omega", "u_cmd"):
+        np.testing.assert_array_equal(getattr(out[0], name), getattr(out[1], name))
+    for k in out[0].sensors:
+        np.testing.assert_array_equal(out[0].sensors[k], out[1].sensors[k])
