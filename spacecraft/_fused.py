@@ -220,7 +220,8 @@ def _one_spacecraft(
     diag: np.ndarray,
     s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
     noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
-    log_y: np.ndarray, log_est: np.ndarray,
+    log_y: np.ndarray, log_est: np.ndarray, h_par: np.ndarray, h_state: np.ndarray,
+    log_hook: np.ndarray,
 ) -> tuple[int, float]:  # fmt: skip
     """The whole run of spacecraft ``b`` (the loop's body, see :func:`_fused_loop`): every step
     of one spacecraft before the next, its state, command and scratch in locals and views made
@@ -298,6 +299,8 @@ def _one_spacecraft(
     sb = unowned_view(seen[b])
     Rs = sb[:9].reshape((3, 3))
     ws = sb[9:12]
+    h_par = unowned_view(h_par)
+    hsb = h_state[b]
     rows = 0
     status = 0
     t = t0
@@ -310,7 +313,11 @@ def _one_spacecraft(
             )  # fmt: skip
         if k % every_ctrl == 0:
             if hook != FS.HOOK_NONE:
-                FS.hook_stage(h_int, yb, sb)
+                if not FS.hook_stage(
+                    h_int, h_par, hsb, yb, sb, t, Rc, stb, log_hook, k // every_ctrl, b
+                ):
+                    status = 3
+                    break
                 law(t, Rs, ws, rR[r, rb], rw[r, rb], rdw[r, rb], cparams, st, u_cmd, dg)
             else:
                 law(t, Rc, wc, rR[r, rb], rw[r, rb], rdw[r, rb], cparams, st, u_cmd, dg)
@@ -417,7 +424,8 @@ def _fused_loop(
     diag: np.ndarray,
     s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
     noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
-    log_y: np.ndarray, log_est: np.ndarray,
+    log_y: np.ndarray, log_est: np.ndarray, h_par: np.ndarray, h_state: np.ndarray,
+    log_hook: np.ndarray,
 ) -> tuple[int, int, float]:  # fmt: skip
     """The closed loop of :func:`spacecraft.simulator.simulate` for ``B`` spacecraft: the
     controller's ``law`` (a first-class function of :data:`liecontrol.control.kernel.
@@ -436,7 +444,7 @@ def _fused_loop(
             clip_on, clip, steer, sp, rate_limit, law, cparams, cstate, ref_index, ref_R, ref_w,
             ref_dw, log_R, log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_act, log_sat,
             log_hm, log_diag, diag, s_int, s_par, pub_thr, pub_sched, noise, sst, sy, h_int,
-            seen, log_y, log_est,
+            seen, log_y, log_est, h_par, h_state, log_hook,
         )  # fmt: skip
     return _loop_result(st, tf, n_steps, t0, dt, log_every, log_t)
 
@@ -456,7 +464,8 @@ def _fused_loop_parallel(
     diag: np.ndarray,
     s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
     noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
-    log_y: np.ndarray, log_est: np.ndarray,
+    log_y: np.ndarray, log_est: np.ndarray, h_par: np.ndarray, h_state: np.ndarray,
+    log_hook: np.ndarray,
 ) -> tuple[int, int, float]:  # fmt: skip
     """:func:`_fused_loop` with the spacecraft spread over numba's threads (``prange``): each
     spacecraft's run is the same arithmetic in the same order, so the results are bit-identical
@@ -472,7 +481,7 @@ def _fused_loop_parallel(
             clip_on, clip, steer, sp, rate_limit, law, cparams, cstate, ref_index, ref_R, ref_w,
             ref_dw, log_R, log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_act, log_sat,
             log_hm, log_diag, diag, s_int, s_par, pub_thr, pub_sched, noise, sst, sy, h_int,
-            seen, log_y, log_est,
+            seen, log_y, log_est, h_par, h_state, log_hook,
         )  # fmt: skip
         st[b] = s
         tf[b] = tb
@@ -578,7 +587,8 @@ def _one_vscmg(
     diag: np.ndarray,
     s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
     noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
-    log_y: np.ndarray, log_est: np.ndarray,
+    log_y: np.ndarray, log_est: np.ndarray, h_par: np.ndarray, h_state: np.ndarray,
+    log_hook: np.ndarray,
 ) -> tuple[int, float]:  # fmt: skip
     """The whole run of spacecraft ``b`` flying the full CMG model (as :func:`_one_spacecraft`
     for the momentum model): the law at every ``every_ctrl``-th step, the cluster's command
@@ -637,6 +647,8 @@ def _one_vscmg(
     sb = unowned_view(seen[b])
     Rs = sb[:9].reshape((3, 3))
     ws = sb[9:12]
+    h_par = unowned_view(h_par)
+    hsb = h_state[b]
     status = 0
     rows = 0
     t = t0
@@ -651,7 +663,11 @@ def _one_vscmg(
             )  # fmt: skip
         if k % every_ctrl == 0:
             if hook != FS.HOOK_NONE:
-                FS.hook_stage(h_int, yb, sb)
+                if not FS.hook_stage(
+                    h_int, h_par, hsb, yb, sb, t, Rc[0], stb, log_hook, k // every_ctrl, b
+                ):
+                    status = 3
+                    break
                 law(t, Rs, ws, rR[r, rb], rw[r, rb], rdw[r, rb], cparams, st, u_cmd, dg)
             else:
                 law(t, Rc[0], xb[:3], rR[r, rb], rw[r, rb], rdw[r, rb], cparams, st, u_cmd, dg)
@@ -740,7 +756,8 @@ def _fused_loop_vscmg(
     diag: np.ndarray,
     s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
     noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
-    log_y: np.ndarray, log_est: np.ndarray,
+    log_y: np.ndarray, log_est: np.ndarray, h_par: np.ndarray, h_state: np.ndarray,
+    log_hook: np.ndarray,
 ) -> tuple[int, int, float]:  # fmt: skip
     """:func:`_fused_loop` for the full CMG model (:func:`_one_vscmg` per spacecraft)."""
     B = R.shape[0]
@@ -752,7 +769,7 @@ def _fused_loop_vscmg(
             steer, sp, rate_limit, law, cparams, cstate, ref_index, ref_R, ref_w, ref_dw, log_R,
             log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_vs, log_work, log_sat,
             log_diag, diag, s_int, s_par, pub_thr, pub_sched, noise, sst, sy, h_int, seen, log_y,
-            log_est,
+            log_est, h_par, h_state, log_hook,
         )  # fmt: skip
     return _loop_result(st, tf, n_steps, t0, dt, log_every, log_t)
 
@@ -771,7 +788,8 @@ def _fused_loop_vscmg_parallel(
     diag: np.ndarray,
     s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
     noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
-    log_y: np.ndarray, log_est: np.ndarray,
+    log_y: np.ndarray, log_est: np.ndarray, h_par: np.ndarray, h_state: np.ndarray,
+    log_hook: np.ndarray,
 ) -> tuple[int, int, float]:  # fmt: skip
     """:func:`_fused_loop_vscmg` over numba's threads (bit-identical)."""
     B = R.shape[0]
@@ -784,7 +802,7 @@ def _fused_loop_vscmg_parallel(
             steer, sp, rate_limit, law, cparams, cstate, ref_index, ref_R, ref_w, ref_dw, log_R,
             log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_vs, log_work, log_sat,
             log_diag, diag, s_int, s_par, pub_thr, pub_sched, noise, sst, sy, h_int, seen, log_y,
-            log_est,
+            log_est, h_par, h_state, log_hook,
         )  # fmt: skip
         st[b] = s
         tf[b] = tb
@@ -997,7 +1015,7 @@ def run_fused(
         return _run_vscmg(
             pk, spec, plant, controller, index, ref_R, ref_w, ref_dw, R0, x0, t0, n_steps, dt,
             every_ctrl, log_every, control_period, log, Kr, cparams, cstate, notes, workers, sa,
-            splan,
+            splan, measurement,
         )  # fmt: skip
     n_held = 3 if pk.act == K.ACT_IDEAL else n - 3
     log_act = np.empty((Kr, B, (n - 3) + n_held))
@@ -1009,6 +1027,7 @@ def run_fused(
     log_diag = np.empty((Kr, B, n_diag))
     log_y = np.empty((Kr, B, sa.y.shape[1]))
     log_est = np.empty((Kr, B, sa.n_est))
+    log_hook = FS.hook_log(sa, n_steps, every_ctrl, B)
     clip = pk.clip if pk.clip is not None else np.zeros(3)
     args = (
         n_steps, float(t0), float(dt), every_ctrl, log_every, R0, x0,
@@ -1018,7 +1037,7 @@ def run_fused(
         log.t, log.R, log.omega, log.R_d, log.omega_d, log.u_cmd, log.u, log.disturbance,
         log_act, log_sat, log_hm, log_diag, diag,
         sa.s_int, sa.s_par, sa.pub_thr, sa.pub_sched, sa.noise, sa.state, sa.y, sa.h_int,
-        sa.seen, log_y, log_est,
+        sa.seen, log_y, log_est, sa.h_par, sa.h_state, log_hook,
     )  # fmt: skip
     status, rows, t_fail = _call_loop(args, 19, workers, B, vscmg=False)
     if not _finished(status, t_fail, t0, controller, spec, notes):
@@ -1027,6 +1046,7 @@ def run_fused(
     d = log.dicts
     if splan is not None:
         FS.finish(splan, sa, log_y, log_est, d, B, n_steps, float(t0), float(dt))
+        FS.finish_hook(splan, sa, log_hook, measurement)
     if pk.act == K.ACT_SGCMG:
         d["actuator"]["delta"] = log_act[:, :, : n - 3]
         d["actuator"]["delta_dot"] = log_act[:, :, n - 3 :]
@@ -1069,6 +1089,9 @@ def _finished(
             what = "the state became non-finite" if status == 1 else (
                 f"controller {type(controller).__name__}'s compiled law returned a non-finite "
                 "torque"
+            ) if status != 3 else (
+                "the estimator hook's covariance lost positive definiteness (the numpy filter "
+                "repairs it)"
             )  # fmt: skip
             notes.append(f"{what} at t = {t_fail!r}; the run is repeated in the Python loop")
         return False
@@ -1081,7 +1104,7 @@ def _run_vscmg(
     R0: np.ndarray, x0: np.ndarray, t0: float, n_steps: int, dt: float, every_ctrl: int,
     log_every: int, control_period: float, log: Any, Kr: int, cparams: np.ndarray,
     cstate: np.ndarray, notes: list[str] | None, workers: int, sa: FS.SensorArrays,
-    splan: FS.SensorPlan | None,
+    splan: FS.SensorPlan | None, measurement: Any,
 ) -> Any:  # fmt: skip
     """:func:`run_fused` for the full CMG model (:func:`_fused_loop_vscmg`)."""
     B = x0.shape[0]
@@ -1093,6 +1116,7 @@ def _run_vscmg(
     log_sat = np.empty((Kr, B), dtype=np.bool_)
     log_y = np.empty((Kr, B, sa.y.shape[1]))
     log_est = np.empty((Kr, B, sa.n_est))
+    log_hook = FS.hook_log(sa, n_steps, every_ctrl, B)
     args = (
         n_steps, float(t0), float(dt), every_ctrl, log_every, R0, x0,
         vp.kinematic, vp.variable_speed, vp.feedforward, vp.par, vp.M, vp.dist, vp.dist_params,
@@ -1101,7 +1125,7 @@ def _run_vscmg(
         log.t, log.R, log.omega, log.R_d, log.omega_d, log.u_cmd, log.u, log.disturbance,
         log_vs, log_work, log_sat, log_diag, diag,
         sa.s_int, sa.s_par, sa.pub_thr, sa.pub_sched, sa.noise, sa.state, sa.y, sa.h_int,
-        sa.seen, log_y, log_est,
+        sa.seen, log_y, log_est, sa.h_par, sa.h_state, log_hook,
     )  # fmt: skip
     status, rows, t_fail = _call_loop(args, 17, workers, B, vscmg=True)
     if not _finished(status, t_fail, t0, controller, spec, notes):
@@ -1109,6 +1133,7 @@ def _run_vscmg(
     log.rows = rows
     if splan is not None:
         FS.finish(splan, sa, log_y, log_est, log.dicts, B, n_steps, float(t0), float(dt))
+        FS.finish_hook(splan, sa, log_hook, measurement)
     a = log.dicts["actuator"]
     a["delta"] = log_vs[:, :, _VS_DELTA]
     a["delta_dot"] = log_vs[:, :, _VS_RATE]

@@ -34,6 +34,7 @@ outage_step`.
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from dataclasses import dataclass
 from typing import Any
@@ -41,6 +42,9 @@ from typing import Any
 import numpy as np
 
 from liecontrol._jit import njit
+from liecontrol._kernels import filters as EK
+from liecontrol._kernels import mekf as MK
+from liecontrol._kernels.so3 import log_of
 
 from . import _kernels_sensors as KS
 
@@ -73,6 +77,76 @@ P_GYRO = 21
 
 HOOK_NONE = 0
 HOOK_STAR_TRACKER_GYRO = 1
+HOOK_MEKF = 2
+
+# h_int: hook, attitude output, its form, rate output, attitude valid flag (-1: none), gyro bias
+# in the sensor state (-1: none)
+N_HINT = 6
+# the MEKF hook's parameters: σ_v, σ_u, Σ (9), P₀ (36), gate threshold, gate's max run
+N_HPAR = 49
+# its state per spacecraft: x (7), P (36), t_last, has filter, z_last (3), ω_last (3), gated run
+H_X, H_P, H_T, H_HAS, H_Z, H_W, H_RUN = 0, 7, 43, 44, 45, 48, 51
+N_HSTATE = 52
+# its log per control sample: t, attitude error [rad], NEES (3), NEES (6), NIS, gated (−1: no
+# update), consistency sample written
+N_HLOG = 7
+
+
+@dataclass(frozen=True)
+class EstimatorHook:
+    """What a measurement hook's ``fused_hook()`` returns for the compiled loop: a
+    multiplicative EKF on the gyro model (:mod:`liecontrol._kernels.mekf`) between
+    the star tracker (quaternion output) and the gyro, with the semantics of
+    :class:`benchmarks.runner.FilteredAttitude`: it starts at the first control sample from
+    the tracker's quaternion with zero bias and ``P0``; at each later one it predicts over the
+    time since the last with the mean of the gyro readings at both ends and updates with the
+    tracker's roll/pitch/yaw when they changed and are valid (χ² gate of ``gate_threshold``,
+    at most ``gate_max`` rejections in a row); the law sees R(q̂) and ω̃ − b̂. After the run the
+    loop calls the hook's ``fused_finish(...)`` with the filters' final state and log.
+
+    Attributes:
+        attitude, rate: sensor names (a ``StarTracker`` with quaternion output, a ``RateGyro``).
+        sigma_v, sigma_u: the gyro model's noise densities; Sigma: the tracker's body-frame
+            noise covariance ``(3, 3)``; P0: the initial error covariance ``(6, 6)``.
+        gate_threshold, gate_max: the χ² gate.
+        gyro: the gyro whose true bias enters the 6-state NEES (the ``rate`` sensor), or None.
+    """
+
+    attitude: str
+    rate: str
+    sigma_v: float
+    sigma_u: float
+    Sigma: np.ndarray
+    P0: np.ndarray
+    gate_threshold: float
+    gate_max: int
+    gyro: Any = None
+
+
+def _owner(cls: type, attr: str) -> type | None:
+    for c in cls.__mro__:
+        if attr in c.__dict__:
+            return c
+    return None
+
+
+def _estimator_hook(measurement: Any) -> tuple[EstimatorHook | None, str]:
+    """The hook's :class:`EstimatorHook` (``fused_hook()``), or ``(None, why)``. The method
+    speaks for the class that defines it and its subclasses that keep its ``__call__``."""
+    name = type(measurement).__name__
+    fh = getattr(measurement, "fused_hook", None)
+    if not callable(fh):
+        return None, f"the measurement hook {name} has no compiled kernel (StarTrackerGyro has)"
+    o_call, o_hook = _owner(type(measurement), "__call__"), _owner(type(measurement), "fused_hook")
+    if o_call is None or o_hook is None or not issubclass(o_hook, o_call):
+        return None, (
+            f"the measurement hook {name} overrides __call__ below its fused_hook (its "
+            "compiled kernel is its parent's)"
+        )
+    spec = fh()
+    if not isinstance(spec, EstimatorHook):
+        return None, f"the measurement hook {name} has no compiled kernel for this configuration"
+    return spec, ""
 
 
 @dataclass
@@ -86,6 +160,7 @@ class SensorPlan:
     hook: int
     hook_att: int  # index of the attitude sensor (hook)
     hook_rate: int
+    estimator: EstimatorHook | None = None
 
 
 def _unwrap(sensor: Any) -> tuple[Any, Any, str]:
@@ -130,14 +205,17 @@ def sensor_plan(sensor_list: Any, measurement: Any) -> tuple[SensorPlan | None, 
         inner.append(s)
         every.append(int(ev))
     hook, att, rate = HOOK_NONE, -1, -1
+    est = None
     if measurement is not None:
-        if type(measurement) is not StarTrackerGyro:
-            return None, (
-                f"the measurement hook {type(measurement).__name__} has no compiled kernel "
-                "(StarTrackerGyro has)"
-            )
         from .sensors import RateGyro, StarTracker
 
+        if type(measurement) is StarTrackerGyro:
+            hook = HOOK_STAR_TRACKER_GYRO
+        else:
+            est, why = _estimator_hook(measurement)
+            if est is None:
+                return None, why
+            hook = HOOK_MEKF
         att, rate = names.index(measurement.attitude), names.index(measurement.rate)
         if type(inner[att]) is not StarTracker:
             return None, (
@@ -149,8 +227,12 @@ def sensor_plan(sensor_list: Any, measurement: Any) -> tuple[SensorPlan | None, 
                 f"the measurement hook reads its rate from a {type(inner[rate]).__name__} "
                 "(the compiled hook reads a RateGyro's)"
             )
-        hook = HOOK_STAR_TRACKER_GYRO
-    return SensorPlan(names, sensors, inner, every, hook, att, rate), ""
+        if est is not None:
+            if inner[att].output != "quaternion":
+                return None, "the estimator hook reads a StarTracker's quaternion output"
+            if est.gyro is not None and est.gyro is not inner[rate]:
+                return None, "the estimator hook's gyro is not its rate sensor"
+    return SensorPlan(names, sensors, inner, every, hook, att, rate, est), ""
 
 
 @dataclass
@@ -164,17 +246,19 @@ class SensorArrays:
     noise: np.ndarray  # (B, C)
     state: np.ndarray  # (B, n_state)
     y: np.ndarray  # (B, n_y) held outputs (and valid flags)
-    h_int: np.ndarray  # (4,) hook, attitude output offset, its form, rate output offset
+    h_int: np.ndarray  # (N_HINT,) hook, attitude output, its form, rate output, valid, bias
     seen: np.ndarray  # (B, 12) the hook's last R (9) and ω (3)
     n_est: int  # 12 with a hook, else 0
+    h_par: np.ndarray  # (N_HPAR,) the estimator hook's parameters (else empty)
+    h_state: np.ndarray  # (B, N_HSTATE) its state per spacecraft (else (B, 0))
 
 
 def empty_arrays(B: int) -> SensorArrays:
     """The arrays of a run without sensors (the loop's sensor stage does nothing)."""
     return SensorArrays(
         np.zeros((0, N_INT), dtype=np.int64), np.zeros(0), np.zeros(0), np.zeros(0),
-        np.zeros((B, 0)), np.zeros((B, 0)), np.zeros((B, 0)), np.zeros(4, dtype=np.int64),
-        np.zeros((B, 12)), 0,
+        np.zeros((B, 0)), np.zeros((B, 0)), np.zeros((B, 0)),
+        np.zeros(N_HINT, dtype=np.int64), np.zeros((B, 12)), 0, np.zeros(0), np.zeros((B, 0)),
     )  # fmt: skip
 
 
@@ -302,17 +386,32 @@ def prepare(
         if gyro is not None:
             st = gyro.state
             state[:, off + G_BIAS : off + G_BIAS + 3] = st.bias
-    h_int = np.zeros(4, dtype=np.int64)
-    if plan.hook == HOOK_STAR_TRACKER_GYRO:
-        h_int[:] = (
-            plan.hook, s_int[plan.hook_att, I_OUT], s_int[plan.hook_att, I_FORM],
-            s_int[plan.hook_rate, I_OUT],
-        )  # fmt: skip
+    h_int = np.full(N_HINT, -1, dtype=np.int64)
+    h_par = np.zeros(0)
+    h_state = np.zeros((B, 0))
+    h_int[0] = plan.hook
+    if plan.hook != HOOK_NONE:
+        a, r = plan.hook_att, plan.hook_rate
+        h_int[1:4] = (s_int[a, I_OUT], s_int[a, I_FORM], s_int[r, I_OUT])
+        h_int[4] = s_int[a, I_VALID]
+    est = plan.estimator
+    if est is not None:
+        r = plan.hook_rate
+        if est.gyro is not None:
+            lag = s_int[r, I_LAG]
+            h_int[5] = s_int[r, I_STATE] + S_RING + RING_ENTRY * (lag + 1) + G_BIAS
+        h_par = np.concatenate((
+            [float(est.sigma_v), float(est.sigma_u)],
+            np.asarray(est.Sigma, dtype=np.float64).ravel(),
+            np.asarray(est.P0, dtype=np.float64).ravel(),
+            [float(est.gate_threshold), float(est.gate_max)],
+        ))  # fmt: skip
+        h_state = np.zeros((B, N_HSTATE))
     noise = draw_noise(plan, rng, B, n_steps)
     return SensorArrays(
         s_int, np.concatenate(pars) if pars else np.zeros(0), np.concatenate(thr),
         np.concatenate(sched), np.ascontiguousarray(noise), state, np.zeros((B, n_y)), h_int,
-        np.zeros((B, 12)), 12 if plan.hook != HOOK_NONE else 0,
+        np.zeros((B, 12)), 12 if plan.hook != HOOK_NONE else 0, h_par, h_state,
     )  # fmt: skip
 
 
@@ -411,20 +510,94 @@ def sense_stage(
 
 
 @njit
-def hook_stage(h_int: np.ndarray, y: np.ndarray, seen: np.ndarray) -> None:
-    """The :class:`~spacecraft.simulator.StarTrackerGyro` hook of one spacecraft: ``seen[:9]``
-    the attitude (the held quaternion as a matrix, or the held matrix), ``seen[9:]`` the held
-    gyro rate."""
+def hook_stage(
+    h_int: np.ndarray, h_par: np.ndarray, hs: np.ndarray, y: np.ndarray, seen: np.ndarray,
+    t: float, R: np.ndarray, st: np.ndarray, hlog: np.ndarray, ci: int, b: int,
+) -> bool:  # fmt: skip
+    """The measurement hook of one spacecraft at a control sample (time ``t``, true attitude
+    ``R``): ``seen[:9]`` the attitude it gives the law, ``seen[9:]`` the rate.
+
+    * :class:`~spacecraft.simulator.StarTrackerGyro`: the held quaternion as a matrix (or the
+      held matrix) and the held gyro rate;
+    * the MEKF hook (:class:`EstimatorHook`; its state row ``hs``, its log row
+      ``hlog[ci, b]``): R(q̂) and ω̃ − b̂ after the filter's step. False when the filter's
+      covariance lost positive definiteness (the Python loop then reruns the run).
+    """
     a = h_int[1]
-    Rs = seen[:9].reshape((3, 3))
-    if h_int[2] == FORM_QUAT:
-        KS.unit_quaternion_matrix_into(y[a : a + 4], Rs)
-    else:
-        for i in range(9):
-            seen[i] = y[a + i]
     r = h_int[3]
+    Rs = seen[:9].reshape((3, 3))
+    if h_int[0] == HOOK_STAR_TRACKER_GYRO:
+        if h_int[2] == FORM_QUAT:
+            KS.unit_quaternion_matrix_into(y[a : a + 4], Rs)
+        else:
+            for i in range(9):
+                seen[i] = y[a + i]
+        for i in range(3):
+            seen[9 + i] = y[r + i]
+        return True
+    # the MEKF hook (benchmarks.runner.FilteredAttitude's semantics)
+    q = np.empty(4)
+    n = math.sqrt(y[a] * y[a] + y[a + 1] * y[a + 1] + y[a + 2] * y[a + 2] + y[a + 3] * y[a + 3])
+    for i in range(4):
+        q[i] = y[a + i] / n
+    z = EK.rpy_from_q(q.reshape((1, 4)))[0]
+    x = hs[H_X : H_X + 7]
+    P = hs[H_P : H_P + 36].reshape((6, 6))
+    row = hlog[ci, b]
+    row[4] = math.nan
+    row[5] = -1.0
+    if hs[H_HAS] == 0.0:
+        if not MK.mekf_gyro_init(y[a : a + 4], h_par[11:47].reshape((6, 6)), x, P):
+            return False
+        hs[H_HAS] = 1.0
+    else:
+        dt = t - hs[H_T]
+        if dt > 0.0:
+            w_mid = np.empty(3)
+            for i in range(3):
+                w_mid[i] = 0.5 * (hs[H_W + i] + y[r + i])
+            if not MK.mekf_gyro_predict(x, P, w_mid, dt, h_par[0], h_par[1]):
+                return False
+        fresh = z[0] != hs[H_Z] or z[1] != hs[H_Z + 1] or z[2] != hs[H_Z + 2]
+        valid = h_int[4] < 0 or y[h_int[4]] != 0.0
+        if fresh and valid:
+            code, nis = MK.mekf_gyro_update(
+                x, P, z, h_par[2:11].reshape((3, 3)), h_par[47], hs[H_RUN] < h_par[48]
+            )
+            if code == 2:
+                return False
+            hs[H_RUN] = hs[H_RUN] + 1.0 if code == 1 else 0.0
+            row[4] = nis
+            row[5] = 1.0 if code == 1 else 0.0
+    hs[H_T] = t
     for i in range(3):
-        seen[9 + i] = y[r + i]
+        hs[H_Z + i] = z[i]
+        hs[H_W + i] = y[r + i]
+    nq = math.sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2] + x[3] * x[3])
+    for i in range(4):
+        q[i] = x[i] / nq
+    KS.unit_quaternion_matrix_into(q, Rs)
+    for i in range(3):
+        seen[9 + i] = y[r + i] - x[4 + i]
+    # consistency: the attitude error Log(R̂ᵀ R) and its NEES (and with the bias, the 6-state)
+    E = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            E[i, j] = Rs[0, i] * R[0, j] + Rs[1, i] * R[1, j] + Rs[2, i] * R[2, j]
+    d0, d1, d2 = log_of(E)
+    e = np.empty(6)
+    e[0], e[1], e[2] = d0, d1, d2
+    row[0] = t
+    row[1] = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    row[2] = MK.spd_quadratic(P[:3, :3].copy(), e[:3].copy())
+    row[3] = math.nan
+    g = h_int[5]
+    if g >= 0:
+        for i in range(3):
+            e[3 + i] = st[g + i] - x[4 + i]
+        row[3] = MK.spd_quadratic(P.copy(), e)
+    row[6] = 1.0
+    return True
 
 
 def finish(
@@ -477,3 +650,41 @@ def finish(
     if arrays.n_est:
         log_dicts["estimate"]["R"] = log_est[:, :, :9].reshape(K, B, 3, 3)
         log_dicts["estimate"]["omega"] = log_est[:, :, 9:12]
+
+
+def hook_log(arrays: SensorArrays, n_steps: int, every_ctrl: int, B: int) -> np.ndarray:
+    """The estimator hook's log ``(control samples, B, N_HLOG)`` (empty without one)."""
+    if arrays.h_state.shape[1] == 0:
+        return np.zeros((0, B, N_HLOG))
+    return np.full((n_steps // every_ctrl + 1, B, N_HLOG), np.nan)
+
+
+def finish_hook(plan: SensorPlan, arrays: SensorArrays, log: np.ndarray, measurement: Any) -> None:
+    """After the compiled run: the estimator hook's final filters and consistency log handed
+    to its ``fused_finish(t_last, x (B, 7), P (B, 6, 6), z_last (B, 3), w_last (B, 3),
+    gated_run (B,), logs)``, ``logs`` one dict per spacecraft of lists (``t``, ``err``,
+    ``nees``, ``nees_full`` — empty without the gyro — ``nis``, ``gated``)."""
+    if plan.estimator is None:
+        return
+    hs = arrays.h_state
+    B = hs.shape[0]
+    logs = []
+    for b in range(B):
+        rows = log[:, b]
+        rows = rows[rows[:, 6] == 1.0]
+        upd = rows[:, 5] >= 0.0
+        logs.append(
+            {
+                "t": rows[:, 0].tolist(),
+                "err": rows[:, 1].tolist(),
+                "nees": rows[:, 2].tolist(),
+                "nees_full": rows[:, 3].tolist() if plan.estimator.gyro is not None else [],
+                "nis": rows[upd, 4].tolist(),
+                "gated": rows[upd, 5].tolist(),
+            }
+        )
+    measurement.fused_finish(
+        float(hs[0, H_T]), hs[:, H_X : H_X + 7].copy(),
+        hs[:, H_P : H_P + 36].reshape(B, 6, 6).copy(), hs[:, H_Z : H_Z + 3].copy(),
+        hs[:, H_W : H_W + 3].copy(), hs[:, H_RUN].astype(int), logs,
+    )  # fmt: skip

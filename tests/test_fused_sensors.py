@@ -323,3 +323,79 @@ def test_workers_give_the_same_bits():
         np.testing.assert_array_equal(getattr(out[0], name), getattr(out[1], name))
     for k in out[0].sensors:
         np.testing.assert_array_equal(out[0].sensors[k], out[1].sensors[k])
+
+
+# ---------------------------------------------------------------- the MEKF hook, compiled
+def _mekf_spec(estimator="mekf"):
+    from benchmarks.scenarios import SensorSpec
+
+    return SensorSpec(
+        estimator=estimator, star_tracker_latency=0.2, outage_rate=0.05, outage_duration=2.0,
+        star_tracker_outages=((4.0, 5.0),), gyro_bias=(1e-4, -5e-5, 2e-5),
+    )  # fmt: skip
+
+
+def _mekf_both(actuator, B=3, t_final=12.0, estimator="mekf", **kw):
+    """(fused, hook, rng), (Python, hook, rng) with the benchmarks' MEKF hook (``simulate``'s
+    own choice instead of the fused run for the UKF)."""
+    from benchmarks.runner import build_sensors
+
+    plant, ctrl, ref, x0 = _case(actuator, B=B)
+    out = []
+    for run in (_fused if estimator == "mekf" else simulate, _python_loop):
+        sensors, hook, rng = build_sensors(_mekf_spec(estimator))
+        res = run(plant, copy.deepcopy(ctrl), ref, x0, t_final, 0.1, sensors=sensors,
+                  measurement=hook, rng=rng, **kw)  # fmt: skip
+        out.append((res, hook, rng))
+    return out
+
+
+@pytest.mark.parametrize("actuator", ["sgcmg", "ideal"])
+def test_mekf_hook_in_the_fused_loop_equals_the_python_loop(actuator):
+    """The MEKF between the sensors (latency, outages, gyro bias) and the law, over a batch with
+    control_period > dt and log_every > 1: the log, the estimate, the filters' final state and
+    their consistency log (NEES, NIS, gate) equal the Python loop's to 1e-12."""
+    (fa, ha, ra), (py, hp, rp) = _mekf_both(actuator, control_period=0.2, log_every=3)
+    _assert_same(fa, py)
+    assert ra.bit_generator.state == rp.bit_generator.state
+    for b in range(3):
+        for key, vp in hp._log[b].items():
+            va = ha._log[b][key]
+            assert len(va) == len(vp) > 0, key
+            np.testing.assert_allclose(va, vp, rtol=1e-12, atol=1e-12, err_msg=key)
+        np.testing.assert_allclose(ha._filters[b].x, hp._filters[b].x, rtol=1e-12, atol=1e-15)
+        np.testing.assert_allclose(ha._filters[b].P, hp._filters[b].P, rtol=1e-12, atol=1e-20)
+        ca, cp = ha.consistency(b, since=6.0), hp.consistency(b, since=6.0)
+        assert sorted(ca) == sorted(cp)
+        for k in cp:
+            np.testing.assert_allclose(ca[k], cp[k], rtol=1e-10, err_msg=k)
+    assert ha._t_last == hp._t_last
+    np.testing.assert_allclose(ha._w_last, hp._w_last, rtol=1e-12, atol=1e-15)
+
+
+def test_mekf_hook_without_the_gyro_truth_and_the_ukf_keeps_the_python_loop(caplog):
+    from benchmarks.runner import FilteredAttitude
+
+    hook = FilteredAttitude(_mekf_spec())  # gyro=None: attitude NEES only
+    spec = hook.fused_hook()
+    assert spec is not None and spec.gyro is None
+    with caplog.at_level(logging.INFO, logger="spacecraft.simulator"):
+        (fa, _, _), (py, _, _) = _mekf_both("ideal", B=2, t_final=3.0, estimator="ukf")
+    assert "FilteredAttitude has no compiled kernel for this configuration" in caplog.text
+    _assert_same(fa, py)
+
+
+def test_a_hook_that_overrides_call_below_fused_hook_keeps_the_python_loop():
+    from benchmarks.runner import FilteredAttitude
+
+    class Mine(FilteredAttitude):
+        def __call__(self, t, outputs, truth):
+            return super().__call__(t, outputs, truth)
+
+    plant, ctrl, _, _ = _case("ideal")
+    sensors = [("star_tracker", StarTracker(period=0.2), 2), ("gyro", RateGyro(period=0.1), 1)]
+    why: list[str] = []
+    hook = Mine(_mekf_spec())
+    assert fused_supported(plant, ctrl, sensors, hook, False, reasons=why) is None
+    assert "overrides __call__ below its fused_hook" in why[0]
+    assert fused_supported(plant, ctrl, sensors, FilteredAttitude(_mekf_spec()), False)
