@@ -12,14 +12,17 @@ classes import this module (no import circle).
 
 :func:`run_fused` runs a whole :func:`spacecraft.simulator.simulate` call in compiled code when,
 in addition, the controller supplies a compiled law through the public seam
-:mod:`liecontrol.control.kernel` (``controller.fused_kernel(B)``) and no sensors, measurement
-hook, progress bar or compute delay are used. The loop knows no controller class: it calls the
-law it is given through a function pointer (a numba first-class function of the documented
-signature), carries the law's internal state array and logs its diagnostics rows, so one
-compiled loop (cached on disk) serves the built-in laws and a user's own alike. It produces the
-same :class:`~spacecraft.simulator.SimulationResult` as the per-step Python loop, which calls the
-same kernels one at a time. Anything else — a controller without a kernel, a Python
-disturbance — runs through that loop, and :func:`fused_supported` reports why.
+:mod:`liecontrol.control.kernel` (``controller.fused_kernel(B)``), the sensors and the
+measurement hook (if any) have kernels (:mod:`spacecraft._fused_sensors`: the built-in star
+tracker, rate gyro and ``TimedSensor``, the ``StarTrackerGyro`` hook and an MEKF hook through
+``fused_hook``) and no progress bar or compute delay is used. The loop knows no controller
+class: it calls the law it is given through a function pointer (a numba first-class function
+of the documented signature), carries the law's internal state array and logs its diagnostics
+rows, so one compiled loop (cached on disk) serves the built-in laws and a user's own alike.
+It produces the same :class:`~spacecraft.simulator.SimulationResult` as the per-step Python
+loop, which calls the same kernels one at a time. Anything else — a controller without a
+kernel, a Python disturbance, a user's sensor — runs through that loop, and
+:func:`fused_supported` reports why.
 """
 
 from __future__ import annotations
