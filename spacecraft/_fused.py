@@ -1048,7 +1048,7 @@ def run_fused(
     log.rows = rows
     d = log.dicts
     if splan is not None:
-        FS.finish(splan, sa, log_y, log_est, d, B, n_steps, float(t0), float(dt))
+        FS.finish(splan, sa, log_y, log_est, d, B, n_steps)
         FS.finish_hook(splan, sa, log_hook, measurement)
     if pk.act == K.ACT_SGCMG:
         d["actuator"]["delta"] = log_act[:, :, : n - 3]
@@ -1135,7 +1135,7 @@ def _run_vscmg(
         return None
     log.rows = rows
     if splan is not None:
-        FS.finish(splan, sa, log_y, log_est, log.dicts, B, n_steps, float(t0), float(dt))
+        FS.finish(splan, sa, log_y, log_est, log.dicts, B, n_steps)
         FS.finish_hook(splan, sa, log_hook, measurement)
     a = log.dicts["actuator"]
     a["delta"] = log_vs[:, :, _VS_DELTA]

@@ -265,6 +265,8 @@ def empty_arrays(B: int) -> SensorArrays:
 def _draw_counts(plan: SensorPlan, n_steps: int) -> tuple[np.ndarray, ...]:
     """The draw events of the run in the Python loop's order: per event (step, sensor,
     uniforms per spacecraft, normals per spacecraft)."""
+    from .sensors import RateGyro
+
     ks, ss, us, ns = [], [], [], []
     for s, (sensor, inner, ev) in enumerate(zip(plan.sensors, plan.inner, plan.every, strict=True)):
         pub = getattr(sensor, "_every", 1) if sensor is not inner else 1
@@ -275,7 +277,7 @@ def _draw_counts(plan: SensorPlan, n_steps: int) -> tuple[np.ndarray, ...]:
         ss.append(np.full(c.shape, s))
         us.append(np.full(c.shape, 1 if rate else 0))
         n = np.full(c.shape, 3)
-        if type(inner).__name__ == "RateGyro":
+        if type(inner) is RateGyro:
             n = np.full(c.shape, 6)
             n[:1] = 3  # no bias walk at the first sample
         ns.append(n)
@@ -323,6 +325,8 @@ def prepare(
     """The loop's sensor arrays after the sensors' ``reset`` (done by the caller): parameters,
     initial states, the publication times' outage data and the noise (:func:`draw_noise`).
     Raises ``MemoryError`` when the noise would not fit (the Python loop then runs)."""
+    from .sensors import StarTracker, _time_tol
+
     S = len(plan.names)
     s_int = np.zeros((S, N_INT), dtype=np.int64)
     pars: list[np.ndarray] = []
@@ -334,7 +338,7 @@ def prepare(
         timed = sensor if sensor is not inner else None
         pub = timed._every if timed is not None else 1
         lag = timed._lag if timed is not None else 0
-        if type(inner).__name__ == "StarTracker":
+        if type(inner) is StarTracker:
             kind = KIND_STAR
             form = FORM_QUAT if inner.output == "quaternion" else FORM_MATRIX
             length = 4 if form == FORM_QUAT else 9
@@ -357,11 +361,12 @@ def prepare(
             dur = float(timed.outage_duration) if rate_on else 0.0
             prob = timed.outage_probability if rate_on else 0.0
             p = np.concatenate((p, [dur, prob]))
-        calls = n_steps // ev + 1
-        pubs = np.arange(0, calls, pub) * ev
-        times = [t0 + int(k) * dt for k in pubs]  # the Python loop's t = t0 + k·dt
-        from .sensors import _time_tol
-
+        # a TimedSensor's outage test per publication: t + tol and the scheduled outages, by
+        # the class's own functions at the Python loop's times t = t0 + k·dt
+        times: list[float] = []
+        if timed is not None:
+            calls = n_steps // ev + 1
+            times = [t0 + int(k) * dt for k in np.arange(0, calls, pub) * ev]
         thr.append(np.array([t + _time_tol(t) for t in times]))
         if timed is not None and timed.outages:
             sched.append(np.array([float(timed.in_scheduled_outage(t)) for t in times]))
@@ -602,12 +607,12 @@ def hook_stage(
 
 def finish(
     plan: SensorPlan, arrays: SensorArrays, log_y: np.ndarray, log_est: np.ndarray,
-    log_dicts: dict[str, dict[str, np.ndarray]], B: int, n_steps: int, t0: float, dt: float,
+    log_dicts: dict[str, dict[str, np.ndarray]], B: int, n_steps: int,
 ) -> None:  # fmt: skip
     """After the compiled run: the sensors' log (``result.sensors``, ``result.estimate``) and
     the sensors' final state written back, as the Python loop leaves them (a gyro's bias and
     filter, a ``TimedSensor``'s history, held output, outage ends and ``valid``)."""
-    from .sensors import GyroState
+    from .sensors import GyroState, RateGyro
 
     s_int, st, y = arrays.s_int, arrays.state, arrays.y
     K = log_y.shape[0]
@@ -623,7 +628,7 @@ def finish(
         slots = lag + 1
         calls = n_steps // every + 1
         last_pub_call = ((calls - 1) // pub) * pub
-        if type(inner).__name__ == "RateGyro":
+        if type(inner) is RateGyro:
             g = so + S_RING + RING_ENTRY * slots
             c0 = last_pub_call - lag if last_pub_call >= lag else 0
             t_last = float(st[0, so + S_RING + (c0 % slots) * RING_ENTRY])
