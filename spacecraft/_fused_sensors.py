@@ -34,6 +34,7 @@ outage_step`.
 
 from __future__ import annotations
 
+import logging
 import math
 from collections import deque
 from dataclasses import dataclass
@@ -673,6 +674,15 @@ def finish_hook(plan: SensorPlan, arrays: SensorArrays, log: np.ndarray, measure
         return
     hs = arrays.h_state
     B = hs.shape[0]
+    rejected = int(np.sum(log[:, :, 5] == 1.0))
+    if rejected:
+        # the numpy filter warns at each rejection; the compiled run once, with the count
+        logging.getLogger("liecontrol.estimation").warning(
+            "MEKF (compiled loop): %d innovation(s) rejected by the χ² gate over the run "
+            "(threshold %.4g; the prediction was kept)",
+            rejected,
+            plan.estimator.gate_threshold,
+        )
     logs = []
     for b in range(B):
         rows = log[:, b]
