@@ -224,7 +224,7 @@ def _one_spacecraft(
     s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
     noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
     log_y: np.ndarray, log_est: np.ndarray, h_par: np.ndarray, h_state: np.ndarray,
-    log_hook: np.ndarray,
+    log_hook: np.ndarray, sensing: Any,
 ) -> tuple[int, float]:  # fmt: skip
     """The whole run of spacecraft ``b`` (the loop's body, see :func:`_fused_loop`): every step
     of one spacecraft before the next, its state, command and scratch in locals and views made
@@ -286,39 +286,42 @@ def _one_spacecraft(
     sn = work[5 * n : 5 * n + mm]
     cs = work[6 * n : 6 * n + mm]
     # the sensors and the measurement hook (spacecraft._fused_sensors; empty arrays without)
-    n_sens = s_int.shape[0]
-    hook = h_int[0]
+    # (``sensing`` is None without sensors: numba prunes every ``sensing`` branch at compile
+    # time, so the loop without sensors compiles to the loop without this code)
     cur = 0
-    s_tmp = np.empty(30)
-    tmp = unowned_view(s_tmp)
-    s_int = unowned_view(s_int)
-    s_par = unowned_view(s_par)
-    pub_thr = unowned_view(pub_thr)
-    pub_sched = unowned_view(pub_sched)
-    h_int = unowned_view(h_int)
-    nz = unowned_view(noise[b])
-    stb = unowned_view(sst[b])
-    yb = unowned_view(sy[b])
-    sb = unowned_view(seen[b])
-    Rs = sb[:9].reshape((3, 3))
-    ws = sb[9:12]
-    h_par = unowned_view(h_par)
-    hsb = h_state[b]
+    if sensing is not None:
+        hook = h_int[0]
+        s_tmp = np.empty(30)
+        tmp = unowned_view(s_tmp)
+        si = unowned_view(s_int)
+        spar = unowned_view(s_par)
+        pthr = unowned_view(pub_thr)
+        psch = unowned_view(pub_sched)
+        hi = unowned_view(h_int)
+        nz = unowned_view(noise[b])
+        stb = unowned_view(sst[b])
+        yb = unowned_view(sy[b])
+        sb = unowned_view(seen[b])
+        Rs = sb[:9].reshape((3, 3))
+        ws = sb[9:12]
+        hp = unowned_view(h_par)
+        hsb = h_state[b]
     rows = 0
     status = 0
     t = t0
     for k in range(n_steps + 1):
         t = t0 + k * dt
         r = ref_index[k]
-        if n_sens > 0:
+        if sensing is not None:
             cur = FS.sense_stage(
-                k, t, Rc, wc, s_int, s_par, pub_thr, pub_sched, nz, cur, stb, yb, tmp
+                k, t, Rc, wc, si, spar, pthr, psch, nz, cur, stb, yb, tmp
             )  # fmt: skip
         if k % every_ctrl == 0:
-            if hook != FS.HOOK_NONE:
-                if not FS.hook_stage(
-                    h_int, h_par, hsb, yb, sb, t, Rc, stb, log_hook, k // every_ctrl, b
-                ):
+            hooked = False
+            if sensing is not None:
+                hooked = hook != FS.HOOK_NONE
+            if hooked:
+                if not FS.hook_stage(hi, hp, hsb, yb, sb, t, Rc, stb, log_hook, k // every_ctrl, b):
                     status = 3
                     break
                 law(t, Rs, ws, rR[r, rb], rw[r, rb], rdw[r, rb], cparams, st, u_cmd, dg)
@@ -368,10 +371,11 @@ def _one_spacecraft(
                 log_sat[rows, b, i] = sat[i]
             for i in range(dg.shape[0]):
                 log_diag[rows, b, i] = dg[i]
-            for i in range(yb.shape[0]):
-                log_y[rows, b, i] = yb[i]
-            for i in range(log_est.shape[2]):
-                log_est[rows, b, i] = sb[i]
+            if sensing is not None:
+                for i in range(yb.shape[0]):
+                    log_y[rows, b, i] = yb[i]
+                for i in range(log_est.shape[2]):
+                    log_est[rows, b, i] = sb[i]
             rows += 1
         if k == n_steps:
             break
@@ -407,8 +411,11 @@ def _one_spacecraft(
         wc, wn = wn, wc
     R[b] = Rc
     x[b] = xc
-    if buf.shape[0] == 0 or sat_own.shape[0] == 0 or s_tmp.shape[0] == 0:  # owners' last use
+    if buf.shape[0] == 0 or sat_own.shape[0] == 0:  # the owners' last use (see above)
         status = -1
+    if sensing is not None:
+        if s_tmp.shape[0] == 0:
+            status = -1
     return status, t
 
 
@@ -428,7 +435,7 @@ def _fused_loop(
     s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
     noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
     log_y: np.ndarray, log_est: np.ndarray, h_par: np.ndarray, h_state: np.ndarray,
-    log_hook: np.ndarray,
+    log_hook: np.ndarray, sensing: Any,
 ) -> tuple[int, int, float]:  # fmt: skip
     """The closed loop of :func:`spacecraft.simulator.simulate` for ``B`` spacecraft: the
     controller's ``law`` (a first-class function of :data:`liecontrol.control.kernel.
@@ -448,6 +455,7 @@ def _fused_loop(
             ref_dw, log_R, log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_act, log_sat,
             log_hm, log_diag, diag, s_int, s_par, pub_thr, pub_sched, noise, sst, sy, h_int,
             seen, log_y, log_est, h_par, h_state, log_hook,
+            sensing,
         )  # fmt: skip
     return _loop_result(st, tf, n_steps, t0, dt, log_every, log_t)
 
@@ -468,7 +476,7 @@ def _fused_loop_parallel(
     s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
     noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
     log_y: np.ndarray, log_est: np.ndarray, h_par: np.ndarray, h_state: np.ndarray,
-    log_hook: np.ndarray,
+    log_hook: np.ndarray, sensing: Any,
 ) -> tuple[int, int, float]:  # fmt: skip
     """:func:`_fused_loop` with the spacecraft spread over numba's threads (``prange``): each
     spacecraft's run is the same arithmetic in the same order, so the results are bit-identical
@@ -485,6 +493,7 @@ def _fused_loop_parallel(
             ref_dw, log_R, log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_act, log_sat,
             log_hm, log_diag, diag, s_int, s_par, pub_thr, pub_sched, noise, sst, sy, h_int,
             seen, log_y, log_est, h_par, h_state, log_hook,
+            sensing,
         )  # fmt: skip
         st[b] = s
         tf[b] = tb
@@ -591,7 +600,7 @@ def _one_vscmg(
     s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
     noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
     log_y: np.ndarray, log_est: np.ndarray, h_par: np.ndarray, h_state: np.ndarray,
-    log_hook: np.ndarray,
+    log_hook: np.ndarray, sensing: Any,
 ) -> tuple[int, float]:  # fmt: skip
     """The whole run of spacecraft ``b`` flying the full CMG model (as :func:`_one_spacecraft`
     for the momentum model): the law at every ``every_ctrl``-th step, the cluster's command
@@ -634,24 +643,26 @@ def _one_vscmg(
     for i in range(n):
         xc[0, i] = x[b, i]
     # the sensors and the measurement hook (as in _one_spacecraft)
-    n_sens = s_int.shape[0]
-    hook = h_int[0]
+    # (``sensing`` is None without sensors: numba prunes every ``sensing`` branch at compile
+    # time, so the loop without sensors compiles to the loop without this code)
     cur = 0
-    s_tmp = np.empty(30)
-    tmp = unowned_view(s_tmp)
-    s_int = unowned_view(s_int)
-    s_par = unowned_view(s_par)
-    pub_thr = unowned_view(pub_thr)
-    pub_sched = unowned_view(pub_sched)
-    h_int = unowned_view(h_int)
-    nz = unowned_view(noise[b])
-    stb = unowned_view(sst[b])
-    yb = unowned_view(sy[b])
-    sb = unowned_view(seen[b])
-    Rs = sb[:9].reshape((3, 3))
-    ws = sb[9:12]
-    h_par = unowned_view(h_par)
-    hsb = h_state[b]
+    if sensing is not None:
+        hook = h_int[0]
+        s_tmp = np.empty(30)
+        tmp = unowned_view(s_tmp)
+        si = unowned_view(s_int)
+        spar = unowned_view(s_par)
+        pthr = unowned_view(pub_thr)
+        psch = unowned_view(pub_sched)
+        hi = unowned_view(h_int)
+        nz = unowned_view(noise[b])
+        stb = unowned_view(sst[b])
+        yb = unowned_view(sy[b])
+        sb = unowned_view(seen[b])
+        Rs = sb[:9].reshape((3, 3))
+        ws = sb[9:12]
+        hp = unowned_view(h_par)
+        hsb = h_state[b]
     status = 0
     rows = 0
     t = t0
@@ -660,14 +671,17 @@ def _one_vscmg(
         t = t0 + k * dt
         r = ref_index[k]
         xb = xc[0]
-        if n_sens > 0:
+        if sensing is not None:
             cur = FS.sense_stage(
-                k, t, Rc[0], xb[:3], s_int, s_par, pub_thr, pub_sched, nz, cur, stb, yb, tmp
+                k, t, Rc[0], xb[:3], si, spar, pthr, psch, nz, cur, stb, yb, tmp
             )  # fmt: skip
         if k % every_ctrl == 0:
-            if hook != FS.HOOK_NONE:
+            hooked = False
+            if sensing is not None:
+                hooked = hook != FS.HOOK_NONE
+            if hooked:
                 if not FS.hook_stage(
-                    h_int, h_par, hsb, yb, sb, t, Rc[0], stb, log_hook, k // every_ctrl, b
+                    hi, hp, hsb, yb, sb, t, Rc[0], stb, log_hook, k // every_ctrl, b
                 ):
                     status = 3
                     break
@@ -717,10 +731,11 @@ def _one_vscmg(
             log_sat[rows, b] = sat
             for i in range(dg.shape[0]):
                 log_diag[rows, b, i] = dg[i]
-            for i in range(yb.shape[0]):
-                log_y[rows, b, i] = yb[i]
-            for i in range(log_est.shape[2]):
-                log_est[rows, b, i] = sb[i]
+            if sensing is not None:
+                for i in range(yb.shape[0]):
+                    log_y[rows, b, i] = yb[i]
+                for i in range(log_est.shape[2]):
+                    log_est[rows, b, i] = sb[i]
             rows += 1
         if k == n_steps:
             break
@@ -740,8 +755,11 @@ def _one_vscmg(
         xc, xn = xn, xc
     R[b] = Rc[0]
     x[b] = xc[0]
-    if buf.shape[0] == 0 or s_tmp.shape[0] == 0:  # the owners' last use (see _one_spacecraft)
+    if buf.shape[0] == 0:  # the owner's last use (see _one_spacecraft)
         status = -1
+    if sensing is not None:
+        if s_tmp.shape[0] == 0:
+            status = -1
     return status, t
 
 
@@ -760,7 +778,7 @@ def _fused_loop_vscmg(
     s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
     noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
     log_y: np.ndarray, log_est: np.ndarray, h_par: np.ndarray, h_state: np.ndarray,
-    log_hook: np.ndarray,
+    log_hook: np.ndarray, sensing: Any,
 ) -> tuple[int, int, float]:  # fmt: skip
     """:func:`_fused_loop` for the full CMG model (:func:`_one_vscmg` per spacecraft)."""
     B = R.shape[0]
@@ -773,6 +791,7 @@ def _fused_loop_vscmg(
             log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_vs, log_work, log_sat,
             log_diag, diag, s_int, s_par, pub_thr, pub_sched, noise, sst, sy, h_int, seen, log_y,
             log_est, h_par, h_state, log_hook,
+            sensing,
         )  # fmt: skip
     return _loop_result(st, tf, n_steps, t0, dt, log_every, log_t)
 
@@ -792,7 +811,7 @@ def _fused_loop_vscmg_parallel(
     s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
     noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
     log_y: np.ndarray, log_est: np.ndarray, h_par: np.ndarray, h_state: np.ndarray,
-    log_hook: np.ndarray,
+    log_hook: np.ndarray, sensing: Any,
 ) -> tuple[int, int, float]:  # fmt: skip
     """:func:`_fused_loop_vscmg` over numba's threads (bit-identical)."""
     B = R.shape[0]
@@ -806,6 +825,7 @@ def _fused_loop_vscmg_parallel(
             log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_vs, log_work, log_sat,
             log_diag, diag, s_int, s_par, pub_thr, pub_sched, noise, sst, sy, h_int, seen, log_y,
             log_est, h_par, h_state, log_hook,
+            sensing,
         )  # fmt: skip
         st[b] = s
         tf[b] = tb
@@ -1041,6 +1061,7 @@ def run_fused(
         log_act, log_sat, log_hm, log_diag, diag,
         sa.s_int, sa.s_par, sa.pub_thr, sa.pub_sched, sa.noise, sa.state, sa.y, sa.h_int,
         sa.seen, log_y, log_est, sa.h_par, sa.h_state, log_hook,
+        None if splan is None else True,
     )  # fmt: skip
     status, rows, t_fail = _call_loop(args, 19, workers, B, vscmg=False)
     if not _finished(status, t_fail, t0, controller, spec, notes):
@@ -1129,6 +1150,7 @@ def _run_vscmg(
         log_vs, log_work, log_sat, log_diag, diag,
         sa.s_int, sa.s_par, sa.pub_thr, sa.pub_sched, sa.noise, sa.state, sa.y, sa.h_int,
         sa.seen, log_y, log_est, sa.h_par, sa.h_state, log_hook,
+        None if splan is None else True,
     )  # fmt: skip
     status, rows, t_fail = _call_loop(args, 17, workers, B, vscmg=True)
     if not _finished(status, t_fail, t0, controller, spec, notes):
