@@ -6,7 +6,14 @@ per-axis or boresight noise, mounting misalignment), :class:`~spacecraft.sensors
 (latency, scheduled and random outages) — and the :class:`~spacecraft.simulator.StarTrackerGyro`
 hook run in the fused loop with the formulas of :mod:`spacecraft._kernels_sensors`, the same
 kernels the numpy classes call. Exact classes only: a subclass (which may override ``measure``)
-keeps the Python loop, as does any other sensor or hook, and :func:`sensor_plan` says why.
+keeps the Python loop, as does any other sensor, and :func:`sensor_plan` says why.
+
+**Estimator hooks.** A measurement hook may hand the loop a filter through the protocol method
+``fused_hook()``, returning an :class:`EstimatorHook` (an MEKF on the gyro model,
+:mod:`liecontrol._kernels.mekf`), or ``None`` for a configuration without a kernel; after the
+run the loop calls its ``fused_finish(...)`` with the filters' final state and consistency log
+(:func:`finish_hook`). The method speaks for the class that defines it and its subclasses that
+keep its ``__call__``. :class:`benchmarks.runner.FilteredAttitude` implements it for its MEKF.
 
 **The noise.** Every draw of these sensors is independent of the state: at each sample the
 Python loop draws, in the order of the ``sensors`` mapping, for each sensor sampled at that
