@@ -686,12 +686,7 @@ class FilteredAttitude:
             self.reset(float(t), B)
         if not self._filters:
             model = self._model()
-            # initial bias uncertainty: 10× the largest configured bias, at least 1e-5 rad/s
-            sb = max(10.0 * float(np.max(np.abs(self.spec.gyro_bias))), 1e-5)
-            # the first estimate is the tracker's output: its error is the tracker noise (Σ)
-            P0 = np.zeros((6, 6))
-            P0[:3, :3] = model.sigma_body
-            P0[3:, 3:] = sb**2 * np.eye(3)
+            P0 = self._initial_covariance(model)
             cls = MEKF if self.spec.estimator == "mekf" else ManifoldUKF
             self._filters = [
                 cls(model, np.concatenate([q_meas[b], np.zeros(3)]), P0) for b in range(B)
@@ -720,6 +715,55 @@ class FilteredAttitude:
         return AttitudeState(
             R=R, omega=w_meas - xs[:, 4:], h=truth.h, actuator_state=truth.actuator_state
         )
+
+    def fused_hook(self) -> Any:
+        """This hook for the simulator's compiled loop
+        (:class:`spacecraft._fused_sensors.EstimatorHook`): the MEKF has a kernel
+        (:mod:`liecontrol._kernels.mekf`), the UKF not (``None``: the Python loop
+        runs)."""
+        if self.spec.estimator != "mekf":
+            return None
+        from liecontrol.estimation import MEKF
+        from spacecraft._fused_sensors import EstimatorHook
+
+        model = self._model()
+        P0 = self._initial_covariance(model)
+        probe = MEKF(model, np.r_[1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], P0)
+        return EstimatorHook(
+            self.attitude, self.rate, float(model.sigma_v), float(model.sigma_u),
+            np.array(model.sigma_body), P0, float(probe.gate_threshold),
+            int(probe.gate_max_consecutive), self.gyro,
+        )  # fmt: skip
+
+    def fused_finish(
+        self, t_last: float, x: np.ndarray, P: np.ndarray, z_last: np.ndarray,
+        w_last: np.ndarray, gated_run: np.ndarray, logs: list[dict[str, list[float]]],
+    ) -> None:  # fmt: skip
+        """After a compiled run: the filters, the last sample and the consistency log as the
+        Python loop leaves them (:meth:`fused_hook`)."""
+        from liecontrol.estimation import MEKF
+
+        model = self._model()
+        self._filters = []
+        for b in range(x.shape[0]):
+            f = MEKF(model, x[b], P[b])
+            f._x, f._P = x[b].copy(), P[b].copy()
+            f._gated_run = int(gated_run[b])
+            self._filters.append(f)
+        self._t_last = t_last
+        self._z_last = z_last
+        self._w_last = w_last
+        self._log = logs
+
+    def _initial_covariance(self, model: Any) -> np.ndarray:
+        """P₀ = blockdiag(Σ, σ_b² I₃): the first estimate is the tracker's output (its error
+        is the tracker noise Σ); σ_b, the initial bias uncertainty, is 10× the largest
+        configured bias, at least 1e-5 rad/s."""
+        sb = max(10.0 * float(np.max(np.abs(self.spec.gyro_bias))), 1e-5)
+        P0 = np.zeros((6, 6))
+        P0[:3, :3] = model.sigma_body
+        P0[3:, 3:] = sb**2 * np.eye(3)
+        return P0
 
     def _log_errors(
         self, t: float, truth: AttitudeState, R_hat: np.ndarray, b_hat: np.ndarray

@@ -12,14 +12,17 @@ classes import this module (no import circle).
 
 :func:`run_fused` runs a whole :func:`spacecraft.simulator.simulate` call in compiled code when,
 in addition, the controller supplies a compiled law through the public seam
-:mod:`liecontrol.control.kernel` (``controller.fused_kernel(B)``) and no sensors, measurement
-hook, progress bar or compute delay are used. The loop knows no controller class: it calls the
-law it is given through a function pointer (a numba first-class function of the documented
-signature), carries the law's internal state array and logs its diagnostics rows, so one
-compiled loop (cached on disk) serves the built-in laws and a user's own alike. It produces the
-same :class:`~spacecraft.simulator.SimulationResult` as the per-step Python loop, which calls the
-same kernels one at a time. Anything else — a controller without a kernel, a Python
-disturbance — runs through that loop, and :func:`fused_supported` reports why.
+:mod:`liecontrol.control.kernel` (``controller.fused_kernel(B)``), the sensors and the
+measurement hook (if any) have kernels (:mod:`spacecraft._fused_sensors`: the built-in star
+tracker, rate gyro and ``TimedSensor``, the ``StarTrackerGyro`` hook and an MEKF hook through
+``fused_hook``) and no progress bar or compute delay is used. The loop knows no controller
+class: it calls the law it is given through a function pointer (a numba first-class function
+of the documented signature), carries the law's internal state array and logs its diagnostics
+rows, so one compiled loop (cached on disk) serves the built-in laws and a user's own alike.
+It produces the same :class:`~spacecraft.simulator.SimulationResult` as the per-step Python
+loop, which calls the same kernels one at a time. Anything else — a controller without a
+kernel, a Python disturbance, a user's sensor — runs through that loop, and
+:func:`fused_supported` reports why.
 """
 
 from __future__ import annotations
@@ -33,6 +36,7 @@ import numpy as np
 from liecontrol._jit import JIT_ENABLED, njit, prange
 from liecontrol.control import kernel as seam
 
+from . import _fused_sensors as FS
 from . import _kernels as K
 from ._kernels_vscmg import vscmg_command_one, vscmg_derivatives_one, vscmg_rkmk4_step_batch
 
@@ -217,6 +221,10 @@ def _one_spacecraft(
     log_wd: np.ndarray, log_ucmd: np.ndarray, log_u: np.ndarray, log_dist: np.ndarray,
     log_act: np.ndarray, log_sat: np.ndarray, log_hm: np.ndarray, log_diag: np.ndarray,
     diag: np.ndarray,
+    s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
+    noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
+    log_y: np.ndarray, log_est: np.ndarray, h_par: np.ndarray, h_state: np.ndarray,
+    log_hook: np.ndarray, sensing: Any,
 ) -> tuple[int, float]:  # fmt: skip
     """The whole run of spacecraft ``b`` (the loop's body, see :func:`_fused_loop`): every step
     of one spacecraft before the next, its state, command and scratch in locals and views made
@@ -277,14 +285,48 @@ def _one_spacecraft(
     # the command's sin/cos of the gimbal angles land where the step's first stage reads them
     sn = work[5 * n : 5 * n + mm]
     cs = work[6 * n : 6 * n + mm]
+    # the sensors and the measurement hook (spacecraft._fused_sensors; empty arrays without)
+    # (``sensing`` is None without sensors: numba prunes every ``sensing`` branch at compile
+    # time, so the loop without sensors compiles to the loop without this code)
+    cur = 0
+    if sensing is not None:
+        hook = h_int[0]
+        s_tmp = np.empty(30)
+        tmp = unowned_view(s_tmp)
+        si = unowned_view(s_int)
+        spar = unowned_view(s_par)
+        pthr = unowned_view(pub_thr)
+        psch = unowned_view(pub_sched)
+        hi = unowned_view(h_int)
+        nz = unowned_view(noise[b])
+        stb = unowned_view(sst[b])
+        yb = unowned_view(sy[b])
+        sb = unowned_view(seen[b])
+        Rs = sb[:9].reshape((3, 3))
+        ws = sb[9:12]
+        hp = unowned_view(h_par)
+        hsb = h_state[b]
     rows = 0
     status = 0
     t = t0
     for k in range(n_steps + 1):
         t = t0 + k * dt
         r = ref_index[k]
+        if sensing is not None:
+            cur = FS.sense_stage(
+                k, t, Rc, wc, si, spar, pthr, psch, nz, cur, stb, yb, tmp
+            )  # fmt: skip
         if k % every_ctrl == 0:
-            law(t, Rc, wc, rR[r, rb], rw[r, rb], rdw[r, rb], cparams, st, u_cmd, dg)
+            hooked = False
+            if sensing is not None:
+                hooked = hook != FS.HOOK_NONE
+            if hooked:
+                if not FS.hook_stage(hi, hp, hsb, yb, sb, t, Rc, stb, log_hook, k // every_ctrl, b):
+                    status = 3
+                    break
+                law(t, Rs, ws, rR[r, rb], rw[r, rb], rdw[r, rb], cparams, st, u_cmd, dg)
+            else:
+                law(t, Rc, wc, rR[r, rb], rw[r, rb], rdw[r, rb], cparams, st, u_cmd, dg)
             if not np.isfinite(u_cmd[0] + u_cmd[1] + u_cmd[2]):
                 status = 2
                 break
@@ -329,6 +371,11 @@ def _one_spacecraft(
                 log_sat[rows, b, i] = sat[i]
             for i in range(dg.shape[0]):
                 log_diag[rows, b, i] = dg[i]
+            if sensing is not None:
+                for i in range(yb.shape[0]):
+                    log_y[rows, b, i] = yb[i]
+                for i in range(log_est.shape[2]):
+                    log_est[rows, b, i] = sb[i]
             rows += 1
         if k == n_steps:
             break
@@ -366,6 +413,9 @@ def _one_spacecraft(
     x[b] = xc
     if buf.shape[0] == 0 or sat_own.shape[0] == 0:  # the owners' last use (see above)
         status = -1
+    if sensing is not None:
+        if s_tmp.shape[0] == 0:
+            status = -1
     return status, t
 
 
@@ -382,6 +432,10 @@ def _fused_loop(
     log_wd: np.ndarray, log_ucmd: np.ndarray, log_u: np.ndarray, log_dist: np.ndarray,
     log_act: np.ndarray, log_sat: np.ndarray, log_hm: np.ndarray, log_diag: np.ndarray,
     diag: np.ndarray,
+    s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
+    noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
+    log_y: np.ndarray, log_est: np.ndarray, h_par: np.ndarray, h_state: np.ndarray,
+    log_hook: np.ndarray, sensing: Any,
 ) -> tuple[int, int, float]:  # fmt: skip
     """The closed loop of :func:`spacecraft.simulator.simulate` for ``B`` spacecraft: the
     controller's ``law`` (a first-class function of :data:`liecontrol.control.kernel.
@@ -399,7 +453,9 @@ def _fused_loop(
             b, n_steps, t0, dt, every_ctrl, log_every, R, x, act, J, J_inv, S0, C0, dist, dp,
             clip_on, clip, steer, sp, rate_limit, law, cparams, cstate, ref_index, ref_R, ref_w,
             ref_dw, log_R, log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_act, log_sat,
-            log_hm, log_diag, diag,
+            log_hm, log_diag, diag, s_int, s_par, pub_thr, pub_sched, noise, sst, sy, h_int,
+            seen, log_y, log_est, h_par, h_state, log_hook,
+            sensing,
         )  # fmt: skip
     return _loop_result(st, tf, n_steps, t0, dt, log_every, log_t)
 
@@ -417,6 +473,10 @@ def _fused_loop_parallel(
     log_wd: np.ndarray, log_ucmd: np.ndarray, log_u: np.ndarray, log_dist: np.ndarray,
     log_act: np.ndarray, log_sat: np.ndarray, log_hm: np.ndarray, log_diag: np.ndarray,
     diag: np.ndarray,
+    s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
+    noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
+    log_y: np.ndarray, log_est: np.ndarray, h_par: np.ndarray, h_state: np.ndarray,
+    log_hook: np.ndarray, sensing: Any,
 ) -> tuple[int, int, float]:  # fmt: skip
     """:func:`_fused_loop` with the spacecraft spread over numba's threads (``prange``): each
     spacecraft's run is the same arithmetic in the same order, so the results are bit-identical
@@ -431,7 +491,9 @@ def _fused_loop_parallel(
             b, n_steps, t0, dt, every_ctrl, log_every, R, x, act, J, J_inv, S0, C0, dist, dp,
             clip_on, clip, steer, sp, rate_limit, law, cparams, cstate, ref_index, ref_R, ref_w,
             ref_dw, log_R, log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_act, log_sat,
-            log_hm, log_diag, diag,
+            log_hm, log_diag, diag, s_int, s_par, pub_thr, pub_sched, noise, sst, sy, h_int,
+            seen, log_y, log_est, h_par, h_state, log_hook,
+            sensing,
         )  # fmt: skip
         st[b] = s
         tf[b] = tb
@@ -535,6 +597,10 @@ def _one_vscmg(
     log_wd: np.ndarray, log_ucmd: np.ndarray, log_u: np.ndarray, log_dist: np.ndarray,
     log_vs: np.ndarray, log_work: np.ndarray, log_sat: np.ndarray, log_diag: np.ndarray,
     diag: np.ndarray,
+    s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
+    noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
+    log_y: np.ndarray, log_est: np.ndarray, h_par: np.ndarray, h_state: np.ndarray,
+    log_hook: np.ndarray, sensing: Any,
 ) -> tuple[int, float]:  # fmt: skip
     """The whole run of spacecraft ``b`` flying the full CMG model (as :func:`_one_spacecraft`
     for the momentum model): the law at every ``every_ctrl``-th step, the cluster's command
@@ -576,6 +642,27 @@ def _one_vscmg(
             Rc[0, i, j] = R[b, i, j]
     for i in range(n):
         xc[0, i] = x[b, i]
+    # the sensors and the measurement hook (as in _one_spacecraft)
+    # (``sensing`` is None without sensors: numba prunes every ``sensing`` branch at compile
+    # time, so the loop without sensors compiles to the loop without this code)
+    cur = 0
+    if sensing is not None:
+        hook = h_int[0]
+        s_tmp = np.empty(30)
+        tmp = unowned_view(s_tmp)
+        si = unowned_view(s_int)
+        spar = unowned_view(s_par)
+        pthr = unowned_view(pub_thr)
+        psch = unowned_view(pub_sched)
+        hi = unowned_view(h_int)
+        nz = unowned_view(noise[b])
+        stb = unowned_view(sst[b])
+        yb = unowned_view(sy[b])
+        sb = unowned_view(seen[b])
+        Rs = sb[:9].reshape((3, 3))
+        ws = sb[9:12]
+        hp = unowned_view(h_par)
+        hsb = h_state[b]
     status = 0
     rows = 0
     t = t0
@@ -584,8 +671,23 @@ def _one_vscmg(
         t = t0 + k * dt
         r = ref_index[k]
         xb = xc[0]
+        if sensing is not None:
+            cur = FS.sense_stage(
+                k, t, Rc[0], xb[:3], si, spar, pthr, psch, nz, cur, stb, yb, tmp
+            )  # fmt: skip
         if k % every_ctrl == 0:
-            law(t, Rc[0], xb[:3], rR[r, rb], rw[r, rb], rdw[r, rb], cparams, st, u_cmd, dg)
+            hooked = False
+            if sensing is not None:
+                hooked = hook != FS.HOOK_NONE
+            if hooked:
+                if not FS.hook_stage(
+                    hi, hp, hsb, yb, sb, t, Rc[0], stb, log_hook, k // every_ctrl, b
+                ):
+                    status = 3
+                    break
+                law(t, Rs, ws, rR[r, rb], rw[r, rb], rdw[r, rb], cparams, st, u_cmd, dg)
+            else:
+                law(t, Rc[0], xb[:3], rR[r, rb], rw[r, rb], rdw[r, rb], cparams, st, u_cmd, dg)
             if not np.isfinite(u_cmd[0] + u_cmd[1] + u_cmd[2]):
                 status = 2
                 break
@@ -629,6 +731,11 @@ def _one_vscmg(
             log_sat[rows, b] = sat
             for i in range(dg.shape[0]):
                 log_diag[rows, b, i] = dg[i]
+            if sensing is not None:
+                for i in range(yb.shape[0]):
+                    log_y[rows, b, i] = yb[i]
+                for i in range(log_est.shape[2]):
+                    log_est[rows, b, i] = sb[i]
             rows += 1
         if k == n_steps:
             break
@@ -650,6 +757,9 @@ def _one_vscmg(
     x[b] = xc[0]
     if buf.shape[0] == 0:  # the owner's last use (see _one_spacecraft)
         status = -1
+    if sensing is not None:
+        if s_tmp.shape[0] == 0:
+            status = -1
     return status, t
 
 
@@ -665,6 +775,10 @@ def _fused_loop_vscmg(
     log_wd: np.ndarray, log_ucmd: np.ndarray, log_u: np.ndarray, log_dist: np.ndarray,
     log_vs: np.ndarray, log_work: np.ndarray, log_sat: np.ndarray, log_diag: np.ndarray,
     diag: np.ndarray,
+    s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
+    noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
+    log_y: np.ndarray, log_est: np.ndarray, h_par: np.ndarray, h_state: np.ndarray,
+    log_hook: np.ndarray, sensing: Any,
 ) -> tuple[int, int, float]:  # fmt: skip
     """:func:`_fused_loop` for the full CMG model (:func:`_one_vscmg` per spacecraft)."""
     B = R.shape[0]
@@ -675,7 +789,9 @@ def _fused_loop_vscmg(
             b, n_steps, t0, dt, every_ctrl, log_every, R, x, kin, var, ff, par, M, dist, dp,
             steer, sp, rate_limit, law, cparams, cstate, ref_index, ref_R, ref_w, ref_dw, log_R,
             log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_vs, log_work, log_sat,
-            log_diag, diag,
+            log_diag, diag, s_int, s_par, pub_thr, pub_sched, noise, sst, sy, h_int, seen, log_y,
+            log_est, h_par, h_state, log_hook,
+            sensing,
         )  # fmt: skip
     return _loop_result(st, tf, n_steps, t0, dt, log_every, log_t)
 
@@ -692,6 +808,10 @@ def _fused_loop_vscmg_parallel(
     log_wd: np.ndarray, log_ucmd: np.ndarray, log_u: np.ndarray, log_dist: np.ndarray,
     log_vs: np.ndarray, log_work: np.ndarray, log_sat: np.ndarray, log_diag: np.ndarray,
     diag: np.ndarray,
+    s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
+    noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
+    log_y: np.ndarray, log_est: np.ndarray, h_par: np.ndarray, h_state: np.ndarray,
+    log_hook: np.ndarray, sensing: Any,
 ) -> tuple[int, int, float]:  # fmt: skip
     """:func:`_fused_loop_vscmg` over numba's threads (bit-identical)."""
     B = R.shape[0]
@@ -703,7 +823,9 @@ def _fused_loop_vscmg_parallel(
             b, n_steps, t0, dt, every_ctrl, log_every, R, x, kin, var, ff, par, M, dist, dp,
             steer, sp, rate_limit, law, cparams, cstate, ref_index, ref_R, ref_w, ref_dw, log_R,
             log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_vs, log_work, log_sat,
-            log_diag, diag,
+            log_diag, diag, s_int, s_par, pub_thr, pub_sched, noise, sst, sy, h_int, seen, log_y,
+            log_est, h_par, h_state, log_hook,
+            sensing,
         )  # fmt: skip
         st[b] = s
         tf[b] = tb
@@ -759,10 +881,11 @@ def fused_supported(
     control_period: float | None = None,
     reasons: list[str] | None = None,
     **extra: Any,
-) -> tuple[PlantKernel | VscmgPlan, seam.ControllerKernel] | None:
-    """``(plant kernel, controller kernel)`` when :func:`run_fused` applies, else ``None`` —
-    and then, when ``reasons`` is given, one sentence appended to it saying which part keeps
-    the Python loop."""
+) -> tuple[PlantKernel | VscmgPlan, seam.ControllerKernel, FS.SensorPlan | None] | None:
+    """``(plant kernel, controller kernel, sensor plan)`` when :func:`run_fused` applies (the
+    sensor plan ``None`` without sensors and hook: :func:`spacecraft._fused_sensors.
+    sensor_plan`), else ``None`` — and then, when ``reasons`` is given, one sentence appended
+    to it saying which part keeps the Python loop."""
 
     def no(why: str) -> None:
         if reasons is not None:
@@ -770,10 +893,11 @@ def fused_supported(
 
     if not JIT_ENABLED:
         return no("numba is not available (or LIECONTROL_DISABLE_JIT is set)")
-    if sensors:
-        return no("sensors in the loop have no compiled kernel")
-    if measurement is not None:
-        return no("the measurement hook has no compiled kernel")
+    splan = None
+    if sensors or measurement is not None:
+        splan, why = FS.sensor_plan(sensors or (), measurement)
+        if splan is None:
+            return no(why)
     if progress:
         return no("the progress bar needs the Python loop")
     for name, v in extra.items():
@@ -787,7 +911,7 @@ def fused_supported(
     spec, why = seam.resolve(controller, batch_size, control_period)
     if spec is None:
         return no(why)
-    return pk, spec
+    return pk, spec, splan
 
 
 def _reference_samples(
@@ -842,7 +966,7 @@ def _reference_samples(
 
 
 def run_fused(
-    plan: tuple[PlantKernel | VscmgPlan, seam.ControllerKernel],
+    plan: tuple[PlantKernel | VscmgPlan, seam.ControllerKernel, FS.SensorPlan | None],
     plant: Any,
     controller: Any,
     reference: Any,
@@ -857,6 +981,8 @@ def run_fused(
     make_log: Callable[[int, int], Any],
     notes: list[str] | None = None,
     workers: int = 1,
+    rng: np.random.Generator | None = None,
+    measurement: Any = None,
 ) -> Any:
     """The whole run in :func:`_fused_loop`; returns the
     :class:`~spacecraft.simulator.SimulationResult`, or ``None`` when the run must go through
@@ -864,8 +990,14 @@ def run_fused(
     reports the failure with its partial log; ``notes`` then gets one sentence why).
     ``make_log(rows, B)`` builds the simulator's log. Raises ``ValueError`` naming the
     controller and the argument when its kernel is malformed (:func:`liecontrol.control.
-    kernel.check`)."""
-    pk, spec = plan
+    kernel.check`).
+
+    With sensors (``plan[2]``), the sensors are reset (``reset(B, rng)``, then the hook's
+    ``reset(t0, B)``, as the Python loop does) and their noise is drawn from ``rng`` before the
+    loop (:func:`spacecraft._fused_sensors.draw_noise`); a caller that falls back to the Python
+    loop restores ``rng``'s state first."""
+    pk, spec = plan[0], plan[1]
+    splan = plan[2] if len(plan) > 2 else None
     B, n = x0.shape
     steps = np.arange(n_steps + 1)
     times = t0 + steps * dt
@@ -887,11 +1019,26 @@ def run_fused(
         # what command() would say of the initial state at its first sample, before any step
         spec.preflight(float(t0), R0, x0[:, :3], reference(float(t0)))
     Kr = n_steps // log_every + 1 + (1 if n_steps % log_every else 0)
+    if splan is None:
+        sa = FS.empty_arrays(B)
+    else:
+        for sensor in splan.sensors:
+            if callable(getattr(sensor, "reset", None)):
+                sensor.reset(B, rng)
+        if measurement is not None and callable(getattr(measurement, "reset", None)):
+            measurement.reset(t0, B)
+        try:
+            sa = FS.prepare(splan, rng, B, float(t0), float(dt), n_steps)
+        except MemoryError:
+            if notes is not None:
+                notes.append("the sensors' noise of this run does not fit in memory")
+            return None
     log = make_log(Kr, B)
     if isinstance(pk, VscmgPlan):
         return _run_vscmg(
             pk, spec, plant, controller, index, ref_R, ref_w, ref_dw, R0, x0, t0, n_steps, dt,
-            every_ctrl, log_every, control_period, log, Kr, cparams, cstate, notes, workers,
+            every_ctrl, log_every, control_period, log, Kr, cparams, cstate, notes, workers, sa,
+            splan, measurement,
         )  # fmt: skip
     n_held = 3 if pk.act == K.ACT_IDEAL else n - 3
     log_act = np.empty((Kr, B, (n - 3) + n_held))
@@ -901,6 +1048,9 @@ def run_fused(
     n_diag = int(spec.n_diag)
     diag = np.zeros((B, n_diag))
     log_diag = np.empty((Kr, B, n_diag))
+    log_y = np.empty((Kr, B, sa.y.shape[1]))
+    log_est = np.empty((Kr, B, sa.n_est))
+    log_hook = FS.hook_log(sa, n_steps, every_ctrl, B)
     clip = pk.clip if pk.clip is not None else np.zeros(3)
     args = (
         n_steps, float(t0), float(dt), every_ctrl, log_every, R0, x0,
@@ -909,12 +1059,18 @@ def run_fused(
         spec.law, cparams, cstate, index, ref_R, ref_w, ref_dw,
         log.t, log.R, log.omega, log.R_d, log.omega_d, log.u_cmd, log.u, log.disturbance,
         log_act, log_sat, log_hm, log_diag, diag,
+        sa.s_int, sa.s_par, sa.pub_thr, sa.pub_sched, sa.noise, sa.state, sa.y, sa.h_int,
+        sa.seen, log_y, log_est, sa.h_par, sa.h_state, log_hook,
+        None if splan is None else True,
     )  # fmt: skip
     status, rows, t_fail = _call_loop(args, 19, workers, B, vscmg=False)
     if not _finished(status, t_fail, t0, controller, spec, notes):
         return None
     log.rows = rows
     d = log.dicts
+    if splan is not None:
+        FS.finish(splan, sa, log_y, log_est, d, B, n_steps)
+        FS.finish_hook(splan, sa, log_hook, measurement)
     if pk.act == K.ACT_SGCMG:
         d["actuator"]["delta"] = log_act[:, :, : n - 3]
         d["actuator"]["delta_dot"] = log_act[:, :, n - 3 :]
@@ -957,6 +1113,9 @@ def _finished(
             what = "the state became non-finite" if status == 1 else (
                 f"controller {type(controller).__name__}'s compiled law returned a non-finite "
                 "torque"
+            ) if status != 3 else (
+                "the estimator hook's covariance lost positive definiteness (the numpy filter "
+                "repairs it)"
             )  # fmt: skip
             notes.append(f"{what} at t = {t_fail!r}; the run is repeated in the Python loop")
         return False
@@ -968,7 +1127,8 @@ def _run_vscmg(
     index: np.ndarray, ref_R: np.ndarray, ref_w: np.ndarray, ref_dw: np.ndarray,
     R0: np.ndarray, x0: np.ndarray, t0: float, n_steps: int, dt: float, every_ctrl: int,
     log_every: int, control_period: float, log: Any, Kr: int, cparams: np.ndarray,
-    cstate: np.ndarray, notes: list[str] | None, workers: int,
+    cstate: np.ndarray, notes: list[str] | None, workers: int, sa: FS.SensorArrays,
+    splan: FS.SensorPlan | None, measurement: Any,
 ) -> Any:  # fmt: skip
     """:func:`run_fused` for the full CMG model (:func:`_fused_loop_vscmg`)."""
     B = x0.shape[0]
@@ -978,6 +1138,9 @@ def _run_vscmg(
     log_vs = np.empty((Kr, B, 8, 4))
     log_work = np.empty((Kr, B))
     log_sat = np.empty((Kr, B), dtype=np.bool_)
+    log_y = np.empty((Kr, B, sa.y.shape[1]))
+    log_est = np.empty((Kr, B, sa.n_est))
+    log_hook = FS.hook_log(sa, n_steps, every_ctrl, B)
     args = (
         n_steps, float(t0), float(dt), every_ctrl, log_every, R0, x0,
         vp.kinematic, vp.variable_speed, vp.feedforward, vp.par, vp.M, vp.dist, vp.dist_params,
@@ -985,11 +1148,17 @@ def _run_vscmg(
         spec.law, cparams, cstate, index, ref_R, ref_w, ref_dw,
         log.t, log.R, log.omega, log.R_d, log.omega_d, log.u_cmd, log.u, log.disturbance,
         log_vs, log_work, log_sat, log_diag, diag,
+        sa.s_int, sa.s_par, sa.pub_thr, sa.pub_sched, sa.noise, sa.state, sa.y, sa.h_int,
+        sa.seen, log_y, log_est, sa.h_par, sa.h_state, log_hook,
+        None if splan is None else True,
     )  # fmt: skip
     status, rows, t_fail = _call_loop(args, 17, workers, B, vscmg=True)
     if not _finished(status, t_fail, t0, controller, spec, notes):
         return None
     log.rows = rows
+    if splan is not None:
+        FS.finish(splan, sa, log_y, log_est, log.dicts, B, n_steps)
+        FS.finish_hook(splan, sa, log_hook, measurement)
     a = log.dicts["actuator"]
     a["delta"] = log_vs[:, :, _VS_DELTA]
     a["delta_dot"] = log_vs[:, :, _VS_RATE]

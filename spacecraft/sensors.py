@@ -53,6 +53,8 @@ from liecontrol._validation import (
 from liecontrol.charts import euler, quaternion
 from liecontrol.lie import so3
 
+from . import _kernels_sensors as _ks
+
 __all__ = [
     "PARALLEL_TOL",
     "triad",
@@ -67,6 +69,12 @@ __all__ = [
 PARALLEL_TOL = 1e-6
 
 _OUTPUTS = ("quaternion", "euler", "matrix")
+
+#: placeholders of the kernels' unused matrix arguments (read only)
+_EYE3 = np.eye(3)
+_ZERO33 = np.zeros((3, 3))
+_EYE3.setflags(write=False)
+_ZERO33.setflags(write=False)
 
 
 def _check_rng(rng: object) -> np.random.Generator:
@@ -249,15 +257,17 @@ class StarTracker:
         """Noisy attitude matrices ``(B, 3, 3)``: R exp(m^) exp(δ^)."""
         R = _batch_R(R)
         rng = _check_rng(rng)
-        if self._LT is None:
-            delta = rng.standard_normal(R.shape[:-1]) * self.noise_std
-        else:
-            delta = rng.standard_normal(R.shape[:-1]) @ self._LT
-        # exp(m^) is computed once at construction; for m = 0 it is I exactly and R I = R
-        # bitwise, so the product is skipped (so3.exp costs ~25 µs per call at B = 1)
-        if self._mis_R is not None:
-            R = R @ self._mis_R
-        return R @ so3.exp(delta)
+        z = rng.standard_normal(R.shape[:-1])
+        # the compiled kernel (spacecraft._kernels_sensors.star_tracker_into), as the fused loop
+        return _ks.star_tracker_batch(np.ascontiguousarray(R), *self.kernel_args(), z)
+
+    def kernel_args(self) -> tuple[bool, np.ndarray, bool, np.ndarray, np.ndarray]:
+        """``(mis_on, exp(m^), per_axis, σ, Lᵀ)``: the parameters of
+        :func:`spacecraft._kernels_sensors.star_tracker_into` (exp(m^) is computed once at
+        construction; for m = 0 it is skipped, R I = R bitwise)."""
+        mis = _EYE3 if self._mis_R is None else self._mis_R
+        LT = _ZERO33 if self._LT is None else self._LT
+        return self._mis_R is not None, mis, self._LT is None, self.noise_std, LT
 
     def measure(self, t: float, R: object, omega: object, rng: np.random.Generator) -> np.ndarray:
         """Measurement at sample time ``t`` in the configured ``output`` form (``t`` and
@@ -419,27 +429,39 @@ class RateGyro:
                 f"got {omega.shape} (call reset(batch_size))"
             )
         t = as_scalar(t, "t")
-        bias = state.bias
         dt = 0.0
-        if state.t_last is not None:
+        advance = state.t_last is not None
+        zb = None
+        if advance:
             dt = t - state.t_last
             if dt < 0:
                 raise ValueError(f"t: {t} is before the previous sample {state.t_last}")
-            bias = bias + rng.standard_normal(bias.shape) * (self.bias_rw_std * np.sqrt(dt))
-        sensed = omega if self._CT is None else omega @ self._CT
-        filtered = None
-        if self.bandwidth is not None:
-            if state.filtered is None:
-                filtered = sensed.copy()  # the filter starts in steady state
-            else:
-                alpha = np.exp(-2.0 * np.pi * self.bandwidth * dt)
-                filtered = alpha * state.filtered + (1.0 - alpha) * sensed
-            sensed = filtered
-        meas = sensed + bias + rng.standard_normal(omega.shape) * self.white_std
-        q = self.quantization
-        if np.any(q > 0):
-            meas = np.where(q > 0, np.round(meas / np.where(q > 0, q, 1.0)) * q, meas)
+            zb = rng.standard_normal(state.bias.shape)  # the bias walk's draw, then the white
+        zw = rng.standard_normal(omega.shape)
+        bias = np.array(state.bias, dtype=np.float64)  # a copy: the state is immutable
+        first = state.filtered is None
+        filtered = np.zeros(omega.shape) if first else np.array(state.filtered, dtype=np.float64)
+        # the compiled kernel (spacecraft._kernels_sensors.gyro_sample_into), as the fused loop
+        meas = _ks.gyro_sample_batch(
+            np.ascontiguousarray(omega, dtype=np.float64), bias, filtered, advance, float(dt),
+            *self.kernel_args(), first, np.zeros(omega.shape) if zb is None else zb, zw,
+        )  # fmt: skip
+        if self.bandwidth is None:
+            filtered = None
         return meas, replace(state, bias=bias, t_last=t, filtered=filtered)
+
+    def kernel_args(
+        self,
+    ) -> tuple[bool, np.ndarray, bool, float, np.ndarray, np.ndarray, np.ndarray]:
+        """``(ct_on, (I + S + M)ᵀ, bw_on, f_c, σ_u, σ_v, q)`` of
+        :func:`spacecraft._kernels_sensors.gyro_sample_into` (the filter's first-sample flag
+        and the draws follow in its call)."""
+        ct = self._CT is not None
+        bw = self.bandwidth is not None
+        return (
+            ct, self._CT if ct else _EYE3, bw, float(self.bandwidth) if bw else 0.0,
+            self.bias_rw_std, self.white_std, self.quantization,
+        )  # fmt: skip
 
     def measure(self, t: float, R: object, omega: object, rng: np.random.Generator) -> np.ndarray:
         """Measured body rate ``(B, 3)`` at sample time ``t``; advances the held state."""
@@ -652,6 +674,11 @@ class TimedSensor:
         self.valid: np.ndarray | None = None
         self._reset_buffers()
 
+    @property
+    def outage_probability(self) -> float:
+        """p = 1 − exp(−λP): the chance that a random outage starts at a publication."""
+        return float(-np.expm1(-self.outage_rate * self.update_period))
+
     def _reset_buffers(self) -> None:
         self._calls = 0
         self._history: deque[tuple[float, np.ndarray, np.ndarray | None]] = deque(
@@ -695,11 +722,18 @@ class TimedSensor:
         t_m, R_m, w_m = self._history[0]
         if self._outage_end is None or self._outage_end.shape != (B,):
             self._outage_end = np.full(B, -np.inf)
+        else:
+            self._outage_end = self._outage_end.copy()  # updated in place below
         if self.outage_rate > 0:
-            p = -np.expm1(-self.outage_rate * self.update_period)
-            start = (self._outage_end <= t + _time_tol(t)) & (rng.random(B) < p)
-            self._outage_end = np.where(start, t + self.outage_duration, self._outage_end)
-        out_now = (self._outage_end > t + _time_tol(t)) | self.in_scheduled_outage(t)
+            hit = rng.random(B) < self.outage_probability
+            duration = float(self.outage_duration)
+        else:
+            hit = np.zeros(B, dtype=bool)
+            duration = 0.0
+        # the compiled kernel (spacecraft._kernels_sensors.outage_step), as the fused loop
+        out_now = _ks.outage_batch(
+            self._outage_end, t + _time_tol(t), t, duration, hit, self.in_scheduled_outage(t)
+        )
         y = np.asarray(self.sensor.measure(t_m, R_m, w_m, rng))
         if self._held is None:
             held = y.copy()  # nothing to hold yet: the first output stands (flagged if invalid)

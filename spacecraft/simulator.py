@@ -48,6 +48,7 @@ from liecontrol.control.kernel import NonFiniteTorque
 from liecontrol.lie import so3
 
 from ._fused import fused_supported, run_fused
+from ._kernels_sensors import unit_quaternion_matrix_batch
 from .disturbances import SumOfDisturbances
 from .plant import PlantState, Spacecraft
 
@@ -463,35 +464,10 @@ def _finite(a: np.ndarray) -> bool:
 def _unit_quaternion_to_matrix(q: np.ndarray) -> np.ndarray:
     """R (body → inertial) of scalar-first quaternions ``(B, 4)``, normalised first (a sensor's
     output is unit up to round-off); the hook runs at every control sample, so this skips
-    :func:`liecontrol.charts.quaternion.to_matrix`'s validation (~10× cheaper at B = 1).
-
+    :func:`liecontrol.charts.quaternion.to_matrix`'s validation. The compiled kernel
+    :func:`spacecraft._kernels_sensors.unit_quaternion_matrix_into` (the fused loop's):
     R = I + 2w v^ + 2 v^² with q = (w, v) (Hamilton, design.md)."""
-    if q.shape == (1, 4):  # one spacecraft: Python floats, ~5× cheaper than 9 numpy stores
-        w, x, y, z = q[0].tolist()
-        n = math.sqrt(w * w + x * x + y * y + z * z)
-        w, x, y, z = w / n, x / n, y / n, z / n
-        return np.array(
-            [
-                [
-                    [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)],
-                    [2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)],
-                    [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)],
-                ]
-            ]
-        )
-    n = np.sqrt(np.einsum("...i,...i->...", q, q))
-    w, x, y, z = np.moveaxis(q / n[..., None], -1, 0)
-    R = np.empty(q.shape[:-1] + (3, 3))
-    R[..., 0, 0] = 1.0 - 2.0 * (y * y + z * z)
-    R[..., 0, 1] = 2.0 * (x * y - w * z)
-    R[..., 0, 2] = 2.0 * (x * z + w * y)
-    R[..., 1, 0] = 2.0 * (x * y + w * z)
-    R[..., 1, 1] = 1.0 - 2.0 * (x * x + z * z)
-    R[..., 1, 2] = 2.0 * (y * z - w * x)
-    R[..., 2, 0] = 2.0 * (x * z - w * y)
-    R[..., 2, 1] = 2.0 * (y * z + w * x)
-    R[..., 2, 2] = 1.0 - 2.0 * (x * x + y * y)
-    return R
+    return unit_quaternion_matrix_batch(np.ascontiguousarray(q, dtype=np.float64))
 
 
 def _horizon_steps(t0: object, t_final: object, dt: float) -> tuple[float, float, int]:
@@ -652,7 +628,13 @@ def simulate(
         measurement: hook ``(t, held sensor outputs, truth: AttitudeState) -> AttitudeState``
             turning the sensor outputs into what the controller sees (e.g.
             :class:`StarTrackerGyro`), called at each control sample; optional ``reset(t0, B)``
-            and ``required() -> names``. Default: the controller sees the true state.
+            and ``required() -> names``. Default: the controller sees the true state. The
+            built-in sensors (:class:`~spacecraft.sensors.StarTracker` with quaternion or matrix
+            output, :class:`~spacecraft.sensors.RateGyro`, either in a
+            :class:`~spacecraft.sensors.TimedSensor`), :class:`StarTrackerGyro` and a hook
+            whose ``fused_hook()`` gives an MEKF (:class:`spacecraft._fused_sensors.
+            EstimatorHook`) run in the compiled loop, with the noise drawn from ``rng`` in the
+            Python loop's order (the same result).
         rng: seeded ``numpy.random.Generator`` for the sensor noise (required with sensors).
         compute_delay: τ ≥ 0 [s], a non-negative integer multiple of ``dt`` (relative tolerance
             1e-9): the torque the controller computes at t_k reaches the actuator at t_k + τ
@@ -768,11 +750,15 @@ def simulate(
         plant, ctrl, sensor_list, measurement, progress, batch_size=B,
         control_period=control_period, reasons=reasons, compute_delay=compute_delay,
     )  # fmt: skip
+    # the fused loop draws the sensors' noise before it runs: a fallback starts from the same
+    # generator state
+    rng_state = rng.bit_generator.state if (fused is not None and rng is not None) else None
     if fused is not None:
         try:
             result = run_fused(
                 fused, plant, ctrl, reference, state.R, state.packed(), t0, n_steps, dt,
-                every_ctrl, log_every, control_period, _Log, reasons, workers=workers,
+                every_ctrl, log_every, control_period, _Log, reasons, workers=workers, rng=rng,
+                measurement=measurement,
             )  # fmt: skip
         except NonFiniteTorque:
             # the controller's own (Python) command at the first sample: a built-in law raises
@@ -786,6 +772,8 @@ def simulate(
         if result is not None:
             return result
         ctrl.reset(t0, B)  # a failing run is repeated below, which reports the failure
+        if rng_state is not None:
+            rng.bit_generator.state = rng_state
     if reasons:
         why = reasons[0]
         if ctrl is not controller and why.startswith(f"controller {type(ctrl).__name__} "):

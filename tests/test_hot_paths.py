@@ -226,16 +226,21 @@ def test_payload_float_torque_equals_torque_terms():
 
 
 def test_star_tracker_cached_misalignment():
+    """R exp(m^) exp(δ^) with exp(m^) computed once (the compiled kernel of both simulator
+    routes, spacecraft._kernels_sensors.star_tracker_into: its Rodrigues sin/cos form and
+    so3.exp's tan form agree to a few ulp); m = 0 skips the product, R I = R exactly."""
     rng = np.random.default_rng(9)
     R = so3.exp(rng.normal(size=(3, 3)))
     m = np.array([1e-3, -2e-3, 5e-4])
     st = StarTracker(noise_std=1e-4, output="matrix", misalignment=m)
     got = st.measure(0.0, R, None, np.random.default_rng(1))
     delta = np.random.default_rng(1).standard_normal((3, 3)) * 1e-4
-    np.testing.assert_array_equal(got, R @ so3.exp(m) @ so3.exp(delta))
+    np.testing.assert_allclose(got, R @ so3.exp(m) @ so3.exp(delta), rtol=0, atol=1e-15)
+    assert st.kernel_args()[1] is st._mis_R
     st0 = StarTracker(noise_std=1e-4, output="matrix")
     got0 = st0.measure(0.0, R, None, np.random.default_rng(1))
-    np.testing.assert_array_equal(got0, R @ so3.exp(np.zeros(3)) @ so3.exp(delta))
+    np.testing.assert_allclose(got0, R @ so3.exp(delta), rtol=0, atol=1e-15)
+    assert st0.kernel_args()[0] is False
 
 
 @pytest.mark.parametrize("disturbance", [None, ConstantHarmonicTorque()])
