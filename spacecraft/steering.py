@@ -91,9 +91,27 @@ _DET_REL_TRUST = 1e-10
 
 # ---------------------------------------------------------------------------- linear algebra
 def _solve_spd3(M: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """Solve M X = rhs for symmetric positive-definite ``M (..., 3, 3)``, ``rhs (..., 3, k)``
-    (LU with partial pivoting, batched: LAPACK for NumPy, XLA's for JAX)."""
-    return namespace(M, rhs).linalg.solve(M, rhs)
+    """Solve M X = rhs for symmetric positive-definite ``M (..., 3, 3)``, ``rhs (..., 3, k)``.
+
+    NumPy: LU with partial pivoting (LAPACK, batched). JAX: Cramer's rule on the symmetric 3×3
+    (adjugate from the upper triangle, elementwise), the compiled kernel's formula
+    (:func:`spacecraft._kernels._regularised_multiplier`; callers regularise M, so det > 0):
+    XLA's batched LU custom call inside the closed loop's scan stopped making progress (0 % CPU,
+    no return) for batches of 8 192 and more on the CPU (jax 0.10.2), and an elementwise
+    solve is what a vmapped 3×3 wants on an accelerator anyway."""
+    xp = namespace(M, rhs)
+    if xp is np:
+        return np.linalg.solve(M, rhs)
+    a, b, c = M[..., 0, 0], M[..., 0, 1], M[..., 0, 2]
+    d, e, f = M[..., 1, 1], M[..., 1, 2], M[..., 2, 2]
+    c00, c01, c02 = d * f - e * e, c * e - b * f, b * e - c * d
+    c11, c12, c22 = a * f - c * c, b * c - a * e, a * d - b * b
+    det = a * c00 + b * c01 + c * c02
+    adj = xp.stack(
+        (xp.stack((c00, c01, c02), -1), xp.stack((c01, c11, c12), -1),
+         xp.stack((c02, c12, c22), -1)), -2,
+    )  # fmt: skip
+    return (adj @ rhs) / det[..., None, None]
 
 
 def _gram_entries(A: np.ndarray) -> tuple[np.ndarray, ...]:
