@@ -207,17 +207,17 @@ def _gain(k: Any, name: str) -> Any:
 class JaxClosedLoop:
     """A closed loop prepared for JAX by :func:`closed_loop` (see the module docstring).
 
-    Attributes mirror the validated parts: plant inertia ``J``/``J_inv``, the controller's
-    model inertia ``J_ctrl``, gains ``k_R``/``k_Omega`` (floats or 3×3), ``error``,
-    ``max_torque`` (``None``, a float or ``(3,)``), the reference samples ``R_d`` ``(n_ctrl, 3,
-    3)`` or ``(3, 3)`` when constant (likewise ``omega_d``, ``omega_dot_d``), the step ``dt``,
-    ``n_sub`` steps per control period and ``n_ctrl`` periods from ``t0``; with the SGCMG
-    cluster its ``cluster``, ``steering`` law, gimbal ``rate_limit`` and ``delta0`` ``(4,)`` or
-    ``(B, 4)`` (``None`` for the ideal actuator). The reference arrays hold ``n_ctrl + 1``
-    samples when they vary (the last at the final time). ``J``/``J_inv`` are ``(3, 3)`` (one
-    inertia for the batch) or ``(B, 3, 3)`` (each member its own true inertia, as a dispersed
-    batch has; the controller keeps its model ``J_ctrl``). ``checkpoint``: the scan keeps only
-    the state at each control sample for the backward sweep and recomputes the steps of a
+    Attributes mirror the validated parts: plant inertia ``J``/``J_inv``, the law's gains
+    ``k_R``/``k_Omega`` (floats or 3×3; the law closes over its model inertia and error
+    function), ``max_torque`` (``None``, a float or ``(3,)``), the reference samples ``R_d``
+    ``(n_ctrl, 3, 3)`` or ``(3, 3)`` when constant (likewise ``omega_d``, ``omega_dot_d``), the
+    step ``dt``, ``n_sub`` steps per control period and ``n_ctrl`` periods from ``t0``; with the
+    SGCMG cluster its ``cluster``, ``steering`` law, gimbal ``rate_limit`` and ``delta0``
+    ``(4,)`` or ``(B, 4)`` (``None`` for the ideal actuator). The reference arrays hold
+    ``n_ctrl + 1`` samples when they vary (the last at the final time). ``J``/``J_inv`` are
+    ``(3, 3)`` (one inertia for the batch) or ``(B, 3, 3)`` (each member its own true inertia, as a
+    dispersed batch has; the controller keeps its own model). ``checkpoint``: the scan keeps
+    only the state at each control sample for the backward sweep and recomputes the steps of a
     period (``jax.checkpoint`` of the period's body): memory ∝ samples instead of steps, for
     about one more forward pass of compute. ``law``: the controller's
     :class:`liecontrol.control.array_law.ArrayLaw` (its pure step and initial state).
@@ -227,10 +227,8 @@ class JaxClosedLoop:
 
     J: np.ndarray
     J_inv: np.ndarray
-    J_ctrl: np.ndarray
     k_R: Any
     k_Omega: Any
-    error: str
     max_torque: Any
     R_d: np.ndarray
     omega_d: np.ndarray
@@ -631,9 +629,7 @@ def closed_loop(
     sgcmg = isinstance(act, SgcmgActuator)
     return JaxClosedLoop(
         J=np.array(plant.body.J), J_inv=np.array(plant.body.J_inv),
-        J_ctrl=np.array(getattr(controller, "J", plant.body.J)),
         k_R=_gain(law.k_R, "k_R"), k_Omega=_gain(law.k_Omega, "k_Omega"),
-        error=str(getattr(controller, "error", "")),
         max_torque=None if mt is None else np.asarray(mt, dtype=float),
         R_d=R_d, omega_d=w_d, omega_dot_d=dw_d, dt=dt, n_sub=n_sub, n_ctrl=n_ctrl, t0=t0,
         cluster=act.cluster if sgcmg else None, steering=act.steering if sgcmg else None,
