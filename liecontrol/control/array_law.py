@@ -20,6 +20,9 @@ to the next) and the two gains the tuners differentiate. The step is::
 ``R``, ``omega``    ``(3, 3)`` attitude, ``(3,)`` body rate [rad/s]
 ``R_d`` …           the reference sample (:class:`~liecontrol.control.base.AttitudeReference`)
 ``T``               the control period [s] (the time since the previous sample)
+``params``          keyword, only for a law that declares further tunable parameters
+                    (``ArrayLaw.params``: an observer bandwidth, a boundary-layer width): a dict
+                    with the same keys, whose values the tuners may replace by traced arrays
 returns             the torque ``(3,)`` [N·m], the state after the sample (same structure and
                     shapes), and a dict of per-sample diagnostics (scalars or arrays)
 ==================  ============================================================================
@@ -38,9 +41,11 @@ compiled seam, :mod:`liecontrol.control.kernel`, does).
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 from typing import Any
+
+import numpy as np
 
 __all__ = ["ArrayLaw", "array_law_of"]
 
@@ -53,12 +58,15 @@ class ArrayLaw:
         k_R, k_Omega: the gains' values (the defaults of the differentiable arguments).
         state0: one spacecraft's initial internal state, a tuple of NumPy arrays (``()``).
         step: the pure step function of the module docstring.
+        params: further differentiable parameters by name (floats or arrays, default none):
+            when given, ``step`` receives them as the keyword ``params`` (same keys).
     """
 
     k_R: Any
     k_Omega: Any
     state0: tuple
     step: Callable[..., tuple[Any, tuple, dict[str, Any]]]
+    params: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if not callable(self.step):
@@ -67,6 +75,24 @@ class ArrayLaw:
             raise ValueError(
                 f"state0: expected a tuple of arrays, got {type(self.state0).__name__}"
             )
+        if not isinstance(self.params, Mapping) or not all(
+            isinstance(k, str) for k in self.params
+        ):
+            raise ValueError("params: expected a mapping from parameter names (str) to values")
+        for name, value in self.params.items():
+            a = np.asarray(value)
+            if a.dtype.kind not in "fiu" or not np.isfinite(a).all():
+                raise ValueError(f"params[{name!r}]: expected finite real values, got {value!r}")
+
+    def call(
+        self, k_R: Any, k_Omega: Any, state: tuple, R: Any, omega: Any, R_d: Any,
+        omega_d: Any, omega_dot_d: Any, T: Any, params: Mapping[str, Any] | None = None,
+    ) -> tuple[Any, tuple, dict[str, Any]]:  # fmt: skip
+        """``step`` with ``params`` (default :attr:`params`) passed when the law declares any."""
+        if not self.params:
+            return self.step(k_R, k_Omega, state, R, omega, R_d, omega_d, omega_dot_d, T)
+        p = dict(self.params) if params is None else {**self.params, **params}
+        return self.step(k_R, k_Omega, state, R, omega, R_d, omega_d, omega_dot_d, T, params=p)
 
 
 def _owner(cls: type, name: str) -> type | None:
