@@ -263,14 +263,16 @@ class JaxClosedLoop:
     # -- the pure program -------------------------------------------------------------------
 
     def rollout(
-        self, k_R: Any, k_Omega: Any, R0: Any, x0: Any, J: Any = None, J_inv: Any = None
-    ) -> dict[str, Any]:
+        self, k_R: Any, k_Omega: Any, R0: Any, x0: Any, J: Any = None, J_inv: Any = None,
+        params: dict[str, Any] | None = None,
+    ) -> dict[str, Any]:  # fmt: skip
         """One spacecraft from ``R0`` ``(3, 3)`` and the packed state ``x0`` ``(n_x,)`` = (Ω₀, δ₀)
         with the plant inertia ``J``, ``J_inv`` ``(3, 3)`` (default the loop's shared one):
         the log at the K = n_ctrl + 1 samples as a dict of arrays with a leading ``K`` axis —
         ``R``, ``x``, ``u_cmd``, ``u``, ``Psi``, ``e_R``, ``e_Omega``, and the actuator's
-        ``delta_dot``, ``saturated`` (SGCMG) or ``held`` (ideal). Pure JAX (call under
-        ``jax.enable_x64``): ``jit``, ``vmap`` and ``grad`` apply."""
+        ``delta_dot``, ``saturated`` (SGCMG) or ``held`` (ideal). ``params``: values for (some
+        of) the law's further parameters (:attr:`ArrayLaw.params`, default the law's own). Pure
+        JAX (call under ``jax.enable_x64``): ``jit``, ``vmap`` and ``grad`` apply."""
         jax = require_jax()
         jnp = jax.numpy
         lax = jax.lax
@@ -302,11 +304,11 @@ class JaxClosedLoop:
         ctrl_law = self.law
         T = self.control_period
 
-        def sample(R: Any, x: Any, cs: tuple, ref: tuple) -> tuple[dict, Any, tuple]:
-            """The controller at a sample (its state ``cs`` carried from the previous one), and
-            the log row (with the first step's command)."""
+        def sample(R: Any, x: Any, cs: tuple, ref: tuple, t: Any) -> tuple[dict, Any, tuple]:
+            """The controller at the sample time ``t`` (its state ``cs`` carried from the
+            previous sample), and the log row (with the first step's command)."""
             # the controller's own pure law (liecontrol.control.array_law)
-            u_cmd, cs, diag = ctrl_law.step(k_R, k_Omega, cs, R, x[:3], *ref, T)
+            u_cmd, cs, diag = ctrl_law.call(k_R, k_Omega, cs, R, x[:3], *ref, T, params, t)
             held = command(u_cmd, x)
             row = {"R": R, "x": x, "u_cmd": u_cmd, "u": torque(x, held),
                    **{_CTRL + k: v for k, v in diag.items()}}  # fmt: skip
@@ -322,7 +324,7 @@ class JaxClosedLoop:
         def period(carry: tuple, xs: tuple) -> tuple:
             R, x, cs = carry
             k, ref = xs
-            row, u_cmd, cs = sample(R, x, cs, ref if varying else refs)
+            row, u_cmd, cs = sample(R, x, cs, ref if varying else refs, t0 + (k * n_sub) * dt)
 
             def step(c: tuple, j: Any) -> tuple:
                 held = command(u_cmd, c[1])
@@ -348,7 +350,8 @@ class JaxClosedLoop:
         scanned = (jnp.arange(self.n_ctrl), tuple(a[:-1] for a in refs) if varying else None)
         cs0 = tuple(jnp.asarray(a) for a in ctrl_law.state0)
         (Rn, xn, csn), rows = lax.scan(period, (R0, x0, cs0), scanned, length=self.n_ctrl)
-        last, _, _ = sample(Rn, xn, csn, tuple(a[-1] for a in refs) if varying else refs)
+        ref_n = tuple(a[-1] for a in refs) if varying else refs
+        last, _, _ = sample(Rn, xn, csn, ref_n, t0 + (self.n_ctrl * n_sub) * dt)
         return {k: jnp.concatenate((v, last[k][None]), axis=0) for k, v in rows.items()}
 
     def inertias(self, B: int) -> tuple[np.ndarray, np.ndarray]:

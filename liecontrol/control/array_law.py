@@ -23,6 +23,8 @@ to the next) and the two gains the tuners differentiate. The step is::
 ``params``          keyword, only for a law that declares further tunable parameters
                     (``ArrayLaw.params``: an observer bandwidth, a boundary-layer width): a dict
                     with the same keys, whose values the tuners may replace by traced arrays
+``t``               keyword, only for a law declared with ``timed=True``: the sample's time [s]
+                    (a law whose formula reads the clock: a funnel, a harmonic regressor)
 returns             the torque ``(3,)`` [N·m], the state after the sample (same structure and
                     shapes), and a dict of per-sample diagnostics (scalars or arrays)
 ==================  ============================================================================
@@ -60,6 +62,7 @@ class ArrayLaw:
         step: the pure step function of the module docstring.
         params: further differentiable parameters by name (floats or arrays, default none):
             when given, ``step`` receives them as the keyword ``params`` (same keys).
+        timed: ``step`` receives the sample's time as the keyword ``t`` (default ``False``).
     """
 
     k_R: Any
@@ -67,6 +70,7 @@ class ArrayLaw:
     state0: tuple
     step: Callable[..., tuple[Any, tuple, dict[str, Any]]]
     params: Mapping[str, Any] = field(default_factory=dict)
+    timed: bool = False
 
     def __post_init__(self) -> None:
         if not callable(self.step):
@@ -87,12 +91,18 @@ class ArrayLaw:
     def call(
         self, k_R: Any, k_Omega: Any, state: tuple, R: Any, omega: Any, R_d: Any,
         omega_d: Any, omega_dot_d: Any, T: Any, params: Mapping[str, Any] | None = None,
+        t: Any = None,
     ) -> tuple[Any, tuple, dict[str, Any]]:  # fmt: skip
-        """``step`` with ``params`` (default :attr:`params`) passed when the law declares any."""
-        if not self.params:
-            return self.step(k_R, k_Omega, state, R, omega, R_d, omega_d, omega_dot_d, T)
-        p = dict(self.params) if params is None else {**self.params, **params}
-        return self.step(k_R, k_Omega, state, R, omega, R_d, omega_d, omega_dot_d, T, params=p)
+        """``step`` with ``params`` (default :attr:`params`) passed when the law declares any,
+        and the sample time ``t`` when it is :attr:`timed`."""
+        kw: dict[str, Any] = {}
+        if self.params:
+            kw["params"] = dict(self.params) if params is None else {**self.params, **params}
+        if self.timed:
+            if t is None:
+                raise ValueError("t: this law reads the sample time; pass t")
+            kw["t"] = t
+        return self.step(k_R, k_Omega, state, R, omega, R_d, omega_d, omega_dot_d, T, **kw)
 
 
 def _owner(cls: type, name: str) -> type | None:
