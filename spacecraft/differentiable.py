@@ -56,9 +56,11 @@ before instead of compiling it again.
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import math
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -247,6 +249,42 @@ class JaxClosedLoop:
     _compiled: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @property
+    def params(self) -> dict[str, Any]:
+        """The loop's further differentiable parameters and their values: the law's own
+        (:attr:`ArrayLaw.params`, e.g. an observer's bandwidth) and, with the SGCMG cluster,
+        the steering law's (``"steering.<field>"``: :class:`SingularityRobust`'s ``lambda0``,
+        ``mu``; :class:`PseudoInverseNullMotion`'s ``k``). :meth:`rollout`, :meth:`run` and
+        :meth:`cost` take values for any of them (by name); :func:`tune_requirements` tunes
+        them."""
+        out = {k: v for k, v in self.law.params.items()}
+        if self.steering is not None:
+            for f in dataclasses.fields(self.steering):
+                if f.name in _STEERING_PARAMS.get(type(self.steering), ()):
+                    out[f"steering.{f.name}"] = float(getattr(self.steering, f.name))
+        return out
+
+    def _split(self, params: Mapping[str, Any] | None) -> tuple[dict[str, Any], Any]:
+        """``(law params, steering law)`` with the values in ``params`` (names of
+        :attr:`params`; ``ValueError`` naming an unknown one)."""
+        if not params:
+            return {}, self.steering
+        known = self.params
+        for name in params:
+            if name not in known:
+                raise ValueError(
+                    f"params: {name!r} is not a parameter of this loop (it has {sorted(known)})"
+                )
+        steer = {k[len("steering.") :]: v for k, v in params.items() if k.startswith("steering.")}
+        law = self.steering
+        if steer:
+            # a copy with traced values: the steering law's own steer() formula, unvalidated
+            # (its __post_init__ checks floats, and a tracer is not one)
+            law = copy.copy(self.steering)
+            for k, v in steer.items():
+                object.__setattr__(law, k, v)
+        return {k: v for k, v in params.items() if not k.startswith("steering.")}, law
+
+    @property
     def n_x(self) -> int:
         """Length of the packed state x = (Ω, δ): 3, or 7 with the SGCMG cluster."""
         return 3 if self.cluster is None else 7
@@ -284,7 +322,8 @@ class JaxClosedLoop:
         limit = None if self.max_torque is None else jnp.asarray(self.max_torque)
         refs = tuple(jnp.asarray(a) for a in (self.R_d, self.omega_d, self.omega_dot_d))
         varying = self.R_d.ndim == 3
-        cluster, law, rate_limit = self.cluster, self.steering, self.rate_limit
+        law_params, law = self._split(params)
+        cluster, rate_limit = self.cluster, self.rate_limit
 
         def command(u_cmd: Any, x: Any) -> tuple:
             """The actuator's command held over a step from x (simulate's per-step call)."""
@@ -308,7 +347,7 @@ class JaxClosedLoop:
             """The controller at the sample time ``t`` (its state ``cs`` carried from the
             previous sample), and the log row (with the first step's command)."""
             # the controller's own pure law (liecontrol.control.array_law)
-            u_cmd, cs, diag = ctrl_law.call(k_R, k_Omega, cs, R, x[:3], *ref, T, params, t)
+            u_cmd, cs, diag = ctrl_law.call(k_R, k_Omega, cs, R, x[:3], *ref, T, law_params, t)
             held = command(u_cmd, x)
             row = {"R": R, "x": x, "u_cmd": u_cmd, "u": torque(x, held),
                    **{_CTRL + k: v for k, v in diag.items()}}  # fmt: skip
@@ -377,8 +416,9 @@ class JaxClosedLoop:
         return xp.concatenate((omega0, d0), axis=-1)
 
     def cost_terms(
-        self, k_R: Any, k_Omega: Any, R0: Any, x0: Any, J: Any = None, J_inv: Any = None
-    ) -> dict[str, Any]:
+        self, k_R: Any, k_Omega: Any, R0: Any, x0: Any, J: Any = None, J_inv: Any = None,
+        params: Mapping[str, Any] | None = None,
+    ) -> dict[str, Any]:  # fmt: skip
         """Per-member terms (pure JAX) on the control grid (rectangle rule, step T) from ``R0``
         and the packed state ``x0`` (:meth:`rollout`): ``angle`` = Σ θ_k² T ≈ ∫θ² dt [rad²·s], θ
         the angle of R_dᵀR; ``effort`` = Σ ‖u_k‖² T [(N·m)²·s], u the bus torque;
@@ -386,7 +426,7 @@ class JaxClosedLoop:
         φ = log(R_dᵀR)^∨ past the start's error axis n₀ = φ₀/‖φ₀‖ (zero for a start at R_d)."""
         jax = require_jax()
         jnp = jax.numpy
-        out = self.rollout(k_R, k_Omega, R0, x0, J, J_inv)
+        out = self.rollout(k_R, k_Omega, R0, x0, J, J_inv, params)
         Rs, us = out["R"][:-1], out["u"][:-1]
         R_d = jnp.asarray(self.R_d)
         R_d = R_d[:-1] if R_d.ndim == 3 else R_d
@@ -409,15 +449,16 @@ class JaxClosedLoop:
         omega0: Any,
         effort_weight: float = 0.0,
         overshoot_weight: float = 0.0,
+        params: Mapping[str, Any] | None = None,
     ) -> Any:
         """Mean over the batch ``R0`` ``(B, 3, 3)``, ``omega0`` ``(B, 3)`` of
         ``angle + effort_weight·effort + overshoot_weight·overshoot`` (:meth:`cost_terms`);
-        pure JAX, differentiable in the gains."""
+        pure JAX, differentiable in the gains and in ``params`` (:attr:`params`)."""
         jax = require_jax()
         x0 = self._pack(omega0)
         J, J_inv = self.inertias(R0.shape[0])
-        terms = jax.vmap(self.cost_terms, in_axes=(None, None, 0, 0, 0, 0))(
-            k_R, k_Omega, R0, x0, J, J_inv
+        terms = jax.vmap(self.cost_terms, in_axes=(None, None, 0, 0, 0, 0, None))(
+            k_R, k_Omega, R0, x0, J, J_inv, params
         )
         weights = {"angle": 1.0, "effort": effort_weight, "overshoot": overshoot_weight}
         return sum(weights[k] * terms[k].mean() for k in terms)
@@ -432,7 +473,7 @@ class JaxClosedLoop:
 
     def run(
         self, R0: object, omega0: object | None = None, k_R: Any = None, k_Omega: Any = None,
-        pad: bool = True, delta0: object | None = None,
+        pad: bool = True, delta0: object | None = None, params: Mapping[str, Any] | None = None,
     ) -> JaxRun:  # fmt: skip
         """The batch of initial states ``R0`` ``(B, 3, 3)``, ``omega0`` ``(B, 3)`` (default zero;
         the gimbals start at ``delta0`` ``(4,)`` or ``(B, 4)``, default the actuator's) through
@@ -440,7 +481,8 @@ class JaxClosedLoop:
         default to the controller's. With ``pad`` the batch is padded to
         :func:`padded_size` ``(B)`` members (copies of the first, cut off after the run), so a
         new B in the same bucket reuses the compiled program; ``pad=False`` compiles for B
-        itself. Compiled once per (padded) batch size and gain shape."""
+        itself. ``params``: values for (some of) :attr:`params` (default the loop's own).
+        Compiled once per (padded) batch size, gain shape and set of ``params`` names."""
         jax = require_jax()
         R0, w0 = _initial(R0, omega0)
         B = R0.shape[0]
@@ -465,11 +507,12 @@ class JaxClosedLoop:
         with jax.enable_x64(True):
             fn = self._jit(
                 "run",
-                lambda: jax.jit(jax.vmap(self.rollout, in_axes=(None, None, 0, 0, 0, 0))),
+                lambda: jax.jit(jax.vmap(self.rollout, in_axes=(None, None, 0, 0, 0, 0, None))),
             )
+            p = _check_params(params)
             out = {
                 k: np.moveaxis(np.asarray(v)[:B], 0, 1)
-                for k, v in fn(k_R, k_Omega, R0, x0, J, J_inv).items()
+                for k, v in fn(k_R, k_Omega, R0, x0, J, J_inv, p).items()
             }
         Rs, xs = out["R"], out["x"]
         bad = ~(np.isfinite(Rs).all(axis=(2, 3)) & np.isfinite(xs).all(axis=2))
@@ -489,8 +532,11 @@ class JaxClosedLoop:
     def value_and_grad(
         self, k_R: Any, k_Omega: Any, R0: object, omega0: object | None = None,
         effort_weight: float = 0.0, overshoot_weight: float = 0.0,
+        params: Mapping[str, Any] | None = None,
     ) -> tuple[float, np.ndarray, np.ndarray]:  # fmt: skip
-        """``(cost, ∂cost/∂k_R, ∂cost/∂k_Ω)`` of :meth:`cost` (reverse mode, compiled).
+        """``(cost, ∂cost/∂k_R, ∂cost/∂k_Ω)`` of :meth:`cost` (reverse mode, compiled), at
+        the values ``params`` of :attr:`params` (default the loop's). For the derivatives in
+        ``params`` as well, differentiate :meth:`cost` with ``jax.grad`` (it is pure JAX).
         Raises ``FloatingPointError`` naming the cost term whose gradient is non-finite."""
         jax = require_jax()
         R0, w0 = _initial(R0, omega0)
@@ -501,20 +547,21 @@ class JaxClosedLoop:
                 "value_and_grad",
                 lambda: jax.jit(jax.value_and_grad(self.cost, argnums=(0, 1))),
             )
-            value, (gR, gW) = fn(kR, kW, R0, w0, effort_weight, overshoot_weight)
+            p = _check_params(params)
+            value, (gR, gW) = fn(kR, kW, R0, w0, effort_weight, overshoot_weight, p)
             value, gR, gW = float(value), np.asarray(gR), np.asarray(gW)
             if not (math.isfinite(value) and np.isfinite(gR).all() and np.isfinite(gW).all()):
-                self._name_bad_term(kR, kW, R0, x0)
+                self._name_bad_term(kR, kW, R0, x0, p)
         return value, gR, gW
 
-    def _name_bad_term(self, kR: Any, kW: Any, R0: Any, x0: Any) -> None:
+    def _name_bad_term(self, kR: Any, kW: Any, R0: Any, x0: Any, p: Any = None) -> None:
         jax = require_jax()
         for term in ("angle", "effort", "overshoot"):
 
             def one(a: Any, b: Any, term: str = term) -> Any:
                 J, J_inv = self.inertias(R0.shape[0])
-                per = jax.vmap(self.cost_terms, in_axes=(None, None, 0, 0, 0, 0))(
-                    a, b, R0, x0, J, J_inv
+                per = jax.vmap(self.cost_terms, in_axes=(None, None, 0, 0, 0, 0, None))(
+                    a, b, R0, x0, J, J_inv, p
                 )
                 return per[term].mean()
 
@@ -525,6 +572,35 @@ class JaxClosedLoop:
                     f"k_Omega = {kW} (diverging members, or gains out of range)"
                 )
         raise FloatingPointError(f"cost: not finite at k_R = {kR}, k_Omega = {kW}")
+
+
+def _check_params(params: Mapping[str, Any] | None) -> dict[str, np.ndarray] | None:
+    """``params`` as float arrays (``ValueError`` naming a non-finite or non-real entry)."""
+    if params is None:
+        return None
+    if not isinstance(params, Mapping):
+        raise ValueError(f"params: expected a mapping of names to values, got {params!r}")
+    out = {}
+    for k, v in params.items():
+        if hasattr(v, "aval"):  # a JAX array or tracer: the caller's own
+            out[k] = v
+            continue
+        try:
+            a = np.asarray(v, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"params[{k!r}]: expected real values, got {v!r}") from None
+        if not np.isfinite(a).all():
+            raise ValueError(f"params[{k!r}]: expected finite values, got {v!r}")
+        out[k] = a
+    return out
+
+
+#: The steering laws' fields that are differentiable parameters of the loop (floats in the
+#: steering formula; the others are switches or tolerances).
+_STEERING_PARAMS: dict[type, tuple[str, ...]] = {
+    SingularityRobust: ("lambda0", "mu"),
+    PseudoInverseNullMotion: ("k",),
+}
 
 
 def _disturbance(dist: Any) -> Callable[[Any], Any] | None:

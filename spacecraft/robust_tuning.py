@@ -54,7 +54,7 @@ judge).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -262,16 +262,22 @@ def requirement_cost(
     parameterization: str = "cholesky",
     effort_weight: float = 0.0,
     penalty_weight: float = 1000.0,
+    tuned: dict[str, np.ndarray] | None = None,
 ) -> tuple[Any, dict[str, Any]]:
     """``(C, per-member values)`` of the module docstring's cost over the batch ``R0``
     ``(B, 3, 3)``, packed states ``x0`` and inertias ``J``, ``J_inv`` ``(B, 3, 3)``; pure JAX,
-    differentiable in ``params``."""
+    differentiable in ``params``. ``tuned``: the loop parameters tuned as well (name → start
+    value): their log-ratios to the start follow the gains' in ``params``
+    (:func:`loop_parameters_from_vector`)."""
     jax = require_jax()
     jnp = jax.numpy
-    k_R, k_W = gains_from_parameters(params, L_R, L_W, parameterization)
+    n = _param_count(parameterization)
+    k_R, k_W = gains_from_parameters(params[:n], L_R, L_W, parameterization)
+    extra = loop_parameters_from_vector(params[n:], tuned or {})
 
     def member(R, x, Jb, Jib):  # noqa: ANN001, ANN202 - traced
-        return requirement_values(loop, loop.rollout(k_R, k_W, R, x, Jb, Jib), requirements)
+        out = loop.rollout(k_R, k_W, R, x, Jb, Jib, extra or None)
+        return requirement_values(loop, out, requirements)
 
     vals = jax.vmap(member)(R0, x0, J, J_inv)
     total = vals["angle"] + effort_weight * vals["effort"]
@@ -281,6 +287,24 @@ def requirement_cost(
         excess = jnp.maximum(jnp.log(jnp.maximum(vals[key], 1e-300) / bound), 0.0)
         total = total + penalty_weight * excess * excess
     return jnp.mean(total), vals
+
+
+def loop_parameters_from_vector(v: Any, start: dict[str, np.ndarray]) -> dict[str, Any]:
+    """The tuned loop parameters ``name → start · exp(v_i)`` from the vector ``v`` (the
+    entries of each parameter in turn, in the order of ``start``); pure (NumPy or JAX).
+    Positive parameters on a log scale: steps relative to their size, never a sign change."""
+    out, i = {}, 0
+    for name, v0 in start.items():
+        a = np.asarray(v0, dtype=np.float64)
+        out[name] = a * _exp(v[i : i + a.size]).reshape(a.shape)
+        i += a.size
+    return out
+
+
+def _exp(v: Any) -> Any:
+    from liecontrol._array_api import namespace
+
+    return namespace(v).exp(v)
 
 
 def _margin_bounds(requirements: TuningRequirements) -> list[tuple[str, str, float]]:
@@ -307,12 +331,14 @@ class RobustTuningResult:
         within_margin: whether every training member meets every requirement at the design
             margin (m·ℓ) with them.
         requirements: the :class:`TuningRequirements` tuned for.
+        loop_params: the tuned loop parameters' chosen values (``tune``; empty without).
         history: per evaluation (``steps + 1`` rows, the start first): ``cost``, ``angle``
             (batch mean, [s]), ``effort``, ``accepted`` (1: the step was taken, 0: rejected
             and retried at half the rate), for each requirement the worst member's value
             (``worst_<name>``) and its ratio to the penalty's start (``margin_<key>``: ≤ 1
             within the design margin; settling's key is ``settling_deg_early``).
-        params: ``(steps + 1, n)`` the parameter vector of each evaluation.
+        params: ``(steps + 1, n)`` the parameter vector of each evaluation (the gains', then the
+            log-ratios of the ``tune`` parameters to their start).
     """
 
     k_R: np.ndarray
@@ -323,6 +349,7 @@ class RobustTuningResult:
     requirements: TuningRequirements
     history: dict[str, np.ndarray]
     params: np.ndarray
+    loop_params: dict[str, Any] = field(default_factory=dict)
 
 
 def tune_requirements(
@@ -338,11 +365,15 @@ def tune_requirements(
     learning_rate: float = 0.05,
     effort_weight: float = 0.0,
     penalty_weight: float = 1000.0,
+    tune: tuple[str, ...] = (),
 ) -> RobustTuningResult:
-    """Tune the geometric PD's gains on ``requirements`` over the dispersed batch ``R0``
+    """Tune the controller's gains on ``requirements`` over the dispersed batch ``R0``
     ``(B, 3, 3)``, ``omega0`` ``(B, 3)`` (the plant's per-member inertias, if it has them, go
     with them) by Adam on the cost of the module docstring, from ``k_R``/``k_Omega`` (default
-    the controller's; scalars or symmetric positive-definite matrices).
+    the controller's; scalars or symmetric positive-definite matrices). ``tune``: further
+    parameters of the loop to tune with them (names of :attr:`JaxClosedLoop.params`: an
+    observer's bandwidth, the steering law's ``"steering.lambda0"``), positive, on a log scale
+    from their current values; they join the gains' shape parameters in the second half.
 
     Raises ``FloatingPointError`` naming the term whose value or gradient is non-finite (a
     diverging member, gains out of range), ``ValueError`` for bad arguments.
@@ -359,6 +390,23 @@ def tune_requirements(
     if not requirements.names:
         raise ValueError("requirements: none set (every bound is None)")
     n = _param_count(parameterization)
+    if isinstance(tune, str) or not all(isinstance(k, str) for k in tune):
+        raise ValueError(f"tune: expected a tuple of parameter names, got {tune!r}")
+    available = loop.params
+    start: dict[str, np.ndarray] = {}
+    for name in tune:
+        if name not in available:
+            raise ValueError(
+                f"tune: {name!r} is not a parameter of the loop (it has {sorted(available)})"
+            )
+        v0 = np.asarray(available[name], dtype=np.float64)
+        if not (v0 > 0.0).all():
+            raise ValueError(
+                f"tune: {name!r} starts at {available[name]!r}; a tuned parameter must be "
+                "positive (it is tuned on a log scale)"
+            )
+        start[name] = v0
+    n_all = n + sum(v.size for v in start.values())
     if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
         raise ValueError(f"steps: expected a positive int, got {steps!r}")
     learning_rate = check_positive_scalar(learning_rate, "learning_rate")
@@ -376,7 +424,7 @@ def tune_requirements(
     def cost(p):  # noqa: ANN001, ANN202 - traced
         return requirement_cost(
             loop, p, R0, x0, J, J_inv, L_R, L_W, requirements, parameterization,
-            effort_weight, penalty_weight,
+            effort_weight, penalty_weight, start,
         )  # fmt: skip
 
     rows: dict[str, list[float]] = {k: [] for k in ("cost", "angle", "effort", "accepted")}
@@ -404,7 +452,7 @@ def tune_requirements(
                 rows[f"margin_{key}"].append(float(vals[key].max()) / bound)
             return value, grad
 
-        params = np.zeros(n)
+        params = np.zeros(n_all)
         value, grad = evaluate(params)
         rows["accepted"].append(1.0)
         m_ = np.zeros_like(params)
@@ -414,13 +462,13 @@ def tune_requirements(
         # coarse to fine: bandwidth and damping alone for the first half, then every parameter
         # (Adam's per-coordinate steps on every shape parameter from the start jump across the
         # settling error's kink; the two scales alone descend smoothly)
-        mask = np.zeros(n)
+        mask = np.zeros(n_all)
         mask[:2] = 1.0
-        first = steps // 2 if n > 2 else steps
+        first = steps // 2 if n_all > 2 else steps
         for i in range(steps):
             if i == first:
                 mask[:] = 1.0
-                m_, v_, t, lr, update = np.zeros(n), np.zeros(n), 0, learning_rate, True
+                m_, v_, t, lr, update = np.zeros(n_all), np.zeros(n_all), 0, learning_rate, True
             if update:
                 t += 1
                 g = grad * mask
@@ -445,11 +493,13 @@ def tune_requirements(
     cost_ = history["cost"]
     pool = inside if inside.any() else ok if ok.any() else np.ones_like(ok)
     best = int(np.argmin(np.where(pool, cost_, np.inf)))
-    K_R, K_W = gains_from_parameters(trail[best], L_R, L_W, parameterization)
+    K_R, K_W = gains_from_parameters(trail[best][:n], L_R, L_W, parameterization)
+    chosen = loop_parameters_from_vector(trail[best][n:], start)
     return RobustTuningResult(
         k_R=0.5 * (K_R + K_R.T), k_Omega=0.5 * (K_W + K_W.T), step=best, feasible=bool(ok[best]),
         within_margin=bool(inside[best]),
         requirements=requirements, history=history, params=np.stack(trail),
+        loop_params={k: float(v) if v.ndim == 0 else v for k, v in chosen.items()},
     )  # fmt: skip
 
 

@@ -301,6 +301,45 @@ def test_sgcmg_gradient_finite_through_the_rate_limit_switch(jax):
         assert np.isfinite(g).all(), dd
 
 
+def test_steering_parameters_are_loop_parameters(jax):
+    """The SR law's λ₀ and μ are parameters of the loop: a run with other values equals the
+    fused loop with a steering law built with them; the cost's derivative in λ₀ matches central
+    differences; an unknown or non-finite name is refused naming it."""
+    from spacecraft.actuators import SgcmgActuator
+    from spacecraft.differentiable import closed_loop
+    from spacecraft.steering import SingularityRobust
+
+    plant, ctrl, ref, R0, w0 = _sgcmg_case(0.0015)
+    loop = closed_loop(plant, ctrl, ref, 20.0, 0.1, 0.2)
+    assert loop.params == {"steering.lambda0": 0.01, "steering.mu": 10.0}
+    other = {"steering.lambda0": 0.3, "steering.mu": 2.0}
+    run = loop.run(R0, w0, params=other)
+    plant2 = Spacecraft(plant.body, SgcmgActuator(plant.actuator.cluster,
+                                                   SingularityRobust(0.3, 2.0)))  # fmt: skip
+    want = simulate(plant2, ctrl, ref, plant2.initial_state(R0, w0), 20.0, 0.1,
+                    control_period=0.2, log_every=2)  # fmt: skip
+    np.testing.assert_allclose(run.R, want.R, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(run.actuator["delta_dot"], want.actuator["delta_dot"], atol=1e-12)
+    base = loop.run(R0, w0)
+    assert np.abs(base.actuator["delta_dot"] - run.actuator["delta_dot"]).max() > 1e-6
+    jnp = jax.numpy
+
+    def c(lam):
+        return loop.cost(jnp.asarray(ctrl.k_R), jnp.asarray(ctrl.k_Omega), jnp.asarray(R0),
+                         jnp.asarray(w0), 0.01, params={"steering.lambda0": lam})  # fmt: skip
+
+    with jax.enable_x64(True):
+        g = float(jax.grad(c)(0.3))
+        h = 1e-4
+        fd = (float(c(0.3 + h)) - float(c(0.3 - h))) / (2 * h)
+    assert np.isfinite(g) and g != 0.0
+    np.testing.assert_allclose(g, fd, rtol=1e-5)
+    with pytest.raises(ValueError, match=r"^params: 'steering.nu' is not a parameter"):
+        loop.run(R0, w0, params={"steering.nu": 1.0})
+    with pytest.raises(ValueError, match=r"^params\['steering.mu'\]: expected finite"):
+        loop.run(R0, w0, params={"steering.mu": np.nan})
+
+
 def test_sgcmg_numpy_formulas_run_under_jax_with_numpy_values(jax):
     from spacecraft.sgcmg import SgcmgPyramid, bus_torque
     from spacecraft.steering import SingularityRobust, _saturate_unchecked

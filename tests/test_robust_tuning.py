@@ -216,3 +216,43 @@ def test_bad_input_is_named(jax, monkeypatch):
     monkeypatch.setattr(rt, "requirement_values", poisoned)
     with pytest.raises(FloatingPointError, match=r"'overshoot_pct' term is not finite"):
         rt.tune_requirements(loop, R0, w0, req, steps=1)
+
+
+def test_loop_parameters_tune_with_the_gains(jax):
+    """``tune=``: the steering law's null-motion gain k joins the parameter vector on a log
+    scale; the cost's derivative in it matches central differences, the result names its value,
+    and a name the loop does not have (or a parameter starting at 0) is refused."""
+    from spacecraft import robust_tuning as rt
+
+    sc = _short("slew-90", 30.0)
+    loop, plant, ctrl, R0, w0 = _loop(sc, 2, 3)
+    assert set(loop.params) == {"steering.k"}  # the benchmark plant's null-motion steering
+    req = rt.TuningRequirements(overshoot_pct=10.0, momentum_fraction=0.95)
+    L_R, L_W = rt._factor(ctrl.k_R, "k_R"), rt._factor(ctrl.k_Omega, "k_Omega")
+    J, Ji = loop.inertias(2)
+    start = {k: np.asarray(v) for k, v in loop.params.items()}
+    x0 = loop._pack(w0)
+
+    def c(p):
+        return rt.requirement_cost(loop, p, R0, x0, J, Ji, L_R, L_W, req, "scalar", 1e-3, 10.0,
+                                   start)[0]  # fmt: skip
+
+    p0 = np.array([0.0, 0.0, 0.5])
+    g = np.asarray(jax.jit(jax.grad(c))(p0))
+    assert np.isfinite(g).all() and g[2] != 0.0
+    for i in (0, 2):
+        e = np.zeros(3)
+        e[i] = 1e-5
+        fd = (float(c(p0 + e)) - float(c(p0 - e))) / 2e-5
+        np.testing.assert_allclose(g[i], fd, rtol=1e-5, atol=1e-10)
+    res = rt.tune_requirements(loop, R0, w0, req, parameterization="scalar", steps=2,
+                               tune=("steering.k",))  # fmt: skip
+    assert res.params.shape == (3, 3)
+    assert set(res.loop_params) == {"steering.k"} and res.loop_params["steering.k"] > 0
+    with pytest.raises(ValueError, match=r"^tune: 'omega_o' is not a parameter of the loop"):
+        rt.tune_requirements(loop, R0, w0, req, tune=("omega_o",))
+    with pytest.raises(ValueError, match=r"^tune: expected a tuple"):
+        rt.tune_requirements(loop, R0, w0, req, tune="steering.k")
+    zero = dataclasses.replace(loop, steering=dataclasses.replace(loop.steering, k=0.0))
+    with pytest.raises(ValueError, match=r"^tune: 'steering.k' starts at 0.0"):
+        rt.tune_requirements(zero, R0, w0, req, tune=("steering.k",))
