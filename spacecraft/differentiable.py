@@ -34,8 +34,9 @@ Supported configurations (others raise ``ValueError`` naming the part): a
 :class:`spacecraft.plant.Spacecraft` with a shared inertia ``J`` ``(3, 3)`` or one per member
 ``(B, 3, 3)``, an :class:`spacecraft.actuators.IdealTorqueActuator` (with or without
 ``max_torque``) or an :class:`spacecraft.actuators.SgcmgActuator` with the ideal servo and
-:class:`spacecraft.steering.SingularityRobust` or
-:class:`spacecraft.steering.PseudoInverseNullMotion` steering, a
+:class:`spacecraft.steering.PseudoInverse`, :class:`~spacecraft.steering.SingularityRobust`,
+:class:`~spacecraft.steering.GeneralizedSingularityRobust` (its dither at each step's time) or
+:class:`~spacecraft.steering.PseudoInverseNullMotion` steering, a
 :class:`~spacecraft.disturbances.ConstantTorque` (one for the batch) or
 :class:`~spacecraft.disturbances.ConstantHarmonicTorque` disturbance (at each RKMK4 stage's
 time) or none, no flexible modes or momentum management; a
@@ -84,7 +85,13 @@ from .disturbances import ConstantHarmonicTorque, ConstantTorque
 from .plant import Spacecraft
 from .rigid_body import euler_acceleration
 from .sgcmg import SgcmgPyramid, bus_torque
-from .steering import PseudoInverseNullMotion, SingularityRobust, _saturate_unchecked
+from .steering import (
+    GeneralizedSingularityRobust,
+    PseudoInverse,
+    PseudoInverseNullMotion,
+    SingularityRobust,
+    _saturate_unchecked,
+)
 
 __all__ = [
     "JaxClosedLoop",
@@ -325,14 +332,15 @@ class JaxClosedLoop:
         law_params, law = self._split(params)
         cluster, rate_limit = self.cluster, self.rate_limit
 
-        def command(u_cmd: Any, x: Any) -> tuple:
-            """The actuator's command held over a step from x (simulate's per-step call)."""
+        def command(u_cmd: Any, x: Any, t: Any) -> tuple:
+            """The actuator's command held over the step from x at time t (simulate's
+            per-step call)."""
             if cluster is None:
                 return (u_cmd if limit is None else jnp.clip(u_cmd, -limit, limit),)
             w, d = x[:3], x[3:]
             h, A = cluster._momentum_and_jacobian(d)
             h_dot_cmd = -(cross(w, h) + u_cmd)
-            return _saturate_unchecked(law.steer(A, h_dot_cmd, d, 0.0, cluster), rate_limit)
+            return _saturate_unchecked(law.steer(A, h_dot_cmd, d, t, cluster), rate_limit)
 
         def torque(x: Any, held: tuple) -> Any:
             if cluster is None:
@@ -348,7 +356,7 @@ class JaxClosedLoop:
             previous sample), and the log row (with the first step's command)."""
             # the controller's own pure law (liecontrol.control.array_law)
             u_cmd, cs, diag = ctrl_law.call(k_R, k_Omega, cs, R, x[:3], *ref, T, law_params, t)
-            held = command(u_cmd, x)
+            held = command(u_cmd, x, t)
             row = {"R": R, "x": x, "u_cmd": u_cmd, "u": torque(x, held),
                    **{_CTRL + k: v for k, v in diag.items()}}  # fmt: skip
             if cluster is None:
@@ -366,7 +374,9 @@ class JaxClosedLoop:
             row, u_cmd, cs = sample(R, x, cs, ref if varying else refs, t0 + (k * n_sub) * dt)
 
             def step(c: tuple, j: Any) -> tuple:
-                held = command(u_cmd, c[1])
+                # the step's time as simulate computes it, t₀ + i·dt for the i-th step
+                t = t0 + (k * n_sub + j) * dt
+                held = command(u_cmd, c[1], t)
 
                 def field_(t: Any, RR: Any, xx: Any) -> tuple[Any, Any]:
                     tau = torque(xx, held)
@@ -375,8 +385,6 @@ class JaxClosedLoop:
                     acc = euler_acceleration(J, J_inv, xx[:3], tau)
                     return xx[:3], acc if cluster is None else jnp.concatenate((acc, held[0]))
 
-                # the step's time as simulate computes it, t₀ + i·dt for the i-th step
-                t = t0 + (k * n_sub + j) * dt
                 return rkmk4_step_unchecked(field_, t, c[0], c[1], dt, stage_attitude=False), None
 
             # the sample's own step recomputes its command: one extra steering call per period
@@ -598,7 +606,9 @@ def _check_params(params: Mapping[str, Any] | None) -> dict[str, np.ndarray] | N
 #: The steering laws' fields that are differentiable parameters of the loop (floats in the
 #: steering formula; the others are switches or tolerances).
 _STEERING_PARAMS: dict[type, tuple[str, ...]] = {
+    PseudoInverse: (),
     SingularityRobust: ("lambda0", "mu"),
+    GeneralizedSingularityRobust: ("lambda0", "mu", "epsilon0"),
     PseudoInverseNullMotion: ("k",),
 }
 
@@ -732,10 +742,11 @@ def _check_actuator(act: object) -> None:
             f"plant.actuator.servo: the JAX route supports the ideal gimbal servo only, got "
             f"{act.servo!r}; run spacecraft.simulate"
         )
-    if type(act.steering) not in (SingularityRobust, PseudoInverseNullMotion):
+    if type(act.steering) not in _STEERING_PARAMS:
         raise ValueError(
-            f"plant.actuator.steering: the JAX route supports SingularityRobust and "
-            f"PseudoInverseNullMotion steering, got {type(act.steering).__name__}; run "
+            f"plant.actuator.steering: the JAX route supports PseudoInverse, SingularityRobust, "
+            f"GeneralizedSingularityRobust and PseudoInverseNullMotion steering, got "
+            f"{type(act.steering).__name__}; run "
             "spacecraft.simulate"
         )
     if type(act.cluster) is not SgcmgPyramid:

@@ -172,9 +172,7 @@ class Spacecraft:
         if self.disturbance is not None and not callable(self.disturbance):
             raise ValueError("disturbance: must be callable as (t, R, omega) -> (B, 3)")
         mm = self.momentum_management
-        if mm is not None and not all(
-            callable(getattr(mm, n, None)) for n in ("dipole", "torque")
-        ):
+        if mm is not None and not all(callable(getattr(mm, n, None)) for n in ("dipole", "torque")):
             raise ValueError(
                 "momentum_management: must have methods dipole(t, R, h) and torque(t, R, m) "
                 f"(e.g. spacecraft.momentum.CrossProductDumping), got {type(mm).__name__}"

@@ -135,9 +135,14 @@ def _floor(tr3: np.ndarray, lam: np.ndarray | float, eps: float) -> np.ndarray:
 
 
 def _off_matrix(off: tuple[float, float, float]) -> np.ndarray:
-    """Symmetric 3×3 with zero diagonal and upper entries (0,1), (0,2), (1,2) = ``off``."""
+    """Symmetric 3×3 with zero diagonal and upper entries (0,1), (0,2), (1,2) = ``off``
+    (floats, or JAX scalars: pure)."""
     e01, e02, e12 = off
-    return np.array([[0.0, e01, e02], [e01, 0.0, e12], [e02, e12, 0.0]])
+    xp = namespace(e01, e02, e12)
+    if is_numpy(xp):
+        return np.array([[0.0, e01, e02], [e01, 0.0, e12], [e02, e12, 0.0]])
+    z = xp.zeros_like(e01)
+    return xp.stack([xp.stack([z, e01, e02]), xp.stack([e01, z, e12]), xp.stack([e02, e12, z])])
 
 
 def _apply_right_inverse_small(
@@ -529,6 +534,9 @@ class PseudoInverse(SteeringLaw):
         object.__setattr__(self, "eps", _check_eps(self.eps))
 
     def steer(self, A, hdot_cmd, delta=None, t=0.0, cluster=None) -> np.ndarray:
+        if not is_numpy(namespace(A, hdot_cmd)):
+            # JAX arrays: the small-batch formula (pure), batched by vmap or broadcasting
+            return _apply_right_inverse_small(A, hdot_cmd[..., None], 0.0, self.eps)[..., 0]
         if _use_kernel(self, A):
             return _steer_kernel(self, A, hdot_cmd, t)
         return _apply_right_inverse(A, hdot_cmd[..., None], 0.0, self.eps)[..., 0]
@@ -677,10 +685,12 @@ class GeneralizedSingularityRobust(SteeringLaw):
         object.__setattr__(self, "phases", tuple(ph.tolist()))
 
     def dither(self, t: float) -> tuple[float, float, float]:
-        """(ε₁, ε₂, ε₃) at time ``t`` [s]."""
+        """(ε₁, ε₂, ε₃) at time ``t`` [s] (a float, or a JAX scalar: pure)."""
         w, e0 = self.omega_eps, self.epsilon0
         p1, p2, p3 = self.phases
-        return (e0 * math.sin(w * t + p1), e0 * math.sin(w * t + p2), e0 * math.sin(w * t + p3))
+        xp = namespace(t)
+        sin = math.sin if is_numpy(xp) else xp.sin
+        return (e0 * sin(w * t + p1), e0 * sin(w * t + p2), e0 * sin(w * t + p3))
 
     def dither_matrix(self, t: float) -> np.ndarray:
         """E(t), ``(3, 3)``."""
@@ -688,6 +698,14 @@ class GeneralizedSingularityRobust(SteeringLaw):
         return np.eye(3) + _off_matrix((e3, e2, e1))
 
     def steer(self, A, hdot_cmd, delta=None, t=0.0, cluster=None) -> np.ndarray:
+        xp = namespace(A, hdot_cmd, t)
+        if not is_numpy(xp):
+            # JAX arrays: the small-batch formula (pure), batched by vmap or broadcasting
+            e1, e2, e3 = self.dither(t)
+            m, s2 = _measure_and_scale(A)
+            lam = self.lambda0 * xp.exp(-self.mu * m * m) * s2
+            off = (e3, e2, e1)
+            return _apply_right_inverse_small(A, hdot_cmd[..., None], lam, PINV_EPS, off)[..., 0]
         if _use_kernel(self, A):
             return _steer_kernel(self, A, hdot_cmd, t)
         e1, e2, e3 = self.dither(t)

@@ -209,7 +209,7 @@ def test_unsupported_configurations_name_the_part(jax):
     ref = ConstantAttitude(np.eye(3))
     pd = GeometricPD(J, 1.0, 5.0)
     from spacecraft.actuators import FirstOrderServo
-    from spacecraft.steering import PseudoInverse
+    from spacecraft.steering import LocalGradient
 
     class OwnTorque(IdealTorqueActuator):  # a subclass may change the formulas
         pass
@@ -219,8 +219,8 @@ def test_unsupported_configurations_name_the_part(jax):
     with pytest.raises(ValueError, match=r"^plant\.actuator\.servo: "):
         sg = SgcmgActuator(servo=FirstOrderServo(0.05))
         closed_loop(Spacecraft(RigidBody(J), sg), pd, ref, 10.0, 0.1)
-    with pytest.raises(ValueError, match=r"^plant\.actuator\.steering: .*PseudoInverse"):
-        sg = SgcmgActuator(steering=PseudoInverse())
+    with pytest.raises(ValueError, match=r"^plant\.actuator\.steering: .*LocalGradient"):
+        sg = SgcmgActuator(steering=LocalGradient())
         closed_loop(Spacecraft(RigidBody(J), sg), pd, ref, 10.0, 0.1)
     with pytest.raises(ValueError, match=r"^controller\.error: .*'trace'"):
         closed_loop(_plant(), GeometricPD(J, 1.0, 5.0, error="trace"), ref, 10.0, 0.1)
@@ -299,6 +299,39 @@ def test_sgcmg_gradient_finite_through_the_rate_limit_switch(jax):
     for dd in ([0.0, 0.0, 0.0, 0.0], [1.0, -0.5, 0.2, 0.0], [3.0, 0.1, 0.0, -2.0]):
         g = np.asarray(jax.grad(f)(jax.numpy.asarray(dd)))
         assert np.isfinite(g).all(), dd
+
+
+@pytest.mark.parametrize("which", ["pinv", "gsr"])
+def test_pinv_and_gsr_steering_equal_fused_simulate(which, jax):
+    """Pseudo-inverse and the generalized SR inverse (its dither read at each step's time) on
+    the JAX route equal the fused loop, through the gimbal-rate limit, from 179.9°; GSR's
+    dither amplitude is a loop parameter with a finite derivative."""
+    from spacecraft.actuators import SgcmgActuator
+    from spacecraft.differentiable import closed_loop
+    from spacecraft.steering import GeneralizedSingularityRobust, PseudoInverse
+
+    plant, ctrl, ref, R0, w0 = _sgcmg_case(0.0015)
+    steer = PseudoInverse() if which == "pinv" else GeneralizedSingularityRobust(epsilon0=0.2)
+    plant = Spacecraft(plant.body, SgcmgActuator(plant.actuator.cluster, steer))
+    want = simulate(plant, ctrl, ref, plant.initial_state(R0, w0), 30.0, 0.1,
+                    control_period=0.2, log_every=2)  # fmt: skip
+    loop = closed_loop(plant, ctrl, ref, 30.0, 0.1, 0.2)
+    run = loop.run(R0, w0)
+    assert want.actuator["saturated"].any()
+    np.testing.assert_allclose(run.R, want.R, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(run.actuator["delta_dot"], want.actuator["delta_dot"], atol=1e-12)
+    np.testing.assert_array_equal(run.actuator["saturated"], want.actuator["saturated"])
+    if which == "gsr":
+        assert set(loop.params) == {"steering.lambda0", "steering.mu", "steering.epsilon0"}
+        jnp = jax.numpy
+
+        def c(e0):
+            return loop.cost(jnp.asarray(ctrl.k_R), jnp.asarray(ctrl.k_Omega), jnp.asarray(R0),
+                             jnp.asarray(w0), 0.01, params={"steering.epsilon0": e0})  # fmt: skip
+
+        with jax.enable_x64(True):
+            g = float(jax.grad(c)(0.2))
+        assert np.isfinite(g)
 
 
 def test_steering_parameters_are_loop_parameters(jax):
