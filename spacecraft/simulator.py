@@ -427,11 +427,14 @@ class StarTrackerGyro:
         self, t: float, outputs: Mapping[str, np.ndarray], truth: AttitudeState
     ) -> AttitudeState:
         y = np.asarray(outputs[self.attitude])
-        if y.shape[-2:] == (3, 3):
+        # the form by rank against the state's, not by the trailing shape alone: a batch of 3
+        # Euler-angle rows (3, 3) is not a matrix (the state's R is (3, 3, 3) then)
+        vector = y.ndim == truth.omega.ndim
+        if y.ndim == truth.R.ndim and y.shape[-2:] == (3, 3):
             R = y
-        elif y.shape[-1] == 4:
+        elif vector and y.shape[-1] == 4:
             R = _unit_quaternion_to_matrix(y)
-        elif y.shape[-1] == 3:
+        elif vector and y.shape[-1] == 3:
             R = euler.to_matrix(y, self.seq)
         else:
             raise ValueError(

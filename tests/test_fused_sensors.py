@@ -267,7 +267,6 @@ def _two_vector():
 def test_unsupported_sensors_take_the_python_loop_with_the_same_result(
     sensors_fn, hook, words, caplog
 ):
-    # B = 2: StarTrackerGyro reads Euler angles (B, 3) of B = 3 spacecraft as one matrix
     plant, ctrl, ref, x0 = _case("ideal", B=2)
     hook_obj = StarTrackerGyro() if hook else None
     with caplog.at_level(logging.INFO, logger="spacecraft.simulator"):

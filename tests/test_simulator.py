@@ -474,6 +474,24 @@ def test_star_tracker_gyro_hook_with_perfect_sensors_equals_truth():
         np.testing.assert_allclose(sensed.estimate["omega"][rows], truth.omega[rows], atol=1e-15)
 
 
+def test_star_tracker_gyro_reads_each_output_form_for_a_batch_of_three():
+    """B = 3: Euler-angle rows (3, 3) are three attitudes, not one matrix; a quaternion batch
+    (3, 4) and matrices (3, 3, 3) likewise read as the sensor wrote them (the form is decided
+    by rank against the state's)."""
+    from liecontrol.charts import euler
+    from liecontrol.control.base import AttitudeState
+
+    rng = np.random.default_rng(7)
+    R = so3.exp(rng.normal(size=(3, 3)))
+    truth = AttitudeState(R, rng.normal(size=(3, 3)) * 0.01)
+    hook = StarTrackerGyro()
+    for y in (R, quaternion.from_matrix(R), euler.from_matrix(R, "ZYX")):
+        est = hook(0.0, {"star_tracker": y, "gyro": truth.omega}, truth)
+        np.testing.assert_allclose(est.R, R, atol=1e-12)
+    with pytest.raises(ValueError, match=r"^outputs: 'star_tracker' has shape \(3, 5\)"):
+        hook(0.0, {"star_tracker": np.zeros((3, 5)), "gyro": truth.omega}, truth)
+
+
 def test_noisy_sensors_are_seeded_and_felt_by_the_loop():
     plant = _sensor_plant()
     ref = ConstantAttitude(np.eye(3))
