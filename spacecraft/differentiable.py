@@ -75,8 +75,7 @@ from liecontrol._validation import (
     check_rotation_matrix,
 )
 from liecontrol.control.array_law import array_law_of
-from liecontrol.control.base import AttitudeReference
-from liecontrol.control.geometric_pd import GeometricPD
+from liecontrol.control.base import AttitudeController, AttitudeReference
 from liecontrol.integrators.rk import rkmk4_step_unchecked
 from liecontrol.lie import so3
 
@@ -655,7 +654,7 @@ def _reference_samples(
 
 def closed_loop(
     plant: Spacecraft,
-    controller: GeometricPD,
+    controller: AttitudeController,
     reference: Callable[[float], AttitudeReference],
     t_final: float,
     dt: float,
@@ -827,7 +826,7 @@ def tune_gradient(
 
 def simulate_jax(
     plant: Spacecraft,
-    controller: GeometricPD,
+    controller: AttitudeController,
     reference: Callable[[float], AttitudeReference],
     initial_state: Any,
     t_final: float,
