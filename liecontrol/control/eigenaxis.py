@@ -37,13 +37,15 @@ terms (``ω_d``, ``ω̇_d``) are the usual feed-forward of the library's trackin
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
+from .._array_api import cross, namespace, safe_sqrt
 from .._jit import JIT_ENABLED
-from .._linalg import cross as _cross
 from .._validation import as_array, check_inertia_3x3, check_positive_scalar
 from ..lie import so3
+from .array_law import ArrayLaw
 from .base import (
     AttitudeController,
     AttitudeReference,
@@ -54,7 +56,7 @@ from .base import (
 )
 from .kernel import ControllerKernel
 
-__all__ = ["RateLimitedEigenaxis", "wie_lu_gains"]
+__all__ = ["RateLimitedEigenaxis", "rate_limited_eigenaxis_torque", "wie_lu_gains"]
 
 
 def wie_lu_gains(omega_n: float, zeta: float) -> dict[str, float]:
@@ -67,6 +69,44 @@ def wie_lu_gains(omega_n: float, zeta: float) -> dict[str, float]:
     if not (math.isfinite(k) and math.isfinite(c)):
         raise ValueError(f"omega_n: {w:g} rad/s with zeta {z:g} overflows the gains k = 2ω_n²")
     return {"k": k, "c": c}
+
+
+def rate_limited_eigenaxis_torque(
+    R: Any, omega: Any, R_d: Any, omega_d: Any, omega_dot_d: Any, J: Any, k: Any, c: Any,
+    max_rate: float, u_max: Any = None,
+) -> tuple[Any, Any, Any]:  # fmt: skip
+    """Wie & Lu's law of the module docstring for validated ``(..., 3, 3)`` attitudes and
+    ``(..., 3)`` rates (leading axes broadcast): ``(τ, rate_saturated, attitude error angle)``,
+    the flag ``True`` while the attitude term sits at its bound ``c ω_max``. Pure (NumPy or JAX,
+    the route the compiled kernel is held to): the norms are the guarded square root and the
+    divisions are taken at safe arguments on the branch not used, so derivatives are finite at
+    the identity (q_v = 0) and at θ = π (‖q_v‖ = 1, where arcsin' is infinite)."""
+    xp = namespace(R, omega, R_d, k, c)
+    Rt = xp.swapaxes(R_d, -1, -2) @ R  # R̃ = R_dᵀR
+    phi = so3._log_angle_unchecked(Rt)[0]
+    th = safe_sqrt(xp.sum(phi * phi, axis=-1), xp)
+    pos = th > 0.0
+    scale = xp.where(pos, xp.sin(0.5 * th) / xp.where(pos, th, 1.0), 0.5)
+    q_v = phi * scale[..., None]  # sin(θ/2)·â, q₀ = cos(θ/2) ≥ 0
+    RtT = xp.swapaxes(Rt, -1, -2)
+    w_dB = xp.einsum("...ij,...j->...i", RtT, omega_d)  # R̃ᵀω_d in body axes
+    dw_dB = xp.einsum("...ij,...j->...i", RtT, omega_dot_d)
+    e_w = omega - w_dB
+    nq = safe_sqrt(xp.sum(q_v * q_v, axis=-1), xp)
+    lim = c * max_rate
+    over = k * nq > lim
+    sat = xp.where(over, lim / xp.where(over, k * nq, 1.0), 1.0)
+    s = k * q_v * sat[..., None]
+    tau_fb = -(s + c * e_w) @ xp.swapaxes(J, -1, -2)
+    if u_max is not None:
+        m = xp.max(xp.abs(tau_fb) / u_max, axis=-1)
+        tau_fb = tau_fb / xp.where(m > 1.0, m, 1.0)[..., None]
+    Jt = xp.swapaxes(J, -1, -2)
+    ff = cross(omega, omega @ Jt) - (cross(omega, w_dB) - dw_dB) @ Jt
+    inside = nq < 1.0
+    angle = 2.0 * xp.where(inside, xp.arcsin(xp.where(inside, xp.maximum(nq, 0.0), 0.0)),
+                           0.5 * math.pi)  # fmt: skip
+    return tau_fb + ff, sat < 1.0, angle
 
 
 def _box(u_max: object) -> np.ndarray | None:
@@ -129,31 +169,26 @@ class RateLimitedEigenaxis(AttitudeController):
         R_d = np.broadcast_to(np.asarray(reference.R_d, dtype=np.float64), (B, 3, 3))
         w_d = np.broadcast_to(np.asarray(reference.omega_d, dtype=np.float64), (B, 3))
         dw_d = np.broadcast_to(np.asarray(reference.omega_dot_d, dtype=np.float64), (B, 3))
-        Rt = np.swapaxes(R_d, -1, -2) @ R  # R̃ = R_dᵀR
-        phi = np.asarray(so3.log(Rt), dtype=np.float64).reshape(B, 3)
-        th = np.linalg.norm(phi, axis=1)
-        scale = np.where(th > 0.0, np.sin(0.5 * th) / np.where(th > 0.0, th, 1.0), 0.5)
-        q_v = phi * scale[:, None]  # sin(θ/2)·â, q₀ = cos(θ/2) ≥ 0
-        RtT = np.swapaxes(Rt, -1, -2)
-        w_dB = np.einsum("bij,bj->bi", RtT, w_d)  # R̃ᵀω_d in body axes
-        dw_dB = np.einsum("bij,bj->bi", RtT, dw_d)
-        e_w = w - w_dB
-        nq = np.linalg.norm(q_v, axis=1)
-        lim = self.c * self.max_rate
-        sat = np.where(self.k * nq > lim, lim / np.where(nq > 0.0, self.k * nq, 1.0), 1.0)
-        s = self.k * q_v * sat[:, None]
-        tau_fb = -(s + self.c * e_w) @ self.J.T
-        if self.u_max is not None:
-            ratio = np.abs(tau_fb) / self.u_max
-            m = ratio.max(axis=1)
-            tau_fb = tau_fb / np.where(m > 1.0, m, 1.0)[:, None]
-        ff = _cross(w, w @ self.J.T) - (_cross(w, w_dB) - dw_dB) @ self.J.T
-        u = tau_fb + ff
-        self._diag = {
-            "rate_saturated": (sat < 1.0).astype(np.float64),
-            "attitude_error_rad": 2.0 * np.arcsin(np.clip(nq, 0.0, 1.0)),
-        }
+        u, sat, angle = rate_limited_eigenaxis_torque(
+            R, w, R_d, w_d, dw_d, self.J, self.k, self.c, self.max_rate, self.u_max
+        )
+        self._diag = {"rate_saturated": sat.astype(np.float64), "attitude_error_rad": angle}
         return finite_command(u, w)
+
+    def array_law(self) -> ArrayLaw:
+        """The law as a pure array function (:func:`rate_limited_eigenaxis_torque`, the one
+        :meth:`command` calls) for the differentiable loop (:mod:`liecontrol.control.array_law`):
+        memoryless; the differentiable gains are ``k`` (as ``k_R``) and ``c`` (as
+        ``k_Omega``), ``ω_max`` and the box are fixed."""
+        J, w_max, box = np.array(self.J), self.max_rate, self.u_max
+
+        def step(k_R, k_Omega, state, R, omega, R_d, omega_d, omega_dot_d, T):  # noqa: ANN001
+            u, sat, angle = rate_limited_eigenaxis_torque(
+                R, omega, R_d, omega_d, omega_dot_d, J, k_R, k_Omega, w_max, box
+            )
+            return u, state, {"rate_saturated": sat, "attitude_error_rad": angle}
+
+        return ArrayLaw(self.k, self.c, (), step)
 
     def fused_kernel(
         self, batch_size: int, control_period: float | None = None
