@@ -1230,19 +1230,24 @@ def _simulate_attitude(
         if sc0.sensors.compute_delay > 0:
             sense["compute_delay"] = sc0.sensors.compute_delay
     route = {}
+    run_ctrl = ctrl
     if backend == "jax":
-        why = _jax_refusal(fusable, sense, pairs, order)
+        # one controller (its law, not the timing proxy) flies the JAX route, with or without
+        # a compiled kernel: the route asks it for its array law
+        single = only.inner if isinstance(only, TimedController) else None
+        why = _jax_refusal(single, sense, pairs, order)
         if why is None:
             # every member flies the same reference (members differ in start, rate, inertia)
             route = {"backend": "jax"}
             ref = build_reference(pairs[order[0]][0])
+            run_ctrl = single
         else:
             _LOG.info("backend='jax': %s; %s ran on the numba loop", why, _group_name(pairs))
     t_start = time.perf_counter()
     kw = dict(t_final=sc0.duration, dt=sc0.dt, control_period=sc0.control_period,
               log_every=_log_every(sc0), **sense)  # fmt: skip
     try:
-        result = simulate(plant, ctrl, ref, state, **kw, **route)
+        result = simulate(plant, run_ctrl, ref, state, **kw, **route)
     except ValueError as exc:
         if not route:
             raise
@@ -1301,12 +1306,12 @@ def _group_name(pairs: Sequence[tuple[Scenario, str]]) -> str:
 
 
 def _jax_refusal(
-    fusable: bool, sense: dict, pairs: Sequence[tuple[Scenario, str]], order: list[int]
+    single: Any, sense: dict, pairs: Sequence[tuple[Scenario, str]], order: list[int]
 ) -> str | None:
     """Why a batch cannot take the JAX route (``None`` when it can, as far as the runner can
     tell: the plant and controller are checked by :func:`spacecraft.differentiable.closed_loop`,
-    which names what it does not fly)."""
-    if not fusable:
+    which names what it does not fly). ``single``: the batch's one controller, or ``None``."""
+    if single is None:
         return "the batch stacks several controllers"
     if sense:
         return "sensors in the loop"

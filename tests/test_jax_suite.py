@@ -1,0 +1,64 @@
+"""The benchmark suite on the JAX route (``run_suite(..., backend="jax")``): a user's controller
+that gives only its array law (no compiled kernel) flies it with the numba route's metrics and
+verdicts. Skips without JAX (``liecontrol[jax]``)."""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import pytest
+
+from benchmarks.controllers import register, unregister
+from benchmarks.runner import run_suite
+from benchmarks.scenarios import get_scenario
+from liecontrol._array_api import namespace
+from liecontrol.control import AttitudeController
+from liecontrol.control.array_law import ArrayLaw
+from liecontrol.lie import so3
+
+pytest.importorskip("jax")
+
+
+def _law(k_R, k_Omega, R, omega, R_d):
+    """u = −k_R log(R_dᵀR)^∨ − k_Ω ω (regulation); pure (NumPy or JAX)."""
+    xp = namespace(R, omega, R_d)
+    return -k_R * so3._log_angle_unchecked(xp.swapaxes(R_d, -1, -2) @ R)[0] - k_Omega * omega
+
+
+class _UserLogPD(AttitudeController):
+    """A user's law with an array law and no fused kernel (the numba route runs it in Python)."""
+
+    def __init__(self, k_R: float, k_Omega: float) -> None:
+        self.k_R, self.k_Omega = k_R, k_Omega
+
+    def reset(self, t0, batch_size):  # noqa: ANN001, ANN201
+        pass
+
+    def command(self, t, state, reference):  # noqa: ANN001, ANN201
+        return _law(self.k_R, self.k_Omega, state.R, state.omega, np.asarray(reference.R_d))
+
+    def array_law(self) -> ArrayLaw:
+        def step(k_R, k_Omega, s, R, omega, R_d, omega_d, omega_dot_d, T):  # noqa: ANN001
+            return _law(k_R, k_Omega, R, omega, R_d), s, {}
+
+        return ArrayLaw(self.k_R, self.k_Omega, (), step)
+
+
+def test_a_user_array_law_without_kernel_flies_the_suite_jax_route(caplog):
+    register("user-log-pd", lambda ctx: _UserLogPD(2.0, 40.0), quick=False, replace=True)
+    try:
+        scs = [get_scenario("slew-90").with_duration(30.0)]
+        a = run_suite(scs, ["user-log-pd"], members=2, executor="serial", progress=False)
+        with caplog.at_level(logging.INFO, logger="benchmarks.runner"):
+            b = run_suite(scs, ["user-log-pd"], members=2, executor="serial", progress=False,
+                          backend="jax")  # fmt: skip
+    finally:
+        unregister("user-log-pd")
+    assert "ran on the numba loop" not in caplog.text, caplog.text
+    for oa, ob in zip(a.outcomes + a.member_outcomes, b.outcomes + b.member_outcomes,
+                      strict=True):  # fmt: skip
+        assert oa.verdict == ob.verdict
+        for k, v in oa.metrics.items():
+            if k not in ("controller_time_us", "sim_wall_time_s") and np.isfinite(v):
+                np.testing.assert_allclose(ob.metrics[k], v, rtol=1e-9, atol=1e-12, err_msg=k)
