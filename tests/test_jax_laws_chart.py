@@ -229,3 +229,89 @@ def test_chart_array_laws_refuse_what_they_cannot_fly(jax):
     with pytest.raises(ValueError, match=r"^controller: Q overrides command\(\)"):
         closed_loop(plant, Q(J, 1.0, 1.0), REF, 10.0, 0.1)
     del EulerChartAdapter
+
+
+def test_registry_mrp_adrc_equals_fused_simulate_through_the_shadow_switch(jax):
+    """mrp-adrc: the observer, the differentiator and the held B τ carried by the scan, mapped
+    to the shadow set at the switch, the hold discretisation computed in the step by the NumPy
+    route's own series — the fused loop's (compiled kernel's) run, every diagnostic."""
+    from spacecraft.differentiable import closed_loop
+
+    R0, w0 = _starts()
+    plant = _plant()
+    want = simulate(plant, _registry("mrp-adrc"), REF, plant.initial_state(R0, w0), 60.0, 0.1,
+                    control_period=0.2, log_every=2)  # fmt: skip
+    loop = closed_loop(plant, _registry("mrp-adrc"), REF, 60.0, 0.1, 0.2)
+    run = loop.run(R0, w0)
+    keys = ["z1", "z2", "z3", "v1", "v2", "tau0", "eso_error", "chart_y", "chart_switched"]
+    _assert_same_run(run, want, keys)
+    assert want.controller["chart_switched"][:, 0].sum() == 1
+    v, g1, g2 = loop.value_and_grad(loop.k_R, loop.k_Omega, R0, w0, effort_weight=0.01)
+    assert np.isfinite(v) and np.isfinite(g1).all() and np.isfinite(g2).all()
+
+
+def test_mrp_adrc_observer_gains_are_differentiable_params(jax):
+    """The ESO gains and the TD rate are the array law's params: the closed loop's cost is
+    differentiable in them (here the observer bandwidth scale c: K₁c, K₂c², K₃c³ — the poles
+    at c·ω_o), through the discretisation's traced series and squarings; the derivative matches
+    central differences, and at c = 1 the run is the nominal one."""
+    import dataclasses
+
+    from liecontrol.control.array_law import ArrayLaw
+    from spacecraft.differentiable import closed_loop
+
+    jnp = jax.numpy
+    R0, w0 = _starts()
+    loop = closed_loop(_plant(), _registry("mrp-adrc"), REF, 20.0, 0.1, 0.2)
+    law = loop.law
+    assert set(law.params) == {"K1", "K2", "K3", "r"}
+    P = law.params
+
+    def cost(c):
+        params = {"K1": P["K1"] * c, "K2": P["K2"] * c**2, "K3": P["K3"] * c**3, "r": P["r"]}
+        tuned = ArrayLaw(law.k_R, law.k_Omega, law.state0,
+                         lambda *a: law.step(*a, params=params), params={})  # fmt: skip
+        lp = dataclasses.replace(loop, law=tuned)
+        J, J_inv = lp.inertias(2)
+        terms = jax.vmap(lp.cost_terms, in_axes=(None, None, 0, 0, 0, 0))(
+            lp.k_R, lp.k_Omega, jnp.asarray(R0[1:3]), jnp.asarray(w0[1:3]), J, J_inv)
+        return jnp.mean(terms["angle"] + 0.01 * terms["effort"])
+
+    f = jax.jit(jax.value_and_grad(cost))
+    v1, g1 = f(1.0)
+    with jax.enable_x64(True):
+        nominal = loop.cost(loop.k_R, loop.k_Omega, R0[1:3], w0[1:3], effort_weight=0.01)
+    np.testing.assert_allclose(float(v1), float(nominal), rtol=1e-13)
+    h = 1e-4
+    fd = (float(f(1.0 + h)[0]) - float(f(1.0 - h)[0])) / (2 * h)
+    assert np.isfinite(float(g1)) and float(g1) != 0.0
+    np.testing.assert_allclose(float(g1), fd, rtol=1e-5)
+
+
+def test_hold_discretisation_series_equals_scipy_expm_and_runs_traced(jax):
+    """The pure scaling-and-squaring series of the ADRC's hold discretisation equals scipy's
+    expm (Padé) to round-off, and under JAX with traced gains (traced number of squarings) it
+    gives the NumPy route's matrices."""
+    from scipy.linalg import expm
+
+    from liecontrol.control import adrc
+
+    for P, h in ((adrc.PAPER, 0.1), (adrc.PAPER, 2.0), (adrc.ADRCParams(K1=0.4, K2=0.07, K3=0.003,
+                                                                        r=0.15), 0.2)):  # fmt: skip
+        F, K = adrc._eso_blocks(P.K1, P.K2, P.K3, P.alpha, P.beta)
+        M = adrc._hold_augmented(F, K, adrc._E2) * h
+        s = adrc._hold_squarings(F, K, adrc._E2, h)
+        E = adrc._expm(M, s)
+        ref = expm(M)
+        assert np.abs(E - ref).max() <= 1e-12 * np.abs(ref).max()
+        want = adrc._discrete_matrices(F, K, *adrc._td_blocks(P.r), h)
+
+        def traced(k3, P=P, h=h, s=s):
+            F, K = adrc._eso_blocks(P.K1, P.K2, k3, P.alpha, P.beta)
+            return adrc._discrete_matrices(F, K, *adrc._td_blocks(jax.numpy.asarray(P.r)), h,
+                                           (s + 6, 12))  # fmt: skip
+
+        got = jax.jit(traced)(jax.numpy.asarray(P.K3))
+        for a, b in zip(got, want, strict=True):
+            # XLA's products round differently, and up to 14 squarings amplify it
+            np.testing.assert_allclose(np.asarray(a), b, rtol=0, atol=1e-12 * np.abs(b).max())

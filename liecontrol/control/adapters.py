@@ -269,10 +269,19 @@ def mrp_shadow_jacobian(p: object) -> np.ndarray:
     n = norm_last(p)[..., None, None]  # no overflow/underflow of |p|²
     if np.any(n == 0.0):
         raise ValueError("p: the shadow of the zero MRP (identity rotation) is at infinity")
-    u = p / n[..., 0]  # p̂
     with np.errstate(over="ignore", under="ignore"):
-        D = (-np.eye(3) + 2.0 * u[..., :, None] * u[..., None, :]) / n / n
+        D = _shadow_jacobian_unchecked(p, n)
     return check_output_finite(D, "p", "D(p) ∝ 1/|p|²")
+
+
+def _shadow_jacobian_unchecked(p: Any, n: Any = None) -> Any:
+    """:func:`mrp_shadow_jacobian` of non-zero MRPs (``n`` = |p| ``(..., 1, 1)``, default
+    √(pᵀp)); pure."""
+    xp = namespace(p)
+    if n is None:
+        n = xp.sqrt(xp.sum(p * p, axis=-1))[..., None, None]
+    u = p / n[..., 0]  # p̂
+    return (-np.eye(3) + 2.0 * u[..., :, None] * u[..., None, :]) / n / n
 
 
 def mrp_shadow_map(
@@ -293,21 +302,32 @@ def mrp_shadow_map(
     """
     p = as_array(p, "p", (3,))
     D = mrp_shadow_jacobian(p)
-    ps = -p / np.sum(p * p, axis=-1, keepdims=True)
     if p_dot is None:
         if p_ddot is not None:
             raise ValueError("p_dot: required when p_ddot is given")
-        return ps, None, None
+        return -p / np.sum(p * p, axis=-1, keepdims=True), None, None
     pd = as_array(p_dot, "p_dot", (3,))
-    pd_s = _mv(D, pd)
+    pdd = None if p_ddot is None else as_array(p_ddot, "p_ddot", (3,))
+    return mrp_shadow_map_unchecked(p, pd, pdd, D)[:3]
+
+
+def mrp_shadow_map_unchecked(p: Any, p_dot: Any, p_ddot: Any = None, D: Any = None) -> tuple:
+    """:func:`mrp_shadow_map` of non-zero MRPs without validation, pure (NumPy or JAX; the
+    array laws' shadow-switch hooks select its result with ``where``): ``(p_s, ṗ_s, p̈_s or
+    None, D)``, ``D`` the Jacobian (computed when not given)."""
+    xp = namespace(p, p_dot)
+    if D is None:
+        D = _shadow_jacobian_unchecked(p)
+    ps = -p / xp.sum(p * p, axis=-1, keepdims=True)
+    pd_s = _mv(D, p_dot)
     if p_ddot is None:
-        return ps, pd_s, None
-    pdd = as_array(p_ddot, "p_ddot", (3,))
-    n2 = np.sum(p * p, axis=-1, keepdims=True)
-    ppd = np.sum(p * pd, axis=-1, keepdims=True)
-    pdpd = np.sum(pd * pd, axis=-1, keepdims=True)
+        return ps, pd_s, None, D
+    pd = p_dot
+    n2 = xp.sum(p * p, axis=-1, keepdims=True)
+    ppd = xp.sum(p * pd, axis=-1, keepdims=True)
+    pdpd = xp.sum(pd * pd, axis=-1, keepdims=True)
     Ddot_pd = (4.0 * ppd * pd + 2.0 * pdpd * p) / n2**2 - 8.0 * ppd**2 * p / n2**3
-    return ps, pd_s, _mv(D, pdd) + Ddot_pd
+    return ps, pd_s, _mv(D, p_ddot) + Ddot_pd, D
 
 
 # --------------------------------------------------------------------------- charts
