@@ -186,11 +186,7 @@ def test_a_users_chart_law_flies_with_its_state(jax):
 
 def test_chart_array_laws_refuse_what_they_cannot_fly(jax):
     from liecontrol.control import QuaternionPD
-    from liecontrol.control.adapters import (
-        EulerChartAdapter,
-        MrpChartAdapter,
-        RotatingFrame,
-    )
+    from liecontrol.control.adapters import MrpChartAdapter, RotatingFrame
     from liecontrol.control.chart_baselines import MrpPDLaw
     from spacecraft.differentiable import closed_loop
 
@@ -228,7 +224,6 @@ def test_chart_array_laws_refuse_what_they_cannot_fly(jax):
 
     with pytest.raises(ValueError, match=r"^controller: Q overrides command\(\)"):
         closed_loop(plant, Q(J, 1.0, 1.0), REF, 10.0, 0.1)
-    del EulerChartAdapter
 
 
 def test_registry_mrp_adrc_equals_fused_simulate_through_the_shadow_switch(jax):
@@ -315,3 +310,67 @@ def test_hold_discretisation_series_equals_scipy_expm_and_runs_traced(jax):
         for a, b in zip(got, want, strict=True):
             # XLA's products round differently, and up to 14 squarings amplify it
             np.testing.assert_allclose(np.asarray(a), b, rtol=0, atol=1e-12 * np.abs(b).max())
+
+
+class _EulerPD:
+    """A user's Euler-angle law, u = −k (y − y_d) − c (ẏ − ẏ_d) mapped through Mᵀ (the rates
+    matrix's transpose: a torque from an angle-space force), NumPy and array forms."""
+
+    batched = True
+
+    def __init__(self, k: float, c: float) -> None:
+        self.k, self.c = k, c
+
+    def reset(self, t0, batch_size):
+        pass
+
+    @staticmethod
+    def _u(k, c, s):
+        f = -k * (s.y - s.y_d) - c * (s.y_dot - s.y_d_dot)
+        B = s.chart.rates_matrix(s.y)  # ẏ = B ω: the force's torque is Bᵀ f
+        return (np.swapaxes(B, -1, -2) @ f[..., None])[..., 0]
+
+    def __call__(self, t, s):
+        return self._u(self.k, self.c, s)
+
+    def array_law(self):
+        from liecontrol.control.adapters import ChartArrayLaw
+
+        return ChartArrayLaw(self.k, self.c, (), lambda k, c, st, s, T: (self._u(k, c, s), st, {}))
+
+
+@pytest.mark.parametrize("base", ["reference", "inertial"])
+def test_euler_adapter_flies_and_flags_gimbal_lock(base, jax):
+    """The Euler adapter's pure conversion (angles, unwrap memory, rates): a user's Euler law
+    flies with the NumPy route's values; where the NumPy route raises ChartSingularityError at
+    gimbal lock, the array law reports ``chart_lock`` and the member is flagged diverged."""
+    from liecontrol.control.adapters import EulerChartAdapter
+    from liecontrol.exceptions import ChartSingularityError
+    from spacecraft.differentiable import closed_loop
+
+    rng = np.random.default_rng(3)
+    ax = rng.normal(size=(3, 3))
+    ax /= np.linalg.norm(ax, axis=1, keepdims=True)
+    R0 = REF.R_d @ so3.exp(ax * np.radians([40.0, 20.0, 5.0])[:, None])
+    w0 = rng.normal(size=(3, 3)) * 0.01
+    plant = _plant()
+    ref = REF if base == "reference" else ConstantAttitude(so3.exp(np.array([0.0, 0.0, 3.0])))
+
+    def ctrl():
+        return EulerChartAdapter(_EulerPD(20.0, 60.0), seq="ZYX", base=base)
+
+    want = simulate(plant, ctrl(), ref, plant.initial_state(R0, w0), 30.0, 0.1,
+                    control_period=0.2, log_every=2)  # fmt: skip
+    run = closed_loop(plant, ctrl(), ref, 30.0, 0.1, 0.2).run(R0, w0)
+    _assert_same_run(run, want, ["chart_y", "chart_y_d"])
+    assert not run.controller["chart_lock"].any() and not run.diverged.any()
+    # a start at gimbal lock (a2 = 90° about the body's y axis, relative to the base)
+    base_R = REF.R_d if base == "reference" else np.eye(3)
+    R_lock = base_R @ so3.exp(np.array([0.0, np.pi / 2, 0.0]))[None]
+    with pytest.raises(ChartSingularityError, match="^R: gimbal lock"):
+        simulate(plant, ctrl(), ref, plant.initial_state(R_lock, np.zeros((1, 3))), 1.0, 0.1)
+    run = closed_loop(plant, ctrl(), ref, 1.0, 0.1).run(np.concatenate([R_lock, R0[:1]]))
+    assert run.controller["chart_lock"][0].tolist() == [True, False]
+    assert np.isnan(run.u_cmd[0, 0]).all() and np.isfinite(run.u_cmd[0, 1]).all()
+    # the NaN torque's first step makes the state non-finite at the next logged time
+    assert run.diverged.tolist() == [True, False] and run.diverged_at[0] == 0.1

@@ -53,6 +53,32 @@ The chart-law protocol (what the wrapped ``law`` must provide)::
         def diagnostics(self) -> dict[str, np.ndarray]: ...           # optional, (B, ...) arrays
         def on_shadow_switch(self, state_mask, desired_mask) -> None: ...  # optional, MRP only
 
+**The array-law protocol** (the JAX route, :mod:`liecontrol.control.array_law`). Every adapter
+has ``array_law()``: its chart conversion is written once as pure array functions
+(:func:`chart_sample` with the adapter's chart and memory: :func:`quaternion_canonical`,
+:func:`mrp_track`, :func:`quaternion_sign`, :func:`euler_unwrap`, the charts' rates), which the
+NumPy route above calls on ``(B, ...)`` batches and the array law on one spacecraft's JAX arrays.
+The chart memory — MRP: the previous σ, σ_d and a first-sample flag; quaternion: the previous q
+(at the first sample the sign hint, or zeros in the switched mode) and q_d; Euler: the previous
+y_d and the flag — is state carried by the scan, ahead of the law's own. The adapter composes
+it with the law's pure form, which a chart law offers next to ``__call__``::
+
+        def array_law(self) -> ChartArrayLaw:
+            def step(k_R, k_Omega, state, s, T):   # s: one spacecraft's ChartState
+                u = -k_R * (s.y - s.y_d) - k_Omega * (s.y_dot - s.y_d_dot)
+                return u, state, {"my_diag": ...}   # torque (3,), state, diagnostics
+            return ChartArrayLaw(self.kp, self.kd, (), step)   # gains, initial state, step
+
+(:class:`ChartArrayLaw`; optional ``params`` — further differentiable parameters, passed to
+``step`` as the keyword ``params`` — and, for MRP, ``on_shadow_switch(state, switched,
+switched_desired) -> state``, the hook's pure form, called at every sample before ``step``).
+Write the step with ``xp`` formulas (:mod:`liecontrol._array_api`) — ideally the very function
+``__call__`` evaluates, as :class:`~liecontrol.control.chart_baselines.MrpPDLaw` does. In the
+array law ``s.t`` and ``s.h`` are ``None``, the arrays have no batch axis, and the Euler chart
+does not raise at gimbal lock: it reports ``chart_lock`` and the torque is NaN (the JAX route
+flags the member diverged). A law without ``array_law``, one whose ``__call__`` overrides its
+parent's ``array_law``, or a callable base frame is refused (``ValueError`` naming it).
+
 Euler-angle laws (e.g. Liu, Tang & Yu's terminal sliding mode, sequence ``"ZYX"`` = 3-2-1,
 y = (a1, a2, a3), R = Rz(a1) Ry(a2) Rx(a3)) are wrapped as::
 
@@ -394,9 +420,17 @@ class EulerChart(_Chart3):
 
     def from_matrix(self, R: np.ndarray) -> np.ndarray:
         # gimbal lock is reported by check_lock with the adapter's tolerance, not as a warning
-        return _euler.from_matrix(R, self.seq, warn=False)
+        if namespace(R) is np:
+            return _euler.from_matrix(R, self.seq, warn=False)
+        return _euler._from_matrix_unchecked(R, self.seq, _euler.FROM_MATRIX_LOCK_TOL)[0]
 
     from_matrix_trusted = from_matrix
+
+    def near_lock(self, y: Any) -> Any:
+        """|cos a2| (Tait–Bryan) or |sin a2| (proper Euler) < ``lock_tol``; pure."""
+        xp = namespace(y)
+        f = xp.cos if self.tait_bryan else xp.sin
+        return xp.abs(f(y[..., 1])) < self.lock_tol
 
     def check_lock(self, y: np.ndarray, name: str) -> None:
         """Raise :class:`ChartSingularityError` naming ``name`` near gimbal lock."""
@@ -413,10 +447,15 @@ class EulerChart(_Chart3):
             )
 
     def rates_matrix(self, y: np.ndarray) -> np.ndarray:
-        return _euler.rates_matrix(y, self.seq, self.lock_tol)
+        """B(y); NumPy: raises at gimbal lock; JAX: unchecked (the array law flags the lock)."""
+        if namespace(y) is np:
+            return _euler.rates_matrix(y, self.seq, self.lock_tol)
+        return _euler._rates_matrix_unchecked(y, self.seq)
 
     def rates_matrix_inv(self, y: np.ndarray) -> np.ndarray:
-        return _euler.rates_matrix_inv(y, self.seq)
+        if namespace(y) is np:
+            return _euler.rates_matrix_inv(y, self.seq)
+        return _euler._rates_matrix_inv_unchecked(y, self.seq)
 
     def identity(self, batch: int) -> np.ndarray:
         return self.from_matrix(np.broadcast_to(np.eye(3), (batch, 3, 3)))
@@ -956,6 +995,9 @@ class ChartAdapter(AttitudeController):
             if hook is not None:
                 ls = tuple(hook(ls, sw, sw_d))
             u, ls, diag = law_step(k_R, k_Omega, ls, s, T, **kw)
+            if "chart_lock" in extra:
+                # the chart's singularity: no torque (NaN, so the run flags the member diverged)
+                u = namespace(u, extra["chart_lock"]).where(extra["chart_lock"], np.nan, u)
             diag = {**diag, **extra, "chart_y": s.y, "chart_y_d": s.y_d, "chart_switched": sw}
             return u, tuple(mem) + tuple(ls), diag
 
@@ -987,7 +1029,6 @@ class EulerChartAdapter(ChartAdapter):
     ) -> None:
         super().__init__(law, EulerChart(seq, lock_tol), base)
         self.unwrap = bool(unwrap)
-        self._array_chart = False
         self._y_d_prev: np.ndarray | None = None
 
     def _reset_memory(self) -> None:
@@ -1007,15 +1048,23 @@ class EulerChartAdapter(ChartAdapter):
 
     def _pure_coords(self, mem: tuple, R_rel: Any, R_d_rel: Any) -> tuple:
         ch = self.chart
+        xp = namespace(R_rel)
         y = ch.from_matrix(R_rel)
-        y_d = self._identity_coords(y.shape[0]) if R_d_rel is None else ch.from_matrix(R_d_rel)
-        ch.check_lock(y, "R")
-        ch.check_lock(y_d, "R_d")
+        if R_d_rel is None:
+            y_d = xp.zeros(y.shape) + ch.identity(1)[0]
+        else:
+            y_d = ch.from_matrix(R_d_rel)
+        extra = {}
+        if xp is np:  # the NumPy route refuses the sample
+            ch.check_lock(y, "R")
+            ch.check_lock(y_d, "R_d")
+        else:  # the array law reports the lock (and poisons the torque: ChartAdapter.array_law)
+            extra["chart_lock"] = ch.near_lock(y) | ch.near_lock(y_d)
         y_d_prev, has = mem
         if self.unwrap:
             y, y_d = euler_unwrap(y, y_d, y_d_prev, has)
-        no = np.zeros(y.shape[:-1], dtype=bool)
-        return y, y_d, no, no, (y_d, np.ones_like(has)), {}
+        no = xp.zeros(y.shape[:-1], dtype=bool)
+        return y, y_d, no, no, (y_d, xp.ones(y.shape[:-1], dtype=bool)), extra
 
 
 class MrpChartAdapter(ChartAdapter):
