@@ -374,3 +374,22 @@ def test_euler_adapter_flies_and_flags_gimbal_lock(base, jax):
     assert np.isnan(run.u_cmd[0, 0]).all() and np.isfinite(run.u_cmd[0, 1]).all()
     # the NaN torque's first step makes the state non-finite at the next logged time
     assert run.diverged.tolist() == [True, False] and run.diverged_at[0] == 0.1
+
+
+def test_registry_eigenaxis_rate_limited_equals_fused_simulate(jax):
+    """eigenaxis-rate-limited (memoryless; its rate limit a differentiable param): the fused
+    loop's run, the rate saturation reached; a finite gradient."""
+    from spacecraft.differentiable import closed_loop
+
+    R0, w0 = _starts()
+    plant = _plant()
+    want = simulate(plant, _registry("eigenaxis-rate-limited"), REF,
+                    plant.initial_state(R0[1:], 0.0 * w0[1:]), 60.0, 0.1, control_period=0.2,
+                    log_every=2)  # fmt: skip
+    loop = closed_loop(plant, _registry("eigenaxis-rate-limited"), REF, 60.0, 0.1, 0.2)
+    run = loop.run(R0[1:], 0.0 * w0[1:])
+    _assert_same_run(run, want, ["rate_saturated", "attitude_error_rad"])
+    assert want.controller["rate_saturated"].any()
+    assert set(loop.law.params) == {"max_rate"}
+    v, gk, gc = loop.value_and_grad(loop.k_R, loop.k_Omega, R0[1:], 0.0 * w0[1:])
+    assert np.isfinite(v) and np.isfinite(gk) and np.isfinite(gc)

@@ -37,13 +37,15 @@ terms (``ω_d``, ``ω̇_d``) are the usual feed-forward of the library's trackin
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
+from .._array_api import cross, namespace, safe_sqrt
 from .._jit import JIT_ENABLED
-from .._linalg import cross as _cross
 from .._validation import as_array, check_inertia_3x3, check_positive_scalar
 from ..lie import so3
+from .array_law import ArrayLaw
 from .base import (
     AttitudeController,
     AttitudeReference,
@@ -80,6 +82,42 @@ def _box(u_max: object) -> np.ndarray | None:
     out = np.array(np.broadcast_to(a, (3,)), dtype=np.float64)
     out.setflags(write=False)
     return out
+
+
+def eigenaxis_torque(
+    R: Any, w: Any, R_d: Any, w_d: Any, dw_d: Any, J: Any, k: Any, c: Any, max_rate: Any,
+    u_max: Any = None,
+) -> tuple[Any, dict[str, Any]]:  # fmt: skip
+    """The law of the module docstring as a pure array function (NumPy ``(B, ...)`` batches or
+    one spacecraft's JAX arrays, broadcasting): ``(τ, {"rate_saturated", "attitude_error_rad"})``.
+    The one formula of :meth:`RateLimitedEigenaxis.command` and its array law."""
+    xp = namespace(R, w, R_d, w_d, dw_d, k, c, max_rate)
+    Rt = xp.swapaxes(R_d, -1, -2) @ R  # R̃ = R_dᵀR
+    if xp is np:
+        phi = np.asarray(so3.log(Rt), dtype=np.float64).reshape(Rt.shape[:-2] + (3,))
+    else:
+        phi = so3._log_angle_unchecked(Rt)[0]
+    th = safe_sqrt(xp.sum(phi * phi, axis=-1), xp)
+    scale = xp.where(th > 0.0, xp.sin(0.5 * th) / xp.where(th > 0.0, th, 1.0), 0.5)
+    q_v = phi * scale[..., None]  # sin(θ/2)·â, q₀ = cos(θ/2) ≥ 0
+    RtT = xp.swapaxes(Rt, -1, -2)
+    w_dB = (RtT @ w_d[..., None])[..., 0]  # R̃ᵀω_d in body axes
+    dw_dB = (RtT @ dw_d[..., None])[..., 0]
+    e_w = w - w_dB
+    nq = safe_sqrt(xp.sum(q_v * q_v, axis=-1), xp)
+    lim = c * max_rate
+    sat = xp.where(k * nq > lim, lim / xp.where(nq > 0.0, k * nq, 1.0), 1.0)
+    s = k * q_v * sat[..., None]
+    tau_fb = -(s + c * e_w) @ J.T
+    if u_max is not None:
+        m = xp.max(xp.abs(tau_fb) / u_max, axis=-1)
+        tau_fb = tau_fb / xp.where(m > 1.0, m, 1.0)[..., None]
+    ff = cross(w, w @ J.T) - (cross(w, w_dB) - dw_dB) @ J.T
+    rows = {
+        "rate_saturated": (sat < 1.0).astype(np.float64),
+        "attitude_error_rad": 2.0 * xp.arcsin(xp.clip(nq, 0.0, 1.0)),
+    }
+    return tau_fb + ff, rows
 
 
 def _eigenaxis_rows(rows: np.ndarray) -> dict[str, np.ndarray]:
@@ -129,31 +167,27 @@ class RateLimitedEigenaxis(AttitudeController):
         R_d = np.broadcast_to(np.asarray(reference.R_d, dtype=np.float64), (B, 3, 3))
         w_d = np.broadcast_to(np.asarray(reference.omega_d, dtype=np.float64), (B, 3))
         dw_d = np.broadcast_to(np.asarray(reference.omega_dot_d, dtype=np.float64), (B, 3))
-        Rt = np.swapaxes(R_d, -1, -2) @ R  # R̃ = R_dᵀR
-        phi = np.asarray(so3.log(Rt), dtype=np.float64).reshape(B, 3)
-        th = np.linalg.norm(phi, axis=1)
-        scale = np.where(th > 0.0, np.sin(0.5 * th) / np.where(th > 0.0, th, 1.0), 0.5)
-        q_v = phi * scale[:, None]  # sin(θ/2)·â, q₀ = cos(θ/2) ≥ 0
-        RtT = np.swapaxes(Rt, -1, -2)
-        w_dB = np.einsum("bij,bj->bi", RtT, w_d)  # R̃ᵀω_d in body axes
-        dw_dB = np.einsum("bij,bj->bi", RtT, dw_d)
-        e_w = w - w_dB
-        nq = np.linalg.norm(q_v, axis=1)
-        lim = self.c * self.max_rate
-        sat = np.where(self.k * nq > lim, lim / np.where(nq > 0.0, self.k * nq, 1.0), 1.0)
-        s = self.k * q_v * sat[:, None]
-        tau_fb = -(s + self.c * e_w) @ self.J.T
-        if self.u_max is not None:
-            ratio = np.abs(tau_fb) / self.u_max
-            m = ratio.max(axis=1)
-            tau_fb = tau_fb / np.where(m > 1.0, m, 1.0)[:, None]
-        ff = _cross(w, w @ self.J.T) - (_cross(w, w_dB) - dw_dB) @ self.J.T
-        u = tau_fb + ff
-        self._diag = {
-            "rate_saturated": (sat < 1.0).astype(np.float64),
-            "attitude_error_rad": 2.0 * np.arcsin(np.clip(nq, 0.0, 1.0)),
-        }
+        u, rows = eigenaxis_torque(
+            R, w, R_d, w_d, dw_d, self.J, self.k, self.c, self.max_rate, self.u_max
+        )
+        self._diag = rows
         return finite_command(u, w)
+
+    def array_law(self) -> ArrayLaw:
+        """The law as a pure array function (:func:`eigenaxis_torque`) for the differentiable
+        loop (:mod:`liecontrol.control.array_law`): gains ``(k, c)``, the slew-rate limit
+        ``max_rate`` a further differentiable parameter; memoryless."""
+        J, u_max = np.array(self.J), self.u_max
+        defaults = {"max_rate": self.max_rate}
+
+        def step(k, c, state, R, omega, R_d, omega_d, omega_dot_d, T, params=None):  # noqa: ANN001
+            p = defaults if params is None else params
+            u, rows = eigenaxis_torque(
+                R, omega, R_d, omega_d, omega_dot_d, J, k, c, p["max_rate"], u_max
+            )
+            return u, state, rows
+
+        return ArrayLaw(self.k, self.c, (), step, defaults)
 
     def fused_kernel(
         self, batch_size: int, control_period: float | None = None
