@@ -174,8 +174,16 @@ def test_a_users_chart_law_flies_with_its_state(jax):
 
     R0, w0 = _starts()
     plant = _plant()
-    want = simulate(plant, MrpChartAdapter(_ScaledMrpLaw(2.0, 8.0)), REF,
-                    plant.initial_state(R0, w0), 20.0, 0.1, control_period=0.2, log_every=2)
+    want = simulate(
+        plant,
+        MrpChartAdapter(_ScaledMrpLaw(2.0, 8.0)),
+        REF,
+        plant.initial_state(R0, w0),
+        20.0,
+        0.1,
+        control_period=0.2,
+        log_every=2,
+    )
     run = closed_loop(plant, MrpChartAdapter(_ScaledMrpLaw(2.0, 8.0)), REF, 20.0, 0.1, 0.2).run(
         R0, w0)  # fmt: skip
     _assert_same_run(run, want, ["chart_y", "chart_switched"])
@@ -269,7 +277,8 @@ def test_mrp_adrc_observer_gains_are_differentiable_params(jax):
         lp = dataclasses.replace(loop, law=tuned)
         J, J_inv = lp.inertias(2)
         terms = jax.vmap(lp.cost_terms, in_axes=(None, None, 0, 0, 0, 0))(
-            lp.k_R, lp.k_Omega, jnp.asarray(R0[1:3]), jnp.asarray(w0[1:3]), J, J_inv)
+            lp.k_R, lp.k_Omega, jnp.asarray(R0[1:3]), jnp.asarray(w0[1:3]), J, J_inv
+        )
         return jnp.mean(terms["angle"] + 0.01 * terms["effort"])
 
     f = jax.jit(jax.value_and_grad(cost))

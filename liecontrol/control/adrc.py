@@ -591,9 +591,7 @@ class MrpADRCLaw:
             y_p, y_v, p_d = s.y, s.y_dot, s.y_d
             meas = alpha * y_p + beta * y_v
             z_first, v_first = _adrc_first(y_p, y_v, z, measured, beta)
-            z_next, v_next = _adrc_propagate(
-                z, v, bu, (y0, yd0, pd0), meas, p_d, disc, alpha, beta
-            )
+            z_next, v_next = _adrc_propagate(z, v, bu, (y0, yd0, pd0), meas, p_d, disc, alpha, beta)
             z = xp.where(has_t, z_next, z_first)
             v = xp.where(has_t, v_next, v_first)
             tau, bu, diag = _adrc_output(z, v, y_p, y_v, k1, k2, alpha, beta, J, J_inv)
@@ -725,4 +723,3 @@ def _adrc_rows(rows: np.ndarray) -> dict[str, np.ndarray]:
         chart_switched=rows[..., 24] != 0.0,
     )
     return out
-
