@@ -572,11 +572,32 @@ def test_stateful_integral_laws_carry_their_state_through_the_scan(which, jax):
     assert np.isfinite([v]).all() and np.isfinite(gR).all() and np.isfinite(gW).all()
 
 
+class _NoArrayLaw:
+    """A user's controller with a command and a compiled kernel (the fused loop's seam) but no
+    array law: the suite's JAX backend flies it on the numba loop. It forwards to another
+    controller."""
+
+    batched = True
+
+    def __init__(self, inner):
+        self.inner = inner
+
+    def reset(self, t0, batch_size):
+        self.inner.reset(t0, batch_size)
+
+    def command(self, t, state, reference):
+        return self.inner.command(t, state, reference)
+
+    def fused_kernel(self, batch_size, control_period=None):
+        return self.inner.fused_kernel(batch_size, control_period)
+
+
 def test_suite_backend_jax_equals_numba(jax, caplog):
     """run_suite(..., backend="jax"): the batches the JAX route flies give the numba loop's
     metrics to round-off and the same verdicts; the others stay on numba with a log line."""
     import logging
 
+    from benchmarks.controllers import make_controller, register, unregister
     from benchmarks.runner import run_suite
     from benchmarks.scenarios import get_scenario
 
@@ -584,14 +605,20 @@ def test_suite_backend_jax_equals_numba(jax, caplog):
         get_scenario("slew-90").with_duration(60.0),
         get_scenario("stabilisation").with_duration(30.0),
     ]  # constant + harmonic torque
-    cs = ["geometric-pd-large-angle", "geometric-integral-pd", "mrp-pd"]
-    a = run_suite(scs, cs, members=2, executor="serial", progress=False)
-    with caplog.at_level(logging.INFO, logger="benchmarks.runner"):
-        b = run_suite(scs, cs, members=2, executor="serial", progress=False, backend="jax")
-    assert "MrpPD has no array_law" in caplog.text
-    assert "slew-90 × mrp-pd ran on the numba loop" in caplog.text
+    register("no-array-law", lambda ctx: _NoArrayLaw(make_controller("mrp-pd", ctx)),
+             family="chart", quick=False)  # fmt: skip
+    try:
+        cs = ["geometric-pd-large-angle", "geometric-integral-pd", "mrp-pd", "no-array-law"]
+        a = run_suite(scs, cs, members=2, executor="serial", progress=False)
+        with caplog.at_level(logging.INFO, logger="benchmarks.runner"):
+            b = run_suite(scs, cs, members=2, executor="serial", progress=False, backend="jax")
+    finally:
+        unregister("no-array-law")
+    assert "_NoArrayLaw has no array_law" in caplog.text
+    assert "slew-90 × no-array-law ran on the numba loop" in caplog.text
+    assert "stabilisation × no-array-law ran on the numba loop" in caplog.text
     assert "geometric-pd-large-angle ran on the numba loop" not in caplog.text
-    assert "stabilisation × mrp-pd ran on the numba loop" in caplog.text
+    assert "mrp-pd ran on the numba loop" not in caplog.text  # the chart adapter's array law
     for oa, ob in zip(a.outcomes + a.member_outcomes, b.outcomes + b.member_outcomes,
                       strict=True):  # fmt: skip
         assert (oa.scenario, oa.controller, oa.member, oa.verdict) == (
@@ -600,7 +627,7 @@ def test_suite_backend_jax_equals_numba(jax, caplog):
             if k not in ("controller_time_us", "sim_wall_time_s") and np.isfinite(v):
                 np.testing.assert_allclose(ob.metrics[k], v, rtol=1e-9, atol=1e-12, err_msg=k)
     with pytest.raises(ValueError, match="^backend: "):
-        run_suite(scs, cs, backend="torch")
+        run_suite(scs, cs[:3], backend="torch")
 
 
 def test_cli_backend_jax_without_jax_names_the_extra(monkeypatch, capsys):
@@ -645,7 +672,6 @@ def test_disturbances_in_the_stages_equal_fused_simulate(which, jax):
 
 
 def test_array_law_seam_refuses_what_it_cannot_fly(jax):
-    from liecontrol.control import MrpPD
     from liecontrol.control.array_law import ArrayLaw, array_law_of
     from spacecraft.differentiable import closed_loop
 
@@ -657,8 +683,8 @@ def test_array_law_seam_refuses_what_it_cannot_fly(jax):
 
     with pytest.raises(ValueError, match=r"^controller: OwnCommand overrides command\(\)"):
         closed_loop(_plant(), OwnCommand(J, 1.0, 5.0), ref, 10.0, 0.1)
-    with pytest.raises(ValueError, match=r"^controller: MrpPD has no array_law"):
-        closed_loop(_plant(), MrpPD(J, 1.0, 5.0), ref, 10.0, 0.1)
+    with pytest.raises(ValueError, match=r"^controller: _NoArrayLaw has no array_law"):
+        closed_loop(_plant(), _NoArrayLaw(GeometricPD(J, 1.0, 5.0)), ref, 10.0, 0.1)
 
     class Bad(GeometricPD):
         def array_law(self):

@@ -29,10 +29,11 @@ differential equations, e.g. the 3-2-1 B(θ)).
 from __future__ import annotations
 
 import warnings
+from typing import Any
 
 import numpy as np
 
-from .._linalg import cross
+from .._array_api import cross, namespace
 from .._validation import (
     as_array,
     broadcast_batch,
@@ -107,32 +108,34 @@ def _angles(angles: object) -> np.ndarray:
     return as_array(angles, "angles", (3,))
 
 
-def _elem(axis: int, a: np.ndarray) -> np.ndarray:
-    """Elementary rotation about coordinate axis ``axis`` by angle(s) ``a``."""
-    c, s = np.cos(a), np.sin(a)
+def _elem(axis: int, a: Any) -> Any:
+    """Elementary rotation about coordinate axis ``axis`` by angle(s) ``a``; pure."""
+    xp = namespace(a)
+    c, s = xp.cos(a), xp.sin(a)
+    o, one = xp.zeros_like(a), xp.ones_like(a)
     m, n = (axis + 1) % 3, (axis + 2) % 3
-    out = np.zeros(a.shape + (3, 3))
-    out[..., axis, axis] = 1.0
-    out[..., m, m] = c
-    out[..., n, n] = c
-    out[..., n, m] = s
-    out[..., m, n] = -s
-    return out
+    M = [[o, o, o], [o, o, o], [o, o, o]]
+    M[axis][axis] = one
+    M[m][m] = c
+    M[n][n] = c
+    M[n][m] = s
+    M[m][n] = -s
+    return xp.stack([xp.stack(row, axis=-1) for row in M], axis=-2)
 
 
-def _angle_about(M: np.ndarray, axis: int) -> np.ndarray:
+def _angle_about(M: Any, axis: int) -> Any:
     """Angle a of a rotation M ≈ R_axis(a): from M e_m = cos a e_m + sin a e_n."""
     m, n = (axis + 1) % 3, (axis + 2) % 3
-    return np.arctan2(M[..., n, m], M[..., m, m])
+    return namespace(M).arctan2(M[..., n, m], M[..., m, m])
 
 
-def _wrap(a: np.ndarray) -> np.ndarray:
+def _wrap(a: Any) -> Any:
     """Wrap to (−π, π]."""
-    return np.pi - np.mod(np.pi - a, 2.0 * np.pi)
+    return np.pi - namespace(a).mod(np.pi - a, 2.0 * np.pi)
 
 
-def _mT(M: np.ndarray) -> np.ndarray:
-    return np.swapaxes(M, -1, -2)
+def _mT(M: Any) -> Any:
+    return namespace(M).swapaxes(M, -1, -2)
 
 
 def to_matrix(angles: object, seq: str) -> np.ndarray:
@@ -163,45 +166,57 @@ def from_matrix(
     :func:`near_gimbal_lock` to detect the neighbourhood.
     """
     R = check_rotation_matrix(R, "R")
-    (i, j, k), ext = _parse(seq)
+    _parse(seq)
     lock_tol = check_tolerance(lock_tol, "lock_tol", upper=1.0)
     warn = check_bool(warn, "warn")
+    out, lock = _from_matrix_unchecked(R, seq, lock_tol)
+    if warn and np.any(lock):
+        warnings.warn(
+            f"R: gimbal lock in sequence {seq!r} for {int(np.count_nonzero(lock))} matrix(es); "
+            "only a1 ± a3 is determined, the third angle was set to 0",
+            GimbalLockWarning,
+            stacklevel=2,
+        )
+    return out
+
+
+def _from_matrix_unchecked(R: Any, seq: str, lock_tol: float) -> tuple[Any, Any]:
+    """``(angles, lock)`` of :func:`from_matrix` for checked rotations, pure (NumPy or JAX):
+    both branches evaluated, the lock branch selected where |cos a2| (|sin a2|) < lock_tol."""
+    xp = namespace(R)
+    (i, j, k), ext = _parse(seq)
     tb = i != k
     if tb:
         eps = 1.0 if (i, j, k) in ((0, 1, 2), (1, 2, 0), (2, 0, 1)) else -1.0
-        a2 = np.arctan2(eps * R[..., i, k], np.hypot(R[..., i, i], R[..., i, j]))
-        lock = np.abs(np.cos(a2)) < lock_tol
+        a2 = xp.arctan2(eps * R[..., i, k], xp.hypot(R[..., i, i], R[..., i, j]))
+        lock = xp.abs(xp.cos(a2)) < lock_tol
         d = np.zeros(3)
         d[k] = 1.0
     else:
         kk = 3 - i - j
         eps = 1.0 if (i, j, kk) in ((0, 1, 2), (1, 2, 0), (2, 0, 1)) else -1.0
-        a2 = np.arctan2(np.hypot(R[..., i, j], R[..., i, kk]), R[..., i, i])
-        lock = np.abs(np.sin(a2)) < lock_tol
+        a2 = xp.arctan2(xp.hypot(R[..., i, j], R[..., i, kk]), R[..., i, i])
+        lock = xp.abs(xp.sin(a2)) < lock_tol
         d = np.zeros(3)
         d[kk] = -eps  # direction of R_j(a2) e_i ⟂ e_i, for sin a2 > 0
     m, n = (i + 1) % 3, (i + 2) % 3
-    a1 = _wrap(np.arctan2(R[..., n, k], R[..., m, k]) - np.arctan2(d[n], d[m]))
+    a1 = _wrap(xp.arctan2(R[..., n, k], R[..., m, k]) - np.arctan2(d[n], d[m]))
     Ri1 = _elem(i, a1)
     Rj2 = _elem(j, a2)
     a3 = _angle_about(_mT(Rj2) @ _mT(Ri1) @ R, k)
-    if np.any(lock):
+    if xp is not np or np.any(lock):
         if ext:
             # the extrinsic third angle is the intrinsic first: R = R_j(a2) R_k(a3')
-            a1 = np.where(lock, 0.0, a1)
-            a3 = np.where(lock, _angle_about(_mT(Rj2) @ R, k), a3)
+            a1 = xp.where(lock, 0.0, a1)
+            a3 = xp.where(lock, _angle_about(_mT(Rj2) @ R, k), a3)
         else:
-            a1 = np.where(lock, _angle_about(R @ _mT(Rj2), i), a1)
-            a3 = np.where(lock, 0.0, a3)
-        if warn:
-            warnings.warn(
-                f"R: gimbal lock in sequence {seq!r} for {int(np.count_nonzero(lock))} matrix(es); "
-                "only a1 ± a3 is determined, the third angle was set to 0",
-                GimbalLockWarning,
-                stacklevel=2,
-            )
-    out = np.stack((a1, a2, a3), axis=-1)
-    return out[..., ::-1].copy() if ext else out
+            a1 = xp.where(lock, _angle_about(R @ _mT(Rj2), i), a1)
+            a3 = xp.where(lock, 0.0, a3)
+    out = xp.stack((a1, a2, a3), axis=-1)
+    if ext:
+        out = out[..., ::-1]
+        return (out.copy() if xp is np else out), lock
+    return out, lock
 
 
 def near_gimbal_lock(angles: object, seq: str, tol: float = LOCK_TOL) -> np.ndarray:
@@ -213,23 +228,40 @@ def near_gimbal_lock(angles: object, seq: str, tol: float = LOCK_TOL) -> np.ndar
     return np.abs(f(a[..., 1])) < tol
 
 
-def _rates_matrix_inv_intrinsic(a: np.ndarray, axes: tuple[int, int, int]) -> np.ndarray:
+def _rates_matrix_inv_intrinsic(a: Any, axes: tuple[int, int, int]) -> Any:
+    xp = namespace(a)
     i, j, k = axes
     Rk3T = _mT(_elem(k, a[..., 2]))
     Rj2T = _mT(_elem(j, a[..., 1]))
     c1 = (Rk3T @ Rj2T)[..., :, i]
     c2 = Rk3T[..., :, j]
-    c3 = np.broadcast_to(np.eye(3)[:, k], c1.shape)
-    return np.stack((c1, c2, c3), axis=-1)
+    c3 = xp.broadcast_to(np.eye(3)[:, k], c1.shape)
+    return xp.stack((c1, c2, c3), axis=-1)
 
 
 def rates_matrix_inv(angles: object, seq: str) -> np.ndarray:
     """M(a) with ω = M(a) ȧ (ω the body rate), ``(..., 3) -> (..., 3, 3)``; defined everywhere."""
+    return _rates_matrix_inv_unchecked(_angles(angles), seq)
+
+
+def _rates_matrix_inv_unchecked(a: Any, seq: str) -> Any:
+    """:func:`rates_matrix_inv` of checked angles, pure (NumPy or JAX)."""
     axes, ext = _parse(seq)
-    a = _angles(angles)
     if ext:
-        return _rates_matrix_inv_intrinsic(a[..., ::-1], axes)[..., ::-1].copy()
+        M = _rates_matrix_inv_intrinsic(a[..., ::-1], axes)[..., ::-1]
+        return M.copy() if namespace(a) is np else M
     return _rates_matrix_inv_intrinsic(a, axes)
+
+
+def _rates_matrix_unchecked(a: Any, seq: str) -> Any:
+    """B = M⁻¹ of :func:`rates_matrix` without the gimbal-lock check, pure (NumPy or JAX): not
+    finite at the lock itself, so the caller guards it (the chart adapter's array law reports
+    the lock and poisons the torque)."""
+    M = _rates_matrix_inv_unchecked(a, seq)
+    c1, c2, c3 = M[..., :, 0], M[..., :, 1], M[..., :, 2]
+    rows = namespace(a).stack((cross(c2, c3), cross(c3, c1), cross(c1, c2)), axis=-2)
+    det = (c1 * rows[..., 0, :]).sum(axis=-1)
+    return rows / det[..., None, None]
 
 
 def rates_matrix(angles: object, seq: str, lock_tol: float = LOCK_TOL) -> np.ndarray:
@@ -254,11 +286,7 @@ def rates_matrix(angles: object, seq: str, lock_tol: float = LOCK_TOL) -> np.nda
             f"lock_tol = {lock_tol:.0e}); Euler-angle rates are undefined there — use another "
             "chart or sequence"
         )
-    M = rates_matrix_inv(a, seq)
-    c1, c2, c3 = M[..., :, 0], M[..., :, 1], M[..., :, 2]
-    rows = np.stack((cross(c2, c3), cross(c3, c1), cross(c1, c2)), axis=-2)
-    det = np.sum(c1 * rows[..., 0, :], axis=-1)
-    return rows / det[..., None, None]
+    return _rates_matrix_unchecked(a, seq)
 
 
 def kinematics(angles: object, omega: object, seq: str, lock_tol: float = LOCK_TOL) -> np.ndarray:

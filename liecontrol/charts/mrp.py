@@ -28,8 +28,11 @@ J. Astronaut. Sci. 41(4), 1993, §8.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
+from .._array_api import namespace, safe_sqrt
 from .._validation import (
     as_array,
     as_scalar,
@@ -65,17 +68,19 @@ def _from_q(q: np.ndarray) -> np.ndarray:
     return q[..., 1:] / (1.0 + q[..., :1])
 
 
-def _scales(p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _scales(p: Any) -> tuple[Any, Any, Any]:
     """(c, pa, a) with a = 1/(1 + n²), c = (1 − n²)/(1 + n²) and pa = p a, n = |p|: all bounded
     (|c| ≤ 1, |pa| ≤ ½) and computed without forming n² for n > 1 (through t = 1/n:
-    a = t²/(1 + t²), c = (t² − 1)/(t² + 1)), so no p overflows."""
-    n = norm_last(p)
+    a = t²/(1 + t²), c = (t² − 1)/(t² + 1)), so no p overflows. Pure (NumPy or JAX; under JAX
+    n = √(pᵀp), whose derivative stays finite at p = 0)."""
+    xp = namespace(p)
+    n = norm_last(p) if xp is np else safe_sqrt(xp.sum(p * p, axis=-1), xp)
     big = n > 1.0
-    t = np.where(big, 1.0 / np.where(big, n, 1.0), n)  # t = 1/n (n > 1) or n
+    t = xp.where(big, 1.0 / xp.where(big, n, 1.0), n)  # t = 1/n (n > 1) or n
     with np.errstate(under="ignore"):
         t2 = t * t
-    c = np.where(big, (t2 - 1.0) / (t2 + 1.0), (1.0 - t2) / (1.0 + t2))
-    a = np.where(big, t2 / (1.0 + t2), 1.0 / (1.0 + t2))
+    c = xp.where(big, (t2 - 1.0) / (t2 + 1.0), (1.0 - t2) / (1.0 + t2))
+    a = xp.where(big, t2 / (1.0 + t2), 1.0 / (1.0 + t2))
     with np.errstate(under="ignore"):
         pa = p * a[..., None]
     return c, pa, a
@@ -161,9 +166,26 @@ def kinematics_matrix(p: object) -> np.ndarray:
     """G(p) = ½[(1 − pᵀp)/2 · I + p^ + p pᵀ] (= ¼ B(σ) of Schaub & Junkins)."""
     p = _p(p)
     with np.errstate(over="ignore", invalid="ignore"):
-        n2 = np.sum(p * p, axis=-1)[..., None, None]
-        G = 0.5 * (0.5 * (1.0 - n2) * np.eye(3) + so3.hat(p) + p[..., :, None] * p[..., None, :])
+        G = _kinematics_matrix_unchecked(p)
     return check_output_finite(G, "p", "G(p) (entries ~|p|²)")
+
+
+def _kinematics_matrix_unchecked(p: Any) -> Any:
+    """:func:`kinematics_matrix` of a checked ``(..., 3)`` array, pure (NumPy or JAX)."""
+    xp = namespace(p)
+    n2 = xp.sum(p * p, axis=-1)[..., None, None]
+    pp = p[..., :, None] * p[..., None, :]
+    return 0.5 * (0.5 * (1.0 - n2) * np.eye(3) + so3._hat(p, xp) + pp)
+
+
+def _kinematics_matrix_inv_unchecked(p: Any) -> Any:
+    """:func:`kinematics_matrix_inv` of a checked ``(..., 3)`` array, pure (NumPy or JAX)."""
+    c, pa, a = _scales(p)
+    return 8.0 * (
+        0.5 * (c * a)[..., None, None] * np.eye(3)
+        - a[..., None, None] * so3._hat(pa, namespace(p))
+        + pa[..., :, None] * pa[..., None, :]
+    )
 
 
 def kinematics_matrix_inv(p: object) -> np.ndarray:
@@ -172,14 +194,7 @@ def kinematics_matrix_inv(p: object) -> np.ndarray:
     Evaluated without forming |p|²: with a = 1/(1 + |p|²), c = (1 − |p|²) a and pa = p a,
     G⁻¹ = 8 [½ c a I − a pa^ + pa paᵀ] (all terms bounded).
     """
-    p = _p(p)
-    c, pa, a = _scales(p)
-    I = np.eye(3)  # noqa: E741
-    return 8.0 * (
-        0.5 * (c * a)[..., None, None] * I
-        - a[..., None, None] * so3.hat(pa)
-        + pa[..., :, None] * pa[..., None, :]
-    )
+    return _kinematics_matrix_inv_unchecked(_p(p))
 
 
 def kinematics(p: object, omega: object) -> np.ndarray:

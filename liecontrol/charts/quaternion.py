@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._array_api import namespace
 from .._validation import (
     as_array,
     broadcast_batch,
@@ -114,10 +115,10 @@ def _give(q: np.ndarray, scalar_first: bool) -> np.ndarray:
 
 
 def _mul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Hamilton product on scalar-first arrays (broadcasting)."""
+    """Hamilton product on scalar-first arrays (broadcasting); pure (NumPy or JAX)."""
     pw, px, py, pz = p[..., 0], p[..., 1], p[..., 2], p[..., 3]
     qw, qx, qy, qz = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    return np.stack(
+    return namespace(p, q).stack(
         (
             pw * qw - px * qx - py * qy - pz * qz,
             pw * qx + px * qw + py * qz - pz * qy,

@@ -53,6 +53,32 @@ The chart-law protocol (what the wrapped ``law`` must provide)::
         def diagnostics(self) -> dict[str, np.ndarray]: ...           # optional, (B, ...) arrays
         def on_shadow_switch(self, state_mask, desired_mask) -> None: ...  # optional, MRP only
 
+**The array-law protocol** (the JAX route, :mod:`liecontrol.control.array_law`). Every adapter
+has ``array_law()``: its chart conversion is written once as pure array functions
+(:func:`chart_sample` with the adapter's chart and memory: :func:`quaternion_canonical`,
+:func:`mrp_track`, :func:`quaternion_sign`, :func:`euler_unwrap`, the charts' rates), which the
+NumPy route above calls on ``(B, ...)`` batches and the array law on one spacecraft's JAX arrays.
+The chart memory — MRP: the previous σ, σ_d and a first-sample flag; quaternion: the previous q
+(at the first sample the sign hint, or zeros in the switched mode) and q_d; Euler: the previous
+y_d and the flag — is state carried by the scan, ahead of the law's own. The adapter composes
+it with the law's pure form, which a chart law offers next to ``__call__``::
+
+        def array_law(self) -> ChartArrayLaw:
+            def step(k_R, k_Omega, state, s, T):   # s: one spacecraft's ChartState
+                u = -k_R * (s.y - s.y_d) - k_Omega * (s.y_dot - s.y_d_dot)
+                return u, state, {"my_diag": ...}   # torque (3,), state, diagnostics
+            return ChartArrayLaw(self.kp, self.kd, (), step)   # gains, initial state, step
+
+(:class:`ChartArrayLaw`; optional ``params`` — further differentiable parameters, passed to
+``step`` as the keyword ``params`` — and, for MRP, ``on_shadow_switch(state, switched,
+switched_desired) -> state``, the hook's pure form, called at every sample before ``step``).
+Write the step with ``xp`` formulas (:mod:`liecontrol._array_api`) — ideally the very function
+``__call__`` evaluates, as :class:`~liecontrol.control.chart_baselines.MrpPDLaw` does. In the
+array law ``s.t`` and ``s.h`` are ``None``, the arrays have no batch axis, and the Euler chart
+does not raise at gimbal lock: it reports ``chart_lock`` and the torque is NaN (the JAX route
+flags the member diverged). A law without ``array_law``, one whose ``__call__`` overrides its
+parent's ``array_law``, or a callable base frame is refused (``ValueError`` naming it).
+
 Euler-angle laws (e.g. Liu, Tang & Yu's terminal sliding mode, sequence ``"ZYX"`` = 3-2-1,
 y = (a1, a2, a3), R = Rz(a1) Ry(a2) Rx(a3)) are wrapped as::
 
@@ -74,11 +100,14 @@ Control Letters 39(1), 2000.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from .._array_api import cross as _xcross
+from .._array_api import namespace
 from .._linalg import cross as _cross
 from .._linalg import matvec
 from .._validation import (
@@ -94,6 +123,7 @@ from ..charts import euler as _euler
 from ..charts import mrp as _mrp
 from ..charts import quaternion as _quat
 from ..exceptions import ChartSingularityError
+from .array_law import ArrayLaw, _owner
 from .base import (
     AttitudeController,
     AttitudeReference,
@@ -103,6 +133,7 @@ from .base import (
 )
 
 __all__ = [
+    "ChartArrayLaw",
     "ChartState",
     "EulerChart",
     "MrpChart",
@@ -176,14 +207,79 @@ def _quat_trusted(R: np.ndarray) -> np.ndarray:
     largest of 1 + tr R, 1 + 2R_kk − tr R), written as one linear map to M = 4 q qᵀ so that the
     hot path of every chart adapter makes a handful of numpy calls; R is not re-checked.
     """
+    xp = namespace(R)
     lead = R.shape[:-2]
     M = (R.reshape(lead + (9,)) @ _QL.T + _QC).reshape(lead + (4, 4))
-    k = np.argmax(np.diagonal(M, axis1=-2, axis2=-1), axis=-1)
-    q = np.take_along_axis(M, k[..., None, None], axis=-2)[..., 0, :]
-    q = q / np.sqrt(np.sum(q * q, axis=-1, keepdims=True))
-    if np.any(q[..., 0] == 0.0):
-        return _quat._canon(q)
-    return np.where(q[..., :1] < 0.0, -q, q)
+    k = xp.argmax(xp.diagonal(M, axis1=-2, axis2=-1), axis=-1)
+    q = xp.take_along_axis(M, k[..., None, None], axis=-2)[..., 0, :]
+    q = q / xp.sqrt(xp.sum(q * q, axis=-1, keepdims=True))
+    return quaternion_canonical(q)
+
+
+def quaternion_canonical(q: Any) -> Any:
+    """The canonical sign of scalar-first quaternions ``(..., 4)``: w > 0, or w = 0 and the first
+    non-zero of x, y, z positive (:func:`liecontrol.charts.quaternion.canonicalize`'s rule, the
+    compiled kernels' too). Pure (NumPy or JAX)."""
+    xp = namespace(q)
+    lead = q[..., 0]
+    for j in (1, 2, 3):
+        lead = xp.where(lead == 0.0, q[..., j], lead)
+    return xp.where((lead < 0.0)[..., None], -q, q)
+
+
+# ------------------------------------------------------------------ chart memory (pure steps)
+# The adapters' memory — MRP continuity and shadow switch, quaternion sign, Euler unwrap — as pure
+# functions of the memory before the sample: the NumPy route (batched, memory held by the
+# adapter) and the array law (one spacecraft, memory carried by the scan) call the same ones.
+
+
+def mrp_track(p_can: Any, prev: Any, has_prev: Any, threshold2: float) -> tuple[Any, Any]:
+    """MRP continuity and shadow-set switch: of ``p_can`` and its shadow −p/|p|² the one nearer
+    to ``prev`` (where ``has_prev``), then switched to its shadow where |p|² > ``threshold2``
+    (never at the first sample). Returns ``(p, switched)``; ``(..., 3)`` arrays, pure."""
+    xp = namespace(p_can, prev)
+    n2 = xp.sum(p_can * p_can, axis=-1, keepdims=True)
+    nz = n2[..., 0] > 0.0
+    shadow = -p_can / xp.where(nz[..., None], n2, 1.0)
+    d_can = xp.sum((p_can - prev) ** 2, axis=-1)
+    d_sh = xp.sum((shadow - prev) ** 2, axis=-1)
+    use_shadow = has_prev & nz & (d_sh < d_can)
+    p = xp.where(use_shadow[..., None], shadow, p_can)
+    n2c = xp.sum(p * p, axis=-1, keepdims=True)
+    mask = has_prev & (n2c[..., 0] > threshold2)
+    p = xp.where(mask[..., None], -p / xp.where(mask[..., None], n2c, 1.0), p)
+    return p, mask
+
+
+def quaternion_sign(q_can: Any, prev: Any, sign_mode: str, hysteresis: float) -> tuple[Any, Any]:
+    """The quaternion adapter's sign (module docstring) of ``q_can`` (w ≥ 0) given the previous
+    sample's quaternion ``prev`` (at the first sample the hint, or zeros in the switched mode).
+    Returns ``(q, flipped)``: switched — q_can, flipped where it points against ``prev``;
+    continuous — q continued from ``prev``; hysteretic — continued, then flipped where
+    w < −``hysteresis``. Pure."""
+    xp = namespace(q_can, prev)
+    against = xp.sum(q_can * prev, axis=-1) < 0.0
+    if sign_mode == "switched":
+        return q_can, against
+    q = xp.where(against[..., None], -q_can, q_can)
+    if sign_mode == "hysteretic":
+        flip = q[..., 0] < -hysteresis
+        return xp.where(flip[..., None], -q, q), flip
+    return q, xp.zeros(q.shape[:-1], dtype=bool)
+
+
+def euler_unwrap(y: Any, y_d: Any, y_d_prev: Any, has_prev: Any) -> tuple[Any, Any]:
+    """The Euler adapter's unwrap of a1, a3 (module docstring): ``y_d`` continued from
+    ``y_d_prev`` (where ``has_prev``) by whole turns, ``y`` reported within π of ``y_d``.
+    Returns ``(y, y_d)``; pure."""
+    xp = namespace(y, y_d, y_d_prev)
+    wrap = np.array([True, False, True])
+    two_pi = 2.0 * np.pi
+    k = xp.round((y_d_prev - y_d) / two_pi)
+    y_d = y_d + xp.where(wrap & has_prev[..., None], k, 0.0) * two_pi
+    e = y - y_d
+    e_w = e - two_pi * xp.round(e / two_pi)
+    return xp.where(wrap, y_d + e_w, y), y_d
 
 
 # --------------------------------------------------------------------------- MRP shadow maps
@@ -199,10 +295,19 @@ def mrp_shadow_jacobian(p: object) -> np.ndarray:
     n = norm_last(p)[..., None, None]  # no overflow/underflow of |p|²
     if np.any(n == 0.0):
         raise ValueError("p: the shadow of the zero MRP (identity rotation) is at infinity")
-    u = p / n[..., 0]  # p̂
     with np.errstate(over="ignore", under="ignore"):
-        D = (-np.eye(3) + 2.0 * u[..., :, None] * u[..., None, :]) / n / n
+        D = _shadow_jacobian_unchecked(p, n)
     return check_output_finite(D, "p", "D(p) ∝ 1/|p|²")
+
+
+def _shadow_jacobian_unchecked(p: Any, n: Any = None) -> Any:
+    """:func:`mrp_shadow_jacobian` of non-zero MRPs (``n`` = |p| ``(..., 1, 1)``, default
+    √(pᵀp)); pure."""
+    xp = namespace(p)
+    if n is None:
+        n = xp.sqrt(xp.sum(p * p, axis=-1))[..., None, None]
+    u = p / n[..., 0]  # p̂
+    return (-np.eye(3) + 2.0 * u[..., :, None] * u[..., None, :]) / n / n
 
 
 def mrp_shadow_map(
@@ -223,21 +328,32 @@ def mrp_shadow_map(
     """
     p = as_array(p, "p", (3,))
     D = mrp_shadow_jacobian(p)
-    ps = -p / np.sum(p * p, axis=-1, keepdims=True)
     if p_dot is None:
         if p_ddot is not None:
             raise ValueError("p_dot: required when p_ddot is given")
-        return ps, None, None
+        return -p / np.sum(p * p, axis=-1, keepdims=True), None, None
     pd = as_array(p_dot, "p_dot", (3,))
-    pd_s = _mv(D, pd)
+    pdd = None if p_ddot is None else as_array(p_ddot, "p_ddot", (3,))
+    return mrp_shadow_map_unchecked(p, pd, pdd, D)[:3]
+
+
+def mrp_shadow_map_unchecked(p: Any, p_dot: Any, p_ddot: Any = None, D: Any = None) -> tuple:
+    """:func:`mrp_shadow_map` of non-zero MRPs without validation, pure (NumPy or JAX; the
+    array laws' shadow-switch hooks select its result with ``where``): ``(p_s, ṗ_s, p̈_s or
+    None, D)``, ``D`` the Jacobian (computed when not given)."""
+    xp = namespace(p, p_dot)
+    if D is None:
+        D = _shadow_jacobian_unchecked(p)
+    ps = -p / xp.sum(p * p, axis=-1, keepdims=True)
+    pd_s = _mv(D, p_dot)
     if p_ddot is None:
-        return ps, pd_s, None
-    pdd = as_array(p_ddot, "p_ddot", (3,))
-    n2 = np.sum(p * p, axis=-1, keepdims=True)
-    ppd = np.sum(p * pd, axis=-1, keepdims=True)
-    pdpd = np.sum(pd * pd, axis=-1, keepdims=True)
+        return ps, pd_s, None, D
+    pd = p_dot
+    n2 = xp.sum(p * p, axis=-1, keepdims=True)
+    ppd = xp.sum(p * pd, axis=-1, keepdims=True)
+    pdpd = xp.sum(pd * pd, axis=-1, keepdims=True)
     Ddot_pd = (4.0 * ppd * pd + 2.0 * pdpd * p) / n2**2 - 8.0 * ppd**2 * p / n2**3
-    return ps, pd_s, _mv(D, pdd) + Ddot_pd
+    return ps, pd_s, _mv(D, p_ddot) + Ddot_pd, D
 
 
 # --------------------------------------------------------------------------- charts
@@ -266,9 +382,10 @@ class _Chart3:
         return _mv(self.rates_matrix(y), omega_rel)
 
     def M_dot_times(self, y: np.ndarray, y_dot: np.ndarray) -> np.ndarray:
-        """Ṁ ẏ = (dM/dt along ẏ) ẏ, central difference along ẏ (module docstring)."""
-        n = np.linalg.norm(y_dot, axis=-1, keepdims=True)
-        safe = np.where(n > 0.0, n, 1.0)
+        """Ṁ ẏ = (dM/dt along ẏ) ẏ, central difference along ẏ (module docstring); pure."""
+        xp = namespace(y, y_dot)
+        n = xp.sqrt(xp.sum(y_dot * y_dot, axis=-1, keepdims=True))
+        safe = xp.where(n > 0.0, n, 1.0)
         d = y_dot / safe * _FD_STEP
         dM = self.rates_matrix_inv(y + d) - self.rates_matrix_inv(y - d)
         return _mv(dM, y_dot) * (n / (2.0 * _FD_STEP))
@@ -303,9 +420,17 @@ class EulerChart(_Chart3):
 
     def from_matrix(self, R: np.ndarray) -> np.ndarray:
         # gimbal lock is reported by check_lock with the adapter's tolerance, not as a warning
-        return _euler.from_matrix(R, self.seq, warn=False)
+        if namespace(R) is np:
+            return _euler.from_matrix(R, self.seq, warn=False)
+        return _euler._from_matrix_unchecked(R, self.seq, _euler.FROM_MATRIX_LOCK_TOL)[0]
 
     from_matrix_trusted = from_matrix
+
+    def near_lock(self, y: Any) -> Any:
+        """|cos a2| (Tait–Bryan) or |sin a2| (proper Euler) < ``lock_tol``; pure."""
+        xp = namespace(y)
+        f = xp.cos if self.tait_bryan else xp.sin
+        return xp.abs(f(y[..., 1])) < self.lock_tol
 
     def check_lock(self, y: np.ndarray, name: str) -> None:
         """Raise :class:`ChartSingularityError` naming ``name`` near gimbal lock."""
@@ -322,10 +447,15 @@ class EulerChart(_Chart3):
             )
 
     def rates_matrix(self, y: np.ndarray) -> np.ndarray:
-        return _euler.rates_matrix(y, self.seq, self.lock_tol)
+        """B(y); NumPy: raises at gimbal lock; JAX: unchecked (the array law flags the lock)."""
+        if namespace(y) is np:
+            return _euler.rates_matrix(y, self.seq, self.lock_tol)
+        return _euler._rates_matrix_unchecked(y, self.seq)
 
     def rates_matrix_inv(self, y: np.ndarray) -> np.ndarray:
-        return _euler.rates_matrix_inv(y, self.seq)
+        if namespace(y) is np:
+            return _euler.rates_matrix_inv(y, self.seq)
+        return _euler._rates_matrix_inv_unchecked(y, self.seq)
 
     def identity(self, batch: int) -> np.ndarray:
         return self.from_matrix(np.broadcast_to(np.eye(3), (batch, 3, 3)))
@@ -352,16 +482,21 @@ class MrpChart(_Chart3):
         return q[..., 1:] / (1.0 + q[..., :1])
 
     def rates(self, y: np.ndarray, omega_rel: np.ndarray) -> np.ndarray:
-        """ṗ = G(p) ω = ½[(1 − pᵀp)/2 ω + p × ω + p (pᵀω)] (closed form of G(p) ω)."""
-        n2 = np.sum(y * y, axis=-1, keepdims=True)
-        pw = np.sum(y * omega_rel, axis=-1, keepdims=True)
-        return 0.5 * (0.5 * (1.0 - n2) * omega_rel + _cross(y, omega_rel) + y * pw)
+        """ṗ = G(p) ω = ½[(1 − pᵀp)/2 ω + p × ω + p (pᵀω)] (closed form of G(p) ω); pure."""
+        xp = namespace(y, omega_rel)
+        n2 = xp.sum(y * y, axis=-1, keepdims=True)
+        pw = xp.sum(y * omega_rel, axis=-1, keepdims=True)
+        return 0.5 * (0.5 * (1.0 - n2) * omega_rel + _xcross(y, omega_rel) + y * pw)
 
     def rates_matrix(self, y: np.ndarray) -> np.ndarray:
-        return _mrp.kinematics_matrix(y)
+        if namespace(y) is np:
+            return _mrp.kinematics_matrix(y)
+        return _mrp._kinematics_matrix_unchecked(y)
 
     def rates_matrix_inv(self, y: np.ndarray) -> np.ndarray:
-        return _mrp.kinematics_matrix_inv(y)
+        if namespace(y) is np:
+            return _mrp.kinematics_matrix_inv(y)
+        return _mrp._kinematics_matrix_inv_unchecked(y)
 
 
 class QuaternionChart:
@@ -385,21 +520,23 @@ class QuaternionChart:
         return _quat.identity((batch,))
 
     def rates(self, y: np.ndarray, omega_rel: np.ndarray) -> np.ndarray:
-        """q̇ = ½ q ⊗ (0, ω_rel)."""
-        zero = np.zeros(omega_rel.shape[:-1] + (1,))
-        return 0.5 * _quat._mul(y, np.concatenate((zero, omega_rel), axis=-1))
+        """q̇ = ½ q ⊗ (0, ω_rel); pure."""
+        xp = namespace(y, omega_rel)
+        zero = xp.zeros(omega_rel.shape[:-1] + (1,))
+        return 0.5 * _quat._mul(y, xp.concatenate((zero, omega_rel), axis=-1))
 
     def acceleration(
         self, y: np.ndarray, y_dot: np.ndarray, omega_dot_rel: np.ndarray
     ) -> np.ndarray:
-        """q̈ = ½ q̇ ⊗ (0, ω) + ½ q ⊗ (0, ω̇) with ω = 2 (q* ⊗ q̇)_v."""
+        """q̈ = ½ q̇ ⊗ (0, ω) + ½ q ⊗ (0, ω̇) with ω = 2 (q* ⊗ q̇)_v; pure."""
+        xp = namespace(y, y_dot, omega_dot_rel)
         qc = y * np.array([1.0, -1.0, -1.0, -1.0])
         w = 2.0 * _quat._mul(qc, y_dot)[..., 1:]
-        zero = np.zeros(w.shape[:-1] + (1,))
+        zero = xp.zeros(w.shape[:-1] + (1,))
         # the algebraic product: q̇ may be zero, which quaternion.kinematics would refuse
         return 0.5 * (
-            _quat._mul(y_dot, np.concatenate((zero, w), axis=-1))
-            + _quat._mul(y, np.concatenate((zero, omega_dot_rel), axis=-1))
+            _quat._mul(y_dot, xp.concatenate((zero, w), axis=-1))
+            + _quat._mul(y, xp.concatenate((zero, omega_dot_rel), axis=-1))
         )
 
 
@@ -522,6 +659,98 @@ class ChartState:
         return w_dot @ J.T + _cross(w, w @ J.T)
 
 
+def _replace_h(s: ChartState, h: Any) -> ChartState:
+    return ChartState(**{**s.__dict__, "h": h})
+
+
+def chart_sample(
+    chart: Any, coords: Callable[..., tuple], mem: tuple, R: Any, omega: Any, R_d: Any,
+    omega_d: Any, omega_dot_d: Any, frame: tuple | None = None, t: Any = None,
+) -> tuple[ChartState, tuple, Any, Any, dict]:  # fmt: skip
+    """The chart conversion of one sample (module docstring's kinematics), pure: NumPy batches
+    ``(B, ...)`` (the adapter's :meth:`ChartAdapter.chart_state`) or one spacecraft's JAX arrays
+    (:meth:`ChartAdapter.array_law`), same formulas.
+
+    ``coords(mem, R_rel, R_d_rel)`` is the adapter's chart with its memory
+    (``ChartAdapter._pure_coords``); ``frame`` is ``None`` when the base is the desired frame,
+    else the base sample ``(R_b, ω_b, ω̇_b)``. Returns ``(state, memory, switched,
+    switched_desired, extra)``; the state's ``h`` is ``None``."""
+    xp = namespace(R, omega, R_d, omega_d, omega_dot_d)
+    w, w_d, dw_d = omega, omega_d, omega_dot_d
+    if frame is None:
+        # the desired frame is the base: R_d,rel = I, ω_d,rel = ω̇_d,rel = 0 exactly
+        R_rel = xp.swapaxes(R_d, -1, -2) @ R
+        w_base = _mtv(R_rel, w_d)
+        dw_base = _mtv(R_rel, dw_d)
+        w_rel = w - w_base
+        R_d_rel = xp.broadcast_to(_EYE3, R_rel.shape)
+        w_d_rel = dw_d_rel = xp.zeros(w_rel.shape)
+        y, y_d, sw, sw_d, mem, extra = coords(mem, R_rel, None)
+        y_dot = chart.rates(y, w_rel)
+        y_d_dot = y_d_ddot = xp.zeros(y_d.shape)
+    else:
+        R_b, w_b, dw_b = frame
+        R_bT = xp.swapaxes(R_b, -1, -2)
+        R_rel = R_bT @ R
+        R_d_rel = xp.broadcast_to(R_bT @ R_d, R_rel.shape)
+        w_base = _mtv(R_rel, w_b)  # C_bo ω_b
+        dw_base = _mtv(R_rel, dw_b)
+        w_rel = w - w_base
+        wb_d = _mtv(R_d_rel, w_b)  # the base rate in desired-body axes
+        w_d_rel = w_d - wb_d
+        dw_d_rel = dw_d + _xcross(w_d, wb_d) - _mtv(R_d_rel, dw_b)
+        y, y_d, sw, sw_d, mem, extra = coords(mem, R_rel, R_d_rel)
+        y_dot = chart.rates(y, w_rel)
+        y_d_dot = chart.rates(y_d, w_d_rel)
+        y_d_ddot = chart.acceleration(y_d, y_d_dot, dw_d_rel)
+    s = ChartState(
+        t=t, chart=chart, y=y, y_dot=y_dot, y_d=y_d, y_d_dot=y_d_dot, y_d_ddot=y_d_ddot,
+        R_rel=R_rel, R_d_rel=R_d_rel, omega=w, omega_rel=w_rel, omega_base=w_base,
+        omega_dot_base=dw_base, omega_d_rel=w_d_rel, omega_dot_d_rel=dw_d_rel, h=None,
+        switched=sw,
+    )  # fmt: skip
+    return s, mem, sw, sw_d, extra
+
+
+@dataclass(frozen=True)
+class ChartArrayLaw:
+    """A chart law as a pure array function (the array-law protocol of the module docstring):
+    what a chart law's ``array_law()`` returns, and what :meth:`ChartAdapter.array_law`
+    composes with the adapter's pure chart conversion into an
+    :class:`~liecontrol.control.array_law.ArrayLaw`.
+
+    Attributes:
+        k_R, k_Omega: the law's two differentiable gains (its attitude and rate gains: k_p and
+            k_d, K and P…), the defaults of the differentiable loop's gain arguments.
+        state0: one spacecraft's initial law state, a tuple of NumPy arrays (``()``).
+        step: ``step(k_R, k_Omega, state, s, T[, params=...]) -> (u, state, diag)`` with ``s``
+            the :class:`ChartState` of one spacecraft (arrays without the batch axis; ``t`` and
+            ``h`` are ``None``), ``T`` the control period; pure (NumPy or JAX).
+        params: further differentiable parameters (as :class:`ArrayLaw`'s): passed to ``step``
+            as the keyword ``params``.
+        on_shadow_switch: MRP only, optional: ``(state, switched, switched_desired) -> state``,
+            the pure form of the law's ``on_shadow_switch`` hook, called before ``step`` at every
+            sample with the two switch flags (select with ``where``).
+    """
+
+    k_R: Any
+    k_Omega: Any
+    state0: tuple
+    step: Callable[..., tuple[Any, tuple, dict[str, Any]]]
+    params: Mapping[str, Any] = field(default_factory=dict)
+    on_shadow_switch: Callable[..., tuple] | None = None
+
+    def __post_init__(self) -> None:
+        if not callable(self.step):
+            raise ValueError("step: must be callable as step(k_R, k_Omega, state, s, T)")
+        if not isinstance(self.state0, tuple):
+            raise ValueError(
+                f"state0: expected a tuple of arrays, got {type(self.state0).__name__}"
+            )
+        if self.on_shadow_switch is not None and not callable(self.on_shadow_switch):
+            raise ValueError("on_shadow_switch: must be callable or None")
+
+
 # --------------------------------------------------------------------------- adapters
 
 
@@ -583,9 +812,28 @@ class ChartAdapter(AttitudeController):
     def _reset_memory(self) -> None:
         """Clear the chart memory (continuity, sign, unwrap)."""
 
-    def _coords(self, R_rel: np.ndarray, R_d_rel: np.ndarray | None) -> tuple[np.ndarray, ...]:
-        """Chart coordinates ``(y, y_d, switched_state, switched_desired)``."""
+    def _memory0(self, lead: tuple[int, ...]) -> tuple[np.ndarray, ...]:
+        """The chart memory before the first sample, arrays of leading shape ``lead`` (``(B,)``
+        for the NumPy route, ``()`` for one spacecraft of the array law)."""
         raise NotImplementedError  # pragma: no cover
+
+    def _memory(self, B: int) -> tuple[np.ndarray, ...]:
+        """The NumPy route's chart memory (from the adapter's attributes)."""
+        raise NotImplementedError  # pragma: no cover
+
+    def _set_memory(self, mem: tuple, switched: np.ndarray) -> None:
+        """Store the NumPy route's chart memory after a sample."""
+        raise NotImplementedError  # pragma: no cover
+
+    def _pure_coords(self, mem: tuple, R_rel: Any, R_d_rel: Any) -> tuple:
+        """Chart coordinates ``(y, y_d, switched_state, switched_desired, memory, extra)`` of
+        ``R_rel`` and ``R_d_rel`` (``None``: the base is the desired frame, y_d the identity)
+        given the memory before the sample; pure (NumPy or JAX), ``extra`` a dict of further
+        per-sample values (diagnostics)."""
+        raise NotImplementedError  # pragma: no cover
+
+    def _check_coords(self, s: ChartState, extra: dict) -> None:
+        """The NumPy route's refusal of a sample (Euler: gimbal lock raises)."""
 
     def _identity_coords(self, B: int) -> np.ndarray:
         """The chart's coordinates of the identity (the desired point when base = reference)."""
@@ -651,53 +899,16 @@ class ChartAdapter(AttitudeController):
         R_d = _as_batch(self._rotation(reference.R_d, "R_d"), B, (3, 3), "R_d")
         w_d = _as_batch(as_array(reference.omega_d, "omega_d"), B, (3,), "omega_d")
         dw_d = _as_batch(as_array(reference.omega_dot_d, "omega_dot_d"), B, (3,), "omega_dot_d")
-        if self.base == "reference":
-            # the desired frame is the base: R_d,rel = I, ω_d,rel = ω̇_d,rel = 0 exactly
-            R_rel = np.swapaxes(R_d, -1, -2) @ R
-            w_base = _mtv(R_rel, w_d)
-            dw_base = _mtv(R_rel, dw_d)
-            w_rel = w - w_base
-            R_d_rel = np.broadcast_to(_EYE3, (B, 3, 3))
-            w_d_rel = dw_d_rel = np.zeros((B, 3))
-            y, y_d, sw, sw_d = self._coords(R_rel, None)
-            y_dot = self.chart.rates(y, w_rel)
-            y_d_dot = y_d_ddot = np.zeros_like(y_d)
-        else:
-            R_b, w_b, dw_b = self._base_sample(t, reference, B)
-            R_bT = np.swapaxes(R_b, -1, -2)
-            R_rel = R_bT @ R
-            R_d_rel = np.broadcast_to(R_bT @ R_d, (B, 3, 3))
-            w_base = _mtv(R_rel, w_b)  # C_bo ω_b
-            dw_base = _mtv(R_rel, dw_b)
-            w_rel = w - w_base
-            wb_d = _mtv(R_d_rel, w_b)  # the base rate in desired-body axes
-            w_d_rel = w_d - wb_d
-            dw_d_rel = dw_d + _cross(w_d, wb_d) - _mtv(R_d_rel, dw_b)
-            y, y_d, sw, sw_d = self._coords(R_rel, R_d_rel)
-            y_dot = self.chart.rates(y, w_rel)
-            y_d_dot = self.chart.rates(y_d, w_d_rel)
-            y_d_ddot = self.chart.acceleration(y_d, y_d_dot, dw_d_rel)
-        self._before_law(sw, sw_d)
-        h = None if state.h is None else as_array(state.h, "h", (3,))
-        return ChartState(
-            t=t,
-            chart=self.chart,
-            y=y,
-            y_dot=y_dot,
-            y_d=y_d,
-            y_d_dot=y_d_dot,
-            y_d_ddot=y_d_ddot,
-            R_rel=R_rel,
-            R_d_rel=R_d_rel,
-            omega=w,
-            omega_rel=w_rel,
-            omega_base=w_base,
-            omega_dot_base=dw_base,
-            omega_d_rel=w_d_rel,
-            omega_dot_d_rel=dw_d_rel,
-            h=h,
-            switched=sw,
+        frame = None if self.base == "reference" else self._base_sample(t, reference, B)
+        s, mem, sw, sw_d, extra = chart_sample(
+            self.chart, self._pure_coords, self._memory(B), R, w, R_d, w_d, dw_d, frame, t
         )
+        self._check_coords(s, extra)  # before the memory moves on (a refused sample changes none)
+        self._set_memory(mem, sw)
+        self._before_law(sw, sw_d)
+        if state.h is None:
+            return s
+        return _replace_h(s, as_array(state.h, "h", (3,)))
 
     def command(self, t: float, state: AttitudeState, reference: AttitudeReference) -> np.ndarray:
         """Body torque ``(B, 3)`` [N·m] from the chart law."""
@@ -718,6 +929,79 @@ class ChartAdapter(AttitudeController):
         """The law's diagnostics plus ``chart_y``, ``chart_y_d`` ``(B, n)`` and
         ``chart_switched`` ``(B,)`` of the last sample."""
         return dict(self._diag)
+
+    #: whether the chart conversion (:meth:`_pure_coords`) is pure, so the adapter has an array law
+    _array_chart = True
+
+    def array_law(self) -> ArrayLaw:
+        """The adapter as a pure array law (:mod:`liecontrol.control.array_law`): the pure chart
+        conversion (:func:`chart_sample` with the adapter's chart and memory) composed with the
+        law's own pure form (its ``array_law()``, a :class:`ChartArrayLaw`). The scan carries
+        the chart memory (MRP: previous σ, σ_d and a first-sample flag; quaternion: previous q
+        and q_d; Euler: previous y_d and the flag) ahead of the law's state; diagnostics: the
+        law's plus ``chart_y``, ``chart_y_d`` and ``chart_switched``. Bases: the desired frame
+        or the inertial frame (a callable frame is sampled in Python).
+
+        ``ValueError`` names the part without an array form: ``controller.law`` (no
+        ``array_law``, or a ``__call__`` its ``array_law`` does not describe),
+        ``controller.base``, or the adapter's chart."""
+        law = self.law
+        lname = type(law).__name__
+        fn = getattr(law, "array_law", None)
+        if not callable(fn):
+            raise ValueError(
+                f"controller.law: {lname} has no array_law (the chart-law protocol's pure form, "
+                "liecontrol.control.adapters); run spacecraft.simulate"
+            )
+        law_owner, call_owner = _owner(type(law), "array_law"), _owner(type(law), "__call__")
+        if (
+            law_owner is not None
+            and call_owner is not None
+            and call_owner is not law_owner
+            and issubclass(call_owner, law_owner)
+        ):
+            raise ValueError(
+                f"controller.law: {lname} overrides __call__() but not array_law(): its parent's "
+                f"law ({law_owner.__name__}) would not be its own"
+            )
+        if not isinstance(self.base, str):
+            raise ValueError(
+                "controller.base: the array law converts with the desired frame ('reference') "
+                "or the inertial frame as base; a callable frame is sampled in Python (run "
+                "spacecraft.simulate)"
+            )
+        if not self._array_chart:
+            raise ValueError(
+                f"controller: {type(self).__name__}'s chart conversion has no array form; run "
+                "spacecraft.simulate"
+            )
+        claw = fn()
+        if not isinstance(claw, ChartArrayLaw):
+            raise ValueError(
+                f"controller.law: {lname}.array_law() returned {type(claw).__name__}, expected a "
+                "ChartArrayLaw"
+            )
+        mem0 = tuple(self._memory0(()))
+        n = len(mem0)
+        chart, coords = self.chart, self._pure_coords
+        frame = None if self.base == "reference" else (_EYE3, np.zeros(3), np.zeros(3))
+        hook, law_step = claw.on_shadow_switch, claw.step
+
+        def step(k_R, k_Omega, state, R, omega, R_d, omega_d, omega_dot_d, T, **kw):  # noqa: ANN001, ANN003
+            s, mem, sw, sw_d, extra = chart_sample(
+                chart, coords, tuple(state[:n]), R, omega, R_d, omega_d, omega_dot_d, frame
+            )
+            ls = tuple(state[n:])
+            if hook is not None:
+                ls = tuple(hook(ls, sw, sw_d))
+            u, ls, diag = law_step(k_R, k_Omega, ls, s, T, **kw)
+            if "chart_lock" in extra:
+                # the chart's singularity: no torque (NaN, so the run flags the member diverged)
+                u = namespace(u, extra["chart_lock"]).where(extra["chart_lock"], np.nan, u)
+            diag = {**diag, **extra, "chart_y": s.y, "chart_y_d": s.y_d, "chart_switched": sw}
+            return u, tuple(mem) + tuple(ls), diag
+
+        return ArrayLaw(claw.k_R, claw.k_Omega, mem0 + tuple(claw.state0), step, claw.params)
 
 
 class EulerChartAdapter(ChartAdapter):
@@ -750,25 +1034,37 @@ class EulerChartAdapter(ChartAdapter):
     def _reset_memory(self) -> None:
         self._y_d_prev = None
 
-    def _coords(self, R_rel: np.ndarray, R_d_rel: np.ndarray | None) -> tuple[np.ndarray, ...]:
+    def _memory0(self, lead: tuple[int, ...]) -> tuple[np.ndarray, ...]:
+        """(previous y_d, has a previous sample)."""
+        return np.zeros(lead + (3,)), np.zeros(lead, dtype=bool)
+
+    def _memory(self, B: int) -> tuple[np.ndarray, ...]:
+        if self._y_d_prev is None:
+            return self._memory0((B,))
+        return self._y_d_prev, np.ones(B, dtype=bool)
+
+    def _set_memory(self, mem: tuple, switched: np.ndarray) -> None:
+        self._y_d_prev = np.array(mem[0], copy=True)
+
+    def _pure_coords(self, mem: tuple, R_rel: Any, R_d_rel: Any) -> tuple:
         ch = self.chart
+        xp = namespace(R_rel)
         y = ch.from_matrix(R_rel)
-        y_d = self._identity_coords(y.shape[0]) if R_d_rel is None else ch.from_matrix(R_d_rel)
-        ch.check_lock(y, "R")
-        ch.check_lock(y_d, "R_d")
+        if R_d_rel is None:
+            y_d = xp.zeros(y.shape) + ch.identity(1)[0]
+        else:
+            y_d = ch.from_matrix(R_d_rel)
+        extra = {}
+        if xp is np:  # the NumPy route refuses the sample
+            ch.check_lock(y, "R")
+            ch.check_lock(y_d, "R_d")
+        else:  # the array law reports the lock (and poisons the torque: ChartAdapter.array_law)
+            extra["chart_lock"] = ch.near_lock(y) | ch.near_lock(y_d)
+        y_d_prev, has = mem
         if self.unwrap:
-            wrap = ch.wrapped_components()
-            two_pi = 2.0 * np.pi
-            if self._y_d_prev is not None:
-                k = np.round((self._y_d_prev - y_d) / two_pi)
-                y_d = y_d + np.where(wrap, k, 0.0) * two_pi
-            e = y - y_d
-            e_w = e - two_pi * np.round(e / two_pi)
-            y = np.where(wrap, y_d + e_w, y)
-            self._y_d_prev = y_d.copy()
-        B = y.shape[0]
-        no = np.zeros(B, dtype=bool)
-        return y, y_d, no, no
+            y, y_d = euler_unwrap(y, y_d, y_d_prev, has)
+        no = xp.zeros(y.shape[:-1], dtype=bool)
+        return y, y_d, no, no, (y_d, xp.ones(y.shape[:-1], dtype=bool)), extra
 
 
 class MrpChartAdapter(ChartAdapter):
@@ -796,33 +1092,30 @@ class MrpChartAdapter(ChartAdapter):
         self._pd_prev = None
         self.n_switches = 0
 
-    def _track(self, p_can: np.ndarray, prev: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-        """Continuous continuation of ``prev`` among {p_can, shadow(p_can)}, then the switch."""
-        if prev is None:
-            return p_can, np.zeros(p_can.shape[0], dtype=bool)
-        n2 = np.sum(p_can * p_can, axis=-1, keepdims=True)
-        nz = n2[..., 0] > 0.0
-        shadow = -p_can / np.where(nz[:, None], n2, 1.0)
-        d_can = np.sum((p_can - prev) ** 2, axis=-1)
-        d_sh = np.sum((shadow - prev) ** 2, axis=-1)
-        use_shadow = nz & (d_sh < d_can)
-        p_cont = np.where(use_shadow[:, None], shadow, p_can)
-        # the shadow-set switch (liecontrol.charts.mrp.switch, inlined on the hot path)
-        n2c = np.sum(p_cont * p_cont, axis=-1, keepdims=True)
-        mask = n2c[:, 0] > self.threshold**2
-        if np.any(mask):
-            p_cont = np.where(mask[:, None], -p_cont / np.where(mask[:, None], n2c, 1.0), p_cont)
-        return p_cont, mask
+    def _memory0(self, lead: tuple[int, ...]) -> tuple[np.ndarray, ...]:
+        """(previous σ, previous σ_d, has a previous sample)."""
+        return np.zeros(lead + (3,)), np.zeros(lead + (3,)), np.zeros(lead, dtype=bool)
 
-    def _coords(self, R_rel: np.ndarray, R_d_rel: np.ndarray | None) -> tuple[np.ndarray, ...]:
-        p, sw = self._track(self.chart.from_matrix_trusted(R_rel), self._p_prev)
+    def _memory(self, B: int) -> tuple[np.ndarray, ...]:
+        if self._p_prev is None:
+            return self._memory0((B,))
+        pd = np.zeros((B, 3)) if self._pd_prev is None else self._pd_prev
+        return self._p_prev, pd, np.ones(B, dtype=bool)
+
+    def _set_memory(self, mem: tuple, switched: np.ndarray) -> None:
+        self._p_prev, self._pd_prev = np.array(mem[0], copy=True), np.array(mem[1], copy=True)
+        self.n_switches += int(np.count_nonzero(switched))
+
+    def _pure_coords(self, mem: tuple, R_rel: Any, R_d_rel: Any) -> tuple:
+        xp = namespace(R_rel)
+        p_prev, pd_prev, has = mem
+        thr2 = self.threshold**2
+        p, sw = mrp_track(self.chart.from_matrix_trusted(R_rel), p_prev, has, thr2)
         if R_d_rel is None:
-            p_d, sw_d = self._identity_coords(p.shape[0]), np.zeros(p.shape[0], dtype=bool)
+            p_d, sw_d = xp.zeros(p.shape), xp.zeros(p.shape[:-1], dtype=bool)
         else:
-            p_d, sw_d = self._track(self.chart.from_matrix_trusted(R_d_rel), self._pd_prev)
-        self._p_prev, self._pd_prev = p.copy(), p_d.copy()
-        self.n_switches += int(np.count_nonzero(sw))
-        return p, p_d, sw, sw_d
+            p_d, sw_d = mrp_track(self.chart.from_matrix_trusted(R_d_rel), pd_prev, has, thr2)
+        return p, p_d, sw, sw_d, (p, p_d, xp.ones(p.shape[:-1], dtype=bool)), {}
 
     def _before_law(self, switched: np.ndarray, switched_d: np.ndarray) -> None:
         hook = getattr(self.law, "on_shadow_switch", None)
@@ -877,37 +1170,46 @@ class QuaternionChartAdapter(ChartAdapter):
         self._q_prev = None
         self._qd_prev = None
 
-    @staticmethod
-    def _continue(q: np.ndarray, prev: np.ndarray) -> np.ndarray:
-        return np.where(np.sum(q * prev, axis=-1, keepdims=True) < 0.0, -q, q)
-
-    def _coords(self, R_rel: np.ndarray, R_d_rel: np.ndarray | None) -> tuple[np.ndarray, ...]:
-        q_can = self.chart.from_matrix_trusted(R_rel)  # w ≥ 0
-        B = q_can.shape[0]
+    def _hint(self, lead: tuple[int, ...]) -> np.ndarray:
+        """The first sample's sign reference: zeros (switched: no flip at the first sample), the
+        identity, or ``q_hint``."""
         if self.sign_mode == "switched":
-            q = q_can
-            flip = (
-                np.zeros(B, dtype=bool)
-                if self._q_prev is None
-                else np.sum(q * self._q_prev, axis=-1) < 0.0
-            )
-        else:
-            prev = self._q_prev
-            if prev is None:
-                prev = (
-                    _quat.identity((B,))
-                    if self.q_hint is None
-                    else np.broadcast_to(self.q_hint, (B, 4))
+            return np.zeros(lead + (4,))
+        if self.q_hint is None:
+            return np.array(np.broadcast_to([1.0, 0.0, 0.0, 0.0], lead + (4,)))
+        h = self.q_hint
+        if lead == () and h.ndim == 2:
+            if not (h == h[:1]).all():
+                raise ValueError(
+                    "controller.q_hint: the array law starts every spacecraft from one sign "
+                    f"hint; got {h.shape[0]} different ones (pass one (4,) hint)"
                 )
-            q = self._continue(q_can, prev)
-            flip = np.zeros(B, dtype=bool)
-            if self.sign_mode == "hysteretic":
-                flip = q[:, 0] < -self.hysteresis
-                q = np.where(flip[:, None], -q, q)
+            h = h[0]
+        return np.array(np.broadcast_to(h, lead + (4,)), dtype=np.float64)
+
+    def _memory0(self, lead: tuple[int, ...]) -> tuple[np.ndarray, ...]:
+        """(previous q — at the first sample the hint —, previous q_d — zeros: no sign yet)."""
+        return self._hint(lead), np.zeros(lead + (4,))
+
+    def _memory(self, B: int) -> tuple[np.ndarray, ...]:
+        if self._q_prev is None:
+            return self._memory0((B,))
+        qd = np.zeros((B, 4)) if self._qd_prev is None else self._qd_prev
+        return self._q_prev, qd
+
+    def _set_memory(self, mem: tuple, switched: np.ndarray) -> None:
+        self._q_prev, self._qd_prev = np.array(mem[0], copy=True), np.array(mem[1], copy=True)
+
+    def _pure_coords(self, mem: tuple, R_rel: Any, R_d_rel: Any) -> tuple:
+        xp = namespace(R_rel)
+        q_prev, qd_prev = mem
+        q, flip = quaternion_sign(
+            self.chart.from_matrix_trusted(R_rel), q_prev, self.sign_mode, self.hysteresis
+        )
         if R_d_rel is None:
-            q_d = self._identity_coords(B)
+            q_d = xp.zeros(q.shape) + np.array([1.0, 0.0, 0.0, 0.0])
         else:
-            qd_can = self.chart.from_matrix_trusted(R_d_rel)
-            q_d = qd_can if self._qd_prev is None else self._continue(qd_can, self._qd_prev)
-        self._q_prev, self._qd_prev = q.copy(), q_d.copy()
-        return q, q_d, flip, np.zeros(B, dtype=bool)
+            # the desired quaternion continuous in time (its first sample: w ≥ 0)
+            q_d, _ = quaternion_sign(self.chart.from_matrix_trusted(R_d_rel), qd_prev,
+                                     "continuous", 0.0)  # fmt: skip
+        return q, q_d, flip, xp.zeros(q.shape[:-1], dtype=bool), (q, q_d), {}

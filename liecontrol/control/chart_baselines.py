@@ -48,14 +48,15 @@ from typing import Any
 
 import numpy as np
 
+from .._array_api import cross as _cross
 from .._kernels.mrp_pd import FEEDFORWARD_CODES, mrp_pd_batch, mrp_pd_law
 from .._kernels.quaternion_pd import SIGN_CODES, quaternion_pd_batch, quaternion_pd_law
-from .._linalg import cross as _cross
 from .._validation import (
     as_scalar,
     check_inertia_3x3,
 )
-from .adapters import ChartState, MrpChartAdapter, QuaternionChartAdapter
+from .adapters import ChartArrayLaw, ChartState, MrpChartAdapter, QuaternionChartAdapter
+from .array_law import ArrayLaw
 from .base import AttitudeReference, AttitudeState, check_state_batch, finite_command
 from .geometric_pd import (
     _apply_gain,
@@ -119,9 +120,31 @@ def _inertia(J: object) -> np.ndarray:
 
 def _feed_forward(J: np.ndarray, s: ChartState) -> np.ndarray:
     """ω × Jω − J(ω × (RᵀR_d ω_d) − RᵀR_d ω̇_d); with base = reference, ``s.omega_base`` is
-    RᵀR_d ω_d and ``s.omega_dot_base`` is RᵀR_d ω̇_d (body axes)."""
+    RᵀR_d ω_d and ``s.omega_dot_base`` is RᵀR_d ω̇_d (body axes). Pure (NumPy or JAX)."""
     w = s.omega
     return _cross(w, w @ J.T) - (_cross(w, s.omega_base) - s.omega_dot_base) @ J.T
+
+
+def quaternion_pd_torque(s: ChartState, J: Any, k_p: Any, k_d: Any) -> Any:
+    """u = −k_p q_v − k_d e_Ω + ff of :class:`QuaternionPDLaw` on the chart state ``s`` (batched
+    or one spacecraft), pure (NumPy or JAX): the one formula of its NumPy and array routes."""
+    u = -_apply_gain(k_p, s.y[..., 1:]) - _apply_gain(k_d, s.omega_rel)
+    return u + _feed_forward(J, s)
+
+
+def mrp_pd_torque(s: ChartState, J: Any, K: Any, P: Any, feedforward: str) -> Any:
+    """u = −K σ − P e_Ω + ff of :class:`MrpPDLaw` (``feedforward`` as there) on the chart state
+    ``s``, pure (NumPy or JAX): the one formula of its NumPy and array routes."""
+    u = -_apply_gain(K, s.y) - _apply_gain(P, s.omega_rel)
+    if feedforward == "gyroscopic":
+        return u + _feed_forward(J, s)
+    if feedforward == "reference":
+        # Basilisk's default: ω_r × Jω in place of ω × Jω (no term quadratic in ω)
+        w = s.omega
+        return (
+            u + _cross(s.omega_base, w @ J.T) - (_cross(w, s.omega_base) - s.omega_dot_base) @ J.T
+        )
+    return u
 
 
 class QuaternionPDLaw:
@@ -139,10 +162,18 @@ class QuaternionPDLaw:
         self._diag = {}
 
     def __call__(self, t: float, s: ChartState) -> np.ndarray:
-        q_v = s.y[:, 1:]
-        u = -_apply_gain(self.k_p, q_v) - _apply_gain(self.k_d, s.omega_rel)
         self._diag = {"q_w": s.y[:, 0].copy()}
-        return u + _feed_forward(self.J, s)
+        return quaternion_pd_torque(s, self.J, self.k_p, self.k_d)
+
+    def array_law(self) -> ChartArrayLaw:
+        """The law's pure form (:class:`~liecontrol.control.adapters.ChartArrayLaw`):
+        :func:`quaternion_pd_torque` with the gains (k_p, k_d) differentiable; memoryless."""
+        J = np.array(self.J)
+
+        def step(k_p, k_d, state, s, T):  # noqa: ANN001
+            return quaternion_pd_torque(s, J, k_p, k_d), state, {"q_w": s.y[..., 0]}
+
+        return ChartArrayLaw(self.k_p, self.k_d, (), step)
 
     def diagnostics(self) -> dict[str, np.ndarray]:
         return dict(self._diag)
@@ -179,18 +210,17 @@ class MrpPDLaw:
         """Stateless."""
 
     def __call__(self, t: float, s: ChartState) -> np.ndarray:
-        u = -_apply_gain(self.K, s.y) - _apply_gain(self.P, s.omega_rel)
-        if self.feedforward == "gyroscopic":
-            return u + _feed_forward(self.J, s)
-        if self.feedforward == "reference":
-            # Basilisk's default: ω_r × Jω in place of ω × Jω (no term quadratic in ω)
-            w = s.omega
-            return (
-                u
-                + _cross(s.omega_base, w @ self.J.T)
-                - (_cross(w, s.omega_base) - s.omega_dot_base) @ self.J.T
-            )
-        return u
+        return mrp_pd_torque(s, self.J, self.K, self.P, self.feedforward)
+
+    def array_law(self) -> ChartArrayLaw:
+        """The law's pure form (:class:`~liecontrol.control.adapters.ChartArrayLaw`):
+        :func:`mrp_pd_torque` with the gains (K, P) differentiable; memoryless."""
+        J, ff = np.array(self.J), self.feedforward
+
+        def step(K, P, state, s, T):  # noqa: ANN001
+            return mrp_pd_torque(s, J, K, P, ff), state, {}
+
+        return ChartArrayLaw(self.K, self.P, (), step)
 
 
 class QuaternionPD(QuaternionChartAdapter):
@@ -283,6 +313,14 @@ class QuaternionPD(QuaternionChartAdapter):
 
     def _kernel_reason(self) -> str:
         return "a subclass, a swapped law or a base other than the reference frame"
+
+    def array_law(self) -> ArrayLaw:
+        """The pure law of the differentiable loop (:mod:`liecontrol.control.array_law`): the
+        adapter's pure chart conversion with its sign memory carried by the scan (the previous
+        quaternion, the hint at the first sample) and :func:`quaternion_pd_torque`; gains
+        ``(k_p, k_d)``. (Declared here because :meth:`command` is: the compiled route computes
+        the same law.)"""
+        return super().array_law()
 
     def _set_kernel_state(self, diag: np.ndarray, q: np.ndarray) -> None:
         """Chart memory and diagnostics from the kernel's quaternions ``q (B, 4)`` and rows."""
@@ -379,6 +417,13 @@ class MrpPD(MrpChartAdapter):
 
     def _kernel_reason(self) -> str:
         return "a subclass, a swapped law or a base other than the reference frame"
+
+    def array_law(self) -> ArrayLaw:
+        """The pure law of the differentiable loop (:mod:`liecontrol.control.array_law`): the
+        adapter's pure chart conversion with its shadow-set memory carried by the scan (the
+        previous σ and a first-sample flag) and :func:`mrp_pd_torque`; gains ``(K, P)``.
+        (Declared here because :meth:`command` is: the compiled route computes the same law.)"""
+        return super().array_law()
 
     def _set_kernel_state(self, diag: np.ndarray, p: np.ndarray) -> None:
         """Chart memory and diagnostics from the kernel's σ ``p (B, 3)`` and ``(B, 7)`` rows."""
