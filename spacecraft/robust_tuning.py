@@ -146,12 +146,19 @@ def _param_count(parameterization: str) -> int:
 
 
 def _factor(K: Any, name: str) -> np.ndarray:
-    """The Cholesky factor L₀ of a gain (a positive scalar is k I)."""
+    """The Cholesky factor L₀ of a gain (a positive scalar is k I, a diagonal (3,) diag(k))."""
     K = np.asarray(K, dtype=np.float64)
     if K.ndim == 0:
         K = float(check_positive_scalar(float(K), name)) * np.eye(3)
+    elif K.shape == (3,):
+        if not (np.all(np.isfinite(K)) and np.all(K > 0.0)):
+            raise ValueError(f"{name}: a diagonal gain must be finite and positive, got {K}")
+        K = np.diag(K)
     if K.shape != (3, 3) or not np.all(np.isfinite(K)):
-        raise ValueError(f"{name}: expected a positive scalar or a finite (3, 3) matrix")
+        raise ValueError(
+            f"{name}: expected a positive scalar, a positive diagonal (3,) or a finite (3, 3) "
+            "matrix"
+        )
     if not np.allclose(K, K.T, rtol=1e-12, atol=0.0):
         raise ValueError(f"{name}: must be symmetric to tune it as a positive-definite matrix")
     try:
@@ -263,16 +270,19 @@ def requirement_cost(
     effort_weight: float = 0.0,
     penalty_weight: float = 1000.0,
     tuned: dict[str, np.ndarray] | None = None,
+    gain_shapes: tuple[tuple[int, ...], tuple[int, ...]] = ((3, 3), (3, 3)),
 ) -> tuple[Any, dict[str, Any]]:
     """``(C, per-member values)`` of the module docstring's cost over the batch ``R0``
     ``(B, 3, 3)``, packed states ``x0`` and inertias ``J``, ``J_inv`` ``(B, 3, 3)``; pure JAX,
     differentiable in ``params``. ``tuned``: the loop parameters tuned as well (name → start
     value): their log-ratios to the start follow the gains' in ``params``
-    (:func:`loop_parameters_from_vector`)."""
+    (:func:`loop_parameters_from_vector`). ``gain_shapes``: the forms the law takes its gains
+    in (:func:`gain_form`)."""
     jax = require_jax()
     jnp = jax.numpy
     n = _param_count(parameterization)
     k_R, k_W = gains_from_parameters(params[:n], L_R, L_W, parameterization)
+    k_R, k_W = _in_form(k_R, gain_shapes[0]), _in_form(k_W, gain_shapes[1])
     extra = loop_parameters_from_vector(params[n:], tuned or {})
 
     def member(R, x, Jb, Jib):  # noqa: ANN001, ANN202 - traced
@@ -287,6 +297,25 @@ def requirement_cost(
         excess = jnp.maximum(jnp.log(jnp.maximum(vals[key], 1e-300) / bound), 0.0)
         total = total + penalty_weight * excess * excess
     return jnp.mean(total), vals
+
+
+def gain_form(shape: tuple[int, ...], parameterization: str) -> tuple[int, ...]:
+    """The form the tuned gain is handed to the law in: the start gain's own (``()`` a scalar,
+    ``(3,)`` a diagonal, ``(3, 3)`` a matrix) unless the parameterisation needs more — a
+    diagonal for ``"diagonal"``, a full matrix for ``"cholesky"`` — so a law whose gains are
+    scalars or diagonals (the chart laws' k₁, k₂) is tuned in its own terms."""
+    need = {"scalar": 0, "diagonal": 1, "cholesky": 2}[parameterization]
+    have = {(): 0, (3,): 1, (3, 3): 2}[tuple(shape)]
+    return ((), (3,), (3, 3))[max(need, have)]
+
+
+def _in_form(K: Any, shape: tuple[int, ...]) -> Any:
+    """The (3, 3) gain of :func:`gains_from_parameters` as a scalar, a diagonal or itself."""
+    if shape == ():
+        return K[0, 0]
+    if shape == (3,):
+        return K[(0, 1, 2), (0, 1, 2)]
+    return K
 
 
 def loop_parameters_from_vector(v: Any, start: dict[str, np.ndarray]) -> dict[str, Any]:
@@ -325,7 +354,8 @@ class RobustTuningResult:
     """Outcome of :func:`tune_requirements`.
 
     Attributes:
-        k_R, k_Omega: the chosen gains ``(3, 3)`` (symmetric positive definite).
+        k_R, k_Omega: the chosen gains, in the form the law was flown with (:func:`gain_form`:
+            ``(3, 3)`` symmetric positive definite, a positive diagonal ``(3,)`` or a scalar).
         step: the Adam step they come from (0: the start gains).
         feasible: whether every training member meets every requirement with them.
         within_margin: whether every training member meets every requirement at the design
@@ -412,8 +442,11 @@ def tune_requirements(
     learning_rate = check_positive_scalar(learning_rate, "learning_rate")
     effort_weight = float(check_nonnegative(effort_weight, "effort_weight"))
     penalty_weight = float(check_nonnegative(penalty_weight, "penalty_weight"))
-    L_R = _factor(loop.k_R if k_R is None else k_R, "k_R")
-    L_W = _factor(loop.k_Omega if k_Omega is None else k_Omega, "k_Omega")
+    K_R0 = loop.k_R if k_R is None else k_R
+    K_W0 = loop.k_Omega if k_Omega is None else k_Omega
+    L_R, L_W = _factor(K_R0, "k_R"), _factor(K_W0, "k_Omega")
+    shapes = (gain_form(np.shape(K_R0), parameterization),
+              gain_form(np.shape(K_W0), parameterization))  # fmt: skip
     R0, w0 = _initial(R0, omega0)
     x0 = loop._pack(w0)
     J, J_inv = loop.inertias(R0.shape[0])
@@ -424,7 +457,7 @@ def tune_requirements(
     def cost(p):  # noqa: ANN001, ANN202 - traced
         return requirement_cost(
             loop, p, R0, x0, J, J_inv, L_R, L_W, requirements, parameterization,
-            effort_weight, penalty_weight, start,
+            effort_weight, penalty_weight, start, shapes,
         )  # fmt: skip
 
     rows: dict[str, list[float]] = {k: [] for k in ("cost", "angle", "effort", "accepted")}
@@ -494,9 +527,11 @@ def tune_requirements(
     pool = inside if inside.any() else ok if ok.any() else np.ones_like(ok)
     best = int(np.argmin(np.where(pool, cost_, np.inf)))
     K_R, K_W = gains_from_parameters(trail[best][:n], L_R, L_W, parameterization)
+    K_R, K_W = 0.5 * (K_R + K_R.T), 0.5 * (K_W + K_W.T)
     chosen = loop_parameters_from_vector(trail[best][n:], start)
     return RobustTuningResult(
-        k_R=0.5 * (K_R + K_R.T), k_Omega=0.5 * (K_W + K_W.T), step=best, feasible=bool(ok[best]),
+        k_R=_in_form(K_R, shapes[0]), k_Omega=_in_form(K_W, shapes[1]), step=best,
+        feasible=bool(ok[best]),
         within_margin=bool(inside[best]),
         requirements=requirements, history=history, params=np.stack(trail),
         loop_params={k: float(v) if v.ndim == 0 else v for k, v in chosen.items()},

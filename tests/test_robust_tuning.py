@@ -256,3 +256,32 @@ def test_loop_parameters_tune_with_the_gains(jax):
     zero = dataclasses.replace(loop, steering=dataclasses.replace(loop.steering, k=0.0))
     with pytest.raises(ValueError, match=r"^tune: 'steering.k' starts at 0.0"):
         rt.tune_requirements(zero, R0, w0, req, tune=("steering.k",))
+
+
+def test_observer_gains_tune_with_the_feedback_gains(jax):
+    """``tune=("K1", "K2", "K3")``: the MRP ADRC's extended-state-observer gains (its array
+    law's params) are tuned with its feedback gains on the scenario's requirements; the cost
+    falls, every iterate's observer gains stay positive, the result names them."""
+    from benchmarks.controllers import ControllerContext, get_controller
+    from benchmarks.runner import build_reference
+    from spacecraft import robust_tuning as rt
+    from spacecraft.differentiable import closed_loop
+
+    sc = _short("slew-90", 120.0)
+    members, plant, R0, w0 = training_batch(sc, 4, 1)
+    ctx = ControllerContext(spacecraft=sc.spacecraft, control_period=sc.control_period,
+                            batch_size=4, q_hint=np.stack([m.initial_quaternion for m in members]),
+                            reference=build_reference(sc))  # fmt: skip
+    ctrl = get_controller("mrp-adrc").factory(ctx)
+    loop = closed_loop(plant, ctrl, build_reference(sc), sc.duration, sc.dt, sc.control_period,
+                       checkpoint=True)  # fmt: skip
+    assert {"K1", "K2", "K3", "r"} <= set(loop.params)
+    req = rt.TuningRequirements(overshoot_pct=10.0, momentum_fraction=0.95)
+    res = rt.tune_requirements(loop, R0, w0, req, parameterization="scalar", steps=4,
+                               learning_rate=0.1, tune=("K1", "K2", "K3"))  # fmt: skip
+    assert res.params.shape == (5, 2 + 9)
+    assert res.history["cost"].min() < res.history["cost"][0]
+    assert set(res.loop_params) == {"K1", "K2", "K3"}
+    for k in ("K1", "K2", "K3"):
+        v = np.asarray(res.loop_params[k])
+        assert v.shape == (3,) and (v > 0).all()
