@@ -203,3 +203,64 @@ def test_prescribed_performance_infeasible_funnel_is_a_nan_torque(jax):
     run = closed_loop(_plant("ideal"), ctrl, REF, 4.0, 0.1, 0.2).run(R0)
     assert run.diverged.tolist() == [True, False]
     assert np.isnan(run.u_cmd[0, 0]).all() and np.isfinite(run.u_cmd[:, 1]).all()
+
+
+# ------------------------------------------------------------------ finite- and fixed-time SO(3)
+
+
+@functools.lru_cache(maxsize=2)
+def _sliding(fixed: bool):
+    from liecontrol.control.finite_time import FiniteTimeSO3, FixedTimeSO3
+    from liecontrol.control.tuning import ClosedLoopSpec, tune_finite_time_so3
+
+    kw = tune_finite_time_so3(J0, ClosedLoopSpec(0.3, 0.9, 0.2), fixed_time=fixed)
+    return (FixedTimeSO3 if fixed else FiniteTimeSO3)(J0 * 1.05, **kw)
+
+
+@pytest.mark.parametrize("fixed", [False, True], ids=["finite", "fixed"])
+@pytest.mark.parametrize("actuator", ["sgcmg", "ideal"])
+def test_finite_and_fixed_time_equal_fused_simulate(actuator, fixed, jax):
+    """The runs reach the layers: ‖e_R‖ below ε (the tangent-line continuation of g_r) and
+    ‖s‖ below ε_s (the boundary layer), where the fractional powers would be singular."""
+    ctrl = _sliding(fixed)
+    want, _ = _compare(ctrl, actuator)
+    p = ctrl.params
+    x = np.linalg.norm(want.controller["e_R"], axis=-1)
+    y = np.linalg.norm(want.controller["s"], axis=-1)
+    assert (x > p.eps).any() and (x < p.eps).any()
+    assert (y > p.eps_s).any() and (y < p.eps_s).any()
+    if actuator == "ideal":
+        assert want.actuator["saturated"].any()
+
+
+@pytest.mark.parametrize("fixed", [False, True], ids=["finite", "fixed"])
+def test_finite_and_fixed_time_gradients_finite_at_the_target(fixed, jax):
+    """Gradients in k₂ (k_R) and c₂ (k_Ω) finite from the identity (e_R = 0, s = 0: the
+    fractional powers' derivatives at 0), near π and through saturation; and the law's
+    derivative in the state itself at e_R = 0 and s = 0."""
+    from liecontrol.control.array_law import array_law_of
+    from spacecraft.differentiable import closed_loop
+
+    ctrl = _sliding(fixed)
+    loop = closed_loop(_plant("ideal", 0.5), ctrl, REF, 20.0, 0.1, 0.2)
+    _gradients_finite(loop, ctrl.params.k2, ctrl.params.c2)
+    jnp = jax.numpy
+    law = array_law_of(ctrl)
+    assert set(law.params) >= {"k1", "r", "eps", "c1", "rho", "eps_s"}
+    assert ("c3" in law.params) == fixed
+    I3, z3 = jnp.eye(3), jnp.zeros(3)
+
+    def torque(w, p):
+        M, _, _ = law.call(law.k_R, law.k_Omega, (), I3 @ so3.exp(w), w, I3, z3, z3, 0.2, p)
+        return jnp.sum(M * M) + jnp.sum(M)
+
+    p0 = {k: jnp.asarray(v) for k, v in law.params.items()}
+    for w in (z3, jnp.full(3, 1e-9), jnp.array([0.0, 0.0, np.pi - 1e-3])):
+        gw, gp = jax.grad(torque, argnums=(0, 1))(w, p0)
+        assert np.isfinite(np.asarray(gw)).all(), w
+        assert all(np.isfinite(float(v)) for v in gp.values()), (w, gp)
+
+
+@pytest.mark.parametrize("name", ["finite-time-so3", "fixed-time-so3"])
+def test_finite_and_fixed_time_suite_backend_jax_equals_numba(name, jax, caplog):
+    _suite_equals_numba(name, caplog)
