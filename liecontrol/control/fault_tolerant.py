@@ -115,14 +115,17 @@ Units: ``J`` [kg·m²], ``K`` [N·m·s/rad], ``lam`` [1/s], ``sigma`` [rad/s], `
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
+from .._array_api import cross, namespace, safe_sqrt
 from .._kernels.fault_tolerant import N_DIAG as FT_DIAG
 from .._kernels.fault_tolerant import N_STATE as FT_STATE
 from .._kernels.fault_tolerant import fault_tolerant_law
 from .._validation import as_array, as_scalar, check_inertia_3x3, check_positive_scalar
 from ..lie import so3
+from .array_law import ArrayLaw
 from .base import (
     AttitudeController,
     AttitudeReference,
@@ -146,15 +149,14 @@ __all__ = [
 FAULT_FAMILY_K_MAX = 3.5
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.stack(
-        (
-            a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1],
-            a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
-            a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0],
-        ),
-        axis=-1,
-    )
+# the compiled kernels' cross product, NumPy or JAX (liecontrol._array_api.cross)
+_cross = cross
+
+
+def _norm(v: Any, xp: Any) -> Any:
+    """‖v‖ on the last axis: NumPy's norm, or a safe square root under JAX (a finite
+    derivative at v = 0, where s vanishes at the target)."""
+    return np.linalg.norm(v, axis=-1) if xp is np else safe_sqrt(xp.sum(v * v, axis=-1), xp)
 
 
 def inverse_right_jacobian_apply(x: object, y: object) -> np.ndarray:
@@ -169,14 +171,19 @@ def inverse_right_jacobian_apply(x: object, y: object) -> np.ndarray:
     return _jr_inv_apply(xa, ya)
 
 
-def _jr_inv_apply(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    th = np.linalg.norm(x, axis=-1)
+def _jr_inv_apply(x: Any, y: Any) -> Any:
+    """:func:`inverse_right_jacobian_apply` without checks; pure, NumPy or JAX. Both branches
+    of c(θ) are finite everywhere: the closed form is evaluated at θ = 2 where the series is
+    taken (θ < 1e-3), and for θ ≤ π its half-angle h ≤ π/2 keeps sin h > 0 (near π, cot h → 0:
+    nothing singular there)."""
+    xp = namespace(x, y)
+    th = _norm(x, xp)
     small = th < 1e-3
-    h = 0.5 * np.where(small, 1.0, th)
+    h = 0.5 * xp.where(small, 1.0, th)
     with np.errstate(divide="ignore", invalid="ignore"):
-        c_big = (1.0 - h * np.cos(h) / np.sin(h)) / (4.0 * h * h)
+        c_big = (1.0 - h * xp.cos(h) / xp.sin(h)) / (4.0 * h * h)
     t2 = th * th
-    c = np.where(small, 1.0 / 12.0 + t2 / 720.0, c_big)
+    c = xp.where(small, 1.0 / 12.0 + t2 / 720.0, c_big)
     xy = _cross(x, y)
     return y + 0.5 * xy + c[..., None] * _cross(x, xy)
 
@@ -199,17 +206,74 @@ def _gain_matrix(K: object, name: str) -> np.ndarray:
 
 
 def _boundary_layer(
-    sigma: float,
-    k_hat: np.ndarray,
-    beta_hat: np.ndarray,
+    sigma: Any,
+    k_hat: Any,
+    beta_hat: Any,
     k_max: float,
     beta_max: float,
     adaptive: bool,
-) -> np.ndarray:
-    """σ(t) ``(B,)``; the compiled kernel computes the same expression."""
+) -> Any:
+    """σ(t) ``(B,)`` (or ``()`` for one spacecraft); the compiled kernel computes the same
+    expression. Pure, NumPy or JAX."""
+    xp = namespace(sigma, k_hat, beta_hat)
     if not adaptive or beta_max <= 0.0:
-        return np.full(beta_hat.shape, sigma)
-    return sigma * (1.0 - (1.0 - k_hat.max(axis=-1) / k_max) * beta_hat / beta_max)
+        return xp.zeros_like(beta_hat) + sigma
+    return sigma * (1.0 - (1.0 - xp.max(k_hat, axis=-1) / k_max) * beta_hat / beta_max)
+
+
+def adaptive_update(
+    k_hat: Any, beta_hat: Any, k_dot: Any, beta_dot: Any, dt: Any, k_max: float,
+    beta_max: float,
+) -> tuple[Any, Any]:  # fmt: skip
+    """One zero-order-hold step of the estimates with projection onto their boxes (module
+    docstring): ``k̂ ← clip(k̂ + dt k̂̇, 1, k_max)``, ``β̂ ← clip(β̂ + dt β̂̇, 0, β_max)``, the
+    rates held from the previous sample (explicit Euler). Pure, NumPy or JAX."""
+    xp = namespace(k_hat, beta_hat, k_dot, beta_dot, dt)
+    return (
+        xp.clip(k_hat + dt * k_dot, 1.0, k_max),
+        xp.clip(beta_hat + dt * beta_dot, 0.0, beta_max),
+    )
+
+
+def fault_tolerant_torque(
+    Rt: Any, W: Any, Wd: Any, Wd_dot: Any, J: Any, K: Any, lam: Any, k_hat: Any,
+    beta_hat: Any, sigma: Any, gamma_k: Any, gamma_beta: Any, max_torque: Any,
+) -> tuple[Any, Any, Any, dict[str, Any]]:  # fmt: skip
+    """The adaptive fault-tolerant law (module docstring) at one sample::
+
+        s = e_Ω + λ x,   x = log(R̃)^∨,
+        v = Ω × JΩ − J(Ω^ R̃ᵀΩ_d − R̃ᵀΩ̇_d) − λ J J_r⁻¹(x) e_Ω − K s − β̂ s / (‖s‖ + σ),
+        τ = k̂ ∘ v   (clipped to ``max_torque`` when given),
+
+    and the estimates' rates ``k̂̇ = −γ_k s ∘ v`` (0 on a saturated sample),
+    ``β̂̇ = γ_β ‖s‖² / (‖s‖ + σ)``. ``R̃ = R_dᵀR`` ``(..., 3, 3)``, the rates ``(..., 3)``,
+    ``K`` ``(3, 3)``, ``sigma`` the boundary layer σ(t) (:func:`_boundary_layer`). Returns
+    ``(τ, k̂̇, β̂̇, diagnostics)``. Pure, NumPy or JAX, broadcasting over leading axes: the
+    log and ‖s‖ with finite derivatives at the identity and near π."""
+    xp = namespace(Rt, W, Wd, Wd_dot, K, lam, k_hat, beta_hat, sigma)
+    x = so3.log_unchecked(Rt)
+    RtT = xp.swapaxes(Rt, -1, -2)
+    wd_b = (RtT @ Wd[..., None])[..., 0]  # R̃ᵀΩ_d
+    e_W = W - wd_b
+    s = e_W + lam * x
+    JW = W @ J.T
+    ff = _cross(W, JW) - (_cross(W, wd_b) - (RtT @ Wd_dot[..., None])[..., 0]) @ J.T
+    x_dot = _jr_inv_apply(x, e_W)
+    ns = _norm(s, xp)
+    robust = (beta_hat / (ns + sigma))[..., None] * s
+    v = ff - lam * (x_dot @ J.T) - s @ K.T - robust
+    u = k_hat * v
+    if max_torque is not None:
+        sat = xp.any(xp.abs(u) > max_torque, axis=-1)
+        u = xp.clip(u, -max_torque, max_torque)
+    else:
+        sat = xp.zeros(u.shape[:-1], dtype=bool)
+    # a saturated sample's delivered torque is not k̂ ∘ v: no information on 1/ε
+    k_dot = xp.where(sat[..., None], 0.0, -gamma_k * s * v)
+    beta_dot = gamma_beta * ns * ns / (ns + sigma)
+    diag = {"e_R": x, "e_Omega": e_W, "s": s, "k_hat": k_hat, "beta_hat": beta_hat,
+            "saturated": sat, "sigma": sigma}  # fmt: skip
+    return u, k_dot, beta_dot, diag
 
 
 def _ft_rows(rows: np.ndarray) -> dict[str, np.ndarray]:
@@ -318,8 +382,9 @@ class AdaptiveFaultTolerantSO3(AttitudeController):
                 raise ValueError(
                     f"t: {t!r} is earlier than the previous control sample {self._t_prev!r}"
                 )
-            self.k_hat = np.clip(self.k_hat + dt * self._kdot, 1.0, self.k_max)
-            self.beta_hat = np.clip(self.beta_hat + dt * self._bdot, 0.0, self.beta_max)
+            self.k_hat, self.beta_hat = adaptive_update(
+                self.k_hat, self.beta_hat, self._kdot, self._bdot, dt, self.k_max, self.beta_max
+            )
         self._t_prev = t
         R = np.broadcast_to(state.R, (B, 3, 3))
         W = np.broadcast_to(state.omega, (B, 3))
@@ -327,38 +392,11 @@ class AdaptiveFaultTolerantSO3(AttitudeController):
         Wd = np.broadcast_to(reference.omega_d, (B, 3))
         Wd_dot = np.broadcast_to(reference.omega_dot_d, (B, 3))
         Rt = np.swapaxes(Rd, -1, -2) @ R  # R̃ = R_dᵀR
-        x = so3.log_unchecked(Rt)
-        RtT = np.swapaxes(Rt, -1, -2)
-        wd_b = (RtT @ Wd[..., None])[..., 0]  # R̃ᵀΩ_d
-        e_W = W - wd_b
-        s = e_W + self.lam * x
-        J = self.J
-        JW = W @ J.T
-        ff = _cross(W, JW) - (_cross(W, wd_b) - (RtT @ Wd_dot[..., None])[..., 0]) @ J.T
-        x_dot = _jr_inv_apply(x, e_W)
-        ns = np.linalg.norm(s, axis=-1)
-        sigma = self.boundary_layer()
-        robust = (self.beta_hat / (ns + sigma))[:, None] * s
-        v = ff - self.lam * (x_dot @ J.T) - s @ self.K.T - robust
-        u = self.k_hat * v
-        if self.max_torque is not None:
-            sat = np.any(np.abs(u) > self.max_torque, axis=-1)
-            u = np.clip(u, -self.max_torque, self.max_torque)
-        else:
-            sat = np.zeros(B, dtype=bool)
-        kdot = -self.gamma_k * s * v
-        kdot[sat] = 0.0  # the delivered torque is not k̂ ∘ v: no information on 1/ε
-        self._kdot = kdot
-        self._bdot = self.gamma_beta * ns * ns / (ns + sigma)
-        self._diag = {
-            "e_R": x,
-            "e_Omega": e_W,
-            "s": s,
-            "k_hat": self.k_hat.copy(),
-            "beta_hat": self.beta_hat.copy(),
-            "saturated": sat,
-            "sigma": sigma,
-        }
+        u, self._kdot, self._bdot, d = fault_tolerant_torque(
+            Rt, W, Wd, Wd_dot, self.J, self.K, self.lam, self.k_hat, self.beta_hat,
+            self.boundary_layer(), self.gamma_k, self.gamma_beta, self.max_torque,
+        )  # fmt: skip
+        self._diag = {**d, "k_hat": self.k_hat.copy(), "beta_hat": self.beta_hat.copy()}
         return finite_command(u, state.omega)
 
     def boundary_layer(self) -> np.ndarray:
@@ -402,6 +440,40 @@ class AdaptiveFaultTolerantSO3(AttitudeController):
 
     def _kernel_reason(self) -> str:
         return "a controller that was not reset"
+
+    def array_law(self) -> ArrayLaw:
+        """The law as a pure array function for the differentiable loop
+        (:mod:`liecontrol.control.array_law`): :func:`adaptive_update`,
+        :func:`_boundary_layer` and :func:`fault_tolerant_torque` — the functions
+        :meth:`command` calls — with the adaptive estimates carried by the scan.
+
+        Differentiable gains: ``k_R`` is the surface slope λ [1/s], ``k_Omega`` the sliding
+        gain ``K`` ``(3, 3)`` [N·m·s/rad]; further parameters (``params``): the adaptation
+        gains ``gamma_k``, ``gamma_beta`` and the boundary layer ``sigma``. Timed: the scan
+        carries ``(started, t_prev, k̂, β̂, k̂̇, β̂̇)`` and advances the estimates over the time
+        since the previous sample, as :meth:`command` does (nothing at the first sample). The
+        estimates start at their nominal values (k̂ = 1, β̂ = 0), as after :meth:`reset`."""
+        J, k_max, b_max = np.array(self.J), self.k_max, self.beta_max
+        adaptive, mt = self.adaptive_sigma, self.max_torque
+
+        def step(k_R, k_Omega, state, R, omega, R_d, omega_d, omega_dot_d, T, *, params, t):  # noqa: ANN001
+            xp = namespace(R, R_d, t)
+            started, t_prev, k_hat, beta_hat, k_dot, beta_dot = state
+            dt = xp.where(started, t - t_prev, 0.0)
+            k_hat, beta_hat = adaptive_update(k_hat, beta_hat, k_dot, beta_dot, dt, k_max, b_max)
+            sigma = _boundary_layer(params["sigma"], k_hat, beta_hat, k_max, b_max, adaptive)
+            Rt = xp.swapaxes(R_d, -1, -2) @ R
+            u, k_dot, beta_dot, d = fault_tolerant_torque(
+                Rt, omega, omega_d, omega_dot_d, J, k_Omega, k_R, k_hat, beta_hat, sigma,
+                params["gamma_k"], params["gamma_beta"], mt,
+            )  # fmt: skip
+            started = xp.ones((), dtype=bool)
+            return u, (started, t, k_hat, beta_hat, k_dot, beta_dot), d
+
+        state0 = (np.zeros((), dtype=bool), np.zeros(()), np.ones(3), np.zeros(()),
+                  np.zeros(3), np.zeros(()))  # fmt: skip
+        params = {"gamma_k": self.gamma_k, "gamma_beta": self.gamma_beta, "sigma": self.sigma}
+        return ArrayLaw(self.lam, self.K.copy(), state0, step, params=params, timed=True)
 
     def _finish(self, state: np.ndarray, diag: np.ndarray) -> None:
         """Estimates, their rates and diagnostics after a compiled run."""

@@ -87,10 +87,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy import integrate
 
+from .._array_api import cross, namespace, safe_sqrt
 from .._jit import JIT_ENABLED
 from .._kernels.finite_time import N_DIAG, finite_time_batch, finite_time_law, finite_time_one
 from .._validation import (
@@ -101,6 +103,7 @@ from .._validation import (
     rotations_pass_fast,
 )
 from ..errors import _large_angle_error_unchecked
+from .array_law import ArrayLaw
 from .base import (
     AttitudeController,
     AttitudeReference,
@@ -219,25 +222,30 @@ class FiniteTimeParams:
 # ------------------------------------------------------------------------------- pure math
 
 
-def _g(x: np.ndarray, p: float, eps: float) -> np.ndarray:
-    """g_p(x): x^(p−1) above ε, its tangent line at ε below (module docstring)."""
-    x = np.asarray(x, dtype=np.float64)
+def _g(x: Any, p: Any, eps: Any) -> Any:
+    """g_p(x): x^(p−1) above ε, its tangent line at ε below (module docstring). Pure, NumPy or
+    JAX: the power is taken of ``max(x, ε)``, so the branch not taken (x < ε, where x^(p−1)
+    blows up at 0) stays finite and so does its derivative."""
+    xp = namespace(x, p, eps)
+    if xp is np:
+        x = np.asarray(x, dtype=np.float64)
     lin = (2.0 - p) * eps ** (p - 1.0) + (p - 1.0) * eps ** (p - 2.0) * x
-    with np.errstate(divide="ignore"):
-        out = np.where(x >= eps, np.maximum(x, eps) ** (p - 1.0), lin)
-    return out
+    return xp.where(x >= eps, xp.maximum(x, eps) ** (p - 1.0), lin)
 
 
-def _g_prime_over_x(x: np.ndarray, p: float, eps: float) -> np.ndarray:
-    """g_p'(x)/x (0 at x = 0, where it multiplies e_R e_Rᵀ = 0)."""
-    x = np.asarray(x, dtype=np.float64)
-    safe = np.where(x > 0.0, x, 1.0)
-    out = np.where(
+def _g_prime_over_x(x: Any, p: Any, eps: Any) -> Any:
+    """g_p'(x)/x (0 at x = 0, where it multiplies e_R e_Rᵀ = 0). Pure, NumPy or JAX: the
+    divisor is 1 where x = 0 and the power is of ``max(x, ε)`` (both branches finite)."""
+    xp = namespace(x, p, eps)
+    if xp is np:
+        x = np.asarray(x, dtype=np.float64)
+    safe = xp.where(x > 0.0, x, 1.0)
+    out = xp.where(
         x >= eps,
-        (p - 1.0) * np.maximum(x, eps) ** (p - 3.0),
+        (p - 1.0) * xp.maximum(x, eps) ** (p - 3.0),
         (p - 1.0) * eps ** (p - 2.0) / safe,
     )
-    return np.where(x > 0.0, out, 0.0)
+    return xp.where(x > 0.0, out, 0.0)
 
 
 def terminal_gain(x: object, p: float, eps: float) -> np.ndarray:
@@ -266,10 +274,24 @@ def _h(theta: np.ndarray | float, prm: FiniteTimeParams) -> np.ndarray | float:
 
 
 def _ks(y: np.ndarray | float, prm: FiniteTimeParams) -> np.ndarray:
-    y = np.asarray(y, dtype=np.float64)
-    out = prm.c1 + prm.c2 * _g(y, prm.rho, prm.eps_s)
-    if prm.c3 > 0.0:  # skipped at c₃ = 0: 0·y^(μ−1) would be NaN where y^(μ−1) overflows
-        out = out + prm.c3 * y ** (prm.mu - 1.0)
+    return _reaching_gain(
+        np.asarray(y, dtype=np.float64), prm.c1, prm.c2, prm.rho, prm.eps_s,
+        prm.c3 if prm.c3 > 0.0 else None, prm.mu,
+    )  # fmt: skip
+
+
+def _reaching_gain(
+    y: Any, c1: Any, c2: Any, rho: Any, eps_s: Any, c3: Any = None, mu: Any = 1.5
+) -> Any:
+    """``k_s(y) = c₁ + c₂ g_ρ(y; ε_s) [+ c₃ y^(μ−1)]`` (module docstring); ``c3=None``: no
+    fixed-time term — skipped rather than multiplied by 0, which would be NaN where
+    ``y^(μ−1)`` overflows. Pure, NumPy or JAX: ``y^(μ−1)`` is taken of ``y`` or of 1 where
+    ``y = 0`` (its derivative, infinite there for μ < 2, must not reach the gradient)."""
+    xp = namespace(y, c1, c2, rho, eps_s, c3, mu)
+    out = c1 + c2 * _g(y, rho, eps_s)
+    if c3 is not None:
+        pos = y > 0.0
+        out = out + c3 * xp.where(pos, xp.where(pos, y, 1.0) ** (mu - 1.0), 0.0)
     return out
 
 
@@ -476,12 +498,55 @@ def _sliding_core(
     Rt: np.ndarray, w: np.ndarray, w_d_body: np.ndarray, prm: FiniteTimeParams
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(Ψ, e_R, e_Ω, gain k₁ + k₂g, s) for checked R̃ = R_dᵀR stacks."""
+    Psi, e_R, e_W, gain, s, _ = _surface(Rt, w, w_d_body, prm.k1, prm.k2, prm.r, prm.eps)
+    return Psi, e_R, e_W, gain, s
+
+
+def _surface(
+    Rt: Any, w: Any, w_d_body: Any, k1: Any, k2: Any, r: Any, eps: Any
+) -> tuple[Any, Any, Any, Any, Any, Any]:
+    """``(Ψ, e_R, e_Ω, k₁ + k₂ g_r(x), s, x)`` with ``x = ‖e_R‖`` and the surface
+    ``s = e_Ω + (k₁ + k₂ g_r(x)) e_R`` (module docstring) of ``R̃ = R_dᵀR`` ``(..., 3, 3)``.
+    Pure, NumPy or JAX; ``x`` by :func:`~liecontrol._array_api.safe_sqrt` (finite derivative
+    at the target, where the tangent-line continuation makes ``g_r`` smooth)."""
+    xp = namespace(Rt, w, w_d_body, k1, k2, r, eps)
     Psi, e_R = _large_angle_error_unchecked(Rt)
     e_W = w - w_d_body
-    x = np.sqrt(np.einsum("...i,...i->...", e_R, e_R))
-    gain = prm.k1 + prm.k2 * _g(x, prm.r, prm.eps)
+    x = safe_sqrt(xp.sum(e_R * e_R, axis=-1), xp)
+    gain = k1 + k2 * _g(x, r, eps)
     s = e_W + gain[..., None] * e_R
-    return Psi, e_R, e_W, gain, s
+    return Psi, e_R, e_W, gain, s, x
+
+
+def finite_time_torque(
+    Rt: Any, w: Any, w_d_body: Any, dw_d_body: Any, J: Any, k1: Any, k2: Any, r: Any,
+    eps: Any, c1: Any, c2: Any, rho: Any, eps_s: Any, c3: Any = None, mu: Any = 1.5,
+) -> tuple[Any, dict[str, Any]]:  # fmt: skip
+    """The terminal sliding-mode torque of :class:`FiniteTimeSO3` (module docstring)::
+
+        M = Ω × JΩ − J(Ω × R̃ᵀΩ_d − R̃ᵀΩ̇_d) − J (∂α/∂e_R · E e_Ω + k_s(‖s‖) s),
+
+    from ``R̃ = R_dᵀR`` ``(..., 3, 3)``, the body rate ``w`` and the desired rate and
+    acceleration in body axes ``(..., 3)``; ``c3=None``: finite time (no fixed-time term).
+    Returns ``(M, diagnostics)`` with ``Psi``, ``theta`` (``(...)``), ``e_R``, ``e_Omega``,
+    ``s``. Pure, NumPy or JAX, broadcasting over leading axes; the norms by
+    :func:`~liecontrol._array_api.safe_sqrt` and the powers by :func:`_g`,
+    :func:`_g_prime_over_x` and :func:`_reaching_gain`, so derivatives are finite at
+    ``e_R = 0`` and ``s = 0``. No validation: :meth:`FiniteTimeSO3.command` validates."""
+    xp = namespace(Rt, w, w_d_body, dw_d_body, k1, k2, c2)
+    Psi, e_R, e_W, gain, s, x = _surface(Rt, w, w_d_body, k1, k2, r, eps)
+    # ė_R = E e_Ω, E = ½(q₀I + e_R^), q₀ = cos(θ/2) = 1 − Ψ/2
+    q0 = 1.0 - 0.5 * Psi
+    de_R = 0.5 * (q0[..., None] * e_W + _cross(e_R, e_W))
+    gpx = k2 * _g_prime_over_x(x, r, eps)
+    dalpha = gain[..., None] * de_R + (gpx * xp.sum(e_R * de_R, axis=-1))[..., None] * e_R
+    y = safe_sqrt(xp.sum(s * s, axis=-1), xp)
+    with np.errstate(over="ignore", invalid="ignore"):
+        wdot = -dalpha - _reaching_gain(y, c1, c2, rho, eps_s, c3, mu)[..., None] * s
+        M = _cross(w, w @ J.T) - (_cross(w, w_d_body) - dw_d_body) @ J.T + wdot @ J.T
+    # Ψ = 4 sin²(θ/4); the safe square root keeps the derivative finite at θ = 0
+    theta = 4.0 * xp.arcsin(safe_sqrt(xp.clip(0.25 * Psi, 0.0, 1.0), xp))
+    return M, {"Psi": Psi, "theta": theta, "e_R": e_R, "e_Omega": e_W, "s": s}
 
 
 def sliding_variable(
@@ -541,10 +606,8 @@ def _stack(a: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
     return np.ascontiguousarray(np.broadcast_to(np.asarray(a, dtype=np.float64), shape))
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack((a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), axis=-1)
+# the compiled kernels' cross product, NumPy or JAX (liecontrol._array_api.cross)
+_cross = cross
 
 
 # ------------------------------------------------------------------------------ controllers
@@ -675,26 +738,19 @@ class FiniteTimeSO3(AttitudeController):
         """:meth:`command` on stacked numpy arrays (validated input): the batched route without
         the compiler, and the reference the kernel is tested against."""
         B = R.shape[0]
-        prm = self.params
         Rt = np.swapaxes(R_d, -1, -2) @ R  # (B, 3, 3) whether R_d is one sample or a batch
         RtT = np.swapaxes(Rt, -1, -2)
         w_d_body = (RtT @ np.broadcast_to(w_d, (B, 3))[..., None])[..., 0]
         dw_d_body = (RtT @ np.broadcast_to(dw_d, (B, 3))[..., None])[..., 0]
-        Psi, e_R, e_W, gain, s = _sliding_core(Rt, w, w_d_body, prm)
-        # ė_R = E e_Ω, E = ½(q₀I + e_R^), q₀ = cos(θ/2) = 1 − Ψ/2
-        q0 = 1.0 - 0.5 * Psi
-        de_R = 0.5 * (q0[:, None] * e_W + _cross(e_R, e_W))
-        x = np.sqrt(np.einsum("bi,bi->b", e_R, e_R))
-        gpx = prm.k2 * _g_prime_over_x(x, prm.r, prm.eps)
-        dalpha = gain[:, None] * de_R + (gpx * np.einsum("bi,bi->b", e_R, de_R))[:, None] * e_R
-        y = np.sqrt(np.einsum("bi,bi->b", s, s))
-        with np.errstate(over="ignore", invalid="ignore"):
-            wdot = -dalpha - _ks(y, prm)[:, None] * s
-            J = self.J
-            M = _cross(w, w @ J.T) - (_cross(w, w_d_body) - dw_d_body) @ J.T + wdot @ J.T
-        theta = 4.0 * np.arcsin(np.sqrt(np.clip(0.25 * Psi, 0.0, 1.0)))  # Ψ = 4 sin²(θ/4)
-        self._diag = {"Psi": Psi, "theta": theta, "e_R": e_R, "e_Omega": e_W, "s": s}
+        M, self._diag = finite_time_torque(Rt, w, w_d_body, dw_d_body, self.J, *self._gains())
         return M
+
+    def _gains(self) -> tuple:
+        """``(k1, k2, r, eps, c1, c2, rho, eps_s, c3, mu)`` as :func:`finite_time_torque`
+        takes them (``c3=None`` without the fixed-time term)."""
+        p = self.params
+        c3 = p.c3 if p.c3 > 0.0 else None
+        return p.k1, p.k2, p.r, p.eps, p.c1, p.c2, p.rho, p.eps_s, c3, p.mu
 
     def _command_kernel(
         self, R: np.ndarray, w: np.ndarray, R_d: np.ndarray, w_d: np.ndarray, dw_d: np.ndarray
@@ -736,6 +792,38 @@ class FiniteTimeSO3(AttitudeController):
         return ControllerKernel(
             finite_time_law, params, np.zeros((batch_size, 0)), N_DIAG, _finite_time_rows, finish
         )
+
+    def array_law(self) -> ArrayLaw:
+        """The law as a pure array function for the differentiable loop
+        (:mod:`liecontrol.control.array_law`): :func:`finite_time_torque`, the function
+        :meth:`command` evaluates (without the compiler); memoryless.
+
+        Differentiable gains: ``k_R`` is the terminal surface gain ``k₂`` [1/s], ``k_Omega``
+        the terminal reaching gain ``c₂``; further parameters (``params``): ``k1``, ``c1``, the
+        powers ``r`` and ``rho``, the continuation radius ``eps`` and the boundary layer
+        ``eps_s`` (and ``c3``, ``mu`` of the fixed-time term when ``c3 > 0``). The powers are
+        taken of ``max(x, ε)`` and the norms by a safe square root, so the gradient is finite
+        at the target (``e_R = 0``, ``s = 0``)."""
+        J = np.array(self.J)
+        k1, k2, r, eps, c1, c2, rho, eps_s, c3, mu = self._gains()
+        params = {"k1": k1, "r": r, "eps": eps, "c1": c1, "rho": rho, "eps_s": eps_s}
+        if c3 is not None:
+            params.update(c3=c3, mu=mu)
+
+        def step(k_R, k_Omega, state, R, omega, R_d, omega_d, omega_dot_d, T, *, params):  # noqa: ANN001
+            xp = namespace(R, R_d)
+            Rt = xp.swapaxes(R_d, -1, -2) @ R
+            RtT = xp.swapaxes(Rt, -1, -2)
+            w_d_body = (RtT @ omega_d[..., None])[..., 0]
+            dw_d_body = (RtT @ omega_dot_d[..., None])[..., 0]
+            p = params
+            M, d = finite_time_torque(
+                Rt, omega, w_d_body, dw_d_body, J, p["k1"], k_R, p["r"], p["eps"], p["c1"],
+                k_Omega, p["rho"], p["eps_s"], p.get("c3"), p.get("mu", mu),
+            )  # fmt: skip
+            return M, state, d
+
+        return ArrayLaw(k2, c2, (), step, params=params)
 
     def diagnostics(self) -> dict[str, np.ndarray]:
         """Last ``Psi``, ``theta`` ``(B,)`` and ``e_R``, ``e_Omega``, ``s`` ``(B, 3)``."""

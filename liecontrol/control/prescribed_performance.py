@@ -57,9 +57,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
+from .._array_api import namespace
 from .._kernels.prescribed_performance import N_DIAG as PPC_DIAG
 from .._kernels.prescribed_performance import N_STATE as PPC_STATE
 from .._kernels.prescribed_performance import ppc_law
@@ -70,8 +72,9 @@ from .._validation import (
     check_positive,
     check_positive_scalar,
 )
+from .array_law import ArrayLaw
 from .base import AttitudeController, AttitudeReference, AttitudeState, finite_command
-from .geometric_pd import GeometricPD, _cross
+from .geometric_pd import GeometricPD, _cross, geometric_pd_torque
 from .kernel import ControllerKernel
 
 __all__ = [
@@ -167,10 +170,7 @@ class Funnel:
         them (``max_i |e_i| ≥ ρ(tau)``)."""
         e0 = as_array(e0, "e0", (3,))
         m0 = np.abs(e0).max(axis=-1)
-        if self.rho0 is None:
-            rho0 = np.minimum(1.0, np.maximum(self.margin * m0, 2.0 * self.rho_inf))
-        else:
-            rho0 = np.full(m0.shape, self.rho0)
+        rho0 = funnel_initial_width(m0, self.rho_inf, self.margin, self.rho0)
         width = self.rho(tau, rho0)[0]
         bad = m0 >= width
         if np.any(bad):
@@ -184,10 +184,27 @@ class Funnel:
 
     def rho(self, tau: object, rho0: object) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(ρ, ρ̇, ρ̈)`` at ``tau`` for widths ``rho0`` (broadcast)."""
-        tau = as_array(tau, "tau")
-        rho0 = as_array(rho0, "rho0")
-        a = (rho0 - self.rho_inf) * np.exp(-self.decay * tau)
-        return a + self.rho_inf, -self.decay * a, self.decay * self.decay * a
+        return funnel_rho(as_array(tau, "tau"), as_array(rho0, "rho0"), self.rho_inf, self.decay)
+
+
+def funnel_rho(tau: Any, rho0: Any, rho_inf: Any, decay: Any) -> tuple[Any, Any, Any]:
+    """``(ρ, ρ̇, ρ̈)`` of the funnel ``ρ(τ) = (ρ₀ − ρ_∞) e^{−lτ} + ρ_∞`` (Bechlioulis &
+    Rovithakis, IEEE TAC 2008) at ``τ`` seconds after its start; pure, NumPy or JAX,
+    broadcasting. No validation: :meth:`Funnel.rho` is the checked entry point."""
+    xp = namespace(tau, rho0, rho_inf, decay)
+    a = (rho0 - rho_inf) * xp.exp(-decay * tau)
+    return a + rho_inf, -decay * a, decay * decay * a
+
+
+def funnel_initial_width(m0: Any, rho_inf: Any, margin: Any, rho0: float | None) -> Any:
+    """The funnel's initial width for the largest initial error component ``m0 = max_i
+    |e_R,i(0)|``: the given ``rho0``, or ``min(1, max(margin · m0, 2ρ_∞))`` (module
+    docstring); pure, NumPy or JAX, broadcasting over ``m0``. Feasibility (``m0 < ρ``) is the
+    caller's check."""
+    xp = namespace(m0, rho_inf, margin)
+    if rho0 is None:
+        return xp.minimum(1.0, xp.maximum(margin * m0, 2.0 * rho_inf))
+    return xp.full(xp.shape(m0), rho0)
 
 
 def ppc_gains(omega_n: float, zeta: float = 0.9, outer: float = 0.25) -> tuple[float, float, float]:
@@ -225,37 +242,40 @@ class VirtualRate:
 
 
 def virtual_rate(
-    e_R: np.ndarray,
-    q0: np.ndarray,
-    e_Omega: np.ndarray,
-    rho: np.ndarray,
-    rho_dot: np.ndarray,
-    rho_ddot: np.ndarray,
-    k1: float,
+    e_R: Any,
+    q0: Any,
+    e_Omega: Any,
+    rho: Any,
+    rho_dot: Any,
+    rho_ddot: Any,
+    k1: Any,
     q_min: float = 0.1,
     z_max: float = 0.999,
 ) -> VirtualRate:
     """Virtual rate ``α``, its time derivative ``α̇`` along ``ė_R = E e_Ω`` and ``Eᵀw``.
 
     ``α = 2(ρ̇/ρ) e_R / max(q₀, q_min) − k₁ ρ² Eᵀ w`` (module docstring). Inputs: ``e_R``,
-    ``e_Omega`` ``(B, 3)``; ``q0 = cos(θ/2)`` and ``rho``, ``rho_dot``, ``rho_ddot`` ``(B,)``.
-    Components with ``|z| > z_max`` are saturated at ``±z_max`` (their ``ż`` is taken as 0).
-    No validation (hot path).
+    ``e_Omega`` ``(..., 3)``; ``q0 = cos(θ/2)`` and ``rho``, ``rho_dot``, ``rho_ddot``
+    ``(...)`` (a batch ``(B,)``, or scalars for one spacecraft). Components with
+    ``|z| > z_max`` are saturated at ``±z_max`` (their ``ż`` is taken as 0). No validation
+    (hot path). Pure, NumPy or JAX: every division is by ``ρ > 0``, ``1 − z_c² ≥ 1 − z_max²``
+    or ``max(q₀, q_min)``, so values and derivatives stay finite at ``e_R = 0`` and near π.
     """
-    r = rho[:, None]
-    rd = rho_dot[:, None]
-    rdd = rho_ddot[:, None]
-    q = q0[:, None]
+    xp = namespace(e_R, q0, e_Omega, rho, rho_dot, k1)
+    r = rho[..., None]
+    rd = rho_dot[..., None]
+    rdd = rho_ddot[..., None]
+    q = q0[..., None]
     e_dot = 0.5 * (q * e_Omega + _cross(e_R, e_Omega))
-    q_dot = -0.5 * np.sum(e_R * e_Omega, axis=-1, keepdims=True)
+    q_dot = -0.5 * xp.sum(e_R * e_Omega, axis=-1, keepdims=True)
 
     z = e_R / r
-    clipped = np.abs(z) > z_max
-    zc = np.clip(z, -z_max, z_max)
+    clipped = xp.abs(z) > z_max
+    zc = xp.clip(z, -z_max, z_max)
     omz = 1.0 - zc * zc
-    eps = np.arctanh(zc)
+    eps = xp.arctanh(zc)
     g = 1.0 / (r * omz)
-    z_dot = np.where(clipped, 0.0, (e_dot - zc * rd) / r)
+    z_dot = xp.where(clipped, 0.0, (e_dot - zc * rd) / r)
     eps_dot = z_dot / omz
     g_dot = g * (-rd / r + 2.0 * zc * z_dot / omz)
     w = g * eps
@@ -264,8 +284,8 @@ def virtual_rate(
     ETw_dot = 0.5 * (q_dot * w - _cross(e_dot, w) + q * w_dot - _cross(e_R, w_dot))
 
     low = q < q_min
-    qb = np.where(low, q_min, q)
-    qb_dot = np.where(low, 0.0, q_dot)
+    qb = xp.where(low, q_min, q)
+    qb_dot = xp.where(low, 0.0, q_dot)
     ratio = rd / r
     a_ff = 2.0 * ratio * e_R / qb
     a_ff_dot = 2.0 * (
@@ -274,6 +294,27 @@ def virtual_rate(
     alpha = a_ff - k1 * r * r * ETw
     alpha_dot = a_ff_dot - k1 * (2.0 * r * rd * ETw + r * r * ETw_dot)
     return VirtualRate(alpha=alpha, alpha_dot=alpha_dot, ETw=ETw, eps=eps, z=z, z_clipped=clipped)
+
+
+def ppc_torque(
+    e_R: Any, e_Omega: Any, Psi: Any, ff: Any, J: Any, rho: Any, rho_dot: Any, rho_ddot: Any,
+    k1: Any, k2: Any, kc: Any, q_min: float, z_max: float,
+) -> tuple[Any, VirtualRate, Any, Any]:  # fmt: skip
+    """The prescribed-performance torque from the large-angle error (module docstring)::
+
+        s = e_Ω − α,   M = ff + J (α̇ − k₂ s − k_c ρ² Eᵀw),   q₀ = 1 − Ψ/2 = cos(θ/2),
+
+    with ``α``, ``α̇``, ``Eᵀw`` of :func:`virtual_rate` and ``ff = Ω × JΩ − J(Ω^ R̃ᵀΩ_d −
+    R̃ᵀΩ̇_d)`` the geometric PD's feed-forward. Returns ``(M, virtual rate, s, outside)``,
+    ``outside`` whether some ``|e_R,i| ≥ ρ`` (a funnel violation). Pure, NumPy or JAX,
+    broadcasting over leading axes (``e_R`` ``(..., 3)``, ``Psi``, ``rho``… ``(...)``)."""
+    xp = namespace(e_R, e_Omega, Psi, ff, rho, k2, kc)
+    q0 = 1.0 - 0.5 * Psi  # large-angle Ψ = 2 − 2cos(θ/2)
+    vr = virtual_rate(e_R, q0, e_Omega, rho, rho_dot, rho_ddot, k1, q_min=q_min, z_max=z_max)
+    s = e_Omega - vr.alpha
+    acc = vr.alpha_dot - k2 * s - kc * (rho * rho)[..., None] * vr.ETw
+    outside = xp.any(xp.abs(e_R) >= rho[..., None], axis=-1)
+    return ff + acc @ J.T, vr, s, outside
 
 
 # ----------------------------------------------------------------------------------------------
@@ -372,14 +413,10 @@ class PrescribedPerformance(AttitudeController):
         if self.rho0 is None:
             self.rho0 = self.funnel.initial_width(e_R, tau)
         rho, rho_dot, rho_ddot = self.funnel.rho(tau, self.rho0)
-        q0 = 1.0 - 0.5 * Psi  # large-angle Ψ = 2 − 2cos(θ/2)
-        vr = virtual_rate(
-            e_R, q0, e_W, rho, rho_dot, rho_ddot, self.k1, q_min=self.q_min, z_max=self.z_max
-        )
-        s = e_W - vr.alpha
-        acc = vr.alpha_dot - self.k2 * s - self.kc * (rho * rho)[:, None] * vr.ETw
-        M = ff + acc @ self.J.T
-        outside = np.any(np.abs(e_R) >= rho[:, None], axis=-1)
+        M, vr, s, outside = ppc_torque(
+            e_R, e_W, Psi, ff, self.J, rho, rho_dot, rho_ddot, self.k1, self.k2, self.kc,
+            self.q_min, self.z_max,
+        )  # fmt: skip
         self._violations = self._violations + outside
         d.update(
             eps=vr.eps,
@@ -417,6 +454,53 @@ class PrescribedPerformance(AttitudeController):
 
     def _kernel_reason(self) -> str:
         return "a controller that was not reset"
+
+    def array_law(self) -> ArrayLaw:
+        """The law as a pure array function for the differentiable loop
+        (:mod:`liecontrol.control.array_law`): the unit-gain geometric PD's errors and
+        feed-forward (:func:`~liecontrol.control.geometric_pd.geometric_pd_torque`), the funnel
+        (:func:`funnel_initial_width`, :func:`funnel_rho`) and :func:`ppc_torque` — the
+        functions :meth:`command` calls.
+
+        Differentiable gains: ``k_R`` is ``k_c`` [1/s²] (the stiffness on the transformed
+        error), ``k_Omega`` is ``k₂`` [1/s] (the rate loop); further parameters (``params``):
+        ``k1`` [1/s] and the funnel's ``rho_inf`` and ``decay`` [1/s]. Timed (the funnel reads
+        the clock). The scan carries ``(started, ρ₀, t_start, violations)``: the funnel starts
+        at the first sample (simulate resets the controller at its ``t0``, which is the first
+        sample's time), where ρ₀ is chosen from the error as :meth:`Funnel.initial_width`
+        does; a funnel that does not contain that error gives a NaN torque there (the route
+        flags the member as diverged; :meth:`command` raises ``ValueError``), as the compiled
+        kernel does."""
+        f = self.funnel
+        J = np.array(self.J)
+        given, margin, q_min, z_max = f.rho0, f.margin, self.q_min, self.z_max
+
+        def step(k_R, k_Omega, state, R, omega, R_d, omega_d, omega_dot_d, T, *, params, t):  # noqa: ANN001
+            xp = namespace(R, omega, t)
+            started, rho0, t_start, violations = state
+            k1, rho_inf, decay = params["k1"], params["rho_inf"], params["decay"]
+            M_pd, Psi, e_R, e_W = geometric_pd_torque(
+                R, omega, R_d, omega_d, omega_dot_d, J, 1.0, 1.0, "large_angle"
+            )
+            ff = M_pd + e_R + e_W  # the PD's exact feed-forward (as command recovers it)
+            m0 = xp.max(xp.abs(e_R), axis=-1)
+            rho0 = xp.where(started, rho0, funnel_initial_width(m0, rho_inf, margin, given))
+            t_start = xp.where(started, t_start, t)
+            rho, rho_dot, rho_ddot = funnel_rho(t - t_start, rho0, rho_inf, decay)
+            infeasible = xp.logical_not(started) & (m0 >= rho)
+            M, vr, s, outside = ppc_torque(
+                e_R, e_W, Psi, ff, J, rho, rho_dot, rho_ddot, k1, k_Omega, k_R, q_min, z_max
+            )
+            M = xp.where(infeasible, xp.nan, M)
+            violations = violations + xp.where(infeasible, 0, outside.astype(violations.dtype))
+            d = {"Psi": Psi, "e_R": e_R, "e_Omega": e_W, "eps": vr.eps, "alpha": vr.alpha,
+                 "s": s, "rho": rho, "funnel_violations": violations,
+                 "edge_saturated": xp.any(vr.z_clipped, axis=-1)}  # fmt: skip
+            return M, (xp.ones((), dtype=bool), rho0, t_start, violations), d
+
+        state0 = (np.zeros((), dtype=bool), np.zeros(()), np.zeros(()), np.zeros((), np.int64))
+        params = {"k1": self.k1, "rho_inf": f.rho_inf, "decay": f.decay}
+        return ArrayLaw(self.kc, self.k2, state0, step, params=params, timed=True)
 
     def _finish(self, state: np.ndarray, diag: np.ndarray) -> None:
         """Funnel width, violation counts and diagnostics after a compiled run."""
