@@ -731,6 +731,8 @@ class ChartArrayLaw:
         on_shadow_switch: MRP only, optional: ``(state, switched, switched_desired) -> state``,
             the pure form of the law's ``on_shadow_switch`` hook, called before ``step`` at every
             sample with the two switch flags (select with ``where``).
+        timed: ``step`` receives the sample's time as the keyword ``t`` (a law whose formula
+            reads the clock, e.g. a prescribed-time shaping polynomial).
     """
 
     k_R: Any
@@ -739,6 +741,7 @@ class ChartArrayLaw:
     step: Callable[..., tuple[Any, tuple, dict[str, Any]]]
     params: Mapping[str, Any] = field(default_factory=dict)
     on_shadow_switch: Callable[..., tuple] | None = None
+    timed: bool = False
 
     def __post_init__(self) -> None:
         if not callable(self.step):
@@ -1001,7 +1004,10 @@ class ChartAdapter(AttitudeController):
             diag = {**diag, **extra, "chart_y": s.y, "chart_y_d": s.y_d, "chart_switched": sw}
             return u, tuple(mem) + tuple(ls), diag
 
-        return ArrayLaw(claw.k_R, claw.k_Omega, mem0 + tuple(claw.state0), step, claw.params)
+        return ArrayLaw(
+            claw.k_R, claw.k_Omega, mem0 + tuple(claw.state0), step, claw.params,
+            timed=bool(claw.timed),
+        )  # fmt: skip
 
 
 class EulerChartAdapter(ChartAdapter):

@@ -66,10 +66,10 @@ from typing import Any
 
 import numpy as np
 
+from .._array_api import cross, is_numpy, namespace, safe_sqrt
 from .._kernels.terminal_sliding_mode import N_DIAG as TSM_DIAG
 from .._kernels.terminal_sliding_mode import N_STATE as TSM_STATE
 from .._kernels.terminal_sliding_mode import tsm_zyx_law
-from .._linalg import cross as _cross
 from .._linalg import matvec as _mv
 from .._validation import (
     as_array,
@@ -82,7 +82,7 @@ from .._validation import (
     check_tolerance,
 )
 from ..charts.euler import LOCK_TOL, _elem, _parse, from_matrix, rates_matrix
-from .adapters import EulerChartAdapter
+from .adapters import ChartArrayLaw, EulerChartAdapter
 from .base import finite_command
 from .kernel import ControllerKernel
 
@@ -111,22 +111,23 @@ SHAPING_COEFFICIENTS.setflags(write=False)
 # -- feedback linearisation ---------------------------------------------------------------------
 
 
-
-
 def _unit(k: int) -> np.ndarray:
     e = np.zeros(3)
     e[k] = 1.0
     return e
 
 
-def _accel_core(
-    a: np.ndarray, w: np.ndarray, wd: np.ndarray, seq: str, lock_tol: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _accel_core(a: Any, w: Any, wd: Any, seq: str, lock_tol: float) -> tuple[Any, Any, Any]:
     """(B, ȧ, ä) without input validation (hot path): ȧ = Bω, ä = B(ω̇ − Ṁȧ).
 
     One pass for M, B and Ṁȧ (module docstring). An extrinsic "ijk" is the intrinsic "KJI" with
     reversed angles: computed on the reversed angles, then B's rows and ȧ, ä are reversed back.
+    Pure (NumPy or JAX). NumPy arrays at gimbal lock raise the chart's
+    :class:`~liecontrol.exceptions.ChartSingularityError`; JAX arrays cannot raise (the Euler
+    adapter's array law flags the lock, ``chart_lock``, and gives no torque), so there the
+    determinant is only kept off 0.
     """
+    xp = namespace(a, w, wd)
     (i, j, k), ext = _parse(seq)
     ar = a[..., ::-1] if ext else a
     ek, ej = _unit(k), _unit(j)
@@ -134,17 +135,20 @@ def _accel_core(
     Rj2T_ei = _elem(j, -ar[..., 1])[..., :, i]  # R_j(a2)ᵀ e_i
     m1 = _mv(Rk3T, Rj2T_ei)
     m2 = Rk3T[..., :, j]
-    m3 = np.broadcast_to(ek, m1.shape)
-    r1, r2, r3 = _cross(m2, m3), _cross(m3, m1), _cross(m1, m2)
-    det = np.sum(m1 * r1, axis=-1)  # = ±cos a2 (Tait–Bryan) or ±sin a2 (proper Euler)
-    if np.any(np.abs(det) < lock_tol):
-        rates_matrix(a, seq, lock_tol)  # raises the chart's own ChartSingularityError
-    B = np.stack((r1, r2, r3), axis=-2) / det[..., None, None]
+    m3 = xp.broadcast_to(ek, m1.shape)
+    r1, r2, r3 = cross(m2, m3), cross(m3, m1), cross(m1, m2)
+    det = xp.sum(m1 * r1, axis=-1)  # = ±cos a2 (Tait–Bryan) or ±sin a2 (proper Euler)
+    if is_numpy(xp):
+        if np.any(np.abs(det) < lock_tol):
+            rates_matrix(a, seq, lock_tol)  # raises the chart's own ChartSingularityError
+    else:
+        det = xp.where(det == 0.0, 1.0, det)
+    B = xp.stack((r1, r2, r3), axis=-2) / det[..., None, None]
     adot = _mv(B, w)
     # Ṁȧ: d/da R_k(a)ᵀ = −ê_k R_k(a)ᵀ gives the two terms of ṁ1 and the one of ṁ2 (m3 fixed)
     d1, d2, d3 = adot[..., 0:1], adot[..., 1:2], adot[..., 2:3]
-    dm1 = -d3 * _cross(ek, m1) - d2 * _mv(Rk3T, _cross(ej, Rj2T_ei))
-    dm2 = -d3 * _cross(ek, m2)
+    dm1 = -d3 * cross(ek, m1) - d2 * _mv(Rk3T, cross(ej, Rj2T_ei))
+    dm2 = -d3 * cross(ek, m2)
     addot = _mv(B, wd - (d1 * dm1 + d2 * dm2))
     if ext:
         return B[..., ::-1, :], adot[..., ::-1], addot[..., ::-1]
@@ -188,18 +192,19 @@ def euler_angle_acceleration(
 
 
 def _drift(
-    w: np.ndarray,
+    w: Any,
     J: np.ndarray,
     J_inv: np.ndarray,
-    omega_base: np.ndarray | None,
-    omega_dot_base: np.ndarray | None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """(ω_rel, ω̇_rel at u = 0): J⁻¹(−ω × Jω) + ω_rel × C_bo ω_b − C_bo ω̇_b (module docstring)."""
-    drift = -_cross(w, w @ J.T) @ J_inv.T
+    omega_base: Any | None,
+    omega_dot_base: Any | None,
+) -> tuple[Any, Any]:
+    """(ω_rel, ω̇_rel at u = 0): J⁻¹(−ω × Jω) + ω_rel × C_bo ω_b − C_bo ω̇_b (module docstring);
+    pure."""
+    drift = -cross(w, w @ J.T) @ J_inv.T
     w_rel = w
     if omega_base is not None:
         w_rel = w - omega_base
-        drift = drift + _cross(w_rel, omega_base)
+        drift = drift + cross(w_rel, omega_base)
     if omega_dot_base is not None:
         drift = drift - omega_dot_base
     return w_rel, drift
@@ -278,7 +283,7 @@ def euler_reference(
         msg = str(exc)
         for inner, outer in (("omega_dot:", "omega_dot_d:"), ("omega:", "omega_d:")):
             if msg.startswith(inner):
-                raise ValueError(outer + msg[len(inner):]) from None
+                raise ValueError(outer + msg[len(inner) :]) from None
         raise
     return np.broadcast_to(a_d, ad.shape).copy(), ad, add
 
@@ -301,22 +306,21 @@ def _shape_coefficients() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 _C0, _C1, _C2 = _shape_coefficients()
 
 
-def _shape_core(
-    t: np.ndarray, T: float, e0: np.ndarray, e1: np.ndarray, e2: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """p, ṗ, p̈ without validation; ``t`` (array, ≥ 0) broadcasts against ``e0.shape[:-1]``."""
+def _shape_core(t: Any, T: float, e0: Any, e1: Any, e2: Any) -> tuple[Any, Any, Any]:
+    """p, ṗ, p̈ without validation; ``t`` (array, ≥ 0) broadcasts against ``e0.shape[:-1]``.
+    Pure for one time (a 0-d ``t``, the controller's case: NumPy or JAX)."""
     scale = np.array([1.0, T, T * T])
     if t.ndim == 0:
         # one time for the whole batch (the controller's case): a 3×3 weight matrix
-        # W[l, d] = d^d/dt^d of (T^l P_l(t/T)), then (p, ṗ, p̈) = [e0 e1 e2] W
-        if t > T:
-            z = np.zeros(np.broadcast_shapes(e0.shape, e1.shape, e2.shape))
-            return z, z.copy(), z.copy()
-        pw = (t / T) ** np.arange(6)
-        W = np.stack((_C0 @ pw, (_C1 @ pw[:5]) / T, (_C2 @ pw[:4]) / (T * T)), axis=-1)
+        # W[l, d] = d^d/dt^d of (T^l P_l(t/T)), then (p, ṗ, p̈) = [e0 e1 e2] W; zero after T
+        xp = namespace(t, e0, e1, e2)
+        active = t <= T
+        # the polynomial at a safe τ where it is not used (its powers stay bounded)
+        pw = (xp.where(active, t, 0.0) / T) ** np.arange(6)
+        W = xp.stack((_C0 @ pw, (_C1 @ pw[:5]) / T, (_C2 @ pw[:4]) / (T * T)), axis=-1)
         W = W * scale[:, None]
-        E = np.stack(np.broadcast_arrays(e0, e1, e2), axis=-1)  # (..., 3, l)
-        out = E @ W
+        E = xp.stack(xp.broadcast_arrays(e0, e1, e2), axis=-1)  # (..., 3, l)
+        out = xp.where(active, E @ W, 0.0)
         return out[..., 0], out[..., 1], out[..., 2]
     tau = np.minimum(t / T, 1.0)[..., None]
     powers = tau ** np.arange(6)  # (..., 6): τ^0 … τ^5
@@ -364,8 +368,12 @@ def time_shaping_polynomial(
 
 def wrap_error(e: object) -> np.ndarray:
     """Wrap angle differences to (−π, π] (Euler angles a1, a3 live on circles)."""
-    e = as_array(e, "e")
-    return np.pi - np.mod(np.pi - e, 2.0 * np.pi)
+    return _wrap_unchecked(as_array(e, "e"))
+
+
+def _wrap_unchecked(e: Any) -> Any:
+    """:func:`wrap_error` without validation; pure."""
+    return np.pi - namespace(e).mod(np.pi - e, 2.0 * np.pi)
 
 
 def _apply(C: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -402,12 +410,24 @@ def tsm_control(
     Arrays ``(..., 3)`` (``A`` ``(..., 3, 3)``); returns ``(u, sigma)``. No validation (hot path;
     :class:`TerminalSlidingMode` validates).
     """
-    sigma = _apply(params.C1, e - p) + _apply(params.C2, edot - pdot)
-    c2s = _apply(params.C2.T, sigma)
-    delta = params.delta0 + params.delta1 * np.linalg.norm(e, axis=-1, keepdims=True)
-    s_delta = c2s / (np.linalg.norm(c2s, axis=-1, keepdims=True) + delta)
-    v = b - yddot_d - pddot + _apply(params.C2invC1, edot - pdot) + s_delta * params.gain
-    u = -np.linalg.solve(A, v[..., None])[..., 0]
+    P = params
+    return _tsm_core(e, edot, p, pdot, pddot, A, b, yddot_d, P.C1, P.C2, P.C2invC1, P.delta0,
+                     P.delta1, P.gain)  # fmt: skip
+
+
+def _tsm_core(
+    e: Any, edot: Any, p: Any, pdot: Any, pddot: Any, A: Any, b: Any, yddot_d: Any, C1: Any,
+    C2: Any, C2invC1: Any, delta0: Any, delta1: Any, gain: Any,
+) -> tuple[Any, Any]:  # fmt: skip
+    """:func:`tsm_control` on the parameters' values (pure, NumPy or JAX: the norms are the
+    guarded square root, finite derivatives at σ = 0 and e = 0)."""
+    xp = namespace(e, edot, A, b, C1, C2, gain)
+    sigma = _apply(C1, e - p) + _apply(C2, edot - pdot)
+    c2s = _apply(xp.swapaxes(C2, -1, -2), sigma)
+    delta = delta0 + delta1 * safe_sqrt(xp.sum(e * e, axis=-1, keepdims=True), xp)
+    s_delta = c2s / (safe_sqrt(xp.sum(c2s * c2s, axis=-1, keepdims=True), xp) + delta)
+    v = b - yddot_d - pddot + _apply(C2invC1, edot - pdot) + s_delta * gain
+    u = -xp.linalg.solve(A, v[..., None])[..., 0]
     return u, sigma
 
 
@@ -608,6 +628,46 @@ class TerminalSlidingMode:
             t, s.y, s.omega, s.y_d, s.y_d_dot, s.y_d_ddot, s.omega_base, s.omega_dot_base
         )
 
+    def array_law(self) -> ChartArrayLaw:
+        """The law's pure form for the differentiable loop (the chart-law protocol of
+        :mod:`liecontrol.control.adapters`, composed by the Euler adapter): the same pure
+        functions :meth:`command` calls (:func:`_drift`, :func:`_accel_core`, the wrap, the
+        shaping polynomial, :func:`_tsm_core`). The differentiable gains are the surface weights
+        ``C₁`` (as ``k_R``) and ``C₂`` (as ``k_Omega``), 3×3; ``K``, ``delta0``, ``delta1`` are
+        further ``params``. Timed: the scan carries (started, t₀, e₀, ė₀, ë₀), captured at the
+        first sample as :meth:`command` captures them; T, F, D stay as constructed."""
+        P = self.params
+        J, J_inv, seq, T = np.array(self.J), np.array(self._J_inv), self.seq, P.T
+        fixed = P.F + P.D
+        defaults = {"K": P.K, "delta0": P.delta0, "delta1": P.delta1}
+
+        def step(C1, C2, state, s, T_ctrl, params=None, t=None):  # noqa: ANN001
+            p = defaults if params is None else params
+            if getattr(s.chart, "seq", seq) != seq:
+                raise ValueError(
+                    f"s: chart sequence {s.chart.seq!r} differs from the law's {seq!r}"
+                )
+            started, t0, e0, e1, e2 = state
+            xp = namespace(s.y, s.omega, t)
+            w_rel, drift = _drift(s.omega, J, J_inv, s.omega_base, s.omega_dot_base)
+            A, ydot, b = _accel_core(s.y, w_rel, drift, seq, self.lock_tol)
+            e = _wrap_unchecked(s.y - s.y_d)
+            edot = ydot - s.y_d_dot
+            t0 = xp.where(started, t0, t)
+            e0 = xp.where(started, e0, e)
+            e1 = xp.where(started, e1, edot)
+            e2 = xp.where(started, e2, b - s.y_d_ddot)
+            pp, pdot, pddot = _shape_core(t - t0, T, e0, e1, e2)
+            C2invC1 = xp.linalg.solve(C2, C1)
+            u, sigma = _tsm_core(e, edot, pp, pdot, pddot, A, b, s.y_d_ddot, C1, C2, C2invC1,
+                                 p["delta0"], p["delta1"], fixed + p["K"])  # fmt: skip
+            diag = {"sigma": sigma, "e": e, "edot": edot, "p": pp, "u": u}
+            return u @ J.T, (xp.ones_like(started), t0, e0, e1, e2), diag
+
+        z = np.zeros(3)
+        state0 = (np.array(False), np.array(0.0), z, z, z)
+        return ChartArrayLaw(np.array(P.C1), np.array(P.C2), state0, step, defaults, timed=True)
+
     def diagnostics(self) -> dict[str, np.ndarray]:
         """Last σ, e, ė, p and u = J⁻¹L, each ``(..., 3)``."""
         return dict(self._diag)
@@ -713,4 +773,3 @@ def _tsm_rows(rows: np.ndarray) -> dict[str, np.ndarray]:
         chart_switched=np.zeros(rows.shape[:-1], dtype=bool),
     )
     return out
-
