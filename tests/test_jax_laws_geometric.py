@@ -186,3 +186,82 @@ def test_trace_pd_gradient_matches_central_differences(jax):
 
 def test_trace_pd_registry_configuration_flies(jax, caplog):
     _suite_equal(["geometric-pd-trace"], caplog)
+
+
+# ------------------------------------------------------------------------ AdaptiveGeometricSO3
+
+_NU = 0.05  # the harmonic disturbance's frequency [rad/s] (ConstantHarmonicTorque(n=_NU))
+
+
+def _adaptive(error: str = "large_angle", bound: float = 0.3):  # noqa: ANN202
+    from liecontrol.control.adaptive import AdaptiveGeometricSO3
+    from liecontrol.control.tuning import ClosedLoopSpec, tune_adaptive_so3
+
+    kw = tune_adaptive_so3(J * 1.1, ClosedLoopSpec(0.3, 0.9, PERIOD), disturbance_bound=bound,
+                           frequencies=(_NU, 2.0 * _NU), error=error)  # fmt: skip
+    kw["gamma_theta"] *= 50.0  # fast inertia adaptation: the estimates move within the run
+    return AdaptiveGeometricSO3(J * 1.1, **kw)  # the nominal inertia is 10 % off
+
+
+def _disturbed(actuator: str, max_torque: float = 1.0) -> Spacecraft:
+    from spacecraft.disturbances import ConstantHarmonicTorque
+
+    plant = _plant(actuator, max_torque)
+    return Spacecraft(plant.body, plant.actuator, disturbance=ConstantHarmonicTorque(n=_NU,
+                      scale=3.0))  # fmt: skip
+
+
+_ADAPTIVE_DIAG = ("Psi", "e_R", "e_Omega", "s", "d_hat", "theta_hat", "phi_hat", "J_hat")
+_ADAPTIVE_FLAGS = ("theta_projected", "phi_projected")
+
+
+@pytest.mark.parametrize(("actuator", "error"), [("sgcmg", "large_angle"), ("ideal", "trace")])
+def test_adaptive_equals_fused_simulate_and_its_estimates_move(actuator, error, jax):
+    ctrl = _adaptive(error, bound=0.05)
+    _, run, want = _fly(ctrl, _disturbed(actuator), 40.0, *_starts(), diag=_ADAPTIVE_DIAG,
+                        flags=_ADAPTIVE_FLAGS)  # fmt: skip
+    th, ph = want.controller["theta_hat"], want.controller["phi_hat"]
+    # the estimates are carried by the scan and move: the inertia estimate leaves θ₀, the
+    # disturbance estimate leaves 0 and reaches its ball (the projection acts)
+    assert np.abs(th[-1] - ctrl.theta0).max() > 1e-3 * np.abs(ctrl.theta0).max()
+    assert np.abs(ph[-1]).max() > 1e-3
+    assert want.controller["phi_projected"].any()
+    assert not want.controller["phi_projected"][0].any()  # nothing to project at the first
+    if actuator == "ideal":
+        assert want.actuator["saturated"].any()
+
+
+def test_adaptive_gradient_finite_near_pi_and_through_saturation(jax):
+    from spacecraft.differentiable import closed_loop
+
+    ctrl = _adaptive("large_angle")
+    loop = closed_loop(_disturbed("ideal", 0.5), ctrl, _REF, 20.0, DT, PERIOD)
+    R0, w0 = _starts()
+    assert loop.run(R0, w0).actuator["saturated"].any()  # the saturation switch is crossed
+    # from R_d with a rate and from 179.9° (the large-angle E grows like 1/cos(θ/2) at π)
+    R0 = _REF.R_d @ so3.exp(np.array([[0.0, 0.0, 0.0], [0.0, np.radians(179.9), 0.0]]))
+    w0 = np.array([[0.01, -0.01, 0.02], [0.0, 0.0, 0.0]])
+    v, gR, gW = loop.value_and_grad(ctrl.k_R, ctrl.k_s, R0, w0, effort_weight=0.01)
+    assert np.isfinite(v) and np.isfinite(gR).all() and np.isfinite(gW).all()
+    assert np.any(gR != 0.0) and np.any(gW != 0.0)
+
+
+def test_adaptive_trace_gradient_finite_at_pi(jax):
+    """The trace error is smooth at π: from exactly π too (the estimator's ball projection
+    starts at its centre, where the norm's square root is guarded)."""
+    from spacecraft.differentiable import closed_loop
+
+    ctrl = _adaptive("trace")
+    loop = closed_loop(_disturbed("ideal", 0.5), ctrl, _REF, 20.0, DT, PERIOD)
+    _grad_finite(loop, ctrl.k_R, ctrl.k_s)
+
+
+def test_adaptive_registry_configuration_flies(jax, caplog):
+    _suite_equal(["adaptive-so3"], caplog)
+
+
+def test_adaptive_log_error_is_refused_naming_the_attribute(jax):
+    from spacecraft.differentiable import closed_loop
+
+    with pytest.raises(ValueError, match=r"^controller\.error: .*'log'"):
+        closed_loop(_plant("ideal"), _adaptive("log"), _REF, 10.0, DT, PERIOD)
