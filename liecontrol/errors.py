@@ -171,18 +171,20 @@ _HALF_PI = 0.5 * np.pi
 
 def _trace_error_unchecked(Rt: np.ndarray, G: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """:func:`trace_error` on a checked ``R̃`` and ``G``: ``Ψ = tr G − tr(G R̃)``,
-    ``e_R = ½ (G R̃ − (G R̃)ᵀ)^∨`` (``G R̃ − R̃ᵀ G = GR − (GR)ᵀ`` since G is symmetric)."""
+    ``e_R = ½ (G R̃ − (G R̃)ᵀ)^∨`` (``G R̃ − R̃ᵀ G = GR − (GR)ᵀ`` since G is symmetric). Pure:
+    NumPy or JAX arrays (a polynomial in ``R̃``: smooth everywhere, its derivatives finite at
+    the identity and at the antipodal set alike)."""
+    xp = namespace(Rt, G)
     shape = Rt.shape[:-2]
     n = int(np.prod(shape, dtype=np.int64))
     # G R̃_b for every b as one (3, 3) @ (3, 3n) product: numpy's broadcast (3, 3) @ (n, 3, 3)
     # matmul runs a small-matrix loop ~3× slower than this single BLAS call
     GR = (G @ Rt.reshape(n, 3, 3).transpose(1, 0, 2).reshape(3, 3 * n)).reshape(3, n, 3)
-    Psi = np.trace(G) - (GR[0, :, 0] + GR[1, :, 1] + GR[2, :, 2])
-    e_R = np.empty((n, 3))
-    np.subtract(GR[2, :, 1], GR[1, :, 2], out=e_R[:, 0])
-    np.subtract(GR[0, :, 2], GR[2, :, 0], out=e_R[:, 1])
-    np.subtract(GR[1, :, 0], GR[0, :, 1], out=e_R[:, 2])
-    e_R *= 0.5
+    Psi = xp.trace(G) - (GR[0, :, 0] + GR[1, :, 1] + GR[2, :, 2])
+    e_R = 0.5 * xp.stack(
+        (GR[2, :, 1] - GR[1, :, 2], GR[0, :, 2] - GR[2, :, 0], GR[1, :, 0] - GR[0, :, 1]),
+        axis=-1,
+    )
     return Psi.reshape(shape), e_R.reshape(shape + (3,))
 
 

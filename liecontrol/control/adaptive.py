@@ -74,9 +74,11 @@ Units: ``J`` [kg·m²], ``k_R`` [N·m], ``k_s`` [N·m·s/rad], ``c`` [1/s], ``γ
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
+from .._array_api import any_true, cross, namespace, safe_sqrt
 from .._kernels.adaptive import N_DIAG as AD_DIAG
 from .._kernels.adaptive import N_STATE as AD_STATE
 from .._kernels.adaptive import adaptive_law
@@ -91,6 +93,7 @@ from .._validation import (
 )
 from ..errors import _KERNELS, DEFAULT_G, DERIVATIVE_FACTOR, _check_kind, check_error_weight
 from ..lie import so3
+from .array_law import ArrayLaw
 from .base import (
     AttitudeController,
     AttitudeReference,
@@ -98,9 +101,11 @@ from .base import (
     check_state_batch,
     finite_command,
 )
-from .geometric_pd import _as_matrix, check_gain
+from .geometric_pd import _apply_gain, _as_matrix, check_gain
 from .kernel import ControllerKernel
 
+# adaptive_estimates_step and adaptive_torque, the unchecked formulas (NumPy or JAX arrays), are
+# not part of __all__ (as geometric_pd_torque)
 __all__ = [
     "AdaptiveGeometricSO3",
     "inertia_parameters",
@@ -127,13 +132,12 @@ def inertia_from_parameters(theta: object) -> np.ndarray:
     return _J_matrix(as_array(theta, "theta", (6,)))
 
 
-def _J_matrix(t: np.ndarray) -> np.ndarray:
-    J = np.empty(t.shape[:-1] + (3, 3))
-    J[..., 0, 0], J[..., 1, 1], J[..., 2, 2] = t[..., 0], t[..., 1], t[..., 2]
-    J[..., 0, 1] = J[..., 1, 0] = t[..., 3]
-    J[..., 0, 2] = J[..., 2, 0] = t[..., 4]
-    J[..., 1, 2] = J[..., 2, 1] = t[..., 5]
-    return J
+def _J_matrix(t: Any) -> Any:
+    """The symmetric ``(..., 3, 3)`` matrix of the parameters ``(..., 6)``; NumPy or JAX."""
+    xp = namespace(t)
+    t0, t1, t2, t3, t4, t5 = (t[..., i] for i in range(6))
+    rows = (xp.stack(r, axis=-1) for r in ((t0, t3, t4), (t3, t1, t5), (t4, t5, t2)))
+    return xp.stack(tuple(rows), axis=-2)
 
 
 def _regressor(a: np.ndarray) -> np.ndarray:
@@ -171,13 +175,12 @@ def _check_frequencies(frequencies: object) -> np.ndarray:
     return out
 
 
-def _phi_basis(t: float, nu: np.ndarray) -> np.ndarray:
-    """``(1, sin ν₁t, cos ν₁t, …)`` — the scalar functions multiplying the I₃ blocks."""
-    out = np.empty(1 + 2 * nu.size)
-    out[0] = 1.0
-    out[1::2] = np.sin(nu * t)
-    out[2::2] = np.cos(nu * t)
-    return out
+def _phi_basis(t: Any, nu: np.ndarray) -> Any:
+    """``(1, sin ν₁t, cos ν₁t, …)`` — the scalar functions multiplying the I₃ blocks; ``t`` a
+    float or a JAX scalar (the harmonic regressor reads the clock)."""
+    xp = namespace(t)
+    sc = xp.stack((xp.sin(nu * t), xp.cos(nu * t)), axis=-1).reshape(-1)
+    return xp.concatenate((xp.ones(1), sc))
 
 
 def harmonic_regressor(t: float, frequencies: object) -> np.ndarray:
@@ -218,19 +221,23 @@ def disturbance_parameters(
     return np.concatenate([c0, np.stack((a, b), axis=1).ravel()])
 
 
-def _rate_matrix(Rt: np.ndarray, e_R: np.ndarray, error: str, G: np.ndarray | None) -> np.ndarray:
-    """:func:`error_rate_matrix` on checked arrays (``Rt`` ``(B, 3, 3)``, ``e_R`` its error)."""
-    RtT = np.swapaxes(Rt, -1, -2)
+def _rate_matrix(Rt: Any, e_R: Any, error: str, G: np.ndarray | None) -> Any:
+    """:func:`error_rate_matrix` on checked arrays (``Rt`` ``(..., 3, 3)``, ``e_R`` its error).
+    Pure, NumPy or JAX, for the trace and large-angle errors; the log error's ``J_r⁻¹`` is
+    NumPy only (:func:`liecontrol.lie.so3.right_jacobian_inv` validates its argument)."""
+    xp = namespace(Rt, e_R)
+    RtT = xp.swapaxes(Rt, -1, -2)
     eye = np.eye(3)
     if error == "trace":
         A = RtT @ G
-        return 0.5 * (np.trace(A, axis1=-2, axis2=-1)[:, None, None] * eye - A)
+        return 0.5 * (xp.trace(A, axis1=-2, axis2=-1)[..., None, None] * eye - A)
     if error == "large_angle":
-        tr = np.trace(Rt, axis1=-2, axis2=-1)
-        # √(1 + tr R̃) = 2 cos(θ/2) → 0 at 180°, where this error is not differentiable
-        root = np.sqrt(np.maximum(1.0 + tr, 1e-300))
-        num = tr[:, None, None] * eye - RtT + 2.0 * e_R[:, :, None] * e_R[:, None, :]
-        return num / (2.0 * root)[:, None, None]
+        tr = xp.trace(Rt, axis1=-2, axis2=-1)
+        # √(1 + tr R̃) = 2 cos(θ/2) → 0 at 180°, where this error is not differentiable; the
+        # floor keeps the root (and its derivative) finite there
+        root = xp.sqrt(xp.maximum(1.0 + tr, 1e-300))
+        num = tr[..., None, None] * eye - RtT + 2.0 * e_R[..., :, None] * e_R[..., None, :]
+        return num / (2.0 * root)[..., None, None]
     return so3.right_jacobian_inv(e_R)
 
 
@@ -262,37 +269,26 @@ def _check_G(G: object, error: str) -> np.ndarray | None:
     return DEFAULT_G if G is None else check_error_weight(G).copy()
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
-    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
-    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
-    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
-    return out
+def _J_times(theta: Any, a: Any) -> Any:
+    """``Y(a) θ`` (= ``Ĵ a``) row by row, without forming ``Y``: ``(..., 6)``, ``(..., 3)``."""
+    xp = namespace(theta, a)
+    t0, t1, t2, t3, t4, t5 = (theta[..., i] for i in range(6))
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    return xp.stack(
+        (t0 * a0 + t3 * a1 + t4 * a2, t3 * a0 + t1 * a1 + t5 * a2, t4 * a0 + t5 * a1 + t2 * a2),
+        axis=-1,
+    )
 
 
-def _J_times(theta: np.ndarray, a: np.ndarray) -> np.ndarray:
-    """``Y(a) θ`` (= ``Ĵ a``) row by row, without forming ``Y``: ``(B, 6)``, ``(B, 3)``."""
-    t0, t1, t2, t3, t4, t5 = (theta[:, i] for i in range(6))
-    a0, a1, a2 = a[:, 0], a[:, 1], a[:, 2]
-    out = np.empty(a.shape)
-    out[:, 0] = t0 * a0 + t3 * a1 + t4 * a2
-    out[:, 1] = t3 * a0 + t1 * a1 + t5 * a2
-    out[:, 2] = t4 * a0 + t5 * a1 + t2 * a2
-    return out
-
-
-def _regressor_T(a: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """``Y(a)ᵀ v`` ``(B, 6)`` for ``(B, 3)`` rows."""
-    a0, a1, a2 = a[:, 0], a[:, 1], a[:, 2]
-    v0, v1, v2 = v[:, 0], v[:, 1], v[:, 2]
-    out = np.empty((a.shape[0], 6))
-    out[:, 0] = a0 * v0
-    out[:, 1] = a1 * v1
-    out[:, 2] = a2 * v2
-    out[:, 3] = a1 * v0 + a0 * v1
-    out[:, 4] = a2 * v0 + a0 * v2
-    out[:, 5] = a2 * v1 + a1 * v2
-    return out
+def _regressor_T(a: Any, v: Any) -> Any:
+    """``Y(a)ᵀ v`` ``(..., 6)`` for ``(..., 3)`` rows."""
+    xp = namespace(a, v)
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    v0, v1, v2 = v[..., 0], v[..., 1], v[..., 2]
+    return xp.stack(
+        (a0 * v0, a1 * v1, a2 * v2, a1 * v0 + a0 * v1, a2 * v0 + a0 * v2, a2 * v1 + a1 * v2),
+        axis=-1,
+    )
 
 
 _F64 = np.dtype(np.float64)
@@ -311,17 +307,80 @@ def _vec3(x: object, name: str) -> np.ndarray:
     return as_array(x, name, (3,))
 
 
-def _project_ball(
-    x: np.ndarray, centre: np.ndarray, radius: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """Rows of ``x`` projected onto the ball ``|x − centre| ≤ radius``; and which moved."""
+def _project_ball(x: Any, centre: Any, radius: Any) -> tuple[Any, Any]:
+    """Rows of ``x`` ``(..., n)`` projected onto the ball ``|x − centre| ≤ radius``; and which
+    moved ``(...)``. Pure, NumPy or JAX: the norm is 0 at the centre (where the estimates
+    start), so it is a :func:`~liecontrol._array_api.safe_sqrt` and the division is guarded
+    on the rows that do not move."""
+    xp = namespace(x, centre, radius)
     v = x - centre
-    n = np.sqrt(np.einsum("bi,bi->b", v, v))
+    n = safe_sqrt(xp.einsum("...i,...i->...", v, v), xp)
     out = n > radius
-    if out.any():
-        x = x.copy()
-        x[out] = centre + v[out] * (radius / n[out])[:, None]
-    return x, out
+    if not any_true(out, xp):
+        return x, out
+    scale = radius / xp.where(out, n, 1.0)
+    return xp.where(out[..., None], centre + v * scale[..., None], x), out
+
+
+def adaptive_estimates_step(
+    theta: Any, rate_theta: Any, phi: Any, rate_phi: Any, dt: Any, theta0: Any,
+    inertia_radius: Any, disturbance_bound: Any,
+) -> tuple[Any, Any, Any, Any]:  # fmt: skip
+    """The estimator step over ``dt`` [s] with the update rates held from the previous sample
+    (explicit Euler on the zero-order-held integrand), then projected (module docstring)::
+
+        θ̂ ← P_{|θ̂ − θ₀| ≤ ρ_θ}(θ̂ + Δt θ̂̇),      φ̂ ← P_{|φ̂| ≤ ρ_φ}(φ̂ + Δt φ̂̇).
+
+    Returns ``(θ̂, φ̂, θ̂ projected, φ̂ projected)``; arrays broadcast over leading axes, NumPy or
+    JAX (:meth:`AdaptiveGeometricSO3.command` and its array law call it)."""
+    theta, th_proj = _project_ball(theta + dt * rate_theta, theta0, inertia_radius)
+    phi, ph_proj = _project_ball(phi + dt * rate_phi, np.zeros(1), disturbance_bound)
+    return theta, phi, th_proj, ph_proj
+
+
+def adaptive_torque(
+    Rt: Any, w: Any, w_d: Any, dw_d: Any, theta: Any, phi: Any, t: Any, k_R: Any, k_s: Any,
+    c: Any, gamma_theta: Any, gamma_phi: Any, frequencies: np.ndarray, error: str,
+    G: np.ndarray | None,
+) -> tuple[Any, Any, Any, dict[str, Any]]:  # fmt: skip
+    """The adaptive law at one control sample (module docstring; after Sanyal, Fosbury,
+    Chaturvedi & Bernstein, JGCD 2009, and Lee, IEEE TCST 2013)::
+
+        s = e_Ω + c e_R,   a_r = α_d − c E(R̃) e_Ω,   α_d = R̃ᵀω̇_d − ω × R̃ᵀω_d,
+        M = −K_s s − k_R e_R + W θ̂ − Φ(t) φ̂,   W θ̂ = ω × Ĵω + Ĵ a_r,
+        θ̂̇ = −γ_θ Wᵀ s = −γ_θ (Y(ω)ᵀ(s × ω) + Y(a_r)ᵀ s),   φ̂̇ = γ_φ Φ(t)ᵀ s,
+
+    for ``R̃ = R_dᵀR`` ``(..., 3, 3)``, the rates ``(..., 3)``, the estimates ``θ̂`` ``(..., 6)``
+    and ``φ̂`` ``(..., m)`` at the sample time ``t``. Returns ``(M, θ̂̇, φ̂̇, diagnostics)`` with
+    ``Psi``, ``e_R``, ``e_Omega``, ``s``, ``d_hat``. NumPy or JAX arrays (the log error's
+    ``E`` is NumPy only: :func:`_rate_matrix`); no validation."""
+    xp = namespace(Rt, w, theta, phi, t)
+    RtT = xp.swapaxes(Rt, -1, -2)
+    Psi, e_R = _KERNELS["trace"](Rt, G) if error == "trace" else _KERNELS[error](Rt)
+    if any_true(w_d != 0.0, xp) or any_true(dw_d != 0.0, xp):
+        w_d_b = (RtT @ w_d[..., None])[..., 0]
+        dw_d_b = (RtT @ dw_d[..., None])[..., 0]
+        e_W = w - w_d_b
+        alpha_d = dw_d_b - cross(w, w_d_b)
+    else:
+        # regulation: the reference terms are exact zeros (same values, fewer products)
+        e_W = w
+        alpha_d = xp.zeros_like(w)
+    E = _rate_matrix(Rt, e_R, error, G)
+    a_r = alpha_d - c * (E @ e_W[..., None])[..., 0]
+    s = e_W + c * e_R
+    # W θ̂ = ω × Ĵω + Ĵ a_r and Wᵀs = Y(ω)ᵀ(s × ω) + Y(a_r)ᵀs ((ω^Y)ᵀ = −Yᵀω^), evaluated
+    # without forming the (..., 3, 6) regressor
+    W_theta = cross(w, _J_times(theta, w)) + _J_times(theta, a_r)
+    Wt_s = _regressor_T(w, cross(s, w)) + _regressor_T(a_r, s)
+    basis = _phi_basis(t, frequencies)  # Φ(t) = basis ⊗ I₃
+    phi3 = phi.reshape(phi.shape[:-1] + (-1, 3))
+    d_hat = xp.einsum("k,...ki->...i", basis, phi3)
+    M = W_theta - _apply_gain(k_s, s) - k_R * e_R - d_hat
+    rate_theta = -gamma_theta * Wt_s
+    rate_phi = gamma_phi * (basis[:, None] * s[..., None, :]).reshape(s.shape[:-1] + (-1,))
+    diag = {"Psi": Psi, "e_R": e_R, "e_Omega": e_W, "s": s, "d_hat": d_hat}
+    return M, rate_theta, rate_phi, diag
 
 
 # ----------------------------------------------------------------------------------- controller
@@ -493,50 +552,21 @@ class AdaptiveGeometricSO3(AttitudeController):
                 raise ValueError(
                     f"t: {t!r} is earlier than the previous control sample {self._t_prev!r}"
                 )
-            self.theta_hat, th_proj = _project_ball(
-                self.theta_hat + dt * self._rate_theta, self.theta0, self.inertia_radius
-            )
-            self.phi_hat, ph_proj = _project_ball(
-                self.phi_hat + dt * self._rate_phi, np.zeros(1), self.disturbance_bound
-            )
+            self.theta_hat, self.phi_hat, th_proj, ph_proj = adaptive_estimates_step(
+                self.theta_hat, self._rate_theta, self.phi_hat, self._rate_phi, dt,
+                self.theta0, self.inertia_radius, self.disturbance_bound,
+            )  # fmt: skip
         self._t_prev = t
 
         Rt = np.swapaxes(R_d, -1, -2) @ R  # R̃ = R_dᵀR
-        RtT = np.swapaxes(Rt, -1, -2)
-        if self.error == "trace":
-            Psi, e_R = _KERNELS["trace"](Rt, self.G)
-        else:
-            Psi, e_R = _KERNELS[self.error](Rt)
-        if w_d.any() or dw_d.any():
-            w_d_b = (RtT @ w_d[..., None])[..., 0]
-            dw_d_b = (RtT @ dw_d[..., None])[..., 0]
-            e_W = w - w_d_b
-            alpha_d = dw_d_b - _cross(w, w_d_b)
-        else:
-            # regulation: the reference terms are exact zeros (same values, fewer products)
-            e_W = w.copy()
-            alpha_d = np.zeros((B, 3))
-        E = _rate_matrix(Rt, e_R, self.error, self.G)
-        a_r = alpha_d - self.c * (E @ e_W[..., None])[..., 0]
-        s = e_W + self.c * e_R
-        # W θ̂ = ω × Ĵω + Ĵ a_r and Wᵀs = Y(ω)ᵀ(s × ω) + Y(a_r)ᵀs ((ω^Y)ᵀ = −Yᵀω^), evaluated
-        # without forming the (B, 3, 6) regressor
-        th = self.theta_hat
-        W_theta = _cross(w, _J_times(th, w)) + _J_times(th, a_r)
-        Wt_s = _regressor_T(w, _cross(s, w)) + _regressor_T(a_r, s)
-        basis = _phi_basis(t, self.frequencies)  # Φ(t) = basis ⊗ I₃
-        phi3 = self.phi_hat.reshape(B, -1, 3)
-        d_hat = np.einsum("k,bki->bi", basis, phi3)
-        k_s_s = self.k_s * s if isinstance(self.k_s, float) else s @ self.k_s.T
-        M = W_theta - k_s_s - self.k_R * e_R - d_hat
-        self._rate_theta = -self.gamma_theta * Wt_s
-        self._rate_phi = self.gamma_phi * (basis[None, :, None] * s[:, None, :]).reshape(B, -1)
+        M, self._rate_theta, self._rate_phi, diag = adaptive_torque(
+            Rt, w, w_d, dw_d, self.theta_hat, self.phi_hat, t, self.k_R, self.k_s, self.c,
+            self.gamma_theta, self.gamma_phi, self.frequencies, self.error, self.G,
+        )  # fmt: skip
+        if diag["e_Omega"] is w:
+            diag["e_Omega"] = w.copy()  # regulation: e_Ω = ω, not the caller's array
         self._diag = {
-            "Psi": Psi,
-            "e_R": e_R,
-            "e_Omega": e_W,
-            "s": s,
-            "d_hat": d_hat,
+            **diag,
             # the estimates are replaced, never updated in place, so no copies are needed
             "theta_hat": self.theta_hat,
             "phi_hat": self.phi_hat,
@@ -544,6 +574,51 @@ class AdaptiveGeometricSO3(AttitudeController):
             "phi_projected": ph_proj,
         }
         return finite_command(M, w)
+
+    def array_law(self) -> ArrayLaw:
+        """The law as a pure array function for the differentiable loop
+        (:mod:`liecontrol.control.array_law`): :func:`adaptive_estimates_step` and
+        :func:`adaptive_torque`, the functions :meth:`command` calls, with the estimator state
+        ``(started, t_prev, θ̂, θ̂̇, φ̂, φ̂̇)`` carried from one sample to the next from the reset
+        state (``θ₀``, ``phi0``, zero rates). ``k_R`` is the attitude gain, ``k_Omega`` the
+        composite-error gain ``k_s``; ``c``, ``gamma_theta`` and ``gamma_phi`` are further
+        parameters (:attr:`ArrayLaw.params`); timed (the harmonic regressor reads the clock).
+        ``ValueError`` naming ``controller.error`` for the log error (its ``E = J_r(e_R)⁻¹`` has
+        no array form)."""
+        if self.error == "log":
+            raise ValueError(
+                "controller.error: the array law supports 'trace' and 'large_angle' (the log "
+                "error's E = J_r(e_R)⁻¹ has no array form), got 'log'"
+            )
+        theta0, radius, bound = np.array(self.theta0), self.inertia_radius, self.disturbance_bound
+        nu, error = np.array(self.frequencies), self.error
+        G = None if self.G is None else np.array(self.G)
+
+        def step(k_R, k_Omega, state, R, omega, R_d, omega_d, omega_dot_d, T, *, params, t):  # noqa: ANN001
+            started, t_prev, theta, rate_th, phi, rate_ph = state
+            xp = namespace(R, theta, t)
+            # the first sample has no previous one: no step (the rates start at zero)
+            dt = xp.where(started, t - t_prev, 0.0)
+            theta, phi, th_proj, ph_proj = adaptive_estimates_step(
+                theta, rate_th, phi, rate_ph, dt, theta0, radius, bound
+            )
+            Rt = xp.swapaxes(R_d, -1, -2) @ R
+            M, rate_th, rate_ph, d = adaptive_torque(
+                Rt, omega, omega_d, omega_dot_d, theta, phi, t, k_R, k_Omega, params["c"],
+                params["gamma_theta"], params["gamma_phi"], nu, error, G,
+            )  # fmt: skip
+            d = {**d, "theta_hat": theta, "phi_hat": phi, "J_hat": _J_matrix(theta)}
+            d["theta_projected"] = th_proj & started
+            d["phi_projected"] = ph_proj & started
+            t_now = xp.asarray(t, dtype=t_prev.dtype)
+            state = (xp.logical_or(started, True), t_now, theta, rate_th, phi, rate_ph)
+            return M, state, d
+
+        m = self.phi0.size
+        state0 = (np.array(False), np.array(0.0), theta0, np.zeros(6), np.array(self.phi0),
+                  np.zeros(m))  # fmt: skip
+        params = {"c": self.c, "gamma_theta": self.gamma_theta, "gamma_phi": self.gamma_phi}
+        return ArrayLaw(self.k_R, self.k_s, state0, step, params=params, timed=True)
 
     def fused_kernel(
         self, batch_size: int, control_period: float | None = None

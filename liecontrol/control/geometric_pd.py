@@ -184,14 +184,16 @@ def geometric_pd_torque(
     k_R: Any,
     k_Omega: Any,
     error: str = "large_angle",
+    G: Any = None,
 ) -> tuple[Any, Any, Any, Any]:
     """The geometric PD / tracking law as a pure array function (Lee 2012; Jiang, Meng & Yang
     2023 Lemma 4)::
 
         M = −K_R e_R − K_Ω e_Ω + Ω × JΩ − J (Ω^ RᵀR_d Ω_d − RᵀR_d Ω̇_d),  e_Ω = Ω − RᵀR_d Ω_d,
 
-    with ``(Ψ, e_R)`` the ``"large_angle"`` or ``"log"`` error of ``R̃ = R_dᵀR``
-    (:mod:`liecontrol.errors`). Returns ``(M, Ψ, e_R, e_Ω)``.
+    with ``(Ψ, e_R)`` the ``"large_angle"``, ``"log"`` or ``"trace"`` error of ``R̃ = R_dᵀR``
+    (:mod:`liecontrol.errors`; ``G`` the trace error's weight, default
+    :data:`~liecontrol.errors.DEFAULT_G`, unused by the others). Returns ``(M, Ψ, e_R, e_Ω)``.
 
     Arrays broadcast over leading batch axes: ``R``, ``R_d`` ``(..., 3, 3)``, the rates
     ``(..., 3)``, ``J`` ``(3, 3)``, gains scalars or ``(3, 3)``. NumPy or JAX arrays alike (the
@@ -201,15 +203,16 @@ def geometric_pd_torque(
     object; this is the formula it evaluates.
 
     Sources: T. Lee, "Exponential stability of an attitude tracking control system on SO(3)
-    for large-angle rotational maneuvers", Systems & Control Letters 61 (2012); Jiang, Meng &
-    Yang 2023, Lemma 4.
+    for large-angle rotational maneuvers", Systems & Control Letters 61 (2012); D. E.
+    Koditschek, "The application of total energy as a Lyapunov function for mechanical control
+    systems", Contemporary Mathematics 97 (1989) (trace error); Jiang, Meng & Yang 2023,
+    Lemma 4.
     """
-    if error not in ("large_angle", "log"):
-        raise ValueError(
-            f"error: geometric_pd_torque supports 'large_angle' and 'log', got {error!r}"
-        )
+    _check_kind(error, "error")
+    if error == "trace" and G is None:
+        G = DEFAULT_G
     Rt = namespace(R, R_d).swapaxes(R_d, -1, -2) @ R
-    return _law_from_relative(Rt, omega, omega_d, omega_dot_d, J, k_R, k_Omega, error, None)
+    return _law_from_relative(Rt, omega, omega_d, omega_dot_d, J, k_R, k_Omega, error, G)
 
 
 # ----------------------------------------------------------------------------------- hot path
@@ -406,18 +409,14 @@ class GeometricPD(AttitudeController):
 
     def array_law(self) -> ArrayLaw:
         """The law as a pure array function (:func:`geometric_pd_torque`) for the
-        differentiable loop, through the seam :mod:`liecontrol.control.array_law`; memoryless.
-        The ``"trace"`` error has no array form yet (``ValueError`` naming it)."""
-        if self.error not in ("large_angle", "log"):
-            raise ValueError(
-                f"controller.error: the array law supports 'large_angle' and 'log', got "
-                f"{self.error!r}"
-            )
+        differentiable loop, through the seam :mod:`liecontrol.control.array_law`; memoryless,
+        every error function (large-angle, log, trace with its weight ``G``)."""
         J, error = np.array(self.J), self.error
+        G = None if self.G is None else np.array(self.G)
 
         def step(k_R, k_Omega, state, R, omega, R_d, omega_d, omega_dot_d, T):  # noqa: ANN001
             M, Psi, e_R, e_W = geometric_pd_torque(
-                R, omega, R_d, omega_d, omega_dot_d, J, k_R, k_Omega, error
+                R, omega, R_d, omega_d, omega_dot_d, J, k_R, k_Omega, error, G
             )
             return M, state, {"Psi": Psi, "e_R": e_R, "e_Omega": e_W}
 
