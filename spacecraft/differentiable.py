@@ -39,14 +39,16 @@ Supported configurations (others raise ``ValueError`` naming the part): a
 :class:`~spacecraft.steering.PseudoInverseNullMotion` steering, a
 :class:`~spacecraft.disturbances.ConstantTorque` (one for the batch) or
 :class:`~spacecraft.disturbances.ConstantHarmonicTorque` disturbance (at each RKMK4 stage's
-time) or none, no flexible modes or momentum management; a
-:class:`liecontrol.control.GeometricPD`, or an
-:class:`~liecontrol.control.IntrinsicPID` / :class:`~liecontrol.control.IntegralPD` (stateful:
-the scan carries the integral state, its held integrand and the anti-windup flags from one
-control sample to the next, through the controllers' own pure functions
-:func:`liecontrol.control.geometric_pid.integral_update` and ``integral_output``), with the
-``"large_angle"`` or ``"log"`` error; a reference whose samples share one attitude across the
-batch (``R_d`` ``(3, 3)``), sampled at the control times before the run.
+time) or none, no flexible modes or momentum management; any controller whose law has an array
+form (:mod:`liecontrol.control.array_law`: every registered attitude controller but the OSQP MPC
+and the small-angle payload PID — the geometric PD with the trace, log or large-angle error,
+the integral, adaptive, prescribed-performance, finite/fixed-time, fault-tolerant, keep-out
+and eigenaxis laws, and the chart-based quaternion PD, MRP PD, MRP ADRC and Euler TSM through
+their adapters' pure chart conversion — and a user's own), stateful laws carrying their state
+(integrators, observers, adaptive estimates, shadow-set and sign memory, a funnel's or a
+shaping polynomial's start) from one control sample to the next through the scan; a reference
+whose samples share one attitude across the batch (``R_d`` ``(3, 3)``), sampled at the control
+times before the run.
 
 Compilation: :meth:`JaxClosedLoop.run` pads the batch to a bucket (:func:`padded_size`: the next
 power of two up to 1024, then the next multiple of 1024) so that a Monte Carlo of N members

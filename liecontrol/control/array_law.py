@@ -34,9 +34,19 @@ in-place writes, branches as ``where`` with both sides finite — the same rules
 layer, whose pure functions the built-in laws call (``geometric_pd_torque``,
 ``integral_update``/``integral_output``): one source per formula, NumPy and JAX alike.
 
-Which controllers fly: :class:`~liecontrol.control.GeometricPD` (large-angle and log errors),
-:class:`~liecontrol.control.IntrinsicPID`, :class:`~liecontrol.control.IntegralPD`, and any
-controller that defines ``array_law`` — a user's own included. A subclass that overrides
+Which controllers fly: every built-in attitude law but the OSQP MPC and the small-angle payload
+PID — :class:`~liecontrol.control.GeometricPD` (trace, log and large-angle errors),
+:class:`~liecontrol.control.IntrinsicPID`, :class:`~liecontrol.control.IntegralPD`,
+:class:`~liecontrol.control.AdaptiveGeometricSO3`,
+:class:`~liecontrol.control.PrescribedPerformance`, :class:`~liecontrol.control.FiniteTimeSO3`,
+:class:`~liecontrol.control.FixedTimeSO3`,
+:class:`~liecontrol.control.fault_tolerant.AdaptiveFaultTolerantSO3`,
+:class:`~liecontrol.control.ConstrainedGeometricPD`,
+:class:`~liecontrol.control.RateLimitedEigenaxis`, and through the chart adapters' pure
+conversion (:class:`~liecontrol.control.adapters.ChartArrayLaw`)
+:class:`~liecontrol.control.QuaternionPD`, :class:`~liecontrol.control.MrpPD`,
+:class:`~liecontrol.control.MrpADRC` and :class:`~liecontrol.control.TerminalSlidingModeSO3` —
+and any controller that defines ``array_law``, a user's own included. A subclass that overrides
 ``command`` without its own ``array_law`` would fly its parent's law, so it is refused (as the
 compiled seam, :mod:`liecontrol.control.kernel`, does).
 """
