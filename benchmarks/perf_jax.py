@@ -21,6 +21,13 @@ singularity-robust steering and the 1 rad/s gimbal-rate limit, steered at every 
   program's temporary buffers (``memory_analysis().temp_size_in_bytes``, the peak working set
   beyond inputs and outputs; exact and independent of the machine's load), and its time.
 
+With ``--controllers NAME …`` (or ``all``) it times, instead, each registered controller on
+the benchmark's own plant — the ``slew-90`` scenario's SGCMG spacecraft, ``--batch`` members of
+its dispersion (each its own start, rate and true inertia), the registry's controller for them,
+the scenario's dt and control period, ``--t-final`` s — on both routes: the JAX route's cost per
+spacecraft-step against the fused loop's, and against the JAX route's geometric PD (the spread
+of the laws' cost on an accelerator-ready route), with each controller's compile time.
+
 Both routes run on one thread (``NUMBA_NUM_THREADS=1``, XLA's CPU client single-threaded)
 unless the environment sets otherwise, so the figures are per core. The JAX route needs
 ``pip install liecontrol[jax]``; on a machine with a GPU, JAX runs there unchanged (set
@@ -136,6 +143,43 @@ def gradient_memory(batch: int, t_final: float, repeat: int) -> dict[str, dict[s
     return out
 
 
+def controller_table(
+    names: list[str], batch: int, t_final: float, repeat: int
+) -> dict[str, dict[str, float]]:
+    """Seconds per run of each route for each registered controller on ``slew-90``'s plant
+    (``batch`` dispersed members), and the JAX compile time."""
+    from benchmarks.controllers import ControllerContext, make_controller
+    from benchmarks.gradient_tuning import training_batch
+    from benchmarks.runner import build_reference
+    from benchmarks.scenarios import get_scenario
+
+    sc = get_scenario("slew-90").with_duration(t_final)
+    members, plant, R0, w0 = training_batch(sc, batch, 1)
+    ref = build_reference(sc)
+    ctx = ControllerContext(spacecraft=sc.spacecraft, control_period=sc.control_period,
+                            batch_size=batch, reference=ref,
+                            q_hint=np.stack([m.initial_quaternion for m in members]))  # fmt: skip
+    state = plant.initial_state(R0, w0)
+    every = round(sc.control_period / sc.dt)
+    out = {}
+    for name in names:
+        ctrl = make_controller(name, ctx)
+        loop = closed_loop(plant, ctrl, ref, t_final, sc.dt, sc.control_period)
+
+        def fused(ctrl=ctrl) -> None:
+            simulate(plant, ctrl, ref, state, t_final, sc.dt, control_period=sc.control_period,
+                     log_every=every)  # fmt: skip
+
+        t = time.perf_counter()
+        run = loop.run(R0, w0)
+        first = time.perf_counter() - t
+        fused()
+        jax_s = _best(lambda loop=loop: loop.run(R0, w0), repeat)
+        out[name] = {"fused": _best(fused, repeat), "jax": jax_s, "compile": first - jax_s,
+                     "diverged": float(run.diverged.sum())}  # fmt: skip
+    return out
+
+
 def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--batch", type=int, nargs="+", default=[1, 1000, 10_000])
@@ -143,12 +187,17 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--t-final", type=float, default=60.0)
     p.add_argument("--grad-batch", type=int, default=64)
     p.add_argument("--repeat", type=int, default=3)
+    p.add_argument("--controllers", nargs="+", default=None,
+                   help="registry names (or 'all'): the per-controller table instead")  # fmt: skip
     a = p.parse_args(argv)
     jax = require_jax()
     steps = round(a.t_final / DT)
     dev = jax.devices()[0]
     print(f"jax {jax.__version__} ran on {jax.default_backend()}: {dev} ({dev.device_kind}); "
           f"{thread_settings()} NUMBA_NUM_THREADS={os.environ['NUMBA_NUM_THREADS']}")  # fmt: skip
+    if a.controllers is not None:
+        _print_controllers(a)
+        return
     print(f"{steps} steps of {DT} s; spacecraft-steps per second (best of {a.repeat})")
     print(f"{'config':>6} {'B':>6} {'fused numba':>12} {'JAX':>12} {'JAX/fused time':>15} "
           f"{'compile s':>10}")  # fmt: skip
@@ -166,6 +215,35 @@ def main(argv: list[str] | None = None) -> None:
     for k, v in m.items():
         print(f"SGCMG gradient over {a.grad_batch} starts, {k:>10}: XLA temporaries "
               f"{v['temp'] / 2**20:.1f} MiB, {v['s'] * 1e3:.1f} ms")  # fmt: skip
+
+
+def _print_controllers(a: argparse.Namespace) -> None:
+    from benchmarks.controllers import applicable, get_controller
+    from benchmarks.scenarios import get_scenario
+
+    sc = get_scenario("slew-90")
+    names = a.controllers
+    if names == ["all"]:
+        names = [n for n in applicable(sc) if get_controller(n).batched]
+    names = [n for n in names if n != "geometric-pd-large-angle"]
+    B = a.batch[0]
+    print(f"slew-90's SGCMG plant, {B} dispersed members, {a.t_final} s; ns per spacecraft-step "
+          f"(best of {a.repeat}); 'vs PD': JAX cost over the JAX geometric PD's")  # fmt: skip
+    print(f"{'controller':>28} {'fused ns':>9} {'JAX ns':>9} {'JAX/fused':>9} {'vs PD':>6} "
+          f"{'compile s':>9}")  # fmt: skip
+    steps = round(a.t_final / sc.dt)
+    base = None
+    for name in ["geometric-pd-large-angle", *names]:
+        try:
+            r = controller_table([name], B, a.t_final, a.repeat)[name]
+        except ValueError as exc:  # no array law (the MPC): named, not timed
+            print(f"{name:>28} not on the JAX route: {str(exc)[:70]}")
+            continue
+        f_ns, j_ns = (1e9 * r[k] / (B * steps) for k in ("fused", "jax"))
+        base = j_ns if base is None else base
+        print(f"{name:>28} {f_ns:>9.0f} {j_ns:>9.0f} {j_ns / f_ns:>9.2f} {j_ns / base:>6.2f} "
+              f"{r['compile']:>9.1f}" + (f"  ({r['diverged']:.0f} diverged)" if r["diverged"]
+                                         else ""), flush=True)  # fmt: skip
 
 
 if __name__ == "__main__":
