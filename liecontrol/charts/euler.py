@@ -112,8 +112,18 @@ def _elem(axis: int, a: Any) -> Any:
     """Elementary rotation about coordinate axis ``axis`` by angle(s) ``a``; pure."""
     xp = namespace(a)
     c, s = xp.cos(a), xp.sin(a)
-    o, one = xp.zeros_like(a), xp.ones_like(a)
     m, n = (axis + 1) % 3, (axis + 2) % 3
+    if xp is np:
+        # NumPy: filled in place (a fresh local array, so still pure to the caller): the
+        # nested stack below costs ~10× more per call on the chart adapters' hot path
+        out = np.zeros(np.shape(a) + (3, 3))
+        out[..., axis, axis] = 1.0
+        out[..., m, m] = c
+        out[..., n, n] = c
+        out[..., n, m] = s
+        out[..., m, n] = -s
+        return out
+    o, one = xp.zeros_like(a), xp.ones_like(a)
     M = [[o, o, o], [o, o, o], [o, o, o]]
     M[axis][axis] = one
     M[m][m] = c
