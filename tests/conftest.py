@@ -32,6 +32,7 @@ def _isolated_registries():
         live.clear()
         live.update(snap)
 
+
 #: Seed-000 inertia [kg·m²] (SPEC §6.1); read-only because every test module shares it.
 SEED000_J = np.array(
     [[15053.0, 3000.0, -1000.0], [3000.0, 6510.0, 2000.0], [-1000.0, 2000.0, 11122.0]]
@@ -95,3 +96,40 @@ def quick_reproduction(module: object, out: Path) -> tuple[int, Path, dict]:
     parsed ``results.json``."""
     code = module.main(out, quick=True)
     return code, out, json.loads((out / "results.json").read_text(encoding="utf-8"))
+
+
+#: the suite's per-run timing columns: wall times, not results (they differ between routes)
+TIMING_METRICS = ("controller_time_us", "sim_wall_time_s")
+
+
+def suite_on_both_routes(scenarios, names, caplog, members: int = 2):
+    """``run_suite`` of ``names`` on ``scenarios`` (``members`` dispersed members, serial) on the
+    numba route and on the JAX route: ``(numba, jax)`` results, the JAX run's log lines captured
+    by ``caplog`` (logger ``benchmarks.runner``)."""
+    import logging
+
+    from benchmarks.runner import run_suite
+
+    kw = {"members": members, "executor": "serial", "progress": False}
+    a = run_suite(scenarios, names, **kw)
+    with caplog.at_level(logging.INFO, logger="benchmarks.runner"):
+        b = run_suite(scenarios, names, backend="jax", **kw)
+    return a, b
+
+
+def assert_same_outcomes(a, b, rtol: float = 1e-9, atol: float = 1e-12) -> None:
+    """Two suite results agree run by run on the controllers of ``a`` (``b`` may hold others):
+    the same runs (scenario, controller, member), status and verdict, and every finite metric
+    but the timing columns to ``rtol``/``atol``."""
+    runs = a.outcomes + a.member_outcomes
+    names = {o.controller for o in runs}
+    got = {(o.scenario, o.controller, o.member): o for o in b.outcomes + b.member_outcomes
+           if o.controller in names}  # fmt: skip
+    assert runs and len(got) == len(runs)
+    for oa in runs:
+        ob = got[(oa.scenario, oa.controller, oa.member)]
+        assert (oa.status, oa.verdict) == (ob.status, ob.verdict), (oa.controller, oa.member)
+        for k, v in oa.metrics.items():
+            if k not in TIMING_METRICS and np.isfinite(v):
+                where = f"{oa.controller} member {oa.member}: {k}"
+                np.testing.assert_allclose(ob.metrics[k], v, rtol=rtol, atol=atol, err_msg=where)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import assert_same_outcomes, suite_on_both_routes
 
 from liecontrol.control.eigenaxis import RateLimitedEigenaxis, wie_lu_gains
 from liecontrol.control.reference import ConstantAttitude
@@ -87,23 +88,12 @@ def test_eigenaxis_gradient_matches_central_differences(jax):
 
 
 def test_registry_eigenaxis_flies_the_suite_jax_route(jax, caplog):
-    import logging
-
-    from benchmarks.runner import run_suite
     from benchmarks.scenarios import get_scenario
 
     scs = [get_scenario("slew-90").with_duration(40.0)]
-    cs = ["eigenaxis-rate-limited"]
-    a = run_suite(scs, cs, members=2, executor="serial", progress=False)
-    with caplog.at_level(logging.INFO, logger="benchmarks.runner"):
-        b = run_suite(scs, cs, members=2, executor="serial", progress=False, backend="jax")
+    a, b = suite_on_both_routes(scs, ["eigenaxis-rate-limited"], caplog)
     assert "ran on the numba loop" not in caplog.text
-    for oa, ob in zip(a.outcomes + a.member_outcomes, b.outcomes + b.member_outcomes,
-                      strict=True):  # fmt: skip
-        assert oa.verdict == ob.verdict
-        for k, val in oa.metrics.items():
-            if k not in ("controller_time_us", "sim_wall_time_s") and np.isfinite(val):
-                np.testing.assert_allclose(ob.metrics[k], val, rtol=1e-9, atol=1e-12, err_msg=k)
+    assert_same_outcomes(a, b)
 
 
 def test_pure_formula_equals_the_compiled_kernel_near_0_and_pi():

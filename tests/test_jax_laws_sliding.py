@@ -14,6 +14,7 @@ import functools
 
 import numpy as np
 import pytest
+from conftest import assert_same_outcomes
 
 from liecontrol.control.reference import ConstantAttitude
 from liecontrol.lie import so3
@@ -112,14 +113,7 @@ def _suite_equals_numba(name: str, caplog) -> None:
     with caplog.at_level(logging.INFO, logger="benchmarks.runner"):
         b = run_suite(scs, [name], members=2, executor="serial", progress=False, backend="jax")
     assert "ran on the numba loop" not in caplog.text, caplog.text
-    pairs = list(zip(a.outcomes + a.member_outcomes, b.outcomes + b.member_outcomes, strict=True))
-    assert pairs
-    for oa, ob in pairs:
-        assert (oa.scenario, oa.controller, oa.member, oa.verdict, oa.status) == (
-            ob.scenario, ob.controller, ob.member, ob.verdict, ob.status)  # fmt: skip
-        for k, v in oa.metrics.items():
-            if k not in ("controller_time_us", "sim_wall_time_s") and np.isfinite(v):
-                np.testing.assert_allclose(ob.metrics[k], v, rtol=1e-9, atol=1e-12, err_msg=k)
+    assert_same_outcomes(a, b)
 
 
 # ------------------------------------------------------------------------ prescribed performance

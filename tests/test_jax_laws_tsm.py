@@ -7,10 +7,9 @@ Skips without JAX (``liecontrol[jax]``)."""
 
 from __future__ import annotations
 
-import logging
-
 import numpy as np
 import pytest
+from conftest import assert_same_outcomes, suite_on_both_routes
 
 from liecontrol.control.reference import ConstantAttitude
 from liecontrol.control.terminal_sliding_mode import TerminalSlidingModeSO3
@@ -97,21 +96,12 @@ def test_tsm_gradient_matches_central_differences(jax):
 
 
 def test_registry_tsm_flies_the_suite_jax_route(jax, caplog):
-    from benchmarks.runner import run_suite
     from benchmarks.scenarios import get_scenario
 
     scs = [get_scenario("slew-90").with_duration(40.0)]
-    a = run_suite(scs, ["euler-tsm"], members=2, executor="serial", progress=False)
-    with caplog.at_level(logging.INFO, logger="benchmarks.runner"):
-        b = run_suite(scs, ["euler-tsm"], members=2, executor="serial", progress=False,
-                      backend="jax")  # fmt: skip
+    a, b = suite_on_both_routes(scs, ["euler-tsm"], caplog)
     assert "ran on the numba loop" not in caplog.text, caplog.text
-    for oa, ob in zip(a.outcomes + a.member_outcomes, b.outcomes + b.member_outcomes,
-                      strict=True):  # fmt: skip
-        assert oa.verdict == ob.verdict
-        for k, v in oa.metrics.items():
-            if k not in ("controller_time_us", "sim_wall_time_s") and np.isfinite(v):
-                np.testing.assert_allclose(ob.metrics[k], v, rtol=1e-9, atol=1e-12, err_msg=k)
+    assert_same_outcomes(a, b)
 
 
 def test_a_swapped_law_is_refused_naming_it(jax):

@@ -12,6 +12,7 @@ import sys
 
 import numpy as np
 import pytest
+from conftest import assert_same_outcomes
 
 from liecontrol import errors
 from liecontrol.control import GeometricPD, gains_from_bandwidth
@@ -625,13 +626,7 @@ def test_suite_backend_jax_equals_numba(jax, caplog):
     assert "stabilisation × no-array-law ran on the numba loop" in caplog.text
     assert "geometric-pd-large-angle ran on the numba loop" not in caplog.text
     assert "mrp-pd ran on the numba loop" not in caplog.text  # the chart adapter's array law
-    for oa, ob in zip(a.outcomes + a.member_outcomes, b.outcomes + b.member_outcomes,
-                      strict=True):  # fmt: skip
-        assert (oa.scenario, oa.controller, oa.member, oa.verdict) == (
-            ob.scenario, ob.controller, ob.member, ob.verdict)  # fmt: skip
-        for k, v in oa.metrics.items():
-            if k not in ("controller_time_us", "sim_wall_time_s") and np.isfinite(v):
-                np.testing.assert_allclose(ob.metrics[k], v, rtol=1e-9, atol=1e-12, err_msg=k)
+    assert_same_outcomes(a, b)
     with pytest.raises(ValueError, match="^backend: "):
         run_suite(scs, cs[:3], backend="torch")
 

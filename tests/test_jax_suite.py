@@ -8,6 +8,7 @@ import logging
 
 import numpy as np
 import pytest
+from conftest import assert_same_outcomes
 
 from benchmarks.controllers import register, unregister
 from benchmarks.runner import run_suite
@@ -56,12 +57,7 @@ def test_a_user_array_law_without_kernel_flies_the_suite_jax_route(caplog):
     finally:
         unregister("user-log-pd")
     assert "ran on the numba loop" not in caplog.text, caplog.text
-    for oa, ob in zip(a.outcomes + a.member_outcomes, b.outcomes + b.member_outcomes,
-                      strict=True):  # fmt: skip
-        assert oa.verdict == ob.verdict
-        for k, v in oa.metrics.items():
-            if k not in ("controller_time_us", "sim_wall_time_s") and np.isfinite(v):
-                np.testing.assert_allclose(ob.metrics[k], v, rtol=1e-9, atol=1e-12, err_msg=k)
+    assert_same_outcomes(a, b)
 
 
 def test_every_quick_controller_but_mpc_flies_the_suite_jax_route(caplog):
@@ -79,11 +75,4 @@ def test_every_quick_controller_but_mpc_flies_the_suite_jax_route(caplog):
                       backend="jax")  # fmt: skip
     fell = [line for line in caplog.text.splitlines() if "ran on the numba loop" in line]
     assert fell and all("mpc-osqp" in line for line in fell), fell
-    got = {(o.scenario, o.controller, o.member): o for o in b.outcomes + b.member_outcomes}
-    for oa in a.outcomes + a.member_outcomes:
-        ob = got[(oa.scenario, oa.controller, oa.member)]
-        assert oa.verdict == ob.verdict, (oa.controller, oa.member)
-        for k, v in oa.metrics.items():
-            if k not in ("controller_time_us", "sim_wall_time_s") and np.isfinite(v):
-                np.testing.assert_allclose(ob.metrics[k], v, rtol=1e-9, atol=1e-12,
-                                           err_msg=f"{oa.controller} {k}")  # fmt: skip
+    assert_same_outcomes(a, b)
