@@ -331,15 +331,21 @@ def test_pinv_and_gsr_steering_equal_fused_simulate(which, jax):
     np.testing.assert_array_equal(run.actuator["saturated"], want.actuator["saturated"])
     if which == "gsr":
         assert set(loop.params) == {"steering.lambda0", "steering.mu", "steering.epsilon0"}
-        jnp = jax.numpy
-
-        def c(e0):
-            return loop.cost(jnp.asarray(ctrl.k_R), jnp.asarray(ctrl.k_Omega), jnp.asarray(R0),
-                             jnp.asarray(w0), 0.01, params={"steering.epsilon0": e0})  # fmt: skip
-
+        c = _param_cost(jax, loop, ctrl, R0, w0, "steering.epsilon0")
         with jax.enable_x64(True):
             g = float(jax.grad(c)(0.2))
         assert np.isfinite(g)
+
+
+def _param_cost(jax, loop, ctrl, R0, w0, name):
+    """The loop's cost (effort weight 0.01) as a function of the loop parameter ``name``."""
+    jnp = jax.numpy
+
+    def c(value):
+        return loop.cost(jnp.asarray(ctrl.k_R), jnp.asarray(ctrl.k_Omega), jnp.asarray(R0),
+                         jnp.asarray(w0), 0.01, params={name: value})  # fmt: skip
+
+    return c
 
 
 def test_steering_parameters_are_loop_parameters(jax):
@@ -363,12 +369,7 @@ def test_steering_parameters_are_loop_parameters(jax):
     np.testing.assert_allclose(run.actuator["delta_dot"], want.actuator["delta_dot"], atol=1e-12)
     base = loop.run(R0, w0)
     assert np.abs(base.actuator["delta_dot"] - run.actuator["delta_dot"]).max() > 1e-6
-    jnp = jax.numpy
-
-    def c(lam):
-        return loop.cost(jnp.asarray(ctrl.k_R), jnp.asarray(ctrl.k_Omega), jnp.asarray(R0),
-                         jnp.asarray(w0), 0.01, params={"steering.lambda0": lam})  # fmt: skip
-
+    c = _param_cost(jax, loop, ctrl, R0, w0, "steering.lambda0")
     with jax.enable_x64(True):
         g = float(jax.grad(c)(0.3))
         h = 1e-4
