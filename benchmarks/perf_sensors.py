@@ -10,7 +10,9 @@ sampled every 0.2 s), ``--t-final`` s at dt = ``--dt``, logging every ``--log-ev
   forced through the Python loop, interleaved in one process;
 * ``mekf``: the MEKF hook :class:`benchmarks.runner.FilteredAttitude` between the sensors and
   the controller — fused (its compiled filter, :mod:`liecontrol._kernels.mekf`) and
-  in the Python loop.
+  in the Python loop;
+* ``ukf``: the same hook with the manifold UKF (``estimator="ukf"``; compiled:
+  :mod:`liecontrol._kernels.ukf`).
 
 Spacecraft-steps per CPU-second of this process (``time.process_time``, best of ``--repeat``
 rounds; the machine may be shared, so CPU time, and both routes alternate within each round).
@@ -77,9 +79,10 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--batch", type=int, nargs="+", default=[1, 100], help="batch sizes")
     p.add_argument("--repeat", type=int, default=3, help="rounds, best taken (default 3)")
     p.add_argument(
-        "--estimator", nargs="+", default=["none", "mekf"], choices=["none", "mekf"],
-        help="none: StarTrackerGyro; mekf: the MEKF hook (the Python loop's MEKF costs "
-        "~0.3 ms per filter step: B = 100 takes minutes per run)",
+        "--estimator", nargs="+", default=["none", "mekf", "ukf"],
+        choices=["none", "mekf", "ukf"],
+        help="none: StarTrackerGyro; mekf / ukf: the MEKF / manifold UKF hook (the Python "
+        "loop's filters cost ~0.3-0.5 ms per filter step: B = 100 takes minutes per run)",
     )  # fmt: skip
     a = p.parse_args(argv)
     steps = round(a.t_final / a.dt)

@@ -675,7 +675,7 @@ class FilteredAttitude:
 
     def __call__(self, t: float, outputs: Any, truth: AttitudeState) -> AttitudeState:
         from liecontrol.charts import quaternion as quat
-        from liecontrol.estimation import MEKF, ManifoldUKF, euler_rpy_from_quaternion
+        from liecontrol.estimation import euler_rpy_from_quaternion
 
         q_meas = np.asarray(outputs[self.attitude], dtype=np.float64)  # (B, 4) scalar-first
         w_meas = np.asarray(outputs[self.rate], dtype=np.float64)  # (B, 3)
@@ -687,7 +687,7 @@ class FilteredAttitude:
         if not self._filters:
             model = self._model()
             P0 = self._initial_covariance(model)
-            cls = MEKF if self.spec.estimator == "mekf" else ManifoldUKF
+            cls = self._filter_class()
             self._filters = [
                 cls(model, np.concatenate([q_meas[b], np.zeros(3)]), P0) for b in range(B)
             ]
@@ -718,22 +718,28 @@ class FilteredAttitude:
 
     def fused_hook(self) -> Any:
         """This hook for the simulator's compiled loop
-        (:class:`spacecraft._fused_sensors.EstimatorHook`): the MEKF has a kernel
-        (:mod:`liecontrol._kernels.mekf`), the UKF not (``None``: the Python loop
-        runs)."""
-        if self.spec.estimator != "mekf":
-            return None
-        from liecontrol.estimation import MEKF
+        (:class:`spacecraft._fused_sensors.EstimatorHook`): both filters have kernels, the
+        MEKF (:mod:`liecontrol._kernels.mekf`) and the UKF (:mod:`liecontrol._kernels.ukf`,
+        with the filter's default unscented weights)."""
         from spacecraft._fused_sensors import EstimatorHook
 
         model = self._model()
         P0 = self._initial_covariance(model)
-        probe = MEKF(model, np.r_[1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], P0)
+        probe = self._filter_class()(model, np.r_[1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], P0)
+        w = getattr(probe, "weights", None)
         return EstimatorHook(
             self.attitude, self.rate, float(model.sigma_v), float(model.sigma_u),
             np.array(model.sigma_body), P0, float(probe.gate_threshold),
-            int(probe.gate_max_consecutive), self.gyro,
+            int(probe.gate_max_consecutive), self.gyro, kind=self.spec.estimator,
+            weights=None if w is None else (float(w.gamma), w.Wm.copy(), w.Wc.copy()),
         )  # fmt: skip
+
+    def _filter_class(self) -> Any:
+        """The spec's filter class (:class:`~liecontrol.estimation.MEKF` or
+        :class:`~liecontrol.estimation.ManifoldUKF`)."""
+        from liecontrol.estimation import MEKF, ManifoldUKF
+
+        return MEKF if self.spec.estimator == "mekf" else ManifoldUKF
 
     def fused_finish(
         self, t_last: float, x: np.ndarray, P: np.ndarray, z_last: np.ndarray,
@@ -741,12 +747,11 @@ class FilteredAttitude:
     ) -> None:  # fmt: skip
         """After a compiled run: the filters, the last sample and the consistency log as the
         Python loop leaves them (:meth:`fused_hook`)."""
-        from liecontrol.estimation import MEKF
-
+        cls = self._filter_class()
         model = self._model()
         self._filters = []
         for b in range(x.shape[0]):
-            f = MEKF(model, x[b], P[b])
+            f = cls(model, x[b], P[b])
             f._x, f._P = x[b].copy(), P[b].copy()
             f._gated_run = int(gated_run[b])
             self._filters.append(f)

@@ -14,13 +14,13 @@ classes import this module (no import circle).
 in addition, the controller supplies a compiled law through the public seam
 :mod:`liecontrol.control.kernel` (``controller.fused_kernel(B)``), the sensors and the
 measurement hook (if any) have kernels (:mod:`spacecraft._fused_sensors`: the built-in star
-tracker, rate gyro and ``TimedSensor``, the ``StarTrackerGyro`` hook and an MEKF hook through
-``fused_hook``) and no progress bar or compute delay is used. The loop knows no controller
-class: it calls the law it is given through a function pointer (a numba first-class function
-of the documented signature), carries the law's internal state array and logs its diagnostics
-rows, so one compiled loop (cached on disk) serves the built-in laws and a user's own alike.
-It produces the same :class:`~spacecraft.simulator.SimulationResult` as the per-step Python
-loop, which calls the same kernels one at a time. Anything else — a controller without a
+tracker, rate gyro and ``TimedSensor``, the ``StarTrackerGyro`` hook and an MEKF or manifold-UKF
+hook through ``fused_hook``) and no progress bar or compute delay is used. The loop knows no
+controller class: it calls the law it is given through a function pointer (a numba first-class
+function of the documented signature), carries the law's internal state array and logs its
+diagnostics rows, so one compiled loop (cached on disk) serves the built-in laws and a user's
+own alike. It produces the same :class:`~spacecraft.simulator.SimulationResult` as the per-step
+Python loop, which calls the same kernels one at a time. Anything else — a controller without a
 kernel, a Python disturbance, a user's sensor — runs through that loop, and
 :func:`fused_supported` reports why.
 """
@@ -287,7 +287,8 @@ def _one_spacecraft(
     cs = work[6 * n : 6 * n + mm]
     # the sensors and the measurement hook (spacecraft._fused_sensors; empty arrays without)
     # (``sensing`` is None without sensors: numba prunes every ``sensing`` branch at compile
-    # time, so the loop without sensors compiles to the loop without this code)
+    # time, so the loop without sensors compiles to the loop without this code; with the UKF
+    # hook it is FS.SENSING_UKF, which selects the filter at compile time)
     cur = 0
     if sensing is not None:
         hook = h_int[0]
@@ -321,7 +322,9 @@ def _one_spacecraft(
             if sensing is not None:
                 hooked = hook != FS.HOOK_NONE
             if hooked:
-                if not FS.hook_stage(hi, hp, hsb, yb, sb, t, Rc, stb, log_hook, k // every_ctrl, b):
+                if not FS.hook_stage(
+                    hi, hp, hsb, yb, sb, t, Rc, stb, log_hook, k // every_ctrl, b, sensing
+                ):
                     status = 3
                     break
                 law(t, Rs, ws, rR[r, rb], rw[r, rb], rdw[r, rb], cparams, st, u_cmd, dg)
@@ -681,7 +684,7 @@ def _one_vscmg(
                 hooked = hook != FS.HOOK_NONE
             if hooked:
                 if not FS.hook_stage(
-                    hi, hp, hsb, yb, sb, t, Rc[0], stb, log_hook, k // every_ctrl, b
+                    hi, hp, hsb, yb, sb, t, Rc[0], stb, log_hook, k // every_ctrl, b, sensing
                 ):
                     status = 3
                     break
@@ -1061,7 +1064,7 @@ def run_fused(
         log_act, log_sat, log_hm, log_diag, diag,
         sa.s_int, sa.s_par, sa.pub_thr, sa.pub_sched, sa.noise, sa.state, sa.y, sa.h_int,
         sa.seen, log_y, log_est, sa.h_par, sa.h_state, log_hook,
-        None if splan is None else True,
+        FS.sensing_marker(splan),
     )  # fmt: skip
     status, rows, t_fail = _call_loop(args, 19, workers, B, vscmg=False)
     if not _finished(status, t_fail, t0, controller, spec, notes):
@@ -1150,7 +1153,7 @@ def _run_vscmg(
         log_vs, log_work, log_sat, log_diag, diag,
         sa.s_int, sa.s_par, sa.pub_thr, sa.pub_sched, sa.noise, sa.state, sa.y, sa.h_int,
         sa.seen, log_y, log_est, sa.h_par, sa.h_state, log_hook,
-        None if splan is None else True,
+        FS.sensing_marker(splan),
     )  # fmt: skip
     status, rows, t_fail = _call_loop(args, 17, workers, B, vscmg=True)
     if not _finished(status, t_fail, t0, controller, spec, notes):

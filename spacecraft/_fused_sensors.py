@@ -9,11 +9,15 @@ kernels the numpy classes call. Exact classes only: a subclass (which may overri
 keeps the Python loop, as does any other sensor, and :func:`sensor_plan` says why.
 
 **Estimator hooks.** A measurement hook may hand the loop a filter through the protocol method
-``fused_hook()``, returning an :class:`EstimatorHook` (an MEKF on the gyro model,
-:mod:`liecontrol._kernels.mekf`), or ``None`` for a configuration without a kernel; after the
-run the loop calls its ``fused_finish(...)`` with the filters' final state and consistency log
-(:func:`finish_hook`). The method speaks for the class that defines it and its subclasses that
-keep its ``__call__``. :class:`benchmarks.runner.FilteredAttitude` implements it for its MEKF.
+``fused_hook()``, returning an :class:`EstimatorHook` (an MEKF, :mod:`liecontrol._kernels.mekf`,
+or a manifold UKF, :mod:`liecontrol._kernels.ukf`, on the gyro model), or ``None`` for a
+configuration without a kernel; after the run the loop calls its ``fused_finish(...)`` with the
+filters' final state and consistency log (:func:`finish_hook`). The method speaks for the class
+that defines it and its subclasses that keep its ``__call__``.
+:class:`benchmarks.runner.FilteredAttitude` implements it for both of its filters. The filter
+is chosen when the loop is compiled: the loop's ``sensing`` argument is :data:`SENSING_UKF` (a
+type of its own) for the UKF, and :func:`filter_predict` / :func:`filter_update` resolve to
+one filter's kernels from that type, so each compiled loop contains one filter.
 
 **The noise.** Every draw of these sensors is independent of the state: at each sample the
 Python loop draws, in the order of the ``sensors`` mapping, for each sensor sampled at that
@@ -44,14 +48,16 @@ from __future__ import annotations
 import logging
 import math
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from liecontrol._jit import njit
+from liecontrol._jit import JIT_ENABLED, njit
 from liecontrol._kernels import filters as EK
 from liecontrol._kernels import mekf as MK
+from liecontrol._kernels import ukf as UK
 from liecontrol._kernels.so3 import log_of
 
 from . import _kernels_sensors as KS
@@ -86,12 +92,20 @@ P_GYRO = 21
 HOOK_NONE = 0
 HOOK_STAR_TRACKER_GYRO = 1
 HOOK_MEKF = 2
+HOOK_UKF = 3
+
+#: the compiled loop's ``sensing`` argument with the UKF hook (without sensors it is ``None``,
+#: with them ``True``): a type of its own, so the loop is compiled for it separately and the
+#: filter is chosen at compile time (:func:`filter_predict`), the other loops keeping their code
+SENSING_UKF = (HOOK_UKF,)
 
 # h_int: hook, attitude output, its form, rate output, attitude valid flag (-1: none), gyro bias
 # in the sensor state (-1: none)
 N_HINT = 6
-# the MEKF hook's parameters: σ_v, σ_u, Σ (9), P₀ (36), gate threshold, gate's max run
+# the estimator hook's parameters: σ_v, σ_u, Σ (9), P₀ (36), gate threshold, gate's max run;
+# the UKF's then its weights γ, Wᵐ (13), Wᶜ (13)
 N_HPAR = 49
+N_HPAR_UKF = N_HPAR + 27
 # its state per spacecraft: x (7), P (36), t_last, has filter, z_last (3), ω_last (3), gated run
 H_X, H_P, H_T, H_HAS, H_Z, H_W, H_RUN = 0, 7, 43, 44, 45, 48, 51
 N_HSTATE = 52
@@ -103,7 +117,8 @@ N_HLOG = 7
 @dataclass(frozen=True)
 class EstimatorHook:
     """What a measurement hook's ``fused_hook()`` returns for the compiled loop: a
-    multiplicative EKF on the gyro model (:mod:`liecontrol._kernels.mekf`) between
+    multiplicative EKF (:mod:`liecontrol._kernels.mekf`) or a manifold UKF
+    (:mod:`liecontrol._kernels.ukf`) on the gyro model between
     the star tracker (quaternion output) and the gyro, with the semantics of
     :class:`benchmarks.runner.FilteredAttitude`: it starts at the first control sample from
     the tracker's quaternion with zero bias and ``P0``; at each later one it predicts over the
@@ -118,6 +133,10 @@ class EstimatorHook:
             noise covariance ``(3, 3)``; P0: the initial error covariance ``(6, 6)``.
         gate_threshold, gate_max: the χ² gate.
         gyro: the gyro whose true bias enters the 6-state NEES (the ``rate`` sensor), or None.
+        kind: ``"mekf"`` (:class:`~liecontrol.estimation.MEKF`) or ``"ukf"``
+            (:class:`~liecontrol.estimation.ManifoldUKF`).
+        weights: the UKF's unscented-transform weights ``(γ, Wᵐ (13,), Wᶜ (13,))`` (its
+            :attr:`~liecontrol.estimation.ManifoldUKF.weights`); unused by the MEKF.
     """
 
     attitude: str
@@ -129,6 +148,26 @@ class EstimatorHook:
     gate_threshold: float
     gate_max: int
     gyro: Any = None
+    kind: str = "mekf"
+    weights: tuple[float, np.ndarray, np.ndarray] | None = None
+
+    def __post_init__(self) -> None:
+        if self.kind not in ("mekf", "ukf"):
+            raise ValueError(f"kind: expected 'mekf' or 'ukf', got {self.kind!r}")
+        if self.kind == "ukf":
+            w = self.weights
+            if (
+                w is None or len(w) != 3 or np.shape(w[1]) != (13,) or np.shape(w[2]) != (13,)
+                or not float(w[0]) > 0.0
+            ):  # fmt: skip
+                raise ValueError(
+                    "weights: the UKF needs (γ > 0, Wᵐ (13,), Wᶜ (13,)) for its 6-dim error"
+                )
+
+    @property
+    def filter_name(self) -> str:
+        """The numpy filter's name (``MEKF`` or ``ManifoldUKF``)."""
+        return "MEKF" if self.kind == "mekf" else "ManifoldUKF"
 
 
 def _owner(cls: type, attr: str) -> type | None:
@@ -223,7 +262,7 @@ def sensor_plan(sensor_list: Any, measurement: Any) -> tuple[SensorPlan | None, 
             est, why = _estimator_hook(measurement)
             if est is None:
                 return None, why
-            hook = HOOK_MEKF
+            hook = HOOK_MEKF if est.kind == "mekf" else HOOK_UKF
         att, rate = names.index(measurement.attitude), names.index(measurement.rate)
         if type(inner[att]) is not StarTracker:
             return None, (
@@ -257,7 +296,7 @@ class SensorArrays:
     h_int: np.ndarray  # (N_HINT,) hook, attitude output, its form, rate output, valid, bias
     seen: np.ndarray  # (B, 12) the hook's last R (9) and ω (3)
     n_est: int  # 12 with a hook, else 0
-    h_par: np.ndarray  # (N_HPAR,) the estimator hook's parameters (else empty)
+    h_par: np.ndarray  # (N_HPAR or N_HPAR_UKF,) the estimator hook's parameters (else empty)
     h_state: np.ndarray  # (B, N_HSTATE) its state per spacecraft (else (B, 0))
 
 
@@ -419,6 +458,12 @@ def prepare(
             np.asarray(est.P0, dtype=np.float64).ravel(),
             [float(est.gate_threshold), float(est.gate_max)],
         ))  # fmt: skip
+        if est.kind == "ukf" and est.weights is not None:
+            g, Wm, Wc = est.weights
+            h_par = np.concatenate((
+                h_par, [float(g)], np.asarray(Wm, dtype=np.float64),
+                np.asarray(Wc, dtype=np.float64),
+            ))  # fmt: skip
         h_state = np.zeros((B, N_HSTATE))
     noise = draw_noise(plan, rng, B, n_steps)
     return SensorArrays(
@@ -522,18 +567,113 @@ def sense_stage(
     return cur
 
 
+def sensing_marker(plan: SensorPlan | None) -> Any:
+    """The compiled loop's ``sensing`` argument: ``None`` without sensors, :data:`SENSING_UKF`
+    with the UKF hook, else ``True``."""
+    if plan is None:
+        return None
+    if plan.estimator is not None and plan.estimator.kind == "ukf":
+        return SENSING_UKF
+    return True
+
+
+@njit
+def _mekf_predict(x: np.ndarray, P: np.ndarray, u: np.ndarray, dt: float, hp: np.ndarray) -> bool:
+    """:func:`liecontrol._kernels.mekf.mekf_gyro_predict` with its arguments from ``h_par``."""
+    return MK.mekf_gyro_predict(x, P, u, dt, hp[0], hp[1])
+
+
+@njit
+def _ukf_predict(x: np.ndarray, P: np.ndarray, u: np.ndarray, dt: float, hp: np.ndarray) -> bool:
+    """:func:`liecontrol._kernels.ukf.ukf_gyro_predict` with its arguments from ``h_par``."""
+    w = N_HPAR + 1
+    return UK.ukf_gyro_predict(
+        x, P, u, dt, hp[0], hp[1], hp[N_HPAR], hp[w : w + 13], hp[w + 13 : w + 26]
+    )
+
+
+@njit
+def _mekf_update(
+    x: np.ndarray, P: np.ndarray, z: np.ndarray, hp: np.ndarray, may_gate: bool
+) -> tuple[int, float]:
+    """:func:`liecontrol._kernels.mekf.mekf_gyro_update` with its arguments from ``h_par``."""
+    return MK.mekf_gyro_update(x, P, z, hp[2:11].reshape((3, 3)), hp[47], may_gate)
+
+
+@njit
+def _ukf_update(
+    x: np.ndarray, P: np.ndarray, z: np.ndarray, hp: np.ndarray, may_gate: bool
+) -> tuple[int, float]:
+    """:func:`liecontrol._kernels.ukf.ukf_gyro_update` with its arguments from ``h_par``."""
+    w = N_HPAR + 1
+    return UK.ukf_gyro_update(
+        x, P, z, hp[2:11].reshape((3, 3)), hp[47], may_gate, hp[N_HPAR], hp[w : w + 13],
+        hp[w + 13 : w + 26],
+    )  # fmt: skip
+
+
+def filter_predict(
+    sensing: Any, x: np.ndarray, P: np.ndarray, u: np.ndarray, dt: float, hp: np.ndarray
+) -> bool:
+    """The estimator hook's time update: the UKF's for :data:`SENSING_UKF`, else the MEKF's.
+    Compiled, the choice is made from ``sensing``'s type at compile time (an overload), so each
+    loop contains one filter; as plain Python, at run time."""
+    if isinstance(sensing, tuple):
+        return _ukf_predict(x, P, u, dt, hp)
+    return _mekf_predict(x, P, u, dt, hp)
+
+
+def filter_update(
+    sensing: Any, x: np.ndarray, P: np.ndarray, z: np.ndarray, hp: np.ndarray, may_gate: bool
+) -> tuple[int, float]:
+    """The estimator hook's measurement update (as :func:`filter_predict`): ``(code, NIS)``,
+    code 0 accepted, 1 gated, 2 failure."""
+    if isinstance(sensing, tuple):
+        return _ukf_update(x, P, z, hp, may_gate)
+    return _mekf_update(x, P, z, hp, may_gate)
+
+
+if JIT_ENABLED:
+    from numba.core import types as _types
+    from numba.extending import overload as _overload
+
+    @_overload(filter_predict)
+    def _filter_predict_impl(
+        sensing: Any, x: Any, P: Any, u: Any, dt: Any, hp: Any
+    ) -> Callable[..., bool]:
+        step = _ukf_predict if isinstance(sensing, _types.BaseTuple) else _mekf_predict
+
+        # (numba wants the implementation's parameters, annotations included, as the typer's)
+        def impl(sensing: Any, x: Any, P: Any, u: Any, dt: Any, hp: Any) -> bool:
+            return step(x, P, u, dt, hp)
+
+        return impl
+
+    @_overload(filter_update)
+    def _filter_update_impl(
+        sensing: Any, x: Any, P: Any, z: Any, hp: Any, may_gate: Any
+    ) -> Callable[..., tuple[int, float]]:
+        step = _ukf_update if isinstance(sensing, _types.BaseTuple) else _mekf_update
+
+        def impl(sensing: Any, x: Any, P: Any, z: Any, hp: Any, may_gate: Any) -> tuple[int, float]:
+            return step(x, P, z, hp, may_gate)
+
+        return impl
+
+
 @njit
 def hook_stage(
     h_int: np.ndarray, h_par: np.ndarray, hs: np.ndarray, y: np.ndarray, seen: np.ndarray,
-    t: float, R: np.ndarray, st: np.ndarray, hlog: np.ndarray, ci: int, b: int,
+    t: float, R: np.ndarray, st: np.ndarray, hlog: np.ndarray, ci: int, b: int, sensing: Any,
 ) -> bool:  # fmt: skip
     """The measurement hook of one spacecraft at a control sample (time ``t``, true attitude
     ``R``): ``seen[:9]`` the attitude it gives the law, ``seen[9:]`` the rate.
 
     * :class:`~spacecraft.simulator.StarTrackerGyro`: the held quaternion as a matrix (or the
       held matrix) and the held gyro rate;
-    * the MEKF hook (:class:`EstimatorHook`; its state row ``hs``, its log row
-      ``hlog[ci, b]``): R(q̂) and ω̃ − b̂ after the filter's step. False when the filter's
+    * the estimator hook (:class:`EstimatorHook`; its state row ``hs``, its log row
+      ``hlog[ci, b]``): R(q̂) and ω̃ − b̂ after the filter's step — the MEKF's, or the UKF's
+      with ``sensing`` :data:`SENSING_UKF` (:func:`filter_predict`). False when the filter's
       covariance lost positive definiteness (the Python loop then reruns the run).
     """
     a = h_int[1]
@@ -548,7 +688,8 @@ def hook_stage(
         for i in range(3):
             seen[9 + i] = y[r + i]
         return True
-    # the MEKF hook (benchmarks.runner.FilteredAttitude's semantics)
+    # the estimator hook (benchmarks.runner.FilteredAttitude's semantics); both filters start
+    # as the ManifoldFilter constructor does (mekf_gyro_init)
     q = np.empty(4)
     n = math.sqrt(y[a] * y[a] + y[a + 1] * y[a + 1] + y[a + 2] * y[a + 2] + y[a + 3] * y[a + 3])
     for i in range(4):
@@ -569,14 +710,12 @@ def hook_stage(
             w_mid = np.empty(3)
             for i in range(3):
                 w_mid[i] = 0.5 * (hs[H_W + i] + y[r + i])
-            if not MK.mekf_gyro_predict(x, P, w_mid, dt, h_par[0], h_par[1]):
+            if not filter_predict(sensing, x, P, w_mid, dt, h_par):
                 return False
         fresh = z[0] != hs[H_Z] or z[1] != hs[H_Z + 1] or z[2] != hs[H_Z + 2]
         valid = h_int[4] < 0 or y[h_int[4]] != 0.0
         if fresh and valid:
-            code, nis = MK.mekf_gyro_update(
-                x, P, z, h_par[2:11].reshape((3, 3)), h_par[47], hs[H_RUN] < h_par[48]
-            )
+            code, nis = filter_update(sensing, x, P, z, h_par, hs[H_RUN] < h_par[48])
             if code == 2:
                 return False
             hs[H_RUN] = hs[H_RUN] + 1.0 if code == 1 else 0.0
@@ -685,8 +824,9 @@ def finish_hook(plan: SensorPlan, arrays: SensorArrays, log: np.ndarray, measure
     if rejected:
         # the numpy filter warns at each rejection; the compiled run once, with the count
         logging.getLogger("liecontrol.estimation").warning(
-            "MEKF (compiled loop): %d innovation(s) rejected by the χ² gate over the run "
+            "%s (compiled loop): %d innovation(s) rejected by the χ² gate over the run "
             "(threshold %.4g; the prediction was kept)",
+            plan.estimator.filter_name,
             rejected,
             plan.estimator.gate_threshold,
         )

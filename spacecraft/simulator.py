@@ -635,9 +635,9 @@ def simulate(
             built-in sensors (:class:`~spacecraft.sensors.StarTracker` with quaternion or matrix
             output, :class:`~spacecraft.sensors.RateGyro`, either in a
             :class:`~spacecraft.sensors.TimedSensor`), :class:`StarTrackerGyro` and a hook
-            whose ``fused_hook()`` gives an MEKF (:class:`spacecraft._fused_sensors.
-            EstimatorHook`) run in the compiled loop, with the noise drawn from ``rng`` in the
-            Python loop's order (the same result).
+            whose ``fused_hook()`` gives an MEKF or a manifold UKF
+            (:class:`spacecraft._fused_sensors.EstimatorHook`) run in the compiled loop, with
+            the noise drawn from ``rng`` in the Python loop's order (the same result).
         rng: seeded ``numpy.random.Generator`` for the sensor noise (required with sensors).
         compute_delay: τ ≥ 0 [s], a non-negative integer multiple of ``dt`` (relative tolerance
             1e-9): the torque the controller computes at t_k reaches the actuator at t_k + τ

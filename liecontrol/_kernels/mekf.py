@@ -121,6 +121,40 @@ def _outer_lower(S: np.ndarray, out: np.ndarray) -> None:
             out[i, j] = s
 
 
+@njit(inline="always")
+def add_gyro_process_noise(P: np.ndarray, dt: float, sigma_v: float, sigma_u: float) -> None:
+    """``P += Q(dt)``, the gyro model's discrete noise of (δθ, δb) (module docstring; Farrenkopf,
+    "Analytic steady-state accuracy solutions for two common spacecraft attitude estimators",
+    JGCD 1(4), 1978; Crassidis & Junkins, *Optimal Estimation of Dynamic Systems*, §7.2.4)::
+
+        Q = [[σ_v² dt + σ_u² dt³/3, −σ_u² dt²/2], [−σ_u² dt²/2, σ_u² dt]] ⊗ I₃
+    """
+    a = sigma_v**2 * dt + sigma_u**2 * dt**3 / 3.0
+    c = -(sigma_u**2) * dt**2 / 2.0
+    b = sigma_u**2 * dt
+    for i in range(3):
+        P[i, i] += a
+        P[3 + i, 3 + i] += b
+        P[i, 3 + i] += c
+        P[3 + i, i] += c
+
+
+@njit
+def euler_noise_into(zh: np.ndarray, Sigma: np.ndarray, Bm: np.ndarray, Rk: np.ndarray) -> bool:
+    """The Euler angles' noise covariance at the angles ``zh``: ``Bm`` = B(ẑ) (the Euler-rate
+    matrix, :func:`rpy_jacobian_into`) and ``Rk`` = sym(B Σ Bᵀ), Σ the tracker's body-frame
+    covariance (``GyroAttitudeModel.R_at``); False at gimbal lock."""
+    if not rpy_jacobian_into(zh[0], zh[1], Bm):
+        return False
+    _sym_abat(Bm, Sigma, Rk)
+    for i in range(3):
+        for j in range(i + 1, 3):
+            s = 0.5 * (Rk[i, j] + Rk[j, i])
+            Rk[i, j] = s
+            Rk[j, i] = s
+    return True
+
+
 @njit
 def mekf_gyro_init(q: np.ndarray, P0: np.ndarray, x: np.ndarray, P: np.ndarray) -> bool:
     """A new filter at the quaternion ``q`` (normalised) with zero bias and ``P = S Sᵀ``, S the
@@ -161,14 +195,7 @@ def mekf_gyro_predict(
         x[i] = x[i] / n
     Pn = np.empty((6, 6))
     _sym_abat(F, P, Pn)
-    a = sigma_v**2 * dt + sigma_u**2 * dt**3 / 3.0
-    c = -(sigma_u**2) * dt**2 / 2.0
-    b = sigma_u**2 * dt
-    for i in range(3):
-        Pn[i, i] += a
-        Pn[3 + i, 3 + i] += b
-        Pn[i, 3 + i] += c
-        Pn[3 + i, i] += c
+    add_gyro_process_noise(Pn, dt, sigma_v, sigma_u)
     for i in range(6):
         for j in range(6):
             P[i, j] = 0.5 * (Pn[i, j] + Pn[j, i])
@@ -189,16 +216,10 @@ def mekf_gyro_update(
         return 2, math.nan
     zh = rpy_from_q(x[:4].reshape((1, 4)))[0]
     Bm = np.empty((3, 3))
-    if not rpy_jacobian_into(zh[0], zh[1], Bm):
-        return 2, math.nan
-    # R = B Σ Bᵀ (symmetrised); H = [B, 0]: P Hᵀ = P[:, :3] Bᵀ, H P Hᵀ = B P₃₃ Bᵀ
     Rk = np.empty((3, 3))
-    _sym_abat(Bm, Sigma, Rk)
-    for i in range(3):
-        for j in range(i + 1, 3):
-            s = 0.5 * (Rk[i, j] + Rk[j, i])
-            Rk[i, j] = s
-            Rk[j, i] = s
+    # R = B Σ Bᵀ (symmetrised); H = [B, 0]: P Hᵀ = P[:, :3] Bᵀ, H P Hᵀ = B P₃₃ Bᵀ
+    if not euler_noise_into(zh, Sigma, Bm, Rk):
+        return 2, math.nan
     PHt = np.zeros((6, 3))
     for i in range(6):
         for j in range(3):

@@ -14,8 +14,12 @@ import math
 import numpy as np
 
 from .._jit import njit
-from .._kernels.filters import _wrap, cholesky_sym
+from .._kernels.filters import _sigma_rows, _weighted_outer_sym, _wrap, cholesky_sym
+
+# kernels shared with the simulator's compiled filters (liecontrol._kernels), re-exported
 from .._kernels.filters import rpy_from_q as rpy_from_q  # the models' Euler angles
+from .._kernels.filters import solve_lower_into as solve_lower_into
+from .._kernels.filters import ukf_gain as ukf_gain
 
 
 @njit
@@ -81,48 +85,6 @@ def gyroless_rk4(
 
 
 @njit
-def solve_lower_into(L: np.ndarray, B: np.ndarray, transpose: bool) -> tuple[np.ndarray, bool]:
-    """(X, ok) with L X = B (or Lᵀ X = B) for lower-triangular ``L (n, n)`` and ``B (n, m)``;
-    ok False (X meaningless) when L has a zero diagonal entry."""
-    n = L.shape[0]
-    m = B.shape[1]
-    X = B.copy()
-    for i in range(n):
-        if L[i, i] == 0.0:
-            return X, False
-    if transpose:
-        for i in range(n - 1, -1, -1):
-            for c in range(m):
-                s = X[i, c]
-                for k in range(i + 1, n):
-                    s -= L[k, i] * X[k, c]
-                X[i, c] = s / L[i, i]
-    else:
-        for i in range(n):
-            for c in range(m):
-                s = X[i, c]
-                for k in range(i):
-                    s -= L[i, k] * X[k, c]
-                X[i, c] = s / L[i, i]
-    return X, True
-
-
-@njit
-def _sigma_rows(x: np.ndarray, S: np.ndarray, gamma: float) -> np.ndarray:
-    """(2n+1, n) sigma points x, x + γ sⱼ, x − γ sⱼ (sⱼ the columns of S)."""
-    n = x.shape[0]
-    X = np.empty((2 * n + 1, n))
-    for k in range(n):
-        X[0, k] = x[k]
-    for j in range(n):
-        for k in range(n):
-            c = gamma * S[k, j]
-            X[1 + j, k] = x[k] + c
-            X[1 + n + j, k] = x[k] - c
-    return X
-
-
-@njit
 def ukf_predict_gyroless(
     x: np.ndarray,
     S: np.ndarray,
@@ -157,29 +119,6 @@ def ukf_predict_gyroless(
     for k in range(7):
         P[k, k] += qdiag[k]
     return xm, Pf, P, ok
-
-
-@njit
-def _weighted_outer_sym(Y: np.ndarray, ym: np.ndarray, Wc: np.ndarray) -> np.ndarray:
-    """½(P + Pᵀ) with P = Σᵢ Wᶜᵢ (Yᵢ − ȳ)(Yᵢ − ȳ)ᵀ."""
-    N, n = Y.shape
-    D = np.empty((N, n))
-    for i in range(N):
-        for k in range(n):
-            D[i, k] = Y[i, k] - ym[k]
-    P = np.zeros((n, n))
-    for i in range(N):
-        w = Wc[i]
-        for a in range(n):
-            wa = w * D[i, a]
-            for b in range(n):
-                P[a, b] += wa * D[i, b]
-    for a in range(n):
-        for b in range(a + 1, n):
-            s = 0.5 * (P[a, b] + P[b, a])
-            P[a, b] = s
-            P[b, a] = s
-    return P
 
 
 @njit
@@ -224,32 +163,6 @@ def ukf_measure_euler(
             Pzz[a, b] = s
             Pzz[b, a] = s
     return zm, Pzz, Pxz
-
-
-@njit
-def ukf_gain(
-    Sz: np.ndarray, Pxz: np.ndarray, z: np.ndarray, zm: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-    """(P_zz, K, ν, NIS) with P_zz = S_z S_zᵀ, K = P_xz P_zz⁻¹ by two triangular solves
-    (Van der Merwe & Wan 2001, eq. 27), ν = wrap(z − ẑ) and NIS = |S_z⁻¹ ν|²; ``Sz``
-    lower-triangular with a positive diagonal."""
-    m = Sz.shape[0]
-    n = Pxz.shape[0]
-    nu = np.empty(m)
-    for k in range(m):
-        nu[k] = _wrap(z[k] - zm[k])
-    yv, _ = solve_lower_into(Sz, nu.reshape(m, 1), False)
-    nis = 0.0
-    for k in range(m):
-        nis += yv[k, 0] * yv[k, 0]
-    Pzz = Sz @ Sz.T
-    Y, _ = solve_lower_into(Sz, np.ascontiguousarray(Pxz.T), False)
-    X, _ = solve_lower_into(Sz, Y, True)
-    K = np.empty((n, m))
-    for a in range(n):
-        for b in range(m):
-            K[a, b] = X[b, a]
-    return Pzz, K, nu, nis
 
 
 @njit
