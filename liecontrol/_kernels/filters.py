@@ -64,6 +64,25 @@ def _wrap(a: float) -> float:
 
 
 @njit
+def euler_mean_residuals(Z: np.ndarray, Wm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The weighted mean of Euler-angle sigma points ``Z (N, 3)`` on the circle and their
+    residuals: ẑ = wrap(Z₀ + Σ Wᵢᵐ wrap(Zᵢ − Z₀)), ΔZᵢ = wrap(Zᵢ − ẑ) (the models' ``z_mean``
+    and ``z_residual``)."""
+    N = Z.shape[0]
+    zm = np.empty(3)
+    for k in range(3):
+        acc = 0.0
+        for i in range(N):
+            acc += Wm[i] * _wrap(Z[i, k] - Z[0, k])
+        zm[k] = _wrap(Z[0, k] + acc)
+    dZ = np.empty((N, 3))
+    for i in range(N):
+        for k in range(3):
+            dZ[i, k] = _wrap(Z[i, k] - zm[k])
+    return zm, dZ
+
+
+@njit
 def solve_lower_into(L: np.ndarray, B: np.ndarray, transpose: bool) -> tuple[np.ndarray, bool]:
     """(X, ok) with L X = B (or Lᵀ X = B) for lower-triangular ``L (n, n)`` and ``B (n, m)``;
     ok False (X meaningless) when L has a zero diagonal entry."""

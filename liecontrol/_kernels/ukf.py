@@ -39,8 +39,8 @@ from .._jit import njit
 from .filters import (
     _sigma_rows,
     _weighted_outer_sym,
-    _wrap,
     cholesky_sym,
+    euler_mean_residuals,
     rpy_from_q,
     ukf_gain,
 )
@@ -147,16 +147,7 @@ def ukf_gyro_update(
     for i in range(N):
         _boxplus_into(x, D[i], X[i])
     Z = rpy_from_q(X)
-    zm = np.empty(3)
-    for k in range(3):
-        acc = 0.0
-        for i in range(N):
-            acc += Wm[i] * _wrap(Z[i, k] - Z[0, k])
-        zm[k] = _wrap(Z[0, k] + acc)
-    dZ = np.empty((N, 3))
-    for i in range(N):
-        for k in range(3):
-            dZ[i, k] = _wrap(Z[i, k] - zm[k])
+    zm, dZ = euler_mean_residuals(Z, Wm)
     # R = B Σ Bᵀ at the prior mean (the model's R_at)
     zh = rpy_from_q(x[:4].reshape((1, 4)))[0]
     Bm = np.empty((3, 3))

@@ -14,7 +14,12 @@ import math
 import numpy as np
 
 from .._jit import njit
-from .._kernels.filters import _sigma_rows, _weighted_outer_sym, _wrap, cholesky_sym
+from .._kernels.filters import (
+    _sigma_rows,
+    _weighted_outer_sym,
+    cholesky_sym,
+    euler_mean_residuals,
+)
 
 # kernels shared with the simulator's compiled filters (liecontrol._kernels), re-exported
 from .._kernels.filters import rpy_from_q as rpy_from_q  # the models' Euler angles
@@ -132,16 +137,7 @@ def ukf_measure_euler(
     Z = rpy_from_q(X)
     N = X.shape[0]
     n = x.shape[0]
-    zm = np.empty(3)
-    for k in range(3):
-        acc = 0.0
-        for i in range(N):
-            acc += Wm[i] * _wrap(Z[i, k] - Z[0, k])
-        zm[k] = _wrap(Z[0, k] + acc)
-    dZ = np.empty((N, 3))
-    for i in range(N):
-        for k in range(3):
-            dZ[i, k] = _wrap(Z[i, k] - zm[k])
+    zm, dZ = euler_mean_residuals(Z, Wm)
     Pzz = np.zeros((3, 3))
     Pxz = np.zeros((n, 3))
     for i in range(N):
