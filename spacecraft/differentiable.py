@@ -310,14 +310,15 @@ class JaxClosedLoop:
 
     def rollout(
         self, k_R: Any, k_Omega: Any, R0: Any, x0: Any, J: Any = None, J_inv: Any = None,
-        params: dict[str, Any] | None = None,
+        params: dict[str, Any] | None = None, cs0: tuple | None = None,
     ) -> dict[str, Any]:  # fmt: skip
         """One spacecraft from ``R0`` ``(3, 3)`` and the packed state ``x0`` ``(n_x,)`` = (Ω₀, δ₀)
         with the plant inertia ``J``, ``J_inv`` ``(3, 3)`` (default the loop's shared one):
         the log at the K = n_ctrl + 1 samples as a dict of arrays with a leading ``K`` axis —
         ``R``, ``x``, ``u_cmd``, ``u``, ``Psi``, ``e_R``, ``e_Omega``, and the actuator's
         ``delta_dot``, ``saturated`` (SGCMG) or ``held`` (ideal). ``params``: values for (some
-        of) the law's further parameters (:attr:`ArrayLaw.params`, default the law's own). Pure
+        of) the law's further parameters (:attr:`ArrayLaw.params`, default the law's own);
+        ``cs0``: this spacecraft's initial law state (default :attr:`ArrayLaw.state0`). Pure
         JAX (call under ``jax.enable_x64``): ``jit``, ``vmap`` and ``grad`` apply."""
         jax = require_jax()
         jnp = jax.numpy
@@ -396,7 +397,7 @@ class JaxClosedLoop:
         if self.checkpoint:
             period = jax.checkpoint(period)
         scanned = (jnp.arange(self.n_ctrl), tuple(a[:-1] for a in refs) if varying else None)
-        cs0 = tuple(jnp.asarray(a) for a in ctrl_law.state0)
+        cs0 = tuple(jnp.asarray(a) for a in (ctrl_law.state0 if cs0 is None else cs0))
         (Rn, xn, csn), rows = lax.scan(period, (R0, x0, cs0), scanned, length=self.n_ctrl)
         ref_n = tuple(a[-1] for a in refs) if varying else refs
         last, _, _ = sample(Rn, xn, csn, ref_n, t0 + (self.n_ctrl * n_sub) * dt)
@@ -426,7 +427,7 @@ class JaxClosedLoop:
 
     def cost_terms(
         self, k_R: Any, k_Omega: Any, R0: Any, x0: Any, J: Any = None, J_inv: Any = None,
-        params: Mapping[str, Any] | None = None,
+        params: Mapping[str, Any] | None = None, cs0: tuple | None = None,
     ) -> dict[str, Any]:  # fmt: skip
         """Per-member terms (pure JAX) on the control grid (rectangle rule, step T) from ``R0``
         and the packed state ``x0`` (:meth:`rollout`): ``angle`` = Σ θ_k² T ≈ ∫θ² dt [rad²·s], θ
@@ -435,7 +436,7 @@ class JaxClosedLoop:
         φ = log(R_dᵀR)^∨ past the start's error axis n₀ = φ₀/‖φ₀‖ (zero for a start at R_d)."""
         jax = require_jax()
         jnp = jax.numpy
-        out = self.rollout(k_R, k_Omega, R0, x0, J, J_inv, params)
+        out = self.rollout(k_R, k_Omega, R0, x0, J, J_inv, params, cs0)
         Rs, us = out["R"][:-1], out["u"][:-1]
         R_d = jnp.asarray(self.R_d)
         R_d = R_d[:-1] if R_d.ndim == 3 else R_d
@@ -466,8 +467,8 @@ class JaxClosedLoop:
         jax = require_jax()
         x0 = self._pack(omega0)
         J, J_inv = self.inertias(R0.shape[0])
-        terms = jax.vmap(self.cost_terms, in_axes=(None, None, 0, 0, 0, 0, None))(
-            k_R, k_Omega, R0, x0, J, J_inv, params
+        terms = jax.vmap(self.cost_terms, in_axes=(None, None, 0, 0, 0, 0, None, 0))(
+            k_R, k_Omega, R0, x0, J, J_inv, params, self.law.initial_states(R0.shape[0])
         )
         weights = {"angle": 1.0, "effort": effort_weight, "overshoot": overshoot_weight}
         return sum(weights[k] * terms[k].mean() for k in terms)
@@ -505,23 +506,25 @@ class JaxClosedLoop:
                 )
         x0 = self._pack(w0, d0)
         J, J_inv = self.inertias(B)
+        cs0 = self.law.initial_states(B)
         n = padded_size(B) if pad else B
         if n > B:
-            R0, x0, J, J_inv = (
+            R0, x0, J, J_inv, *cs0 = (
                 np.concatenate((a, np.broadcast_to(a[:1], (n - B,) + a.shape[1:])))
-                for a in (R0, x0, J, J_inv)
+                for a in (R0, x0, J, J_inv, *cs0)
             )
+            cs0 = tuple(cs0)
         k_R = self.k_R if k_R is None else k_R
         k_Omega = self.k_Omega if k_Omega is None else k_Omega
         with jax.enable_x64(True):
             fn = self._jit(
                 "run",
-                lambda: jax.jit(jax.vmap(self.rollout, in_axes=(None, None, 0, 0, 0, 0, None))),
+                lambda: jax.jit(jax.vmap(self.rollout, in_axes=(None, None, 0, 0, 0, 0, None, 0))),
             )
             p = _check_params(params)
             out = {
                 k: np.moveaxis(np.asarray(v)[:B], 0, 1)
-                for k, v in fn(k_R, k_Omega, R0, x0, J, J_inv, p).items()
+                for k, v in fn(k_R, k_Omega, R0, x0, J, J_inv, p, cs0).items()
             }
         Rs, xs = out["R"], out["x"]
         bad = ~(np.isfinite(Rs).all(axis=(2, 3)) & np.isfinite(xs).all(axis=2))
@@ -569,8 +572,8 @@ class JaxClosedLoop:
 
             def one(a: Any, b: Any, term: str = term) -> Any:
                 J, J_inv = self.inertias(R0.shape[0])
-                per = jax.vmap(self.cost_terms, in_axes=(None, None, 0, 0, 0, 0, None))(
-                    a, b, R0, x0, J, J_inv, p
+                per = jax.vmap(self.cost_terms, in_axes=(None, None, 0, 0, 0, 0, None, 0))(
+                    a, b, R0, x0, J, J_inv, p, self.law.initial_states(R0.shape[0])
                 )
                 return per[term].mean()
 

@@ -285,11 +285,11 @@ def requirement_cost(
     k_R, k_W = _in_form(k_R, gain_shapes[0]), _in_form(k_W, gain_shapes[1])
     extra = loop_parameters_from_vector(params[n:], tuned or {})
 
-    def member(R, x, Jb, Jib):  # noqa: ANN001, ANN202 - traced
-        out = loop.rollout(k_R, k_W, R, x, Jb, Jib, extra or None)
+    def member(R, x, Jb, Jib, c0):  # noqa: ANN001, ANN202 - traced
+        out = loop.rollout(k_R, k_W, R, x, Jb, Jib, extra or None, c0)
         return requirement_values(loop, out, requirements)
 
-    vals = jax.vmap(member)(R0, x0, J, J_inv)
+    vals = jax.vmap(member)(R0, x0, J, J_inv, loop.law.initial_states(R0.shape[0]))
     total = vals["angle"] + effort_weight * vals["effort"]
     for _name, key, bound in _margin_bounds(requirements):
         # log of the ratio: an error that decays like e^{-σt} then gives a penalty quadratic in

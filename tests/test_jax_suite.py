@@ -62,16 +62,17 @@ def test_a_user_array_law_without_kernel_flies_the_suite_jax_route(caplog):
 
 def test_every_quick_controller_but_mpc_flies_the_suite_jax_route(caplog):
     """The quick suite's controllers (all but the OSQP MPC, whose solve stays in Python) run
-    the JAX route on a quick scenario with the numba route's metrics and verdicts; the MPC
+    the JAX route on a quick scenario with the numba route's metrics and verdicts (a dispersed
+    batch of two members, each with its own sign hint and inertia); the MPC
     batch stays on the numba loop with its log line."""
     from benchmarks.controllers import quick_controllers
 
     names = [c for c in quick_controllers() if not c.startswith("mpc")]
     assert len(names) >= 9
     scs = [get_scenario("slew-90").with_duration(40.0)]
-    a = run_suite(scs, names, members=2, executor="serial", progress=False)
+    a = run_suite(scs, names, members=3, executor="serial", progress=False)
     with caplog.at_level(logging.INFO, logger="benchmarks.runner"):
-        b = run_suite(scs, [*names, "mpc-osqp"], members=2, executor="serial", progress=False,
+        b = run_suite(scs, [*names, "mpc-osqp"], members=3, executor="serial", progress=False,
                       backend="jax")  # fmt: skip
     fell = [line for line in caplog.text.splitlines() if "ran on the numba loop" in line]
     assert fell and all("mpc-osqp" in line for line in fell), fell

@@ -820,6 +820,11 @@ class ChartAdapter(AttitudeController):
         for the NumPy route, ``()`` for one spacecraft of the array law)."""
         raise NotImplementedError  # pragma: no cover
 
+    def _member_memory0(self) -> tuple[np.ndarray, ...] | None:
+        """Each spacecraft's own memory before the first sample ``(B, ...)`` where it is not
+        the same for all (a quaternion adapter's per-spacecraft sign hints), else ``None``."""
+        return None
+
     def _memory(self, B: int) -> tuple[np.ndarray, ...]:
         """The NumPy route's chart memory (from the adapter's attributes)."""
         raise NotImplementedError  # pragma: no cover
@@ -1004,9 +1009,15 @@ class ChartAdapter(AttitudeController):
             diag = {**diag, **extra, "chart_y": s.y, "chart_y_d": s.y_d, "chart_switched": sw}
             return u, tuple(mem) + tuple(ls), diag
 
+        members = self._member_memory0()
+        if members is not None:
+            B = members[0].shape[0]
+            members = tuple(members) + tuple(
+                np.broadcast_to(np.asarray(a), (B, *np.shape(a))) for a in claw.state0
+            )
         return ArrayLaw(
             claw.k_R, claw.k_Omega, mem0 + tuple(claw.state0), step, claw.params,
-            timed=bool(claw.timed),
+            timed=bool(claw.timed), member_state0=members,
         )  # fmt: skip
 
 
@@ -1185,13 +1196,17 @@ class QuaternionChartAdapter(ChartAdapter):
             return np.array(np.broadcast_to([1.0, 0.0, 0.0, 0.0], lead + (4,)))
         h = self.q_hint
         if lead == () and h.ndim == 2:
-            if not (h == h[:1]).all():
-                raise ValueError(
-                    "controller.q_hint: the array law starts every spacecraft from one sign "
-                    f"hint; got {h.shape[0]} different ones (pass one (4,) hint)"
-                )
+            # one spacecraft's default (the array law carries each spacecraft's own hint as its
+            # per-member initial memory: _member_memory0)
             h = h[0]
         return np.array(np.broadcast_to(h, lead + (4,)), dtype=np.float64)
+
+    def _member_memory0(self) -> tuple[np.ndarray, ...] | None:
+        """Per-spacecraft hints differ: each spacecraft's first-sample memory ``(B, ...)``."""
+        h = self.q_hint
+        if self.sign_mode == "switched" or h is None or h.ndim != 2 or (h == h[:1]).all():
+            return None
+        return self._memory0((h.shape[0],))
 
     def _memory0(self, lead: tuple[int, ...]) -> tuple[np.ndarray, ...]:
         """(previous q — at the first sample the hint —, previous q_d — zeros: no sign yet)."""

@@ -73,6 +73,10 @@ class ArrayLaw:
         params: further differentiable parameters by name (floats or arrays, default none):
             when given, ``step`` receives them as the keyword ``params`` (same keys).
         timed: ``step`` receives the sample's time as the keyword ``t`` (default ``False``).
+        member_state0: each spacecraft's own initial state, or ``None`` (all start from
+            ``state0``): the structure of ``state0`` with a leading batch axis ``B`` (e.g. a
+            quaternion law's per-spacecraft sign hint); the loop then runs batches of exactly
+            ``B``.
     """
 
     k_R: Any
@@ -81,6 +85,7 @@ class ArrayLaw:
     step: Callable[..., tuple[Any, tuple, dict[str, Any]]]
     params: Mapping[str, Any] = field(default_factory=dict)
     timed: bool = False
+    member_state0: tuple | None = None
 
     def __post_init__(self) -> None:
         if not callable(self.step):
@@ -89,9 +94,36 @@ class ArrayLaw:
             raise ValueError(
                 f"state0: expected a tuple of arrays, got {type(self.state0).__name__}"
             )
-        if not isinstance(self.params, Mapping) or not all(
-            isinstance(k, str) for k in self.params
-        ):
+        if self.member_state0 is not None:
+            m = self.member_state0
+            if not isinstance(m, tuple) or len(m) != len(self.state0):
+                raise ValueError(
+                    f"member_state0: expected a tuple of {len(self.state0)} arrays (the "
+                    "structure of state0)"
+                )
+            sizes = {np.shape(a)[0] if np.ndim(a) else -1 for a in m}
+            shapes_ok = all(
+                np.shape(a)[1:] == np.shape(b) for a, b in zip(m, self.state0, strict=True)
+            )
+            if len(sizes) != 1 or -1 in sizes or not shapes_ok:
+                raise ValueError(
+                    "member_state0: each entry must be its state0 entry with one leading "
+                    "batch axis, the same B for all"
+                )
+
+    def initial_states(self, B: int) -> tuple:
+        """The ``B`` spacecraft's initial states, each entry ``(B, ...)``: ``member_state0``
+        (``ValueError`` naming it when its batch is not ``B``), else ``state0`` repeated."""
+        if self.member_state0 is None:
+            return tuple(np.broadcast_to(np.asarray(a), (B, *np.shape(a))) for a in self.state0)
+        n = np.shape(self.member_state0[0])[0]
+        if n != B:
+            raise ValueError(
+                f"member_state0: the law's per-spacecraft initial states are for {n} "
+                f"spacecraft, the batch has {B}"
+            )
+        return tuple(np.asarray(a) for a in self.member_state0)
+        if not isinstance(self.params, Mapping) or not all(isinstance(k, str) for k in self.params):
             raise ValueError("params: expected a mapping from parameter names (str) to values")
         for name, value in self.params.items():
             a = np.asarray(value)
