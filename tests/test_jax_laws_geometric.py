@@ -76,15 +76,16 @@ def _fly(ctrl, plant, t_final, R0, w0, ref=_REF, diag=(), flags=()):  # noqa: AN
     return loop, run, want
 
 
-def _suite_equal(names: list[str], caplog) -> None:  # noqa: ANN001
-    """run_suite on slew-90 (40 s, 2 members): the JAX route gives the numba run's metrics and
-    verdicts, and flies every one of ``names`` (no fallback logged)."""
+def _suite_equal(names: list[str], caplog, extra: tuple[str, ...] = ()) -> None:  # noqa: ANN001
+    """run_suite on slew-90 (and the ``extra`` scenarios; 40 s, 2 members): the JAX route gives
+    the numba run's metrics and verdicts, and flies every one of ``names`` (no fallback
+    logged)."""
     import logging
 
     from benchmarks.runner import run_suite
     from benchmarks.scenarios import get_scenario
 
-    scs = [get_scenario("slew-90").with_duration(40.0)]
+    scs = [get_scenario(n).with_duration(40.0) for n in ("slew-90", *extra)]
     a = run_suite(scs, names, members=2, executor="serial", progress=False)
     with caplog.at_level(logging.INFO, logger="benchmarks.runner"):
         b = run_suite(scs, names, members=2, executor="serial", progress=False, backend="jax")
@@ -265,3 +266,68 @@ def test_adaptive_log_error_is_refused_naming_the_attribute(jax):
 
     with pytest.raises(ValueError, match=r"^controller\.error: .*'log'"):
         closed_loop(_plant("ideal"), _adaptive("log"), _REF, 10.0, DT, PERIOD)
+
+
+# ------------------------------------------------------------------ keep-out / keep-in barriers
+
+
+def _cones():  # noqa: ANN202
+    """A 20° keep-out cone for the body x axis 0.6 rad from its target direction (the starts
+    pass close to it) and a wide keep-in cone for the body z axis."""
+    from liecontrol.control.constrained import KeepInCone, KeepOutCone
+
+    x_d = so3.exp(np.array([0.0, 0.0, 0.6])) @ _REF.R_d @ np.array([1.0, 0.0, 0.0])
+    return ((KeepOutCone((1.0, 0.0, 0.0), tuple(x_d), 20.0),),
+            (KeepInCone((0.0, 0.0, 1.0), tuple(_REF.R_d[:, 2]), 170.0),))  # fmt: skip
+
+
+def _keep_out_pd():  # noqa: ANN202
+    from liecontrol.control.constrained import ConstrainedGeometricPD
+
+    kR, kW = gains_from_bandwidth(J, 0.3, 0.9)
+    keep_out, keep_in = _cones()
+    return ConstrainedGeometricPD(J * 1.05, kR, kW, keep_out=keep_out, keep_in=keep_in)
+
+
+@pytest.mark.parametrize("actuator", ["sgcmg", "ideal"])
+def test_keep_out_pd_equals_fused_simulate(actuator, jax):
+    from liecontrol.control.constrained import cone_margins_deg
+
+    plant = _plant(actuator, 3.0)
+    _, run, want = _fly(_keep_out_pd(), plant, 40.0, *_starts(),
+                        diag=("Psi", "e_R", "e_Omega", "min_slack"))  # fmt: skip
+    # the barrier acts: the 179.9° start passes within 1 % of the keep-out boundary, and
+    # every attitude of the run stays admissible
+    assert 0.0 < want.controller["min_slack"][:, 0].min() < 1e-2
+    keep_out, keep_in = _cones()
+    assert cone_margins_deg(keep_out + keep_in, run.R.reshape(-1, 3, 3)).min() > 0.0
+    if actuator == "ideal":
+        assert want.actuator["saturated"].any()
+
+
+def test_keep_out_pd_gradient_finite_and_inadmissible_start_is_nan(jax):
+    from spacecraft.differentiable import closed_loop
+
+    ctrl = _keep_out_pd()
+    loop = closed_loop(_plant("ideal", 3.0), ctrl, _REF, 20.0, DT, PERIOD)
+    R0, w0 = _starts()
+    assert loop.run(R0, w0).actuator["saturated"].any()  # the saturation switch is crossed
+    # from R_d (inside the admissible set, barrier terms non-zero) with a rate, from the
+    # 179.9° start (it passes the keep-out boundary closely), from the 60° one
+    R0 = np.concatenate([_REF.R_d[None], R0[:2]])
+    w0 = np.array([[0.01, -0.01, 0.02], *w0[:2]])
+    v, gR, gW = loop.value_and_grad(ctrl.k_R, ctrl.k_Omega, R0, w0, effort_weight=0.01)
+    assert np.isfinite(v) and np.isfinite(gR).all() and np.isfinite(gW).all()
+    assert np.any(gR != 0.0) and np.any(gW != 0.0)
+    # a start inside the keep-out cone, which command() refuses, is a NaN torque, as in the
+    # compiled kernel: the route reports that member as diverged
+    x = _cones()[0][0]._s
+    b = np.cross([1.0, 0.0, 0.0], x)
+    R_bad = so3.exp(np.arcsin(np.linalg.norm(b)) * b / np.linalg.norm(b))  # body x along s
+    run = loop.run(np.stack([R_bad, _REF.R_d]), np.zeros((2, 3)))
+    assert run.diverged.tolist() == [True, False]
+
+
+def test_keep_out_registry_configuration_flies(jax, caplog):
+    # keep-out-sun-slew: the scenario's Sun cone on the slew's path (slew-90 has no cones)
+    _suite_equal(["geometric-keep-out"], caplog, ("keep-out-sun-slew",))

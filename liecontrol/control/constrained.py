@@ -70,9 +70,11 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
+from .._array_api import namespace
 from .._kernels.constrained import (
     N_DIAG,
     N_DIAG_SAFE,
@@ -82,6 +84,7 @@ from .._kernels.constrained import (
 )
 from .._validation import as_array, as_int, as_scalar, check_inertia_3x3, check_rotation_matrix
 from ..errors import _large_angle_error_unchecked
+from .array_law import ArrayLaw
 from .base import (
     AttitudeController,
     AttitudeReference,
@@ -280,28 +283,29 @@ def check_admissible(cones: Sequence[AttitudeCone], R: object, name: str = "R") 
         )
 
 
-def _barrier_terms(
-    R: np.ndarray, cones: tuple, w: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(Σβ_i (B,), Σ∇β_i (B, 3), min normalised slack (B,))`` at ``R`` ``(B, 3, 3)``."""
-    B = R.shape[0]
-    beta = np.zeros(B)
-    grad = np.zeros((B, 3))
-    smin = np.full(B, np.inf)
+def _barrier_terms(R: Any, cones: tuple, w: Any) -> tuple[Any, Any, Any]:
+    """``(Σβ_i (...), Σ∇β_i (..., 3), min normalised slack (...))`` at ``R`` ``(..., 3, 3)``.
+    Pure, NumPy or JAX: the slack is floored at :data:`SLACK_FLOOR` before the logarithm and
+    the division, so both stay finite (and differentiable) on and past a boundary."""
+    xp = namespace(R, w)
+    shape = R.shape[:-2]
+    beta = xp.zeros(shape)
+    grad = xp.zeros(shape + (3,))
+    smin = xp.full(shape, np.inf)
     for cone in cones:
-        s_body = np.swapaxes(R, -1, -2) @ cone._s  # Rᵀs, (B, 3)
+        s_body = xp.swapaxes(R, -1, -2) @ cone._s  # Rᵀs, (..., 3)
         c = s_body @ cone._b
-        gc = _cross(np.broadcast_to(cone._b, s_body.shape), s_body)  # ∇c = b × Rᵀs
+        gc = _cross(xp.broadcast_to(cone._b, s_body.shape), s_body)  # ∇c = b × Rᵀs
         ca = cone.cos_half_angle
         if cone.kind == "keep_out":
             slack, scale, sign = ca - c, 1.0 + ca, 1.0
         else:
             slack, scale, sign = c - ca, 1.0 - ca, -1.0
-        x = np.maximum(slack / scale, SLACK_FLOOR)
-        smin = np.minimum(smin, slack / scale)
-        beta += -w * np.log(x)
+        x = xp.maximum(slack / scale, SLACK_FLOOR)
+        smin = xp.minimum(smin, slack / scale)
+        beta = beta + -w * xp.log(x)
         # d/dε of −w ln(slack): keep-out slack' = −∇c·ω, keep-in slack' = +∇c·ω
-        grad += (sign * w / (x * scale))[:, None] * gc
+        grad = grad + (sign * w / (x * scale))[..., None] * gc
     return beta, grad, smin
 
 
@@ -326,14 +330,52 @@ def constrained_potential(
     return _potential(R3, Rt, cones, w)[:2]
 
 
-def _potential(
-    R: np.ndarray, Rt: np.ndarray, cones: tuple, w: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _potential(R: Any, Rt: Any, cones: tuple, w: Any) -> tuple[Any, Any, Any]:
+    """``(Ψ, e_C, min slack)`` of the module docstring at ``R``, ``R̃ = R_dᵀR`` ``(..., 3,
+    3)``; pure, NumPy or JAX."""
     Psi_A, e_A = _large_angle_error_unchecked(Rt)
     beta, grad, smin = _barrier_terms(R, cones, w)
     Psi = Psi_A * (1.0 + beta)
-    e_C = (1.0 + beta)[:, None] * e_A + Psi_A[:, None] * grad
+    e_C = (1.0 + beta)[..., None] * e_A + Psi_A[..., None] * grad
     return Psi, e_C, smin
+
+
+def _admissible(R: Any, cones: tuple) -> Any:
+    """``(...)`` whether ``R`` ``(..., 3, 3)`` is strictly inside every cone's admissible set
+    (:func:`check_admissible`'s test, margin > 0 in degrees, as the compiled kernel's); pure.
+    A boolean: no derivative flows through it."""
+    xp = namespace(R)
+    ok = xp.ones(R.shape[:-2], dtype=bool)
+    for cone in cones:
+        c = (R @ cone._b) @ cone._s
+        angle = xp.degrees(xp.arccos(xp.clip(c, -1.0, 1.0)))
+        m = angle - cone.half_angle_deg if cone.kind == "keep_out" else cone.half_angle_deg - angle
+        ok = ok & (m > 0.0)
+    return ok
+
+
+def constrained_pd_torque(
+    R: Any, omega: Any, R_d: Any, omega_d: Any, omega_dot_d: Any, J: Any, k_R: Any,
+    k_Omega: Any, cones: tuple, barrier_weight: Any,
+) -> tuple[Any, Any, Any, Any, Any]:  # fmt: skip
+    """The barrier-shaped geometric PD (module docstring; Lee & Mesbahi, IEEE TAES 2014;
+    Kulumani & Lee, IJCAS 2017) as a pure array function::
+
+        M = −K_R e_C − K_Ω e_Ω + Ω × JΩ − J (Ω^ RᵀR_d Ω_d − RᵀR_d Ω̇_d),   e_Ω = Ω − RᵀR_d Ω_d,
+
+    ``e_C`` the body-frame gradient of ``Ψ = Ψ_A (1 + Σβ_i)``. Returns ``(M, Ψ, e_C, e_Ω,
+    min normalised slack)``; arrays broadcast over leading axes (``R`` ``(..., 3, 3)``), NumPy
+    or JAX; no validation (:class:`ConstrainedGeometricPD` is the validated object)."""
+    xp = namespace(R, omega, R_d)
+    Rt = xp.swapaxes(R_d, -1, -2) @ R
+    RtT = xp.swapaxes(Rt, -1, -2)
+    Psi, e_C, smin = _potential(R, Rt, cones, barrier_weight)
+    w_d_body = (RtT @ omega_d[..., None])[..., 0]
+    dw_d_body = (RtT @ omega_dot_d[..., None])[..., 0]
+    e_W = omega - w_d_body
+    ff = _cross(omega, omega @ J.T) - (_cross(omega, w_d_body) - dw_d_body) @ J.T
+    M = ff - _apply_gain(k_R, e_C) - _apply_gain(k_Omega, e_W)
+    return M, Psi, e_C, e_W, smin
 
 
 def _weight(w: object) -> float:
@@ -423,21 +465,41 @@ class ConstrainedGeometricPD(AttitudeController):
         if self._first:
             check_admissible(self._cones, R, "R")
             self._first = False
-        Rt = np.swapaxes(R_d, -1, -2) @ R
-        RtT = np.swapaxes(Rt, -1, -2)
-        Psi, e_C, smin = _potential(R, Rt, self._cones, self.barrier_weight)
-        J = self.J
-        w_d_body = (RtT @ w_d[..., None])[..., 0]
-        dw_d_body = (RtT @ dw_d[..., None])[..., 0]
-        e_W = w - w_d_body
-        ff = _cross(w, w @ J.T) - (_cross(w, w_d_body) - dw_d_body) @ J.T
-        M = ff - _apply_gain(self.k_R, e_C) - _apply_gain(self.k_Omega, e_W)
+        M, Psi, e_C, e_W, smin = constrained_pd_torque(
+            R, w, R_d, w_d, dw_d, self.J, self.k_R, self.k_Omega, self._cones,
+            self.barrier_weight,
+        )  # fmt: skip
         self._diag = {"Psi": Psi, "e_R": e_C, "e_Omega": e_W, "min_slack": smin}
         return finite_command(M, w)
 
     def diagnostics(self) -> dict[str, np.ndarray]:
         """Last ``Psi``, ``e_R``, ``e_Omega``, ``min_slack`` (empty before the first command)."""
         return dict(self._diag)
+
+    def array_law(self) -> ArrayLaw:
+        """The law as a pure array function (:func:`constrained_pd_torque`, which
+        :meth:`command` calls) for the differentiable loop
+        (:mod:`liecontrol.control.array_law`), with ``barrier_weight`` a further parameter
+        (:attr:`ArrayLaw.params`). The state is one flag, the first sample done: an attitude
+        outside the admissible set (``R_d`` at any sample, ``R`` at the first), which
+        :meth:`command` refuses, gives a NaN torque, as the compiled kernel's, and the route
+        reports the run as diverged."""
+        J, cones = np.array(self.J), self._cones
+
+        def step(k_R, k_Omega, state, R, omega, R_d, omega_d, omega_dot_d, T, *, params):  # noqa: ANN001
+            (checked,) = state
+            xp = namespace(R, omega)
+            M, Psi, e_C, e_W, smin = constrained_pd_torque(
+                R, omega, R_d, omega_d, omega_dot_d, J, k_R, k_Omega, cones,
+                params["barrier_weight"],
+            )  # fmt: skip
+            ok = _admissible(R_d, cones) & (checked | _admissible(R, cones))
+            M = xp.where(ok, M, np.nan)
+            d = {"Psi": Psi, "e_R": e_C, "e_Omega": e_W, "min_slack": smin}
+            return M, (xp.logical_or(checked, True),), d
+
+        params = {"barrier_weight": self.barrier_weight}
+        return ArrayLaw(self.k_R, self.k_Omega, (np.array(False),), step, params=params)
 
     def fused_kernel(
         self, batch_size: int, control_period: float | None = None
