@@ -40,8 +40,9 @@ Supported configurations (others raise ``ValueError`` naming the part): a
 :class:`~spacecraft.disturbances.ConstantTorque` (one for the batch) or
 :class:`~spacecraft.disturbances.ConstantHarmonicTorque` disturbance (at each RKMK4 stage's
 time) or none, no flexible modes or momentum management; any controller whose law has an array
-form (:mod:`liecontrol.control.array_law`: every registered attitude controller but the OSQP MPC
-and the small-angle payload PID — the geometric PD with the trace, log or large-angle error,
+form (:mod:`liecontrol.control.array_law`: every registered attitude controller but the OSQP
+MPC, the sampled-data keep-out filter and the small-angle payload PID — the geometric PD with
+the trace, log or large-angle error,
 the integral, adaptive, prescribed-performance, finite/fixed-time, fault-tolerant, keep-out
 and eigenaxis laws, and the chart-based quaternion PD, MRP PD, MRP ADRC and Euler TSM through
 their adapters' pure chart conversion — and a user's own), stateful laws carrying their state

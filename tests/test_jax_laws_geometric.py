@@ -13,6 +13,7 @@ import functools
 
 import numpy as np
 import pytest
+from conftest import assert_same_outcomes, suite_on_both_routes
 
 from liecontrol import errors
 from liecontrol.control import GeometricPD, gains_from_bandwidth
@@ -80,24 +81,12 @@ def _suite_equal(names: list[str], caplog, extra: tuple[str, ...] = ()) -> None:
     """run_suite on slew-90 (and the ``extra`` scenarios; 40 s, 2 members): the JAX route gives
     the numba run's metrics and verdicts, and flies every one of ``names`` (no fallback
     logged)."""
-    import logging
-
-    from benchmarks.runner import run_suite
     from benchmarks.scenarios import get_scenario
 
     scs = [get_scenario(n).with_duration(40.0) for n in ("slew-90", *extra)]
-    a = run_suite(scs, names, members=2, executor="serial", progress=False)
-    with caplog.at_level(logging.INFO, logger="benchmarks.runner"):
-        b = run_suite(scs, names, members=2, executor="serial", progress=False, backend="jax")
+    a, b = suite_on_both_routes(scs, names, caplog)
     assert "ran on the numba loop" not in caplog.text, caplog.text
-    assert len(a.outcomes + a.member_outcomes) == len(b.outcomes + b.member_outcomes) > 0
-    for oa, ob in zip(a.outcomes + a.member_outcomes, b.outcomes + b.member_outcomes,
-                      strict=True):  # fmt: skip
-        assert (oa.scenario, oa.controller, oa.member, oa.verdict) == (
-            ob.scenario, ob.controller, ob.member, ob.verdict)  # fmt: skip
-        for k, v in oa.metrics.items():
-            if k not in ("controller_time_us", "sim_wall_time_s") and np.isfinite(v):
-                np.testing.assert_allclose(ob.metrics[k], v, rtol=1e-9, atol=1e-12, err_msg=k)
+    assert_same_outcomes(a, b)
 
 
 def _grad_finite(loop, k_R, k_Omega) -> None:  # noqa: ANN001

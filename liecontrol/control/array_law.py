@@ -34,8 +34,9 @@ in-place writes, branches as ``where`` with both sides finite — the same rules
 layer, whose pure functions the built-in laws call (``geometric_pd_torque``,
 ``integral_update``/``integral_output``): one source per formula, NumPy and JAX alike.
 
-Which controllers fly: every built-in attitude law but the OSQP MPC and the small-angle payload
-PID — :class:`~liecontrol.control.GeometricPD` (trace, log and large-angle errors),
+Which controllers fly: every built-in attitude law but the OSQP MPC, the sampled-data keep-out
+filter and the small-angle payload PID — :class:`~liecontrol.control.GeometricPD` (trace, log
+and large-angle errors),
 :class:`~liecontrol.control.IntrinsicPID`, :class:`~liecontrol.control.IntegralPD`,
 :class:`~liecontrol.control.AdaptiveGeometricSO3`,
 :class:`~liecontrol.control.PrescribedPerformance`, :class:`~liecontrol.control.FiniteTimeSO3`,
