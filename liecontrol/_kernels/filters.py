@@ -64,6 +64,16 @@ def _wrap(a: float) -> float:
 
 
 @njit
+def symmetrised_into(Pn: np.ndarray, out: np.ndarray) -> None:
+    """``out = (Pn + Pnᵀ)/2`` (square; ``out`` may not alias ``Pn``): a covariance update's
+    round-off asymmetry removed before it is stored or factored."""
+    n = Pn.shape[0]
+    for i in range(n):
+        for j in range(n):
+            out[i, j] = 0.5 * (Pn[i, j] + Pn[j, i])
+
+
+@njit
 def euler_mean_residuals(Z: np.ndarray, Wm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The weighted mean of Euler-angle sigma points ``Z (N, 3)`` on the circle and their
     residuals: ẑ = wrap(Z₀ + Σ Wᵢᵐ wrap(Zᵢ − Z₀)), ΔZᵢ = wrap(Zᵢ − ẑ) (the models' ``z_mean``

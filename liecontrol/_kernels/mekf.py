@@ -28,7 +28,7 @@ import math
 import numpy as np
 
 from .._jit import njit
-from .filters import _wrap, cholesky_sym, rpy_from_q
+from .filters import _wrap, cholesky_sym, rpy_from_q, symmetrised_into
 from .so3 import exp9
 
 #: below this angle the right Jacobian's coefficients use their series (as liecontrol.lie.so3)
@@ -196,9 +196,7 @@ def mekf_gyro_predict(
     Pn = np.empty((6, 6))
     _sym_abat(F, P, Pn)
     add_gyro_process_noise(Pn, dt, sigma_v, sigma_u)
-    for i in range(6):
-        for j in range(6):
-            P[i, j] = 0.5 * (Pn[i, j] + Pn[j, i])
+    symmetrised_into(Pn, P)
     return True
 
 
@@ -283,9 +281,7 @@ def mekf_gyro_update(
         for j in range(6):
             Pn[i, j] += KRK[i, j]
     Ps = np.empty((6, 6))
-    for i in range(6):
-        for j in range(6):
-            Ps[i, j] = 0.5 * (Pn[i, j] + Pn[j, i])
+    symmetrised_into(Pn, Ps)
     S, ok = cholesky_sym(Ps)
     if not ok:
         return 2, math.nan

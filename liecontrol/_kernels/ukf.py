@@ -42,6 +42,7 @@ from .filters import (
     cholesky_sym,
     euler_mean_residuals,
     rpy_from_q,
+    symmetrised_into,
     ukf_gain,
 )
 from .mekf import _outer_lower, add_gyro_process_noise, euler_noise_into, quat_times_rotvec
@@ -123,9 +124,7 @@ def ukf_gyro_predict(
     add_gyro_process_noise(Pn, dt, sigma_v, sigma_u)
     for i in range(7):
         x[i] = xm[i]
-    for i in range(6):
-        for j in range(6):
-            P[i, j] = 0.5 * (Pn[i, j] + Pn[j, i])
+    symmetrised_into(Pn, P)
     return True
 
 
@@ -189,9 +188,7 @@ def ukf_gyro_update(
         for j in range(6):
             Pn[i, j] = P[i, j] - (KP[i, 0] * K[j, 0] + KP[i, 1] * K[j, 1] + KP[i, 2] * K[j, 2])
     Ps = np.empty((6, 6))
-    for i in range(6):
-        for j in range(6):
-            Ps[i, j] = 0.5 * (Pn[i, j] + Pn[j, i])
+    symmetrised_into(Pn, Ps)
     S, ok = cholesky_sym(Ps)
     if not ok:
         return 2, math.nan
