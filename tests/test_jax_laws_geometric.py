@@ -320,3 +320,69 @@ def test_keep_out_pd_gradient_finite_and_inadmissible_start_is_nan(jax):
 def test_keep_out_registry_configuration_flies(jax, caplog):
     # keep-out-sun-slew: the scenario's Sun cone on the slew's path (slew-90 has no cones)
     _suite_equal(["geometric-keep-out"], caplog, ("keep-out-sun-slew",))
+
+
+def _sampled(max_torque: float = 3.0, **kw):  # noqa: ANN202
+    from liecontrol.control.constrained import SampledSafeConstrainedPD
+
+    kR, kW = gains_from_bandwidth(J, 0.3, 0.9)
+    keep_out, keep_in = _cones()
+    return SampledSafeConstrainedPD(J * 1.05, kR, kW, keep_out, keep_in, max_torque=max_torque,
+                                    sample_period=PERIOD, **kw)  # fmt: skip
+
+
+_SAFE_DIAG = ("Psi", "e_R", "e_Omega", "min_slack", "braking_margin", "margin")
+
+
+@pytest.mark.parametrize("actuator", ["sgcmg", "ideal"])
+def test_sampled_safe_filter_equals_fused_simulate(actuator, jax):
+    R0, w0 = _starts()
+    w0 = w0 + np.array([0.0, 0.0, -0.05])  # turning toward the keep-out cone: the filter acts
+    _, run, want = _fly(_sampled(), _plant(actuator, 3.0), 40.0, R0, w0, diag=_SAFE_DIAG,
+                        flags=("filter_active",))  # fmt: skip
+    assert want.controller["filter_active"].any()  # the safety filter changes the command
+    assert want.controller["margin"].min() > 0.0
+    if actuator == "ideal":
+        assert want.actuator["saturated"].any()
+
+
+def test_sampled_safe_gradient_finite_through_the_filter(jax):
+    from spacecraft.differentiable import closed_loop
+
+    ctrl = _sampled()
+    loop = closed_loop(_plant("ideal", 3.0), ctrl, _REF, 20.0, DT, PERIOD)
+    R0, w0 = _starts()
+    w0 = w0 + np.array([0.0, 0.0, -0.05])
+    run = loop.run(R0, w0)
+    assert run.controller["filter_active"].any() and run.actuator["saturated"].any()
+    R0 = np.concatenate([_REF.R_d[None], R0[:2]])
+    w0 = np.array([[0.01, -0.01, 0.02], *w0[:2]])
+    v, gR, gW = loop.value_and_grad(
+        ctrl.nominal.k_R, ctrl.nominal.k_Omega, R0, w0, effort_weight=0.01
+    )
+    assert np.isfinite(v) and np.isfinite(gR).all() and np.isfinite(gW).all()
+    assert np.any(gR != 0.0) and np.any(gW != 0.0)
+    # the filter's arccos at a boresight exactly on a cone's axis (|c| = 1): finite derivative
+    from liecontrol.control.constrained import braking_filter
+
+    jnp = jax.numpy
+    keep_out, keep_in = _cones()
+    R_on_axis = _REF.R_d  # body z exactly along the keep-in cone's axis
+
+    def f(w):
+        u, *_ = braking_filter(jnp.ones(3), jnp.asarray(R_on_axis), w, J, keep_out + keep_in,
+                               np.full(3, 3.0), PERIOD)  # fmt: skip
+        return jnp.sum(u * u)
+
+    assert np.isfinite(np.asarray(jax.grad(f)(jnp.asarray([0.01, 0.02, -0.03])))).all()
+
+
+def test_sampled_safe_registry_configuration_flies(jax, caplog):
+    _suite_equal(["geometric-keep-out-sampled"], caplog, ("keep-out-sun-slew",))
+
+
+def test_sampled_safe_strict_is_refused_naming_the_attribute(jax):
+    from spacecraft.differentiable import closed_loop
+
+    with pytest.raises(ValueError, match=r"^controller\.strict: "):
+        closed_loop(_plant("ideal", 3.0), _sampled(strict=True), _REF, 10.0, DT, PERIOD)

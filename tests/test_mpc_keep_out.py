@@ -8,7 +8,12 @@ import numpy as np
 import pytest
 
 from liecontrol.control.base import AttitudeReference, AttitudeState
-from liecontrol.control.constrained import KeepInCone, KeepOutCone, cone_margins_deg
+from liecontrol.control.constrained import (
+    KeepInCone,
+    KeepOutCone,
+    UnrecoverableStartWarning,
+    cone_margins_deg,
+)
 from liecontrol.control.mpc import SLACK_TOLERANCE, SO3MPC, _cone_rows, _cone_table
 from liecontrol.lie import so3
 
@@ -134,7 +139,11 @@ def test_slack_is_reported_and_logged(caplog: pytest.LogCaptureFixture) -> None:
     c.reset(0.0, 1)
     st = AttitudeState(R[None], np.radians([[-2.0, 0.0, 0.0]]))
     ref = AttitudeReference(np.eye(3), np.zeros(3), np.zeros(3))
-    with caplog.at_level(logging.WARNING, logger="liecontrol.control.mpc"):
+    # the safety filter sees the same start: no braking can keep it out (warned, not silent)
+    with (
+        caplog.at_level(logging.WARNING, logger="liecontrol.control.mpc"),
+        pytest.warns(UnrecoverableStartWarning, match="keep-out cone 0"),
+    ):
         c.command(0.0, st, ref)
     d = c.diagnostics()
     assert d["status"][0] == 1

@@ -26,6 +26,7 @@ from liecontrol.control.constrained import (
     SampledSafeConstrainedPD,
     UnrecoverableStartWarning,
     braking_filter,
+    braking_margins_deg,
 )
 from liecontrol.control.reference import ConstantAttitude
 from liecontrol.control.tuning import ClosedLoopSpec, tune_geometric_pd
@@ -97,6 +98,7 @@ def _kernel_filter(u, R, w, cones, umax, T, eta, buf_deg):
     lam = float(np.linalg.eigvalsh(J)[-1])
     filt = np.concatenate(
         [umax, [T, eta, math.radians(buf_deg), lam], np.linalg.inv(J).ravel(), [0.0]]
+        + [[float(np.linalg.norm(umax)) / float(np.linalg.eigvalsh(J)[0])]]
         + [[math.radians(c.half_angle_deg) for c in cones]]
     )
     assert filt.shape == (FILTER_HEAD + len(cones),)
@@ -270,3 +272,100 @@ def test_the_fused_loop_warns_of_an_unrecoverable_start_before_its_first_step(mo
         warnings.simplefilter("error", UnrecoverableStartWarning)
         simulate(plant, _ctrl(1.0), ref, x0, 4.0, 0.05, control_period=1.0)
     assert entered == [1]
+
+
+# ------------------------------------- the largest admissible approach acceleration (closed form)
+def _h_after_period(a, m, v, a_b, T, buf):
+    vp = np.maximum(v + a * T, 0.0)
+    return (m - v * T - 0.5 * a * T * T) - vp * T - vp * vp / (2.0 * a_b) - buf
+
+
+def _bisected(m, v, a_b, a_hi, T, buf):
+    # the independent route: 200 halvings in float64 reach the root to the last bit
+    lo, hi = np.minimum(-a_b, a_hi), np.array(a_hi, dtype=float)
+    ok_hi = _h_after_period(hi, m, v, a_b, T, buf) >= 0.0
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        good = _h_after_period(mid, m, v, a_b, T, buf) >= 0.0
+        lo, hi = np.where(good, mid, lo), np.where(good, hi, mid)
+    return np.where(ok_hi, a_hi, lo)
+
+
+def test_largest_approach_acceleration_is_the_clipped_root_on_both_branches():
+    from liecontrol._kernels.constrained import largest_approach_acceleration_one
+    from liecontrol.control.constrained import largest_approach_acceleration
+
+    rng = np.random.default_rng(5)
+    N = 20_000
+    T = rng.choice([0.05, 0.1, 0.5, 2.0], size=N)
+    buf = math.radians(0.5)
+    a_b = 10.0 ** rng.uniform(-5, -1, size=N)
+    m = rng.uniform(-0.05, 0.5, size=N)
+    v = rng.normal(size=N) * 10.0 ** rng.uniform(-4, -1, size=N)
+    a_hi = rng.normal(size=N) * 10.0 ** rng.uniform(-4, 0, size=N)
+    # dense around the branch switch D = m − vT − buffer + ½vT = 0 (v' = 0 at the root)
+    k = N // 4
+    m[:k] = v[:k] * T[:k] * 0.5 + buf + rng.normal(size=k) * 10.0 ** rng.uniform(-16, -6, size=k)
+    a_hi[:k] = np.abs(a_hi[:k]) + 1.0  # the root is inside the interval
+    got = largest_approach_acceleration(m, v, a_b, a_hi, T, buf)
+    want = _bisected(m, v, a_b, a_hi, T, buf)
+    scale = np.abs(m) / T**2 + np.abs(v) / T + np.abs(a_hi) + a_b
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-13 * scale.max())
+    assert np.all(np.abs(got - want) <= 1e-13 * scale)
+    # inside the interval it is the root: the end-of-period margin is 0 to rounding
+    inside = (got < a_hi) & (got > np.minimum(-a_b, a_hi))
+    D = m - v * T - buf + 0.5 * v * T
+    assert (inside & (D > 0)).sum() > N // 20 and (inside & (D <= 0)).sum() > N // 20
+    h = _h_after_period(got, m, v, a_b, T, buf)
+    assert np.all(np.abs(h[inside]) <= 1e-14 * (np.abs(m) + np.abs(v) * T + 1.0)[inside])
+    # the branches meet at D = 0: continuous across the switch (a = −v/T there)
+    d = np.array([-1e-12, -1e-15, 0.0, 1e-15, 1e-12])
+    mm = 0.02 * 0.1 * 0.5 + buf + d
+    a = largest_approach_acceleration(mm, np.full(5, 0.02), 1.0, 10.0, 0.1, buf)
+    assert np.all(np.abs(a - (-0.02 / 0.1)) < 1e-9)
+    # the compiled kernel: the same operations, the same numbers
+    if JIT_ENABLED:
+        one = np.array(
+            [
+                largest_approach_acceleration_one(*x, buf)
+                for x in zip(m, v, a_b, a_hi, T, strict=True)
+            ]
+        )
+        np.testing.assert_array_equal(one, got)
+
+
+# ------------------------------------------- far from a cone: the angle's singular curvature
+@pytest.mark.parametrize("offset", [0.0, 1e-9, 1e-6, 1e-3, 2e-2])
+def test_a_boresight_crossing_a_cone_axis_far_from_the_boundary_is_left_alone(offset):
+    """On a keep-in cone's axis (and opposite a keep-out cone's) the curvature term of the
+    angle's second derivative is unbounded while the boundary is 75° away: the filter must
+    not act, and the margin it reports must be the boundary's distance less a braking distance
+    (was −5·10⁹° and full braking, the keep-in-keep-out scenario's antenna mid-slew)."""
+    umax = np.full(3, 300.0)
+    T = 0.1
+    # the scenario's slew about body x: at 60° body y (the antenna) is on the keep-in axis
+    # (0, cos 60°, sin 60°), `offset` rad past it; body x is 55° clear of the Earth cone
+    R = so3.exp(np.array([[math.radians(60.0) + offset, 0.0, 0.0]]))
+    y_target = R[0, :, 1]
+    # the antenna sweeps across its axis at 0.03 rad/s (the scenario's mid-slew rate)
+    w = np.array([[0.03, 0.0, 0.0], [0.03, 0.0, 0.004], [-0.02, 0.001, 0.02]])
+    R = np.broadcast_to(R, (3, 3, 3))
+    u = np.array([[17.6, -19.8, 50.3], [40.0, 10.0, -60.0], [-100.0, 30.0, 5.0]])
+    for cones in ((ANTENNA,), (EARTH, ANTENNA)):
+        ref = braking_filter(u, R, w, J, cones, umax, T, 0.7, 0.5)
+        got = _kernel_filter(u, R, w, cones, umax, T, 0.7, 0.5)
+        for out in (ref, got):
+            assert not np.any(out[1])  # the filter leaves the command alone
+            np.testing.assert_array_equal(out[0], u)
+        k = len(cones) - 1  # the antenna's column
+        h = np.degrees(ref[2][:, k])
+        m = np.degrees(ref[3][:, k])
+        assert np.all(m > 73.0)
+        assert np.all(h > m - 5.0) and np.all(h <= m)  # less a braking distance of a few °
+        np.testing.assert_allclose(got[2], ref[2], rtol=1e-12, atol=1e-12)
+        margins = braking_margins_deg(cones, R, w, J, umax, T)
+        np.testing.assert_allclose(np.radians(margins), ref[2], rtol=1e-12, atol=1e-14)
+    # a keep-out cone's far side (boresight opposite its axis): left alone as well
+    far = KeepOutCone((0.0, 1.0, 0.0), tuple(-y_target), 20.0)
+    out = braking_filter(u, R, w, J, (far,), umax, T, 0.7, 0.5)
+    assert not np.any(out[1]) and np.all(np.degrees(out[2]) > 158.0)

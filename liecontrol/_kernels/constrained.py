@@ -116,17 +116,32 @@ def constrained_pd_law(
 #: smallest braking margin h [rad], the smallest geometric margin m [rad], filter active (0/1)
 N_DIAG_SAFE = N_DIAG + 3
 #: the filter's block after the barrier law's parameters: u_max (3), T, η, buffer [rad],
-#: λ_max(J), J⁻¹ (9), strict (0/1), then the half angle [rad] of each cone
-FILTER_HEAD = 17
+#: λ_max(J), J⁻¹ (9), strict (0/1), ‖u_max‖/λ_min(J), then the half angle [rad] of each cone
+FILTER_HEAD = 18
 #: columns of the filter's work array, one row per cone
-_H, _M, _V, _AB, _AF, _P, _AS = 0, 1, 2, 3, 4, 5, 8
-N_WORK = 9
+_H, _M, _V, _AB, _AF, _P, _AS, _RE = 0, 1, 2, 3, 4, 5, 8, 9
+N_WORK = 10
 
 
 @njit
 def _h_one(m: float, v: float, a_b: float, T: float, buf: float) -> float:
     vp = max(v, 0.0)
     return m - vp * T - vp * vp / (2.0 * a_b) - buf
+
+
+@njit(inline="always")
+def largest_approach_acceleration_one(
+    m: float, v: float, a_b: float, a_hi: float, T: float, buf: float
+) -> float:
+    """``constrained.largest_approach_acceleration`` for one cone (same operations, same
+    order): the root of the end-of-period braking margin in the approach acceleration, clipped
+    to ``[min(−a_b, a_hi), a_hi]``."""
+    C = m - v * T - buf
+    D = C + 0.5 * v * T
+    Dp = max(D, 0.0)
+    y = 2.0 * Dp / (1.5 * T + math.sqrt(2.25 * T * T + 2.0 * Dp / a_b))
+    root = (y - v) / T if D > 0.0 else 2.0 * C / (T * T)
+    return min(max(root, min(-a_b, a_hi)), a_hi)
 
 
 @njit
@@ -147,6 +162,11 @@ def braking_filter_one(
     w0, w1, w2 = w[0], w[1], w[2]
     jw0, jw1, jw2 = matvec3(J, w0, w1, w2)
     gy0, gy1, gy2 = w1 * jw2 - w2 * jw1, w2 * jw0 - w0 * jw2, w0 * jw1 - w1 * jw0
+    # the curvature-free certificate's terms (constrained._cone_certificates)
+    r0, r1, r2 = matvec3(Ji, gy0, gy1, gy2)
+    g_acc = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
+    a_s = max(eta * umin / lam - g_acc, 1e-12)
+    w_norm = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
     for i in range(n):
         cone = cones[i]
         b0, b1, b2 = cone[0], cone[1], cone[2]
@@ -175,22 +195,20 @@ def braking_filter_one(
         row[_P + 2] = k * q2
         a_b = max(eta * umin / lam - max(a_free, 0.0), 1e-12)
         row[_AB] = a_b
-        row[_H] = _h_one(row[_M], row[_V], a_b, T, buf)
-        # largest admissible approach acceleration: h after one period ≥ 0 (bisection)
+        m = row[_M]
+        ws = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)  # ‖Rᵀs × ω‖
+        row[_H] = max(_h_one(m, row[_V], a_b, T, buf), _h_one(m, ws, a_s, T, buf))
+        acc = filt[17] + g_acc + w_norm * ws
+        reach = _h_one(m - ws * T - 0.5 * acc * T * T, ws + acc * T, a_s, T, buf) >= 0.0
+        row[_RE] = 1.0 if reach else 0.0
+        # largest admissible approach acceleration: h after one period ≥ 0 (closed form); a
+        # cone out of reach this period gets the box's largest, a_hi (it constrains nothing)
         a_hi = a_free + (abs(row[_P]) * filt[0] + abs(row[_P + 1]) * filt[1]
                          + abs(row[_P + 2]) * filt[2])  # fmt: skip
-        lo, hi = min(-a_b, a_hi), a_hi
-        m, v = row[_M], row[_V]
-        if _h_one(m - v * T - 0.5 * hi * T * T, v + hi * T, a_b, T, buf) >= 0.0:
+        if reach:
             row[_AS] = a_hi
-            continue
-        for _ in range(30):
-            mid = 0.5 * (lo + hi)
-            if _h_one(m - v * T - 0.5 * mid * T * T, v + mid * T, a_b, T, buf) >= 0.0:
-                lo = mid
-            else:
-                hi = mid
-        row[_AS] = lo
+        else:
+            row[_AS] = largest_approach_acceleration_one(m, row[_V], a_b, a_hi, T, buf)
     # sequential projection, most critical cone (smallest h) last: a stable sort by −h, as
     # numpy's argsort does on so few values
     order = np.empty(n, dtype=np.int64)
@@ -216,7 +234,7 @@ def braking_filter_one(
     for i in range(n):
         row = work[i]
         acc = row[_AF] + (row[_P] * u[0] + row[_P + 1] * u[1] + row[_P + 2] * u[2])
-        if acc > row[_AS] + 1e-12 * abs(row[_AS]):
+        if row[_RE] == 0.0 and acc > row[_AS] + 1e-12 * abs(row[_AS]):
             viol = True
     if viol:
         row = work[order[n - 1]]

@@ -74,7 +74,7 @@ from typing import Any
 
 import numpy as np
 
-from .._array_api import namespace
+from .._array_api import any_true, namespace
 from .._kernels.constrained import (
     N_DIAG,
     N_DIAG_SAFE,
@@ -568,20 +568,21 @@ def _check_max_torque(u: object) -> np.ndarray:
     return a
 
 
-def _approach_terms(
-    R: np.ndarray, w: np.ndarray, J: np.ndarray, cone: _Cone
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """For one cone at ``(R, ω)`` ``(B, 3, 3), (B, 3)``: margin ``m`` [rad] ``(B,)``, approach
-    rate ``v = −ṁ`` ``(B,)``, and the approach acceleration ``−m̈ = a_free + pᵀu`` split into
-    the torque-free part ``a_free`` ``(B,)`` (gyroscopic and curvature terms) and ``p`` ``(B,
-    3)`` (``p = σ J⁻¹ g / sin φ``)."""
-    s_body = np.swapaxes(R, -1, -2) @ cone._s  # Rᵀs
-    c = np.clip(s_body @ cone._b, -1.0, 1.0)
-    phi = np.arccos(c)
-    sphi = np.maximum(np.sin(phi), 1e-9)
-    b = np.broadcast_to(cone._b, s_body.shape)
+def _approach_terms(R: Any, w: Any, J: np.ndarray, cone: _Cone) -> tuple[Any, Any, Any, Any]:
+    """For one cone at ``(R, ω)`` ``(..., 3, 3), (..., 3)``: margin ``m`` [rad] ``(...)``,
+    approach rate ``v = −ṁ`` ``(...)``, and the approach acceleration ``−m̈ = a_free + pᵀu``
+    split into the torque-free part ``a_free`` ``(...)`` (gyroscopic and curvature terms) and
+    ``p`` ``(..., 3)`` (``p = σ J⁻¹ g / sin φ``). Pure, NumPy or JAX: ``arccos`` is evaluated
+    off ``|c| = 1`` (its derivative is infinite there; the values 0 and π are exact)."""
+    xp = namespace(R, w)
+    s_body = xp.swapaxes(R, -1, -2) @ cone._s  # Rᵀs
+    c = xp.clip(s_body @ cone._b, -1.0, 1.0)
+    inside = xp.abs(c) < 1.0
+    phi = xp.where(inside, xp.arccos(xp.where(inside, c, 0.0)), xp.where(c > 0.0, 0.0, np.pi))
+    sphi = xp.maximum(xp.sin(phi), 1e-9)
+    b = xp.broadcast_to(cone._b, s_body.shape)
     g = _cross(b, s_body)  # ∇c: ċ = gᵀω
-    c_dot = np.sum(g * w, axis=-1)
+    c_dot = xp.sum(g * w, axis=-1)
     g_dot = _cross(b, _cross(s_body, w))  # d/dt(b × Rᵀs), Rᵀs' = Rᵀs × ω
     Jinv = np.linalg.inv(J)
     gyro = _cross(w, w @ J.T)  # ω × Jω
@@ -591,26 +592,67 @@ def _approach_terms(
     alpha = math.radians(cone.half_angle_deg)
     m = sigma * (phi - alpha)
     v = -sigma * (-c_dot / sphi)
-    curv = (np.sum(g_dot * w, axis=-1) - np.sum(Jg * gyro, axis=-1)) / sphi
+    curv = (xp.sum(g_dot * w, axis=-1) - xp.sum(Jg * gyro, axis=-1)) / sphi
     curv = curv + c_dot**2 * c / sphi**3
     a_free = sigma * curv  # −m̈ = −σ φ̈ = σ(c̈/sinφ + ċ² cosφ/sin³φ)
-    p = (sigma / sphi)[:, None] * Jg
+    p = (sigma / sphi)[..., None] * Jg
     return m, v, a_free, p
 
 
-def _braking_decel(
-    a_free: np.ndarray, u_max: np.ndarray, lam_max: float, efficiency: float
-) -> np.ndarray:
+def _braking_decel(a_free: Any, u_max: np.ndarray, lam_max: float, efficiency: float) -> Any:
     """Deceleration of the approach the torque bound certifies [rad/s²]: ``η u_min/λ_max(J)``
     less any adverse torque-free acceleration (``‖J⁻¹ĝ‖₁ ≥ 1/λ_max`` for every approach
-    direction, so the bound holds while the geometry turns)."""
-    return np.maximum(efficiency * float(u_max.min()) / lam_max - np.maximum(a_free, 0.0), 1e-12)
+    direction, so the bound holds while the geometry turns); floored, so the braking distance's
+    division stays finite."""
+    xp = namespace(a_free)
+    return xp.maximum(efficiency * float(u_max.min()) / lam_max - xp.maximum(a_free, 0.0), 1e-12)
 
 
-def _h(m: np.ndarray, v: np.ndarray, a_b: np.ndarray, T: float, buf: float) -> np.ndarray:
+def _h(m: Any, v: Any, a_b: Any, T: float, buf: float) -> Any:
     """Braking-distance-augmented margin ``m − v₊T − v₊²/(2a_b) − buffer`` [rad]."""
-    vp = np.maximum(v, 0.0)
+    vp = namespace(m, v).maximum(v, 0.0)
     return m - vp * T - vp * vp / (2.0 * a_b) - buf
+
+
+def _cone_certificates(
+    R: Any, w: Any, J: np.ndarray, cones: Sequence[_Cone], umax: np.ndarray, lam_max: float,
+    efficiency: float, T: float, buf: float,
+) -> tuple[Any, ...]:  # fmt: skip
+    """Per cone at ``(R, ω)``: ``(m, v, a_free, p, a_b, h, reach)`` — the double-integrator
+    terms (:func:`_approach_terms`, :func:`_braking_decel`), the braking margin ``h`` [rad] and
+    whether the cone is **out of reach** for the coming period (the filter leaves it alone).
+
+    The distance to a cone, the angle φ to its axis, is singular on the axis (keep-in) and
+    opposite it (keep-out): its torque-free curvature ``ċ²cosφ/sin³φ`` grows without bound
+    there although the boundary is far (a boresight crossing a 75° keep-in cone's axis at
+    0.03 rad/s certified a margin of −5·10⁹ degrees and braked at full torque 72° from the
+    boundary). So a second, curvature-free certificate runs beside it, from the speed of the
+    cone's direction in the body, ``ω_s = ‖Rᵀs × ω‖ ≥ |φ̇|``: treated as if all of it were
+    approach along a geodesic (no curvature), ``h_s = m − ω_s T − ω_s²/(2a_s) − buffer`` with
+    ``a_s = η u_min/λ_max − ‖J⁻¹(ω × Jω)‖``. The reported margin is ``max(h, h_s)`` (either
+    certifies). The cone is out of reach when ``h_s`` stays ``≥ 0`` at the period's end for
+    every command in the box: ``ω_s`` grows by at most ``A T`` with ``A = ‖u_max‖/λ_min +
+    ‖J⁻¹(ω × Jω)‖ + ‖ω‖ ω_s`` (the direction's acceleration ``Rᵀs × ω̇ + (Rᵀs × ω) × ω``, the
+    rate and gyroscopic term frozen at the sample as elsewhere in the filter) and ``m`` falls by
+    at most ``ω_s T + ½AT²``."""
+    xp = namespace(R, w)
+    terms = [_approach_terms(R, w, J, c) for c in cones]
+    m = xp.stack([x[0] for x in terms], axis=-1)
+    v = xp.stack([x[1] for x in terms], axis=-1)
+    a_free = xp.stack([x[2] for x in terms], axis=-1)
+    p = xp.stack([x[3] for x in terms], axis=-2)  # (..., n, 3)
+    a_b = _braking_decel(a_free, umax, lam_max, efficiency)
+    s_body = xp.stack([xp.swapaxes(R, -1, -2) @ c._s for c in cones], axis=-2)  # (..., n, 3)
+    w_n = w[..., None, :]
+    ws = xp.sqrt(xp.sum(_cross(s_body, xp.broadcast_to(w_n, s_body.shape)) ** 2, axis=-1))
+    gyro = (_cross(w, w @ J.T)) @ np.linalg.inv(J).T  # J⁻¹(ω × Jω)
+    g_acc = xp.sqrt(xp.sum(gyro * gyro, axis=-1))[..., None]
+    a_s = xp.maximum(efficiency * float(umax.min()) / lam_max - g_acc, 1e-12)
+    u_acc = float(np.linalg.norm(umax)) / float(np.linalg.eigvalsh(J)[0])
+    A = u_acc + g_acc + xp.sqrt(xp.sum(w * w, axis=-1))[..., None] * ws
+    h = xp.maximum(_h(m, v, a_b, T, buf), _h(m, ws, a_s, T, buf))
+    reach = _h(m - ws * T - 0.5 * A * T * T, ws + A * T, a_s, T, buf) >= 0.0
+    return m, v, a_free, p, a_b, h, reach
 
 
 def braking_margins_deg(
@@ -627,7 +669,10 @@ def braking_margins_deg(
     ``m − v₊T − v₊²/(2a_b) − buffer``, ``m`` the geometric margin, ``v`` the rate at which the
     boresight approaches the boundary, ``T`` the sample period (one period may pass before a
     new command acts) and ``a_b`` the approach deceleration the torque bound certifies
-    (:class:`SampledSafeConstrainedPD`). Negative: from this state the torque bound cannot be
+    (:class:`SampledSafeConstrainedPD`), or the curvature-free margin from the speed of the
+    cone's direction in the body where it is larger (far from the boundary, where the angle's
+    curvature is unbounded: on a keep-in cone's axis, opposite a keep-out cone's). Negative:
+    from this state the torque bound cannot be
     certified to stop the boresight before the boundary at this sample period (the
     unrecoverable set, up to the certificate's conservatism)."""
     cones = _cones(cones, "cones", _Cone)
@@ -646,12 +691,10 @@ def braking_margins_deg(
         raise ValueError(f"sample_period: must be > 0 [s], got {T}")
     eta = _efficiency(efficiency)
     buf = math.radians(as_scalar(buffer_deg, "buffer_deg"))
+    if not cones:
+        return np.zeros((R.shape[0], 0))
     lam = float(np.linalg.eigvalsh(J)[-1])
-    out = []
-    for cone in cones:
-        m, v, a_free, _ = _approach_terms(R, w, J, cone)
-        out.append(np.degrees(_h(m, v, _braking_decel(a_free, u, lam, eta), T, buf)))
-    return np.stack(out, axis=-1) if out else np.zeros((R.shape[0], 0))
+    return np.degrees(_cone_certificates(R, w, J, cones, u, lam, eta, T, buf)[5])
 
 
 def _efficiency(e: object) -> float:
@@ -661,10 +704,35 @@ def _efficiency(e: object) -> float:
     return v
 
 
+def largest_approach_acceleration(m: Any, v: Any, a_b: Any, a_hi: Any, T: float, buf: float) -> Any:
+    """The largest approach acceleration ``a`` held over one period ``T`` that keeps the
+    braking-distance-augmented margin ``≥ 0`` at the period's end, within ``[min(−a_b, a_hi),
+    a_hi]`` (``a_hi`` the largest the torque box can produce) [rad/s²]. Element-wise, NumPy or
+    JAX.
+
+    After the period ``m' = m − vT − ½aT²``, ``v' = v + aT`` and ``h'(a) = m' − v'₊T −
+    v'₊²/(2a_b) − buffer`` decreases strictly with ``a``, so the answer is its root clipped to
+    the interval. With ``C = m − vT − buffer`` and ``D = C + ½vT`` (``= h'`` at ``v' = 0``): for
+    ``D ≤ 0`` the root has ``v' ≤ 0`` and ``h'`` is linear, ``a = 2C/T²``; for ``D > 0`` it has
+    ``v' = y > 0`` solving ``y²/(2a_b) + (3/2)Ty − D = 0``, ``y = 2D/((3/2)T + √((9/4)T² +
+    2D/a_b))`` (the form without cancellation), ``a = (y − v)/T``. Both branches meet at ``D =
+    0`` (``a = −v/T``), so ``a`` is continuous in the state: the NumPy, compiled and JAX routes
+    agree to rounding (a bisection to 2⁻³⁰ of the interval, used before, left a staircase whose
+    steps the routes' last bits could flip) and the derivative is finite on both branches
+    (``T > 0`` keeps the square root away from 0)."""
+    xp = namespace(m, v, a_b, a_hi)
+    C = m - v * T - buf
+    D = C + 0.5 * v * T
+    Dp = xp.maximum(D, 0.0)
+    y = 2.0 * Dp / (1.5 * T + xp.sqrt(2.25 * T * T + 2.0 * Dp / a_b))
+    root = xp.where(D > 0.0, (y - v) / T, 2.0 * C / (T * T))
+    return xp.minimum(xp.maximum(root, xp.minimum(-a_b, a_hi)), a_hi)
+
+
 def braking_filter(
-    u: np.ndarray,
-    R: np.ndarray,
-    w: np.ndarray,
+    u: Any,
+    R: Any,
+    w: Any,
     J: np.ndarray,
     cones: Sequence[AttitudeCone],
     umax: np.ndarray,
@@ -672,64 +740,52 @@ def braking_filter(
     efficiency: float = 0.7,
     buffer_deg: float = 0.5,
     lam_max: float | None = None,
-) -> tuple[np.ndarray, ...]:
+) -> tuple[Any, ...]:
     """The one-step safety filter of :class:`SampledSafeConstrainedPD` applied to any command
-    ``u`` ``(B, 3)`` within the torque bound ``umax`` at ``(R, ω)`` ``(B, 3, 3), (B, 3)``: the
-    command held over ``T`` keeps the predicted braking-distance-augmented margin of every cone
-    ``≥ 0`` (equations and assumptions in the class docstring). Validated input only (the
-    callers'). Returns ``(u, active (B,), h (B, n) [rad], m (B, n) [rad], v (B, n), a_b (B,
-    n))``: the filtered command, where the filter changed it, and the start-of-period margins
-    the warning of an unrecoverable start is built from."""
+    ``u`` ``(..., 3)`` within the torque bound ``umax`` at ``(R, ω)`` ``(..., 3, 3), (..., 3)``:
+    the command held over ``T`` keeps the predicted braking-distance-augmented margin of every
+    cone ``≥ 0`` (equations and assumptions in the class docstring). Validated input only (the
+    callers'); pure, NumPy or JAX (the array law flies it), leading axes broadcast. Returns
+    ``(u, active (...), h (..., n) [rad], m (..., n) [rad], v (..., n), a_b (..., n))``: the
+    filtered command, where the filter changed it, and the start-of-period margins the warning
+    of an unrecoverable start is built from."""
+    xp = namespace(u, R, w)
     if lam_max is None:
         lam_max = float(np.linalg.eigvalsh(J)[-1])
     buf = math.radians(buffer_deg)
-    B = R.shape[0]
-    terms = [_approach_terms(R, w, J, c) for c in cones]
-    m = np.stack([x[0] for x in terms], axis=-1)
-    v = np.stack([x[1] for x in terms], axis=-1)
-    a_free = np.stack([x[2] for x in terms], axis=-1)
-    p = np.stack([x[3] for x in terms], axis=1)  # (B, n, 3)
-    a_b = _braking_decel(a_free, umax, lam_max, efficiency)
-    h0 = _h(m, v, a_b, T, buf)
-    active = np.zeros(B, dtype=bool)
-    # largest admissible approach acceleration a* per cone: h(m', v') ≥ 0 after one period,
-    # m' = m − vT − ½aT², v' = v + aT (h' decreases with a: bisection on [−a_b, a_hi])
-    a_hi = a_free + np.einsum("bnk,k->bn", np.abs(p), umax)
-    lo = np.minimum(-a_b, a_hi)
-    hi = a_hi.copy()
-
-    def h_next(a: np.ndarray) -> np.ndarray:
-        return _h(m - v * T - 0.5 * a * T * T, v + a * T, a_b, T, buf)
-
-    ok_hi = h_next(hi) >= 0.0
-    for _ in range(30):
-        mid = 0.5 * (lo + hi)
-        good = h_next(mid) >= 0.0
-        lo = np.where(good, mid, lo)
-        hi = np.where(good, hi, mid)
-    a_star = np.where(ok_hi, a_hi, lo)
+    m, v, a_free, p, a_b, h0, reach = _cone_certificates(
+        R, w, J, cones, umax, lam_max, efficiency, T, buf
+    )
+    active = xp.zeros(u.shape[:-1], dtype=bool)
+    # largest admissible approach acceleration a* per cone (closed form, see the function); a
+    # cone out of reach this period gets the box's largest, a_hi: it constrains nothing
+    a_hi = a_free + xp.einsum("...nk,k->...n", xp.abs(p), umax)
+    a_star = xp.where(reach, a_hi, largest_approach_acceleration(m, v, a_b, a_hi, T, buf))
     # sequential projection of the command onto pᵀu ≤ a* − a_free, most critical cone last
-    order = np.argsort(-h0, axis=-1)
+    # (a stable sort by −h, as the compiled kernel's)
+    order = xp.argsort(-h0, axis=-1)
+    room = a_star - a_free
     for j in range(len(cones)):
-        idx = order[:, j]
-        pj = p[np.arange(B), idx]
-        lim = (a_star - a_free)[np.arange(B), idx]
-        excess = np.sum(pj * u, axis=-1) - lim
+        idx = order[..., j : j + 1]
+        pj = xp.take_along_axis(p, idx[..., None], axis=-2)[..., 0, :]
+        lim = xp.take_along_axis(room, idx, axis=-1)[..., 0]
+        excess = xp.sum(pj * u, axis=-1) - lim
         need = excess > 0.0
-        if np.any(need):
-            pn2 = np.maximum(np.sum(pj * pj, axis=-1), 1e-300)
-            u = np.where(need[:, None], u - (excess / pn2)[:, None] * pj, u)
-            u = np.clip(u, -umax, umax)
-            active |= need
+        if any_true(need, xp):
+            # the floor guards the division where p vanishes (on the branch not taken)
+            pn2 = xp.maximum(xp.sum(pj * pj, axis=-1), 1e-300)
+            u = xp.where(need[..., None], u - (excess / pn2)[..., None] * pj, u)
+            u = xp.clip(u, -umax, umax)
+            active = active | need
     # still violated after clipping: full braking for the most critical cone
-    acc = a_free + np.einsum("bnk,bk->bn", p, u)
-    viol = np.any(acc > a_star + 1e-12 * np.abs(a_star), axis=-1)
-    if np.any(viol):
-        crit = order[:, -1]
-        pc = p[np.arange(B), crit]
-        brake = -np.sign(pc) * umax
-        u = np.where(viol[:, None], brake, u)
-        active |= viol
+    acc = a_free + xp.einsum("...nk,...k->...n", p, u)
+    viol = xp.any(~reach & (acc > a_star + 1e-12 * xp.abs(a_star)), axis=-1)
+    if any_true(viol, xp):
+        crit = order[..., -1:]
+        pc = xp.take_along_axis(p, crit[..., None], axis=-2)[..., 0, :]
+        brake = -xp.sign(pc) * umax
+        u = xp.where(viol[..., None], brake, u)
+        active = active | viol
     return u, active, h0, m, v, a_b
 
 
@@ -801,13 +857,24 @@ class SampledSafeConstrainedPD(AttitudeController):
     is full braking ``u = −u_max sign(p)`` for the most critical cone. For the double-integrator
     model ``{h ≥ 0}`` is forward invariant under full braking (``h`` grows by at least
     ``a_b T²`` per braking period while ``v > a_b T``), so a start with ``h ≥ 0`` never reaches
-    the boundary.
+    the boundary. The admissible approach acceleration is the root of the end-of-period margin
+    in closed form (:func:`largest_approach_acceleration`).
+
+    **Far from a cone.** The angle to a cone's axis is not smooth on the axis (keep-in) or
+    opposite it (keep-out), where the curvature term of ``−m̈`` is unbounded though the boundary
+    is far; a curvature-free certificate from the speed of the cone's direction in the body
+    (``ω_s = ‖Rᵀs × ω‖ ≥ |φ̇|``, counted as approach along a geodesic) runs beside it: the
+    margin is the larger of the two, and a cone whose straight-line margin stays ``≥ 0`` over
+    the period for every command in the box constrains nothing (equations in the module's
+    ``_cone_certificates``).
 
     **Assumptions.** The model is exact (inertia, no disturbance) and the torque bound is the
     actuator's (per axis, delivered within a sample); the approach geometry is predicted from
     the sample (the curvature of a keep-out cone's distance is favourable below 90° and is
     dropped from the braking budget; ``η`` < 1 covers the turning of the approach direction
-    within a period); the cones are separated (one critical cone at a time); ``v T`` covers one
+    within a period, the rate and gyroscopic term are frozen over a period in the out-of-reach
+    test); the cones are separated (one critical cone at a time); no keep-in cone is so narrow
+    that its boundary lies within one braking distance of its axis; ``v T`` covers one
     period of delay, not more (no computation delay beyond the zero-order hold). From a start
     with ``h < 0`` (:func:`braking_margins_deg`, the unrecoverable set up to the certificate's
     conservatism) the first ``command`` warns (:class:`UnrecoverableStartWarning`; ``strict``:
@@ -926,6 +993,41 @@ class SampledSafeConstrainedPD(AttitudeController):
         """Last diagnostics (class docstring); empty before the first command."""
         return dict(self._diag)
 
+    def array_law(self) -> ArrayLaw:
+        """The law as a pure array function for the differentiable loop
+        (:mod:`liecontrol.control.array_law`): the nominal barrier law's
+        (:meth:`ConstrainedGeometricPD.array_law`), clipped to the torque box, then
+        :func:`braking_filter` — the functions :meth:`command` calls — at ``sample_period``;
+        the state is the nominal law's (its first-sample flag), ``barrier_weight`` a further
+        parameter. The warning of an unrecoverable start (:func:`braking_margins_deg` < 0 at the
+        first sample) is not issued on this route (the logged ``braking_margin`` shows it);
+        ``strict``, which refuses such a start, is refused (``ValueError`` naming
+        ``controller.strict``)."""
+        if self.strict:
+            raise ValueError(
+                "controller.strict: the array law cannot refuse an unrecoverable start (it has "
+                "no hook before the first sample); use strict=False and check "
+                "braking_margins_deg, or the numba loop"
+            )
+        nom = self.nominal.array_law()
+        cones = self.keep_out + self.keep_in
+        J, umax, T = np.array(self.J), np.array(self.max_torque), self.sample_period
+        eta, buf, lam = self.efficiency, self.buffer_deg, self._lam_max
+
+        def step(k_R, k_Omega, state, R, omega, R_d, omega_d, omega_dot_d, T_loop, *, params):  # noqa: ANN001
+            u, state, d = nom.step(k_R, k_Omega, state, R, omega, R_d, omega_d, omega_dot_d,
+                                   T_loop, params=params)  # fmt: skip
+            xp = namespace(u)
+            u = xp.clip(u, -umax, umax)
+            if not cones:
+                return u, state, d
+            u, active, h0, m, _, _ = braking_filter(u, R, omega, J, cones, umax, T, eta, buf, lam)
+            d = {**d, "braking_margin": xp.degrees(h0.min(axis=-1)),
+                 "margin": xp.degrees(m.min(axis=-1)), "filter_active": active}  # fmt: skip
+            return u, state, d
+
+        return ArrayLaw(nom.k_R, nom.k_Omega, nom.state0, step, params=dict(nom.params))
+
     def fused_kernel(
         self, batch_size: int, control_period: float | None = None
     ) -> ControllerKernel | None:
@@ -947,6 +1049,7 @@ class SampledSafeConstrainedPD(AttitudeController):
                 [self._lam_max],
                 np.linalg.inv(self.J).ravel(),
                 [1.0 if self.strict else 0.0],
+                [float(np.linalg.norm(self.max_torque)) / float(np.linalg.eigvalsh(self.J)[0])],
                 [math.radians(c.half_angle_deg) for c in cones],
             ]
         )
