@@ -1180,8 +1180,8 @@ def _simulate_attitude(
 ) -> list[RunOutcome]:
     """Simulate ``pairs`` (same :meth:`Scenario.batch_key`) as one batch; raises on failure.
     ``backend="jax"``: through :func:`spacecraft.simulate`'s JAX route where the batch's
-    configuration has one (one controller instance, no sensors, a reference shared by the
-    members), else the numba loop and one log line (logger ``benchmarks.runner``) saying why."""
+    configuration has one (one controller instance, no sensors), else the numba loop and one
+    log line (logger ``benchmarks.runner``) saying why."""
     from spacecraft.simulator import simulate
 
     sc0 = pairs[0][0]
@@ -1240,11 +1240,13 @@ def _simulate_attitude(
         # one controller (its law, not the timing proxy) flies the JAX route, with or without
         # a compiled kernel: the route asks it for its array law
         single = only.inner if isinstance(only, TimedController) else None
-        why = _jax_refusal(single, sense, pairs, order)
+        why = _jax_refusal(single, sense)
         if why is None:
-            # every member flies the same reference (members differ in start, rate, inertia)
             route = {"backend": "jax"}
-            ref = build_reference(pairs[order[0]][0])
+            if len({repr(pairs[i][0].reference) for i in order}) == 1:
+                # one reference for the batch (members differ in start, rate, inertia): one
+                # set of samples; else each member's own, through vmap with its state
+                ref = build_reference(pairs[order[0]][0])
             run_ctrl = single
         else:
             _LOG.info("backend='jax': %s; %s ran on the numba loop", why, _group_name(pairs))
@@ -1310,9 +1312,7 @@ def _group_name(pairs: Sequence[tuple[Scenario, str]]) -> str:
     return ", ".join(names[:3]) + (f" (+{len(names) - 3})" if len(names) > 3 else "")
 
 
-def _jax_refusal(
-    single: Any, sense: dict, pairs: Sequence[tuple[Scenario, str]], order: list[int]
-) -> str | None:
+def _jax_refusal(single: Any, sense: dict) -> str | None:
     """Why a batch cannot take the JAX route (``None`` when it can, as far as the runner can
     tell: the plant and controller are checked by :func:`spacecraft.differentiable.closed_loop`,
     which names what it does not fly). ``single``: the batch's one controller, or ``None``."""
@@ -1320,8 +1320,6 @@ def _jax_refusal(
         return "the batch stacks several controllers"
     if sense:
         return "sensors in the loop"
-    if len({repr(pairs[i][0].reference) for i in order}) > 1:
-        return "the members follow different references"
     return None
 
 

@@ -48,8 +48,9 @@ and eigenaxis laws, and the chart-based quaternion PD, MRP PD, MRP ADRC and Eule
 their adapters' pure chart conversion — and a user's own), stateful laws carrying their state
 (integrators, observers, adaptive estimates, shadow-set and sign memory, a funnel's or a
 shaping polynomial's start) from one control sample to the next through the scan; a reference
-whose samples share one attitude across the batch (``R_d`` ``(3, 3)``), sampled at the control
-times before the run.
+sampled at the control times before the run, one attitude for the batch (``R_d`` ``(3, 3)``)
+or each member its own (``(B, 3, 3)``: the members' samples travel through ``vmap`` with
+their states, :attr:`JaxClosedLoop.member_refs`).
 
 Compilation: :meth:`JaxClosedLoop.run` pads the batch to a bucket (:func:`padded_size`: the next
 power of two up to 1024, then the next multiple of 1024) so that a Monte Carlo of N members
@@ -234,6 +235,11 @@ class JaxClosedLoop:
     :class:`liecontrol.control.array_law.ArrayLaw` (its pure step and initial state).
     ``disturbance``: the body torque ``t -> (3,)`` added in every RKMK4 stage at the stage's
     time (the plant's own ``ConstantTorque`` / ``ConstantHarmonicTorque``), or ``None``.
+    ``member_refs``: the reference gives each member its own samples; ``R_d`` is then
+    ``(B, 3, 3)`` if constant, else ``(B, n_ctrl + 1, 3, 3)`` (likewise ``omega_d``,
+    ``omega_dot_d``), batches have exactly ``B`` members, and :meth:`rollout` /
+    :meth:`cost_terms` take the member's samples as ``ref`` (:meth:`run` and :meth:`cost`
+    pass them).
     """
 
     J: np.ndarray
@@ -255,6 +261,7 @@ class JaxClosedLoop:
     checkpoint: bool = False
     law: Any = None
     disturbance: Any = None
+    member_refs: bool = False
     _compiled: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @property
@@ -307,11 +314,38 @@ class JaxClosedLoop:
         """``(n_ctrl + 1,)`` the logged times (as :func:`spacecraft.simulate` computes them)."""
         return self.t0 + np.arange(self.n_ctrl + 1) * self.n_sub * self.dt
 
+    def _member_reference(self, ref: tuple | None) -> tuple[tuple, bool]:
+        """``((R_d, ω_d, ω̇_d), varying)`` one member flies: the loop's, or its own ``ref``."""
+        jnp = require_jax().numpy
+        if self.member_refs:
+            if ref is None:
+                raise ValueError(
+                    "ref: this loop's reference gives each member its own samples; pass the "
+                    "member's (R_d, omega_d, omega_dot_d) (run and cost do)"
+                )
+            refs = tuple(jnp.asarray(a) for a in ref)
+            return refs, refs[0].ndim == 3  # the member's (n, 3, 3) samples, or one (3, 3)
+        refs = tuple(jnp.asarray(a) for a in (self.R_d, self.omega_d, self.omega_dot_d))
+        return refs, self.R_d.ndim == 3
+
+    def member_references(self, B: int) -> tuple[tuple | None, int | None]:
+        """``(references, vmap axis)`` for a batch of ``B``: each member's samples and axis 0
+        when the reference differs between members (``B`` must be its member count), else
+        ``(None, None)``."""
+        if not self.member_refs:
+            return None, None
+        if self.R_d.shape[0] != B:
+            raise ValueError(
+                f"R0: the reference gives {self.R_d.shape[0]} members their own samples, got {B} "
+                "initial states"
+            )
+        return (self.R_d, self.omega_d, self.omega_dot_d), 0
+
     # -- the pure program -------------------------------------------------------------------
 
     def rollout(
         self, k_R: Any, k_Omega: Any, R0: Any, x0: Any, J: Any = None, J_inv: Any = None,
-        params: dict[str, Any] | None = None, cs0: tuple | None = None,
+        params: dict[str, Any] | None = None, cs0: tuple | None = None, ref: tuple | None = None,
     ) -> dict[str, Any]:  # fmt: skip
         """One spacecraft from ``R0`` ``(3, 3)`` and the packed state ``x0`` ``(n_x,)`` = (Ω₀, δ₀)
         with the plant inertia ``J``, ``J_inv`` ``(3, 3)`` (default the loop's shared one):
@@ -319,8 +353,11 @@ class JaxClosedLoop:
         ``R``, ``x``, ``u_cmd``, ``u``, ``Psi``, ``e_R``, ``e_Omega``, and the actuator's
         ``delta_dot``, ``saturated`` (SGCMG) or ``held`` (ideal). ``params``: values for (some
         of) the law's further parameters (:attr:`ArrayLaw.params`, default the law's own);
-        ``cs0``: this spacecraft's initial law state (default :attr:`ArrayLaw.state0`). Pure
-        JAX (call under ``jax.enable_x64``): ``jit``, ``vmap`` and ``grad`` apply."""
+        ``cs0``: this spacecraft's initial law state (default :attr:`ArrayLaw.state0`);
+        ``ref``: this spacecraft's reference samples ``(R_d, ω_d, ω̇_d)`` ``(n_ctrl + 1, ...)``
+        when the loop's reference differs between members (:attr:`member_refs`; required
+        then). Pure JAX (call under ``jax.enable_x64``): ``jit``, ``vmap`` and ``grad``
+        apply."""
         jax = require_jax()
         jnp = jax.numpy
         lax = jax.lax
@@ -330,8 +367,7 @@ class JaxClosedLoop:
             raise ValueError("J: rollout runs one member; pass its (3, 3) inertia")
         dt, n_sub = self.dt, self.n_sub
         limit = None if self.max_torque is None else jnp.asarray(self.max_torque)
-        refs = tuple(jnp.asarray(a) for a in (self.R_d, self.omega_d, self.omega_dot_d))
-        varying = self.R_d.ndim == 3
+        refs, varying = self._member_reference(ref)
         law_params, law = self._split(params)
         cluster, rate_limit = self.cluster, self.rate_limit
 
@@ -428,7 +464,7 @@ class JaxClosedLoop:
 
     def cost_terms(
         self, k_R: Any, k_Omega: Any, R0: Any, x0: Any, J: Any = None, J_inv: Any = None,
-        params: Mapping[str, Any] | None = None, cs0: tuple | None = None,
+        params: Mapping[str, Any] | None = None, cs0: tuple | None = None, ref: tuple | None = None,
     ) -> dict[str, Any]:  # fmt: skip
         """Per-member terms (pure JAX) on the control grid (rectangle rule, step T) from ``R0``
         and the packed state ``x0`` (:meth:`rollout`): ``angle`` = Σ θ_k² T ≈ ∫θ² dt [rad²·s], θ
@@ -437,10 +473,10 @@ class JaxClosedLoop:
         φ = log(R_dᵀR)^∨ past the start's error axis n₀ = φ₀/‖φ₀‖ (zero for a start at R_d)."""
         jax = require_jax()
         jnp = jax.numpy
-        out = self.rollout(k_R, k_Omega, R0, x0, J, J_inv, params, cs0)
+        out = self.rollout(k_R, k_Omega, R0, x0, J, J_inv, params, cs0, ref)
         Rs, us = out["R"][:-1], out["u"][:-1]
-        R_d = jnp.asarray(self.R_d)
-        R_d = R_d[:-1] if R_d.ndim == 3 else R_d
+        (R_d, _, _), varying = self._member_reference(ref)
+        R_d = R_d[:-1] if varying else R_d
         Rt = jnp.swapaxes(R_d, -1, -2) @ Rs
         phi, theta = so3._log_angle_unchecked(Rt)
         n0 = phi[0] / jnp.maximum(theta[0], 1e-12)
@@ -468,8 +504,9 @@ class JaxClosedLoop:
         jax = require_jax()
         x0 = self._pack(omega0)
         J, J_inv = self.inertias(R0.shape[0])
-        terms = jax.vmap(self.cost_terms, in_axes=(None, None, 0, 0, 0, 0, None, 0))(
-            k_R, k_Omega, R0, x0, J, J_inv, params, self.law.initial_states(R0.shape[0])
+        refs, ax = self.member_references(R0.shape[0])
+        terms = jax.vmap(self.cost_terms, in_axes=(None, None, 0, 0, 0, 0, None, 0, ax))(
+            k_R, k_Omega, R0, x0, J, J_inv, params, self.law.initial_states(R0.shape[0]), refs
         )
         weights = {"angle": 1.0, "effort": effort_weight, "overshoot": overshoot_weight}
         return sum(weights[k] * terms[k].mean() for k in terms)
@@ -508,24 +545,29 @@ class JaxClosedLoop:
         x0 = self._pack(w0, d0)
         J, J_inv = self.inertias(B)
         cs0 = self.law.initial_states(B)
+        refs, ax = self.member_references(B)
         n = padded_size(B) if pad else B
         if n > B:
             R0, x0, J, J_inv, *cs0 = (
                 np.concatenate((a, np.broadcast_to(a[:1], (n - B,) + a.shape[1:])))
-                for a in (R0, x0, J, J_inv, *cs0)
+                for a in (R0, x0, J, J_inv, *cs0, *(refs or ()))
             )
+            if refs is not None:
+                cs0, refs = cs0[: len(cs0) - 3], tuple(cs0[len(cs0) - 3 :])
             cs0 = tuple(cs0)
         k_R = self.k_R if k_R is None else k_R
         k_Omega = self.k_Omega if k_Omega is None else k_Omega
         with jax.enable_x64(True):
             fn = self._jit(
                 "run",
-                lambda: jax.jit(jax.vmap(self.rollout, in_axes=(None, None, 0, 0, 0, 0, None, 0))),
+                lambda: jax.jit(
+                    jax.vmap(self.rollout, in_axes=(None, None, 0, 0, 0, 0, None, 0, ax))
+                ),
             )
             p = _check_params(params)
             out = {
                 k: np.moveaxis(np.asarray(v)[:B], 0, 1)
-                for k, v in fn(k_R, k_Omega, R0, x0, J, J_inv, p, cs0).items()
+                for k, v in fn(k_R, k_Omega, R0, x0, J, J_inv, p, cs0, refs).items()
             }
         Rs, xs = out["R"], out["x"]
         bad = ~(np.isfinite(Rs).all(axis=(2, 3)) & np.isfinite(xs).all(axis=2))
@@ -573,8 +615,9 @@ class JaxClosedLoop:
 
             def one(a: Any, b: Any, term: str = term) -> Any:
                 J, J_inv = self.inertias(R0.shape[0])
-                per = jax.vmap(self.cost_terms, in_axes=(None, None, 0, 0, 0, 0, None, 0))(
-                    a, b, R0, x0, J, J_inv, p, self.law.initial_states(R0.shape[0])
+                refs, ax = self.member_references(R0.shape[0])
+                per = jax.vmap(self.cost_terms, in_axes=(None, None, 0, 0, 0, 0, None, 0, ax))(
+                    a, b, R0, x0, J, J_inv, p, self.law.initial_states(R0.shape[0]), refs
                 )
                 return per[term].mean()
 
@@ -641,21 +684,42 @@ def _initial(R0: object, omega0: object | None) -> tuple[np.ndarray, np.ndarray]
 
 def _reference_samples(
     reference: Callable[[float], AttitudeReference], times: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The reference at the control times, stacked ``(n, ...)``, or one sample if constant."""
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
+    """The reference at the control times: ``(R_d, ω_d, ω̇_d, per_member)`` — one sample for
+    the batch if constant (``(3, 3)``, ``(3,)``), the samples stacked ``(n, ...)`` if they vary
+    in time, or, when a sample gives each member its own (``(B, 3, 3)``, ``(B, 3)``), the
+    members' own: ``(B, 3, 3)`` if constant, else every member's samples ``(B, n, ...)``, and
+    ``per_member`` set."""
     samples = [reference(float(t)) for t in times]
     out = []
-    for name in ("R_d", "omega_d", "omega_dot_d"):
-        a = np.stack([np.asarray(getattr(s, name), dtype=np.float64) for s in samples])
-        if a.ndim != (4 if name == "R_d" else 3) - 1:
-            raise ValueError(
-                f"reference: the JAX route takes one reference for the whole batch ({name} of "
-                f"shape {a.shape[1:]}; per-spacecraft references are not supported yet)"
-            )
-        out.append(a)
-    if all((a == a[0]).all() for a in out):
-        return out[0][0], out[1][0], out[2][0]
-    return out[0], out[1], out[2]
+    for name, nd in (("R_d", 2), ("omega_d", 1), ("omega_dot_d", 1)):
+        parts = [np.asarray(getattr(s, name), dtype=np.float64) for s in samples]
+        for a in parts:
+            if a.ndim not in (nd, nd + 1) or a.shape[a.ndim - nd :] != (3,) * nd:
+                raise ValueError(
+                    f"reference: {name} must have shape {(3,) * nd} or (B, {'3, ' * (nd - 1)}3), "
+                    f"got {a.shape}"
+                )
+        out.append(parts)
+    # a member axis: R_d (B, 3, 3), omega_d or omega_dot_d (B, 3)
+    sizes = {a.shape[0] for parts, nd in zip(out, (2, 1, 1), strict=True) for a in parts
+             if a.ndim == nd + 1}  # fmt: skip
+    if not sizes:
+        stacked = [np.stack(parts) for parts in out]
+        if all((a == a[0]).all() for a in stacked):
+            return stacked[0][0], stacked[1][0], stacked[2][0], False
+        return stacked[0], stacked[1], stacked[2], False
+    if len(sizes) > 1:
+        raise ValueError(f"reference: the samples' batch sizes differ ({sorted(sizes)})")
+    B = sizes.pop()
+    member = []
+    for parts, nd in zip(out, (2, 1, 1), strict=True):
+        member.append(np.stack([np.broadcast_to(x, (B,) + (3,) * nd) for x in parts]))
+    if all((a == a[0]).all() for a in member):  # constant: (B, ...) (no copy per sample)
+        return member[0][0], member[1][0], member[2][0], True
+    # (B, n, ...): each member's samples, the axis vmap maps over first
+    R_d, w_d, dw_d = (np.ascontiguousarray(np.moveaxis(a, 1, 0)) for a in member)
+    return R_d, w_d, dw_d, True
 
 
 def closed_loop(
@@ -718,7 +782,12 @@ def closed_loop(
             f"period {n_sub * dt!r} on the JAX route"
         )
     times = t0 + np.arange(n_ctrl + 1) * n_sub * dt
-    R_d, w_d, dw_d = _reference_samples(reference, times)
+    R_d, w_d, dw_d, per_member = _reference_samples(reference, times)
+    if per_member and plant.body.J.ndim == 3 and plant.body.J.shape[0] != R_d.shape[0]:
+        raise ValueError(
+            f"reference: gives {R_d.shape[0]} members their own samples, the plant has "
+            f"{plant.body.J.shape[0]} per-spacecraft inertias"
+        )
     mt = getattr(act, "max_torque", None)
     sgcmg = isinstance(act, SgcmgActuator)
     return JaxClosedLoop(
@@ -729,7 +798,7 @@ def closed_loop(
         cluster=act.cluster if sgcmg else None, steering=act.steering if sgcmg else None,
         rate_limit=act.rate_limit if sgcmg else math.inf,
         delta0=np.array(act.delta0) if sgcmg else None, checkpoint=bool(checkpoint),
-        law=law, disturbance=_disturbance(dist),
+        law=law, disturbance=_disturbance(dist), member_refs=per_member,
     )  # fmt: skip
 
 

@@ -411,6 +411,11 @@ def tune_requirements(
     jax = require_jax()
     if not isinstance(loop, JaxClosedLoop):
         raise ValueError(f"loop: expected a JaxClosedLoop, got {type(loop).__name__}")
+    if loop.member_refs:
+        raise ValueError(
+            "loop: its reference gives each member its own samples; tuning flies one reference "
+            "for the whole batch (a requirement's pointing interval is the scenario's)"
+        )
     if requirements is None:
         raise ValueError("requirements: give the TuningRequirements to tune for")
     if not isinstance(requirements, TuningRequirements):

@@ -702,3 +702,73 @@ def test_array_law_seam_refuses_what_it_cannot_fly(jax):
         pass
 
     assert closed_loop(_plant(), Renamed(J, 1.0, 5.0), ref, 10.0, 0.1).run(np.eye(3)).R.shape
+
+
+class _MemberRates:
+    """Each member its own target turning at its own rate: R_d,b(t) = R_b exp(t ŵ_b)."""
+
+    def __init__(self, R: np.ndarray, w: np.ndarray) -> None:
+        self.R, self.w = R, w
+
+    def __call__(self, t: float):  # noqa: ANN204
+        from liecontrol.control.base import AttitudeReference
+
+        return AttitudeReference(self.R @ so3.exp(self.w * t), self.w, np.zeros_like(self.w))
+
+
+@pytest.mark.parametrize("varying", [False, True], ids=["constant", "turning"])
+def test_each_member_its_own_reference_equals_fused_simulate(varying, jax):
+    from spacecraft.differentiable import closed_loop
+
+    kR, kW = gains_from_bandwidth(J, 0.3, 0.9)
+    plant = _plant(max_torque=3.0)
+    ctrl = GeometricPD(J * 1.05, kR, kW)
+    rng = np.random.default_rng(4)
+    B = 5  # padded to 8 members on the JAX route: the padding carries references too
+    targets = so3.random(rng, B)
+    ref = (
+        _MemberRates(targets, rng.normal(size=(B, 3)) * 0.01)
+        if varying
+        else ConstantAttitude(targets)
+    )
+    ax = rng.normal(size=(B, 3))
+    ax /= np.linalg.norm(ax, axis=1, keepdims=True)
+    R0 = targets @ so3.exp(ax * np.radians([179.9, 120.0, 60.0, 5.0, 0.0])[:, None])
+    w0 = rng.normal(size=(B, 3)) * 0.01
+    dt, period, t_final = 0.1, 0.2, 30.0
+    want = simulate(plant, ctrl, ref, plant.initial_state(R0, w0), t_final, dt,
+                    control_period=period, log_every=2)  # fmt: skip
+    loop = closed_loop(plant, ctrl, ref, t_final, dt, period)
+    assert loop.member_refs
+    assert loop.R_d.shape == ((B, loop.n_ctrl + 1, 3, 3) if varying else (B, 3, 3))
+    run = loop.run(R0, w0)
+    np.testing.assert_allclose(run.R, want.R, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(run.omega, want.omega, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(run.u, want.u, rtol=0, atol=1e-11)
+    got = simulate(plant, ctrl, ref, plant.initial_state(R0, w0), t_final, dt,
+                   control_period=period, log_every=2, backend="jax")  # fmt: skip
+    np.testing.assert_allclose(got.R_d, want.R_d, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(got.R, want.R, rtol=0, atol=1e-12)
+    # each member's cost reads its own target: a member at its target costs nothing
+    v, gR, gW = loop.value_and_grad(kR, kW, R0, w0)
+    assert np.isfinite(v) and np.isfinite(gR).all() and np.isfinite(gW).all()
+    if not varying:
+        zero = loop.cost(kR, kW, targets, np.zeros((B, 3)))
+        assert float(zero) == 0.0
+    with pytest.raises(ValueError, match=r"^R0: the reference gives 5 members"):
+        loop.run(R0[:3], w0[:3])
+    with pytest.raises(ValueError, match=r"^ref: "):
+        loop.rollout(kR, kW, R0[0], w0[0])
+    from spacecraft.robust_tuning import TuningRequirements, tune_requirements
+
+    with pytest.raises(ValueError, match=r"^loop: its reference gives each member"):
+        tune_requirements(loop, R0, w0, TuningRequirements(ape_deg=1.0))
+
+
+def test_a_reference_of_another_batch_size_is_refused_by_name(jax):
+    from spacecraft.differentiable import closed_loop
+
+    plant = Spacecraft(RigidBody(np.stack([J] * 3)), IdealTorqueActuator())
+    ref = ConstantAttitude(np.stack([np.eye(3)] * 2))
+    with pytest.raises(ValueError, match=r"^reference: gives 2 members their own samples"):
+        closed_loop(plant, GeometricPD(J, 1.0, 5.0), ref, 10.0, 0.1)

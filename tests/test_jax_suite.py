@@ -77,3 +77,30 @@ def test_every_quick_controller_but_mpc_flies_the_suite_jax_route(caplog):
     fell = [line for line in caplog.text.splitlines() if "ran on the numba loop" in line]
     assert fell and all("mpc-osqp" in line for line in fell), fell
     assert_same_outcomes(a, b)
+
+
+def test_members_with_their_own_references_fly_the_jax_route(caplog):
+    """slew-90-planned (a time-varying eigenaxis profile) and slew-tracking (a constant-rate
+    target): the dispersed members' references differ (each from its own start), so each
+    member flies its own on the JAX route (such a batch kept the numba loop before)."""
+    import spacecraft.differentiable as D
+
+    scs = [get_scenario(n).with_duration(30.0) for n in ("slew-90-planned", "slew-tracking")]
+    loops = []
+    real = D.closed_loop
+
+    def spy(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202
+        loops.append(real(*args, **kwargs))
+        return loops[-1]
+    a = run_suite(scs, ["geometric-pd-large-angle"], members=2, executor="serial",
+                  progress=False)  # fmt: skip
+    with caplog.at_level(logging.INFO, logger="benchmarks.runner"):
+        try:
+            D.closed_loop = spy
+            b = run_suite(scs, ["geometric-pd-large-angle"], members=2, executor="serial",
+                          progress=False, backend="jax")  # fmt: skip
+        finally:
+            D.closed_loop = real
+    assert "ran on the numba loop" not in caplog.text, caplog.text
+    assert len(loops) == 2 and all(lp.member_refs and lp.R_d.shape[0] == 2 for lp in loops)
+    assert_same_outcomes(a, b)
