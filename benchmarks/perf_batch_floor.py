@@ -136,13 +136,13 @@ def _command_part(reps, S0, C0, steer, sp, rate_limit, u_cmd, x, specialise):  #
         for b in range(B):
             if specialise and steer == K.STEER_SR:  # the SR code a constant at the call site
                 s += K.sgcmg_command(
-                    S0, C0, K.STEER_SR, sp, rate_limit, u_cmd[b], x[b, :3], x[b, 3:], 0.0,
-                    held[b], hd, A, trig[b, 0], trig[b, 1],
+                    S0, C0, K.STEER_SR, sp, K.no_steering, rate_limit, u_cmd[b], x[b, :3],
+                    x[b, 3:], 0.0, held[b], hd, A, trig[b, 0], trig[b, 1],
                 )  # fmt: skip
             else:  # as the fused loop calls it
                 s += K.sgcmg_command(
-                    S0, C0, steer, sp, rate_limit, u_cmd[b], x[b, :3], x[b, 3:], 0.0, held[b],
-                    hd, A, trig[b, 0], trig[b, 1],
+                    S0, C0, steer, sp, K.no_steering, rate_limit, u_cmd[b], x[b, :3], x[b, 3:],
+                    0.0, held[b], hd, A, trig[b, 0], trig[b, 1],
                 )  # fmt: skip
     return s, held_own, trig_own
 
@@ -214,11 +214,11 @@ def breakdown(batch: int, reps: int, repeat: int) -> dict[str, float]:
     n_steps = reps
     args, li = capture_args(batch, n_steps * 0.1)
     (_, t0, dt, every, log_every, R, x, act, J, Ji, S0, C0, dist, dp, clip_on, clip, steer, sp,
-     limit, law, cparams, cstate, idx, ref_R, ref_w, ref_dw, *logs) = args  # fmt: skip
+     _steer_fn, limit, law, cparams, cstate, idx, ref_R, ref_w, ref_dw, *logs) = args  # fmt: skip
     R = np.ascontiguousarray(R)
     x = np.ascontiguousarray(x)
     u = np.zeros((batch, 3))
-    diag = np.zeros((batch, int(logs[-1].shape[1])))
+    diag = np.zeros((batch, int(logs[12].shape[1])))  # log_t … log_diag, then diag
     law_args = (reps, law, R, x, ref_R, ref_w, ref_dw, cparams, cstate, u, diag, True)
     assert cparams[0] == 0.0  # the large-angle error
     P = np.ascontiguousarray(cparams[1:37].reshape((4, 3, 3)))

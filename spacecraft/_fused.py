@@ -4,11 +4,12 @@ can run on) and the fused closed loop.
 A plant has a kernel plan when its parts all have kernels (:mod:`spacecraft._kernels`): a rigid
 body (shared or per-spacecraft inertia, no flexible modes, no momentum management), an
 actuator with a kernel (:func:`spacecraft.actuators.actuator_kernel`: the ideal torque actuator,
-or the SGCMG pyramid with the ideal gimbal servo and a steering law with a kernel,
-:func:`spacecraft.steering.steering_kernel`) and a disturbance with a kernel
-(:func:`spacecraft.disturbances.disturbance_kernel`). Each of those functions lives next to the
-classes it describes; this module imports none of them at import time, and neither they nor the
-classes import this module (no import circle).
+or the SGCMG pyramid with the ideal gimbal servo and a steering law with a kernel: a built-in
+law's, :func:`spacecraft.steering.steering_kernel`, or a user's through the seam
+:mod:`spacecraft.steering_kernel`, called through a function pointer) and a disturbance with a
+kernel (:func:`spacecraft.disturbances.disturbance_kernel`). Each of those functions lives next
+to the classes it describes; this module imports none of them at import time, and neither they
+nor the classes import this module (no import circle).
 
 :func:`run_fused` runs a whole :func:`spacecraft.simulator.simulate` call in compiled code when,
 in addition, the controller supplies a compiled law through the public seam
@@ -86,6 +87,7 @@ class PlantKernel:
     steer: int
     steer_params: np.ndarray
     rate_limit: float
+    steer_fn: Any = None  # a user's steering kernel (STEER_KERNEL), else K.no_steering
 
     def step(
         self, t: float, R: np.ndarray, x: np.ndarray, held: np.ndarray, h: float
@@ -105,7 +107,7 @@ def _hold_steps(
     n_sub: int, t: float, dt: float, R: np.ndarray, x: np.ndarray, u: np.ndarray,
     act: int, J: np.ndarray, J_inv: np.ndarray, S0: np.ndarray, C0: np.ndarray,
     dist: int, dp: np.ndarray, clip_on: bool, clip: np.ndarray,
-    steer: int, sp: np.ndarray, rate_limit: float, saturated: np.ndarray,
+    steer: int, sp: np.ndarray, steer_fn: Any, rate_limit: float, saturated: np.ndarray,
 ) -> None:  # fmt: skip
     """``n_sub`` steps of the batch under the torque command ``u (B, 3)`` held throughout (the
     actuator's hardware command recomputed at every step, as the simulator does); ``R``, ``x``
@@ -127,8 +129,8 @@ def _hold_steps(
         for _ in range(n_sub):
             if act == K.ACT_SGCMG:
                 limited = K.sgcmg_command(
-                    S0, C0, steer, sp, rate_limit, u[b], x[b, :3], x[b, 3:], t, held, hd, A,
-                    sn, cs,
+                    S0, C0, steer, sp, steer_fn, rate_limit, u[b], x[b, :3], x[b, 3:], t, held,
+                    hd, A, sn, cs,
                 )  # fmt: skip
             else:
                 limited = K.ideal_command(u[b], clip_on, clip, held, at_limit)
@@ -152,12 +154,28 @@ def hold_steps(
     x = np.array(x, dtype=np.float64)
     sat = np.zeros(x.shape[0])
     clip = pk.clip if pk.clip is not None else np.zeros(3)
-    _hold_steps(
+    args = (
         int(n_sub), float(t), float(dt), R, x, np.ascontiguousarray(u, dtype=np.float64),
         pk.act, pk.J, pk.J_inv, pk.S0, pk.C0, pk.dist, pk.dist_params, pk.clip is not None,
-        clip, pk.steer, pk.steer_params, pk.rate_limit, sat,
+        clip, pk.steer, pk.steer_params, _steer_fn(pk), pk.rate_limit, sat,
     )  # fmt: skip
+    if JIT_ENABLED:
+        _entry(_hold_steps, args, {17: _steering_type()})(*args)
+    else:
+        _hold_steps(*args)
     return R, x, sat
+
+
+def _steer_fn(pk: PlantKernel) -> Any:
+    return K.no_steering if pk.steer_fn is None else pk.steer_fn
+
+
+def _steering_type() -> Any:
+    from numba.core import types
+
+    from .steering_kernel import STEERING_SIGNATURE
+
+    return types.FunctionType(STEERING_SIGNATURE)
 
 
 def plant_kernel(plant: Any) -> PlantKernel | None:
@@ -174,10 +192,12 @@ def plant_kernel(plant: Any) -> PlantKernel | None:
     ak = actuator_kernel(plant.actuator)
     if ak is None:
         return None
-    code, clip, steer, sp, limit, S0, C0 = ak
+    code, clip, steer, sp, limit, S0, C0, steer_fn = ak
     J3 = np.ascontiguousarray(plant.body.J.reshape(-1, 3, 3))
     Ji3 = np.ascontiguousarray(plant.body.J_inv.reshape(-1, 3, 3))
-    return PlantKernel(code, J3, Ji3, S0, C0, dist[0], dist[1], clip, steer, sp, float(limit))
+    return PlantKernel(
+        code, J3, Ji3, S0, C0, dist[0], dist[1], clip, steer, sp, float(limit), steer_fn
+    )
 
 
 def plant_reason(plant: Any) -> str:
@@ -192,7 +212,12 @@ def plant_reason(plant: Any) -> str:
     if disturbance_kernel(plant.disturbance) is None:
         return f"the disturbance {type(plant.disturbance).__name__} has no compiled kernel"
     if actuator_kernel(plant.actuator) is None:
+        from .actuators import steering_reason
+
         act = plant.actuator
+        why = steering_reason(act)
+        if why:
+            return why
         steering = getattr(act, "steering", None)
         extra = "" if steering is None else f" with steering {type(steering).__name__}"
         return f"the actuator {type(act).__name__}{extra} has no compiled kernel"
@@ -214,7 +239,7 @@ def _one_spacecraft(
     R: np.ndarray, x: np.ndarray,
     act: int, J: np.ndarray, J_inv: np.ndarray, S0: np.ndarray, C0: np.ndarray,
     dist: int, dp: np.ndarray, clip_on: bool, clip: np.ndarray,
-    steer: int, sp: np.ndarray, rate_limit: float,
+    steer: int, sp: np.ndarray, steer_fn: Any, rate_limit: float,
     law: Any, cparams: np.ndarray, cstate: np.ndarray,
     ref_index: np.ndarray, ref_R: np.ndarray, ref_w: np.ndarray, ref_dw: np.ndarray,
     log_R: np.ndarray, log_w: np.ndarray, log_Rd: np.ndarray,
@@ -335,7 +360,8 @@ def _one_spacecraft(
                 break
         if act == K.ACT_SGCMG:
             sat[0] = K.sgcmg_command(
-                S0, C0, steer, sp, rate_limit, u_cmd, wc, xc[3:], t, held, hd, A, sn, cs
+                S0, C0, steer, sp, steer_fn, rate_limit, u_cmd, wc, xc[3:], t, held, hd, A, sn,
+                cs,
             )  # fmt: skip
         else:
             K.ideal_command(u_cmd, clip_on, clip, held, sat)
@@ -428,7 +454,7 @@ def _fused_loop(
     R: np.ndarray, x: np.ndarray,
     act: int, J: np.ndarray, J_inv: np.ndarray, S0: np.ndarray, C0: np.ndarray,
     dist: int, dp: np.ndarray, clip_on: bool, clip: np.ndarray,
-    steer: int, sp: np.ndarray, rate_limit: float,
+    steer: int, sp: np.ndarray, steer_fn: Any, rate_limit: float,
     law: Any, cparams: np.ndarray, cstate: np.ndarray,
     ref_index: np.ndarray, ref_R: np.ndarray, ref_w: np.ndarray, ref_dw: np.ndarray,
     log_t: np.ndarray, log_R: np.ndarray, log_w: np.ndarray, log_Rd: np.ndarray,
@@ -454,7 +480,8 @@ def _fused_loop(
     for b in range(B):
         st[b], tf[b] = _one_spacecraft(
             b, n_steps, t0, dt, every_ctrl, log_every, R, x, act, J, J_inv, S0, C0, dist, dp,
-            clip_on, clip, steer, sp, rate_limit, law, cparams, cstate, ref_index, ref_R, ref_w,
+            clip_on, clip, steer, sp, steer_fn, rate_limit, law, cparams, cstate, ref_index,
+            ref_R, ref_w,
             ref_dw, log_R, log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_act, log_sat,
             log_hm, log_diag, diag, s_int, s_par, pub_thr, pub_sched, noise, sst, sy, h_int,
             seen, log_y, log_est, h_par, h_state, log_hook,
@@ -469,7 +496,7 @@ def _fused_loop_parallel(
     R: np.ndarray, x: np.ndarray,
     act: int, J: np.ndarray, J_inv: np.ndarray, S0: np.ndarray, C0: np.ndarray,
     dist: int, dp: np.ndarray, clip_on: bool, clip: np.ndarray,
-    steer: int, sp: np.ndarray, rate_limit: float,
+    steer: int, sp: np.ndarray, steer_fn: Any, rate_limit: float,
     law: Any, cparams: np.ndarray, cstate: np.ndarray,
     ref_index: np.ndarray, ref_R: np.ndarray, ref_w: np.ndarray, ref_dw: np.ndarray,
     log_t: np.ndarray, log_R: np.ndarray, log_w: np.ndarray, log_Rd: np.ndarray,
@@ -492,7 +519,8 @@ def _fused_loop_parallel(
         b = np.int64(i)
         s, tb = _one_spacecraft(
             b, n_steps, t0, dt, every_ctrl, log_every, R, x, act, J, J_inv, S0, C0, dist, dp,
-            clip_on, clip, steer, sp, rate_limit, law, cparams, cstate, ref_index, ref_R, ref_w,
+            clip_on, clip, steer, sp, steer_fn, rate_limit, law, cparams, cstate, ref_index,
+            ref_R, ref_w,
             ref_dw, log_R, log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_act, log_sat,
             log_hm, log_diag, diag, s_int, s_par, pub_thr, pub_sched, noise, sst, sy, h_int,
             seen, log_y, log_est, h_par, h_state, log_hook,
@@ -840,37 +868,46 @@ def _fused_loop_vscmg_parallel(
 _ENTRIES: dict[tuple, Callable[..., Any]] = {}  # by a cheap key of the argument types
 
 
+def _entry(fn: Any, args: tuple, pointers: dict[int, Any]) -> Callable[..., Any]:
+    """The compiled ``fn`` for these argument types, the arguments at the positions of
+    ``pointers`` typed as the first-class function types given there (a law or a steering
+    kernel: one compiled function, cached on disk, serves every kernel of the signature)."""
+    # a cheap key first (numba's typeof costs ~10 µs per argument)
+    key = (fn,) + tuple(
+        (a.dtype.char, a.ndim, a.flags.c_contiguous, a.flags.writeable, a.flags.aligned)
+        if isinstance(a, np.ndarray)
+        else type(a)
+        for i, a in enumerate(args)
+        if i not in pointers
+    )
+    entry = _ENTRIES.get(key)
+    if entry is None:
+        import numba
+
+        sig = tuple(pointers[i] if i in pointers else numba.typeof(a) for i, a in enumerate(args))
+        fn.compile(sig)
+        entry = fn.overloads[sig].entry_point
+        _ENTRIES[key] = entry
+    return entry
+
+
 def _loop_entry(
     args: tuple, law_index: int, parallel: bool = False, vscmg: bool = False
 ) -> Callable[..., Any]:
     """The compiled :func:`_fused_loop` (``parallel``: :func:`_fused_loop_parallel`; ``vscmg``:
     the full CMG model's :func:`_fused_loop_vscmg`) for these argument types with the law typed
-    as a first-class function of the seam's signature (compiled once, cached on disk)."""
+    as a first-class function of the seam's signature (and, but for the full CMG model, the
+    steering kernel just before the rate limit, two places before the law)."""
+    from numba.core import types
+
     if vscmg:
         loop = _fused_loop_vscmg_parallel if parallel else _fused_loop_vscmg
     else:
         loop = _fused_loop_parallel if parallel else _fused_loop
-    # a cheap key first (numba's typeof costs ~10 µs per argument)
-    key = (parallel, vscmg) + tuple(
-        (a.dtype.char, a.ndim, a.flags.c_contiguous, a.flags.writeable, a.flags.aligned)
-        if isinstance(a, np.ndarray)
-        else type(a)
-        for i, a in enumerate(args)
-        if i != law_index
-    )
-    entry = _ENTRIES.get(key)
-    if entry is None:
-        import numba
-        from numba.core import types
-
-        sig = tuple(
-            types.FunctionType(seam.LAW_SIGNATURE) if i == law_index else numba.typeof(a)
-            for i, a in enumerate(args)
-        )
-        loop.compile(sig)
-        entry = loop.overloads[sig].entry_point
-        _ENTRIES[key] = entry
-    return entry
+    pointers = {law_index: types.FunctionType(seam.LAW_SIGNATURE)}
+    if not vscmg:
+        pointers[law_index - 2] = _steering_type()
+    return _entry(loop, args, pointers)
 
 
 def fused_supported(
@@ -1058,7 +1095,7 @@ def run_fused(
     args = (
         n_steps, float(t0), float(dt), every_ctrl, log_every, R0, x0,
         pk.act, pk.J, pk.J_inv, pk.S0, pk.C0, pk.dist, pk.dist_params, pk.clip is not None,
-        clip, pk.steer, pk.steer_params, pk.rate_limit,
+        clip, pk.steer, pk.steer_params, _steer_fn(pk), pk.rate_limit,
         spec.law, cparams, cstate, index, ref_R, ref_w, ref_dw,
         log.t, log.R, log.omega, log.R_d, log.omega_d, log.u_cmd, log.u, log.disturbance,
         log_act, log_sat, log_hm, log_diag, diag,
@@ -1066,7 +1103,7 @@ def run_fused(
         sa.seen, log_y, log_est, sa.h_par, sa.h_state, log_hook,
         FS.sensing_marker(splan),
     )  # fmt: skip
-    status, rows, t_fail = _call_loop(args, 19, workers, B, vscmg=False)
+    status, rows, t_fail = _call_loop(args, 20, workers, B, vscmg=False)
     if not _finished(status, t_fail, t0, controller, spec, notes):
         return None
     log.rows = rows

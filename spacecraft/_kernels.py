@@ -7,7 +7,10 @@ Codes shared with :mod:`spacecraft._fused`:
 
 - actuator: ``ACT_IDEAL`` (held = torque (3,), optional per-axis clip), ``ACT_SGCMG`` (state δ
   (4,), held = δ̇ (4,), ideal gimbal servo);
-- steering: ``STEER_PINV``, ``STEER_SR``, ``STEER_GSR`` (params λ₀, μ, ε, ε₀, ω_ε, φ₁..₃);
+- steering: ``STEER_PINV``, ``STEER_SR``, ``STEER_GSR`` (params λ₀, μ, ε, ε₀, ω_ε, φ₁..₃),
+  ``STEER_PINV_NULL`` (params k, ε, floor of m, then the cluster's unit momenta) and
+  ``STEER_KERNEL``: a user's law through the seam :mod:`spacecraft.steering_kernel` (its
+  parameters, and the law itself as a first-class function ``steer_fn``);
 - disturbance: ``DIST_NONE``, ``DIST_CONSTANT`` (params T (3,)), ``DIST_CONSTANT_HARMONIC``
   (params n, scale).
 """
@@ -27,6 +30,7 @@ STEER_PINV = 0
 STEER_SR = 1
 STEER_GSR = 2
 STEER_PINV_NULL = 3
+STEER_KERNEL = 4
 DIST_NONE = 0
 DIST_CONSTANT = 1
 DIST_CONSTANT_HARMONIC = 2
@@ -356,16 +360,27 @@ def steer_null_motion(
         out[i] = pinv + k * (out[i] - proj)
 
 
+@njit
+def no_steering(
+    t: float, A: np.ndarray, hdot: np.ndarray, delta: np.ndarray, params: np.ndarray,
+    out: np.ndarray,
+) -> None:  # fmt: skip
+    """The steering pointer of a configuration whose law is built in (never called: the code
+    selects the built-in formula)."""
+    return None
+
+
 @njit(inline="always")
 def sgcmg_command(
-    S0: np.ndarray, C0: np.ndarray, steer: int, sp: np.ndarray, rate_limit: float,
-    u: np.ndarray, w: np.ndarray, delta: np.ndarray, t: float,
+    S0: np.ndarray, C0: np.ndarray, steer: int, sp: np.ndarray, steer_fn: object,
+    rate_limit: float, u: np.ndarray, w: np.ndarray, delta: np.ndarray, t: float,
     dd_out: np.ndarray, hd_out: np.ndarray, A: np.ndarray, sn: np.ndarray, cs: np.ndarray,
 ) -> bool:  # fmt: skip
     """The SGCMG cluster's hardware command: ḣ_cmd = −(ω × h(δ) + u), δ̇ = steering(A(δ), ḣ_cmd),
     scaled down uniformly to the gimbal-rate limit. Returns whether it was scaled. ``A (3, n)``
     is scratch space for the Jacobian, ``sn``, ``cs`` receive sin δ and cos δ; the null-motion
-    law's unit momenta follow its three parameters in ``sp[8:]``."""
+    law's unit momenta follow its three parameters in ``sp[8:]``; ``STEER_KERNEL`` calls
+    ``steer_fn(t, A, ḣ_cmd, δ, sp, δ̇)`` (:mod:`spacecraft.steering_kernel`)."""
     h0, h1, h2 = cmg_momentum_jacobian(S0, C0, delta, A, sn, cs)
     w0, w1, w2 = w[0], w[1], w[2]
     q0 = -((w1 * h2 - w2 * h1) + u[0])
@@ -379,6 +394,8 @@ def sgcmg_command(
         Su = sp[8 : 8 + 3 * n].reshape((3, n))
         Cu = sp[8 + 3 * n : 8 + 6 * n].reshape((3, n))
         steer_null_motion(sp, A, q0, q1, q2, Su, Cu, delta, dd_out)
+    elif steer == STEER_KERNEL:
+        steer_fn(t, A, hd_out, delta, sp, dd_out)
     else:
         steer_regularised(steer, sp, t, A, q0, q1, q2, dd_out)
     peak = 0.0
@@ -541,14 +558,15 @@ def sgcmg_command_batch(
     u: np.ndarray, w: np.ndarray, delta: np.ndarray, t: float,
     dd_out: np.ndarray, hd_out: np.ndarray, sat_out: np.ndarray,
 ) -> None:  # fmt: skip
-    """:func:`sgcmg_command` over a batch."""
+    """:func:`sgcmg_command` over a batch (the built-in laws: the Python loop's command; a
+    user's kernel flies only the fused loop)."""
     A = np.empty((3, S0.shape[1]))
     sn = np.empty(S0.shape[1])
     cs = np.empty(S0.shape[1])
     for b in range(u.shape[0]):
         sat_out[b] = sgcmg_command(
-            S0, C0, steer, sp, rate_limit, u[b], w[b], delta[b], t, dd_out[b], hd_out[b], A, sn,
-            cs,
+            S0, C0, steer, sp, no_steering, rate_limit, u[b], w[b], delta[b], t, dd_out[b],
+            hd_out[b], A, sn, cs,
         )  # fmt: skip
 
 

@@ -919,23 +919,52 @@ class ReactionWheelAssembly(Actuator):
 
 
 def actuator_kernel(act: object) -> tuple | None:
-    """``(code, clip, steering code, steering params, rate limit, S0, C0)`` of an actuator with
-    a compiled kernel (:mod:`spacecraft._kernels`), else ``None``: an
+    """``(code, clip, steering code, steering params, rate limit, S0, C0, steering kernel)`` of
+    an actuator with a compiled kernel (:mod:`spacecraft._kernels`), else ``None``: an
     :class:`IdealTorqueActuator` (``clip`` its per-axis limit ``(3,)`` or ``None``) or an
-    :class:`SgcmgActuator` with the ideal servo and a steering law with a kernel. Exact types
-    only (a subclass may override the formulas)."""
-    from ._kernels import ACT_IDEAL, ACT_SGCMG, STEER_PINV
+    :class:`SgcmgActuator` with the ideal servo and a steering law with a kernel — a built-in
+    law's code, or a user's through the seam :mod:`spacecraft.steering_kernel` (code
+    ``STEER_KERNEL`` and the law's ``@njit`` kernel; for the others the last entry is
+    :func:`spacecraft._kernels.no_steering`, never called). Exact types of the actuators only
+    (a subclass may override the formulas)."""
+    from ._kernels import ACT_IDEAL, ACT_SGCMG, STEER_KERNEL, STEER_PINV, no_steering
 
     none = np.zeros((3, 0))
     if type(act) is IdealTorqueActuator:
         clip = None
         if act.max_torque is not None:
             clip = np.broadcast_to(np.asarray(act.max_torque, dtype=np.float64), (3,)).copy()
-        return ACT_IDEAL, clip, STEER_PINV, np.zeros(8), math.inf, none, none
+        return ACT_IDEAL, clip, STEER_PINV, np.zeros(8), math.inf, none, none, no_steering
     if type(act) is SgcmgActuator:
-        if act.servo != "ideal" or act._fast is None or act._steer_kernel is None:
+        if act.servo != "ideal" or act._fast is None:
             return None
-        steer, sp = act._steer_kernel
         S0, C0 = np.ascontiguousarray(act._S0), np.ascontiguousarray(act._C0)
-        return ACT_SGCMG, None, steer, sp, float(act.rate_limit), S0, C0
+        if act._steer_kernel is not None:
+            steer, sp = act._steer_kernel
+            return ACT_SGCMG, None, steer, sp, float(act.rate_limit), S0, C0, no_steering
+        spec, sp, _ = _user_steering(act)
+        if spec is None:
+            return None
+        return ACT_SGCMG, None, STEER_KERNEL, sp, float(act.rate_limit), S0, C0, spec.steer
     return None
+
+
+def _user_steering(act: SgcmgActuator) -> tuple:
+    """The user steering law's checked kernel (:func:`spacecraft.steering_kernel.resolve`,
+    probed at the actuator's initial gimbal angles): ``(kernel, params, reason)``."""
+    from .steering_kernel import resolve
+
+    d0 = np.asarray(act.delta0, dtype=np.float64)
+    d0 = d0[0] if d0.ndim == 2 else d0  # the first spacecraft's angles probe the kernel
+    _, A0 = act.cluster.momentum_and_jacobian(d0)
+    return resolve(act.steering, act.cluster, np.asarray(A0), d0)
+
+
+def steering_reason(act: object) -> str:
+    """Why an :class:`SgcmgActuator`'s steering law keeps the Python loop, in words (``""``
+    when it has a kernel or the actuator is another)."""
+    if type(act) is not SgcmgActuator or act._steer_kernel is not None:
+        return ""
+    if act.servo != "ideal" or act._fast is None:
+        return ""
+    return _user_steering(act)[2]
