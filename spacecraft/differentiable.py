@@ -37,11 +37,13 @@ Supported configurations (others raise ``ValueError`` naming the part): a
 :class:`spacecraft.steering.PseudoInverse`, :class:`~spacecraft.steering.SingularityRobust`,
 :class:`~spacecraft.steering.GeneralizedSingularityRobust` (its dither at each step's time) or
 :class:`~spacecraft.steering.PseudoInverseNullMotion` steering, a
-:class:`~spacecraft.disturbances.ConstantTorque` (one for the batch) or
-:class:`~spacecraft.disturbances.ConstantHarmonicTorque` disturbance (at each RKMK4 stage's
-time) or none, no flexible modes or momentum management; any controller whose law has an array
-form (:mod:`liecontrol.control.array_law`: every registered attitude controller but the OSQP
-MPC, the sampled-data keep-out filter and the small-angle payload PID — the geometric PD with
+:class:`~spacecraft.disturbances.ConstantTorque` (one for the batch),
+:class:`~spacecraft.disturbances.ConstantHarmonicTorque` or
+:class:`~spacecraft.environment.GravityGradientTorque` disturbance or a
+:class:`~spacecraft.disturbances.SumOfDisturbances` of them (at each RKMK4 stage's time, and
+attitude for the gravity gradient) or none, no flexible modes or momentum management; any
+controller whose law has an array form (:mod:`liecontrol.control.array_law`: every registered
+attitude controller but the OSQP MPC and the small-angle payload PID — the geometric PD with
 the trace, log or large-angle error,
 the integral, adaptive, prescribed-performance, finite/fixed-time, fault-tolerant, keep-out
 and eigenaxis laws, and the chart-based quaternion PD, MRP PD, MRP ADRC and Euler TSM through
@@ -84,7 +86,8 @@ from liecontrol.integrators.rk import rkmk4_step_unchecked
 from liecontrol.lie import so3
 
 from .actuators import IdealTorqueActuator, SgcmgActuator
-from .disturbances import ConstantHarmonicTorque, ConstantTorque
+from .disturbances import ConstantHarmonicTorque, ConstantTorque, SumOfDisturbances
+from .environment import GravityGradientTorque
 from .plant import Spacecraft
 from .rigid_body import euler_acceleration
 from .sgcmg import SgcmgPyramid, bus_torque
@@ -233,8 +236,11 @@ class JaxClosedLoop:
     period (``jax.checkpoint`` of the period's body): memory ∝ samples instead of steps, for
     about one more forward pass of compute. ``law``: the controller's
     :class:`liecontrol.control.array_law.ArrayLaw` (its pure step and initial state).
-    ``disturbance``: the body torque ``t -> (3,)`` added in every RKMK4 stage at the stage's
-    time (the plant's own ``ConstantTorque`` / ``ConstantHarmonicTorque``), or ``None``.
+    ``disturbance``: the body torque ``(t, R) -> (3,)`` added in every RKMK4 stage at the
+    stage's time and attitude (the plant's own ``ConstantTorque``, ``ConstantHarmonicTorque``,
+    ``GravityGradientTorque`` or their ``SumOfDisturbances``, each by its own formula), or
+    ``None``; ``disturbance_source`` the plant's disturbance object (the stage attitudes are
+    formed only when it reads them, as the plant does).
     ``member_refs``: the reference gives each member its own samples; ``R_d`` is then
     ``(B, 3, 3)`` if constant, else ``(B, n_ctrl + 1, 3, 3)`` (likewise ``omega_d``,
     ``omega_dot_d``), batches have exactly ``B`` members, and :meth:`rollout` /
@@ -262,6 +268,7 @@ class JaxClosedLoop:
     law: Any = None
     disturbance: Any = None
     member_refs: bool = False
+    disturbance_source: Any = None
     _compiled: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @property
@@ -405,6 +412,7 @@ class JaxClosedLoop:
             return row, u_cmd, cs
 
         dist = self.disturbance
+        dist_reads_attitude = _reads_attitude(self.disturbance_source)
         t0 = self.t0
 
         def period(carry: tuple, xs: tuple) -> tuple:
@@ -420,11 +428,13 @@ class JaxClosedLoop:
                 def field_(t: Any, RR: Any, xx: Any) -> tuple[Any, Any]:
                     tau = torque(xx, held)
                     if dist is not None:
-                        tau = tau + dist(t)
+                        tau = tau + dist(t, RR)
                     acc = euler_acceleration(J, J_inv, xx[:3], tau)
                     return xx[:3], acc if cluster is None else jnp.concatenate((acc, held[0]))
 
-                return rkmk4_step_unchecked(field_, t, c[0], c[1], dt, stage_attitude=False), None
+                return rkmk4_step_unchecked(
+                    field_, t, c[0], c[1], dt, stage_attitude=dist_reads_attitude
+                ), None
 
             # the sample's own step recomputes its command: one extra steering call per period
             # keeps the scan body free of a first-step special case
@@ -661,14 +671,53 @@ _STEERING_PARAMS: dict[type, tuple[str, ...]] = {
 }
 
 
-def _disturbance(dist: Any) -> Callable[[Any], Any] | None:
-    """The plant's disturbance as ``t -> (3,)`` on JAX scalars (its own formula)."""
+def _disturbance(dist: Any) -> Callable[[Any, Any], Any] | None:
+    """The plant's disturbance as ``(t, R) -> (3,)`` on JAX values (its own formula; ``R`` the
+    stage's attitude, ``None`` for a source that does not read it)."""
     if dist is None:
         return None
     if type(dist) is ConstantTorque:
         torque = np.array(dist.torque)
-        return lambda t: torque
-    return dist.torque_at
+        return lambda t, R: torque
+    if type(dist) is ConstantHarmonicTorque:
+        return lambda t, R: dist.torque_at(t)
+    if type(dist) is GravityGradientTorque:
+        return dist.torque_at
+    parts = [_disturbance(s) for _, s in dist._items]  # SumOfDisturbances (checked before)
+
+    def total(t: Any, R: Any) -> Any:
+        out = parts[0](t, R)
+        for p in parts[1:]:
+            out = out + p(t, R)
+        return out
+
+    return total
+
+
+def _reads_attitude(dist: Any) -> bool:
+    """Whether the disturbance reads the stage attitude (the integrator forms it then)."""
+    if dist is None or type(dist) in (ConstantTorque, ConstantHarmonicTorque):
+        return False
+    if type(dist) is SumOfDisturbances:
+        return any(_reads_attitude(s) for _, s in dist._items)
+    return True
+
+
+def _check_disturbance(dist: Any, name: str = "plant.disturbance") -> None:
+    """``ValueError`` naming a disturbance the JAX route does not fly."""
+    if dist is None or type(dist) in (ConstantHarmonicTorque, GravityGradientTorque):
+        return
+    if type(dist) is ConstantTorque and dist.torque.ndim == 1:
+        return
+    if type(dist) is SumOfDisturbances:
+        for k, s in dist._items:
+            _check_disturbance(s, f"{name}.sources[{k!r}]")
+        return
+    raise ValueError(
+        f"{name}: the JAX route flies ConstantTorque (one torque for the batch), "
+        f"ConstantHarmonicTorque, GravityGradientTorque and their SumOfDisturbances, got "
+        f"{type(dist).__name__}; run spacecraft.simulate"
+    )
 
 
 def _initial(R0: object, omega0: object | None) -> tuple[np.ndarray, np.ndarray]:
@@ -747,14 +796,7 @@ def closed_loop(
     act = plant.actuator
     _check_actuator(act)
     dist = plant.disturbance
-    if dist is not None and not (
-        type(dist) is ConstantHarmonicTorque
-        or (type(dist) is ConstantTorque and dist.torque.ndim == 1)
-    ):
-        raise ValueError(
-            f"plant.disturbance: the JAX route flies ConstantTorque (one torque for the batch) "
-            f"and ConstantHarmonicTorque, got {type(dist).__name__}; run spacecraft.simulate"
-        )
+    _check_disturbance(dist)
     for part in ("modes", "momentum_management"):
         if getattr(plant, part) is not None:
             raise ValueError(
@@ -799,6 +841,7 @@ def closed_loop(
         rate_limit=act.rate_limit if sgcmg else math.inf,
         delta0=np.array(act.delta0) if sgcmg else None, checkpoint=bool(checkpoint),
         law=law, disturbance=_disturbance(dist), member_refs=per_member,
+        disturbance_source=dist,
     )  # fmt: skip
 
 

@@ -17,9 +17,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
+from liecontrol._array_api import namespace
 from liecontrol._validation import as_array, check_inertia_3x3, check_positive_scalar
 
 from .orbit import CircularOrbit
@@ -66,15 +68,27 @@ class GravityGradientTorque:
             raise ValueError(f"orbit: expected CircularOrbit, got {type(self.orbit).__name__}")
 
     def __call__(self, t: float, R: np.ndarray, omega: np.ndarray) -> np.ndarray:
-        # hot path (every integration stage): inputs trusted, nadir from the orbit-plane angle
+        # hot path (every integration stage): inputs trusted
+        return self.torque_at(float(t), np.asarray(R))
+
+    def torque_at(self, t: Any, R: Any) -> Any:
+        """3n²(ĉ × Jĉ) ``(..., 3)`` at time ``t`` for attitudes ``R`` ``(..., 3, 3)``, the nadir
+        ĉ = Rᵀ(−r̂) from the orbit-plane angle u = u₀ + n t. Pure, NumPy or JAX (the
+        differentiable loop, :mod:`spacecraft.differentiable`, evaluates it at every RKMK4
+        stage's attitude): a Python float ``t`` takes ``math``'s cos/sin."""
         o = self.orbit
-        u = o.arg_lat0 + o.n * float(t)
-        nadir = -(math.cos(u) * o._R_orb[:, 0] + math.sin(u) * o._R_orb[:, 1])
-        c = np.asarray(R).swapaxes(-1, -2) @ nadir
+        xp = namespace(R)
+        u = o.arg_lat0 + o.n * t
+        cos, sin = (math.cos, math.sin) if isinstance(t, float) else (xp.cos, xp.sin)
+        nadir = -(cos(u) * o._R_orb[:, 0] + sin(u) * o._R_orb[:, 1])
+        c = xp.swapaxes(R, -1, -2) @ nadir
         Jc = c @ self.J.T
-        out = np.empty(c.shape)
-        out[..., 0] = c[..., 1] * Jc[..., 2] - c[..., 2] * Jc[..., 1]
-        out[..., 1] = c[..., 2] * Jc[..., 0] - c[..., 0] * Jc[..., 2]
-        out[..., 2] = c[..., 0] * Jc[..., 1] - c[..., 1] * Jc[..., 0]
-        out *= 3.0 * o.n * o.n
-        return out
+        k = 3.0 * o.n * o.n
+        return xp.stack(
+            (
+                k * (c[..., 1] * Jc[..., 2] - c[..., 2] * Jc[..., 1]),
+                k * (c[..., 2] * Jc[..., 0] - c[..., 0] * Jc[..., 2]),
+                k * (c[..., 0] * Jc[..., 1] - c[..., 1] * Jc[..., 0]),
+            ),
+            axis=-1,
+        )

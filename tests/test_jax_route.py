@@ -772,3 +772,42 @@ def test_a_reference_of_another_batch_size_is_refused_by_name(jax):
     ref = ConstantAttitude(np.stack([np.eye(3)] * 2))
     with pytest.raises(ValueError, match=r"^reference: gives 2 members their own samples"):
         closed_loop(plant, GeometricPD(J, 1.0, 5.0), ref, 10.0, 0.1)
+
+
+@pytest.mark.parametrize("actuator", ["ideal", "sgcmg"])
+def test_gravity_gradient_and_sums_fly_at_every_stage_attitude(actuator, jax):
+    """The gravity-gradient torque (its own formula, ``torque_at``, read at each RKMK4 stage's
+    attitude) and its sum with the constant + harmonic torque: equal to simulate's."""
+    from spacecraft.actuators import SgcmgActuator
+    from spacecraft.differentiable import closed_loop
+    from spacecraft.disturbances import ConstantHarmonicTorque, SumOfDisturbances
+    from spacecraft.environment import GravityGradientTorque
+    from spacecraft.orbit import CircularOrbit
+
+    Jt = np.diag([1200.0, 1000.0, 800.0])
+    Jt[0, 2] = Jt[2, 0] = 40.0
+    # a fast, low orbit (n = 0.05 rad/s) so that the torque matters within the run
+    gg = GravityGradientTorque(Jt, CircularOrbit(n=0.05, inclination=0.7, arg_lat0=0.3))
+    for dist in (gg, SumOfDisturbances({"gg": gg, "ch": ConstantHarmonicTorque(scale=5.0)})):
+        act = SgcmgActuator() if actuator == "sgcmg" else IdealTorqueActuator(max_torque=20.0)
+        plant = Spacecraft(RigidBody(Jt), act, disturbance=dist)
+        kR, kW = gains_from_bandwidth(Jt, 0.1, 0.9)
+        ctrl = GeometricPD(Jt, kR, kW)
+        ref = ConstantAttitude(so3.exp(np.array([0.1, -0.2, 0.3])))
+        R0 = so3.exp(np.array([[2.0, 1.0, -1.0], [0.0, 0.5, 0.0]]))
+        w0 = np.array([[0.01, 0.0, -0.02], [0.0, 0.0, 0.0]])
+        want = simulate(plant, ctrl, ref, plant.initial_state(R0, w0), 40.0, 0.1,
+                        control_period=0.2, log_every=2)  # fmt: skip
+        run = closed_loop(plant, ctrl, ref, 40.0, 0.1, 0.2).run(R0, w0)
+        np.testing.assert_allclose(run.R, want.R, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(run.omega, want.omega, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(run.u, want.u, rtol=0, atol=1e-9)
+        got = simulate(plant, ctrl, ref, plant.initial_state(R0, w0), 40.0, 0.1,
+                       control_period=0.2, log_every=2, backend="jax")  # fmt: skip
+        np.testing.assert_allclose(got.disturbance, want.disturbance, rtol=0, atol=1e-10)
+        assert np.abs(want.disturbance).max() > 1.0  # the torque acts
+    # a source the route does not fly is named with its place in the sum
+    with pytest.raises(ValueError, match=r"^plant\.disturbance\.sources\['odd'\]: "):
+        closed_loop(Spacecraft(RigidBody(Jt), IdealTorqueActuator(),
+                               disturbance=SumOfDisturbances({"gg": gg, "odd": lambda t, R, w: w})),
+                    GeometricPD(Jt, 1.0, 5.0), ConstantAttitude(np.eye(3)), 10.0, 0.1)  # fmt: skip

@@ -104,3 +104,17 @@ def test_members_with_their_own_references_fly_the_jax_route(caplog):
     assert "ran on the numba loop" not in caplog.text, caplog.text
     assert len(loops) == 2 and all(lp.member_refs and lp.R_d.shape[0] == 2 for lp in loops)
     assert_same_outcomes(a, b)
+
+
+def test_earth_pointing_under_gravity_gradient_flies_the_jax_route(caplog):
+    """earth-pointing: an LVLH-tracking reference under gravity gradient + the constant +
+    harmonic torque (a SumOfDisturbances read at every stage's attitude) on the JAX route, with
+    the numba route's metrics and verdicts."""
+    scs = [get_scenario("earth-pointing").with_duration(60.0)]
+    a = run_suite(scs, ["geometric-pd-large-angle", "mrp-adrc"], members=2, executor="serial",
+                  progress=False)  # fmt: skip
+    with caplog.at_level(logging.INFO, logger="benchmarks.runner"):
+        b = run_suite(scs, ["geometric-pd-large-angle", "mrp-adrc"], members=2,
+                      executor="serial", progress=False, backend="jax")  # fmt: skip
+    assert "ran on the numba loop" not in caplog.text, caplog.text
+    assert_same_outcomes(a, b)

@@ -1311,6 +1311,11 @@ NOT_SWEPT: dict[str, str] = {
     "params, state, signature) are tested in test_kernel_seam",
     "liecontrol.control.kernel.ControllerKernel": "a record built by a controller's "
     "fused_kernel() and validated by kernel.check (tested in test_kernel_seam)",
+    "spacecraft.steering_kernel.SteeringKernel": "a record built by a steering law's "
+    "fused_kernel() and validated by steering_kernel.check (tested in test_steering_kernel)",
+    "spacecraft.steering_kernel.resolve": "needs a steering law with a compiled @njit kernel; "
+    "its checks (kernel, params, signature, non-finite rates, the owner rule) are tested in "
+    "test_steering_kernel",
     # report sections over a whole SuiteResult: their argument check (a SuiteResult, named
     # ``result``) is tested in test_dispersion_ranking; a call runs simulations (seconds)
     **{
