@@ -12,7 +12,11 @@ sampled every 0.2 s), ``--t-final`` s at dt = ``--dt``, logging every ``--log-ev
   the controller — fused (its compiled filter, :mod:`liecontrol._kernels.mekf`) and
   in the Python loop;
 * ``ukf``: the same hook with the manifold UKF (``estimator="ukf"``; compiled:
-  :mod:`liecontrol._kernels.ukf`).
+  :mod:`liecontrol._kernels.ukf`);
+* ``two-vector``: the tracker replaced by a :class:`spacecraft.sensors.TwoVectorAttitude`
+  (two fixed reference directions, 1 mrad per direction, TRIAD, ZYX Euler-angle output — Wang
+  et al. 2015's sensor) read by ``StarTrackerGyro``; ``tracker-euler``: the tracker with
+  ZYX Euler-angle output (compiled: :mod:`liecontrol._kernels.euler`).
 
 Spacecraft-steps per CPU-second of this process (``time.process_time``, best of ``--repeat``
 rounds; the machine may be shared, so CPU time, and both routes alternate within each round).
@@ -43,6 +47,27 @@ from spacecraft import (  # noqa: E402
     simulate,
 )
 from spacecraft import simulator as simulator_module  # noqa: E402
+from spacecraft.sensors import StarTracker, TwoVectorAttitude  # noqa: E402
+
+_HOOKS = ("none", "mekf", "ukf", "two-vector", "tracker-euler")
+
+
+def _sensors(estimator: str) -> tuple[Any, Any, np.random.Generator]:
+    """The run's sensors, hook and generator (fresh)."""
+    if estimator not in ("two-vector", "tracker-euler"):
+        return build_sensors(SensorSpec(estimator=estimator))
+    spec = SensorSpec()
+    sensors, hook, rng = build_sensors(spec)
+    if estimator == "two-vector":
+        sensors["star_tracker"] = TwoVectorAttitude(
+            np.array([0.0, 0.0, -1.0]), np.array([1.0, 0.0, 0.5]), 1e-3, output="euler",
+            period=spec.period,
+        )  # fmt: skip
+    else:
+        sensors["star_tracker"] = StarTracker(
+            noise_std=spec.attitude_noise_rad, output="euler", period=spec.period
+        )
+    return sensors, hook, rng
 
 
 def _setup(batch: int, estimator: str) -> tuple[Any, ...]:
@@ -58,7 +83,7 @@ def run_once(
 ) -> float:
     """CPU seconds of one run (sensors and generator built fresh, outside the timing)."""
     plant, ctrl, ref, s0, estimator = setup
-    sensors, hook, rng = build_sensors(SensorSpec(estimator=estimator))
+    sensors, hook, rng = _sensors(estimator)
     real = simulator_module.fused_supported
     if python:
         simulator_module.fused_supported = lambda *a, **k: None
@@ -79,16 +104,17 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--batch", type=int, nargs="+", default=[1, 100], help="batch sizes")
     p.add_argument("--repeat", type=int, default=3, help="rounds, best taken (default 3)")
     p.add_argument(
-        "--estimator", nargs="+", default=["none", "mekf", "ukf"],
-        choices=["none", "mekf", "ukf"],
+        "--estimator", nargs="+", default=["none", "mekf", "ukf"], choices=list(_HOOKS),
         help="none: StarTrackerGyro; mekf / ukf: the MEKF / manifold UKF hook (the Python "
-        "loop's filters cost ~0.3-0.5 ms per filter step: B = 100 takes minutes per run)",
+        "loop's filters cost ~0.3-0.5 ms per filter step: B = 100 takes minutes per run); "
+        "two-vector / tracker-euler: StarTrackerGyro on a TwoVectorAttitude / a tracker with "
+        "Euler-angle output",
     )  # fmt: skip
     a = p.parse_args(argv)
     steps = round(a.t_final / a.dt)
     print(f"{a.t_final:g} s at dt = {a.dt:g} s ({steps} steps), log every {a.log_every}; "
           f"{thread_settings()}; best of {a.repeat}")  # fmt: skip
-    print(f"{'hook':<6} {'B':>5} {'route':<8} {'CPU s':>9} {'steps/s':>12} {'vs Python':>10}")
+    print(f"{'hook':<13} {'B':>5} {'route':<8} {'CPU s':>9} {'steps/s':>12} {'vs Python':>10}")
     for estimator in a.estimator:
         for B in a.batch:
             setup = _setup(B, estimator)
@@ -101,7 +127,7 @@ def main(argv: list[str] | None = None) -> None:
             name = "raw" if estimator == "none" else estimator
             for route, cpu in best.items():
                 ratio = best["python"] / cpu
-                print(f"{name:<6} {B:>5} {route:<8} {cpu:>9.3f} {B * steps / cpu:>12.4g} "
+                print(f"{name:<13} {B:>5} {route:<8} {cpu:>9.3f} {B * steps / cpu:>12.4g} "
                       f"{ratio:>9.1f}x", flush=True)  # fmt: skip
 
 

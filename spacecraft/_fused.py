@@ -15,14 +15,15 @@ nor the classes import this module (no import circle).
 in addition, the controller supplies a compiled law through the public seam
 :mod:`liecontrol.control.kernel` (``controller.fused_kernel(B)``), the sensors and the
 measurement hook (if any) have kernels (:mod:`spacecraft._fused_sensors`: the built-in star
-tracker, rate gyro and ``TimedSensor``, the ``StarTrackerGyro`` hook and an MEKF or manifold-UKF
-hook through ``fused_hook``) and no progress bar or compute delay is used. The loop knows no
-controller class: it calls the law it is given through a function pointer (a numba first-class
-function of the documented signature), carries the law's internal state array and logs its
-diagnostics rows, so one compiled loop (cached on disk) serves the built-in laws and a user's
-own alike. It produces the same :class:`~spacecraft.simulator.SimulationResult` as the per-step
-Python loop, which calls the same kernels one at a time. Anything else — a controller without a
-kernel, a Python disturbance, a user's sensor — runs through that loop, and
+tracker — quaternion, Euler-angle or matrix output —, the two-vector (TRIAD) sensor with fixed
+references, rate gyro and ``TimedSensor``, the ``StarTrackerGyro`` hook and an MEKF or
+manifold-UKF hook through ``fused_hook``) and no progress bar or compute delay is used. The loop
+knows no controller class: it calls the law it is given through a function pointer (a numba
+first-class function of the documented signature), carries the law's internal state array and
+logs its diagnostics rows, so one compiled loop (cached on disk) serves the built-in laws and a
+user's own alike. It produces the same :class:`~spacecraft.simulator.SimulationResult` as the
+per-step Python loop, which calls the same kernels one at a time. Anything else — a controller
+without a kernel, a Python disturbance, a user's sensor — runs through that loop, and
 :func:`fused_supported` reports why.
 """
 
@@ -317,7 +318,7 @@ def _one_spacecraft(
     cur = 0
     if sensing is not None:
         hook = h_int[0]
-        s_tmp = np.empty(30)
+        s_tmp = np.empty(FS.N_TMP)
         tmp = unowned_view(s_tmp)
         si = unowned_view(s_int)
         spar = unowned_view(s_par)
@@ -342,6 +343,9 @@ def _one_spacecraft(
             cur = FS.sense_stage(
                 k, t, Rc, wc, si, spar, pthr, psch, nz, cur, stb, yb, tmp
             )  # fmt: skip
+            if cur < 0:  # a degenerate TRIAD pair (the Python loop raises)
+                status = 4
+                break
         if k % every_ctrl == 0:
             hooked = False
             if sensing is not None:
@@ -679,7 +683,7 @@ def _one_vscmg(
     cur = 0
     if sensing is not None:
         hook = h_int[0]
-        s_tmp = np.empty(30)
+        s_tmp = np.empty(FS.N_TMP)
         tmp = unowned_view(s_tmp)
         si = unowned_view(s_int)
         spar = unowned_view(s_par)
@@ -706,6 +710,9 @@ def _one_vscmg(
             cur = FS.sense_stage(
                 k, t, Rc[0], xb[:3], si, spar, pthr, psch, nz, cur, stb, yb, tmp
             )  # fmt: skip
+            if cur < 0:  # a degenerate TRIAD pair (the Python loop raises)
+                status = 4
+                break
         if k % every_ctrl == 0:
             hooked = False
             if sensing is not None:
@@ -1153,9 +1160,11 @@ def _finished(
             what = "the state became non-finite" if status == 1 else (
                 f"controller {type(controller).__name__}'s compiled law returned a non-finite "
                 "torque"
-            ) if status != 3 else (
+            ) if status not in (3, 4) else (
                 "the estimator hook's covariance lost positive definiteness (the numpy filter "
                 "repairs it)"
+            ) if status == 3 else (
+                "a TwoVectorAttitude's measured directions were parallel (TRIAD undetermined)"
             )  # fmt: skip
             notes.append(f"{what} at t = {t_fail!r}; the run is repeated in the Python loop")
         return False

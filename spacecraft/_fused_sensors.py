@@ -1,12 +1,20 @@
 """Sensors and the measurement hook in the compiled closed loop (:mod:`spacecraft._fused`).
 
-The built-in sensors — :class:`~spacecraft.sensors.StarTracker` (quaternion or matrix output,
-per-axis or boresight noise, mounting misalignment), :class:`~spacecraft.sensors.RateGyro`
-(every term of its error model) and either wrapped in a :class:`~spacecraft.sensors.TimedSensor`
-(latency, scheduled and random outages) — and the :class:`~spacecraft.simulator.StarTrackerGyro`
-hook run in the fused loop with the formulas of :mod:`spacecraft._kernels_sensors`, the same
-kernels the numpy classes call. Exact classes only: a subclass (which may override ``measure``)
-keeps the Python loop, as does any other sensor, and :func:`sensor_plan` says why.
+The built-in sensors — :class:`~spacecraft.sensors.StarTracker` (quaternion, Euler-angle or
+matrix output, per-axis or boresight noise, mounting misalignment),
+:class:`~spacecraft.sensors.TwoVectorAttitude` with fixed reference directions (measured
+directions exp(δᵢ^) Rᵀ rᵢ, TRIAD; Euler-angle, matrix or quaternion output; Wang et al. 2015
+§1.2), :class:`~spacecraft.sensors.RateGyro` (every term of its error model) and any of them
+wrapped in a :class:`~spacecraft.sensors.TimedSensor` (latency, scheduled and random outages) —
+and the :class:`~spacecraft.simulator.StarTrackerGyro` hook (reading a quaternion, a matrix or
+Euler angles in its own ``seq``) run in the fused loop with the formulas of
+:mod:`spacecraft._kernels_sensors` and :mod:`liecontrol._kernels.euler`, the same kernels the
+numpy classes call (``FORM_QUAT``, ``FORM_MATRIX``, ``FORM_EULER`` outputs; the Euler
+sequence's axes in ``s_int[:, I_SEQ:]``). Exact classes only: a subclass (which may override
+``measure``) keeps the Python loop, as does any other sensor, a ``TwoVectorAttitude`` with a
+time-varying reference, and an estimator hook on anything but a tracker's quaternion;
+:func:`sensor_plan` says why. A degenerate TRIAD pair (parallel measured directions) stops the
+compiled run, which the Python loop repeats (and raises there).
 
 **Estimator hooks.** A measurement hook may hand the loop a filter through the protocol method
 ``fused_hook()``, returning an :class:`EstimatorHook` (an MEKF, :mod:`liecontrol._kernels.mekf`,
@@ -20,15 +28,15 @@ type of its own) for the UKF, and :func:`filter_predict` / :func:`filter_update`
 one filter's kernels from that type, so each compiled loop contains one filter.
 
 **The noise.** Every draw of these sensors is independent of the state: at each sample the
-Python loop draws, in the order of the ``sensors`` mapping, for each sensor sampled at that
-step and publishing, a uniform per spacecraft (``TimedSensor`` with ``outage_rate`` > 0), then
-the sensor's normals, ``(B, 3)`` per call (a star tracker: δ; a gyro: the bias walk's — not at
-its first sample — then the white noise's). :func:`draw_noise` makes the same calls on the
-run's generator before the loop (runs of one kind merged into one call: numpy's
-``Generator.standard_normal`` and ``random`` fill arrays element by element from the bit
-stream, so the values and the generator's final state are those of the Python loop's calls)
-and lays each spacecraft's draws out in the order its run consumes them, so the compiled loop,
-which runs one spacecraft after another, reads one cursor per spacecraft.
+Python loop draws, in the order of the ``sensors`` mapping, for each sensor sampled at that step
+and publishing, a uniform per spacecraft (``TimedSensor`` with ``outage_rate`` > 0), then the
+sensor's normals, ``(B, 3)`` per call (a star tracker: δ; a two-vector sensor: δ₁, then δ₂; a
+gyro: the bias walk's — not at its first sample — then the white noise's). :func:`draw_noise`
+makes the same calls on the run's generator before the loop (runs of one kind merged into one
+call: numpy's ``Generator.standard_normal`` and ``random`` fill arrays element by element from
+the bit stream, so the values and the generator's final state are those of the Python loop's
+calls) and lays each spacecraft's draws out in the order its run consumes them, so the compiled
+loop, which runs one spacecraft after another, reads one cursor per spacecraft.
 
 **Sampling.** A sensor with period P is called at every ``P/dt``-th step on the true state;
 its output is held (zero-order hold) and logged as ``result.sensors[name]`` (with
@@ -55,6 +63,7 @@ from typing import Any
 import numpy as np
 
 from liecontrol._jit import JIT_ENABLED, njit
+from liecontrol._kernels import euler as KE
 from liecontrol._kernels import filters as EK
 from liecontrol._kernels import mekf as MK
 from liecontrol._kernels import ukf as UK
@@ -68,14 +77,26 @@ MAX_NOISE_BYTES = 512 * 2**20
 # sensor kinds and output forms
 KIND_STAR = 0
 KIND_GYRO = 1
+KIND_TWO_VECTOR = 2
 FORM_QUAT = 0
 FORM_MATRIX = 1
 FORM_RATE = 2
+FORM_EULER = 3
 
 # columns of the integer table s_int (S, N_INT)
 I_KIND, I_EVERY, I_PUB, I_LAG, I_OUT, I_LEN, I_VALID, I_STATE, I_PAR, I_PUBOFF, I_RATE = range(11)
 I_FORM = 11
-N_INT = 12
+# the Euler sequence of FORM_EULER: intrinsic axes i, j, k and the extrinsic flag
+I_SEQ = 12
+N_INT = 16
+
+#: the loop's scratch per spacecraft: output (9), measured matrix (9), the star tracker's (9),
+#: the two-vector sensor's (6)
+N_TMP = 33
+#: sin of the smallest angle between the two TRIAD directions accepted (sensors.PARALLEL_TOL)
+PARALLEL_TOL = 1e-6
+#: gimbal-lock threshold of the Euler outputs (charts.euler.FROM_MATRIX_LOCK_TOL)
+EULER_LOCK_TOL = 1e-12
 
 # per-sensor state row: outage end, held flag, the ring of (t, R, ω), then the gyro's state
 S_END, S_HELD, S_RING = 0, 1, 2
@@ -88,6 +109,8 @@ N_GYRO_STATE = 9
 # σ_u 3, σ_v 3, q 3); a TimedSensor's D and p after its wrapped sensor's
 P_STAR = 23
 P_GYRO = 21
+# a TwoVectorAttitude's: r₁ (3), r₂ (3), σ₁, σ₂
+P_TWO_VECTOR = 8
 
 HOOK_NONE = 0
 HOOK_STAR_TRACKER_GYRO = 1
@@ -100,8 +123,8 @@ HOOK_UKF = 3
 SENSING_UKF = (HOOK_UKF,)
 
 # h_int: hook, attitude output, its form, rate output, attitude valid flag (-1: none), gyro bias
-# in the sensor state (-1: none)
-N_HINT = 6
+# in the sensor state (-1: none), the hook's Euler sequence (i, j, k, extrinsic)
+N_HINT = 10
 # the estimator hook's parameters: σ_v, σ_u, Σ (9), P₀ (36), gate threshold, gate's max run;
 # the UKF's then its weights γ, Wᵐ (13), Wᶜ (13)
 N_HPAR = 49
@@ -208,20 +231,23 @@ class SensorPlan:
     hook_att: int  # index of the attitude sensor (hook)
     hook_rate: int
     estimator: EstimatorHook | None = None
+    hook_seq: str = "ZYX"  # StarTrackerGyro's Euler sequence (Euler-angle attitude outputs)
 
 
 def _unwrap(sensor: Any) -> tuple[Any, Any, str]:
     """``(timed wrapper or None, inner sensor, why not)`` of one entry of ``sensors``."""
-    from .sensors import RateGyro, StarTracker, TimedSensor
+    from .sensors import RateGyro, StarTracker, TimedSensor, TwoVectorAttitude
 
     timed = None
     inner = sensor
     if type(sensor) is TimedSensor:
         timed, inner = sensor, sensor.sensor
     if type(inner) is StarTracker:
-        if inner.output not in ("quaternion", "matrix"):
-            return None, None, f"a StarTracker with output {inner.output!r} (the compiled loop " \
-                "has the quaternion and matrix outputs)"  # fmt: skip
+        return timed, inner, ""
+    if type(inner) is TwoVectorAttitude:
+        if callable(inner.ref1) or callable(inner.ref2):
+            return None, None, "a TwoVectorAttitude with a time-varying reference direction " \
+                "(the compiled loop has constant ones)"  # fmt: skip
         return timed, inner, ""
     if type(inner) is RateGyro:
         return timed, inner, ""
@@ -254,7 +280,7 @@ def sensor_plan(sensor_list: Any, measurement: Any) -> tuple[SensorPlan | None, 
     hook, att, rate = HOOK_NONE, -1, -1
     est = None
     if measurement is not None:
-        from .sensors import RateGyro, StarTracker
+        from .sensors import RateGyro, StarTracker, TwoVectorAttitude
 
         if type(measurement) is StarTrackerGyro:
             hook = HOOK_STAR_TRACKER_GYRO
@@ -264,10 +290,12 @@ def sensor_plan(sensor_list: Any, measurement: Any) -> tuple[SensorPlan | None, 
                 return None, why
             hook = HOOK_MEKF if est.kind == "mekf" else HOOK_UKF
         att, rate = names.index(measurement.attitude), names.index(measurement.rate)
-        if type(inner[att]) is not StarTracker:
+        attitude_types = (StarTracker,) if est is not None else (StarTracker, TwoVectorAttitude)
+        if type(inner[att]) not in attitude_types:
             return None, (
                 f"the measurement hook reads its attitude from a {type(inner[att]).__name__} "
-                "(the compiled hook reads a StarTracker's)"
+                "(the compiled hook reads a StarTracker's, and StarTrackerGyro a "
+                "TwoVectorAttitude's)"
             )
         if type(inner[rate]) is not RateGyro:
             return None, (
@@ -279,7 +307,8 @@ def sensor_plan(sensor_list: Any, measurement: Any) -> tuple[SensorPlan | None, 
                 return None, "the estimator hook reads a StarTracker's quaternion output"
             if est.gyro is not None and est.gyro is not inner[rate]:
                 return None, "the estimator hook's gyro is not its rate sensor"
-    return SensorPlan(names, sensors, inner, every, hook, att, rate, est), ""
+    seq = measurement.seq if hook == HOOK_STAR_TRACKER_GYRO else "ZYX"
+    return SensorPlan(names, sensors, inner, every, hook, att, rate, est, seq), ""
 
 
 @dataclass
@@ -312,7 +341,7 @@ def empty_arrays(B: int) -> SensorArrays:
 def _draw_counts(plan: SensorPlan, n_steps: int) -> tuple[np.ndarray, ...]:
     """The draw events of the run in the Python loop's order: per event (step, sensor,
     uniforms per spacecraft, normals per spacecraft)."""
-    from .sensors import RateGyro
+    from .sensors import RateGyro, TwoVectorAttitude
 
     ks, ss, us, ns = [], [], [], []
     for s, (sensor, inner, ev) in enumerate(zip(plan.sensors, plan.inner, plan.every, strict=True)):
@@ -327,6 +356,8 @@ def _draw_counts(plan: SensorPlan, n_steps: int) -> tuple[np.ndarray, ...]:
         if type(inner) is RateGyro:
             n = np.full(c.shape, 6)
             n[:1] = 3  # no bias walk at the first sample
+        elif type(inner) is TwoVectorAttitude:
+            n = np.full(c.shape, 6)  # δ₁, then δ₂
         ns.append(n)
     k, s, u, n = (np.concatenate(a) for a in (ks, ss, us, ns))
     order = np.lexsort((s, k))
@@ -372,7 +403,9 @@ def prepare(
     """The loop's sensor arrays after the sensors' ``reset`` (done by the caller): parameters,
     initial states, the publication times' outage data and the noise (:func:`draw_noise`).
     Raises ``MemoryError`` when the noise would not fit (the Python loop then runs)."""
-    from .sensors import StarTracker, _time_tol
+    from liecontrol.charts import euler
+
+    from .sensors import StarTracker, TwoVectorAttitude, _time_tol
 
     S = len(plan.names)
     s_int = np.zeros((S, N_INT), dtype=np.int64)
@@ -385,15 +418,26 @@ def prepare(
         timed = sensor if sensor is not inner else None
         pub = timed._every if timed is not None else 1
         lag = timed._lag if timed is not None else 0
+        seq_axes = (0, 0, 0, 0)
+        if type(inner) in (StarTracker, TwoVectorAttitude):
+            form = {"quaternion": FORM_QUAT, "matrix": FORM_MATRIX, "euler": FORM_EULER}[
+                inner.output
+            ]
+            length = {FORM_QUAT: 4, FORM_MATRIX: 9, FORM_EULER: 3}[form]
+            if form == FORM_EULER:
+                i, j, k, ext = euler.kernel_axes(inner.seq)
+                seq_axes = (i, j, k, int(ext))
+            extra_state = 0
         if type(inner) is StarTracker:
             kind = KIND_STAR
-            form = FORM_QUAT if inner.output == "quaternion" else FORM_MATRIX
-            length = 4 if form == FORM_QUAT else 9
             mis_on, mis, per_axis, sigma, LT = inner.kernel_args()
             p = np.concatenate(
                 (mis.ravel(), [float(per_axis)], sigma, np.asarray(LT).ravel(), [float(mis_on)])
             )
-            extra_state = 0
+        elif type(inner) is TwoVectorAttitude:
+            kind = KIND_TWO_VECTOR
+            r1, r2 = inner.references(t0)
+            p = np.concatenate((r1, r2, np.asarray(inner._sig, dtype=np.float64)))
         else:
             kind = KIND_GYRO
             form = FORM_RATE
@@ -422,7 +466,7 @@ def prepare(
         state_len = S_RING + RING_ENTRY * (lag + 1) + extra_state
         s_int[s] = (
             kind, ev, pub, lag, n_y, length, n_y + length if timed is not None else -1,
-            n_state, n_par, n_pub, int(rate_on), form,
+            n_state, n_par, n_pub, int(rate_on), form, *seq_axes,
         )  # fmt: skip
         gyro_off = n_state + S_RING + RING_ENTRY * (lag + 1)
         init.append((gyro_off, inner if kind == KIND_GYRO else None))
@@ -446,6 +490,9 @@ def prepare(
         a, r = plan.hook_att, plan.hook_rate
         h_int[1:4] = (s_int[a, I_OUT], s_int[a, I_FORM], s_int[r, I_OUT])
         h_int[4] = s_int[a, I_VALID]
+        if plan.hook == HOOK_STAR_TRACKER_GYRO:
+            i, j, k, ext = euler.kernel_axes(plan.hook_seq)
+            h_int[6:10] = (i, j, k, int(ext))
     est = plan.estimator
     if est is not None:
         r = plan.hook_rate
@@ -483,7 +530,9 @@ def sense_stage(
     sensor due at this step records the state in its ring and, at a publication, measures the
     state ``lag`` calls old with the draws at ``noise[cur:]`` and updates its held output
     ``y`` (module docstring). ``st`` is the spacecraft's sensor state row, ``tmp`` scratch
-    (≥ 30). Returns the cursor after the draws used."""
+    (≥ :data:`N_TMP`). Returns the cursor after the draws used, or −1 when a
+    ``TwoVectorAttitude``'s measured directions are parallel (TRIAD undetermined: the Python
+    loop, which raises, is run instead)."""
     for s in range(s_int.shape[0]):
         every = s_int[s, I_EVERY]
         if k % every != 0:
@@ -509,7 +558,7 @@ def sense_stage(
         w_m = st[o + 10 : o + 13]
         po = s_int[s, I_PAR]
         kind = s_int[s, I_KIND]
-        n_par = P_STAR if kind == KIND_STAR else P_GYRO
+        n_par = P_STAR if kind == KIND_STAR else P_GYRO if kind == KIND_GYRO else P_TWO_VECTOR
         out_now = False
         valid_off = s_int[s, I_VALID]
         if valid_off >= 0:  # a TimedSensor: the outage model
@@ -524,17 +573,34 @@ def sense_stage(
             st[so + S_END] = end
         ylen = s_int[s, I_LEN]
         out = tmp[:9]
-        if kind == KIND_STAR:
-            mis = s_par[po : po + 9].reshape((3, 3))
-            LT = s_par[po + 13 : po + 22].reshape((3, 3))
+        if kind != KIND_GYRO:
             Rm = tmp[9:18].reshape((3, 3))
-            KS.star_tracker_into(
-                R_m, s_par[po + 22] != 0.0, mis, s_par[po + 9] != 0.0, s_par[po + 10 : po + 13],
-                LT, noise[cur : cur + 3], tmp[18:27].reshape((3, 3)), Rm,
-            )  # fmt: skip
-            cur += 3
-            if s_int[s, I_FORM] == FORM_QUAT:
+            if kind == KIND_STAR:
+                mis = s_par[po : po + 9].reshape((3, 3))
+                LT = s_par[po + 13 : po + 22].reshape((3, 3))
+                KS.star_tracker_into(
+                    R_m, s_par[po + 22] != 0.0, mis, s_par[po + 9] != 0.0,
+                    s_par[po + 10 : po + 13], LT, noise[cur : cur + 3],
+                    tmp[18:27].reshape((3, 3)), Rm,
+                )  # fmt: skip
+                cur += 3
+            else:
+                sin_min = KS.two_vector_into(
+                    R_m, s_par[po : po + 3], s_par[po + 3 : po + 6], s_par[po + 6],
+                    s_par[po + 7], noise[cur : cur + 3], noise[cur + 3 : cur + 6], tmp[27:33],
+                    Rm,
+                )  # fmt: skip
+                cur += 6
+                if sin_min < PARALLEL_TOL:
+                    return -1
+            form = s_int[s, I_FORM]
+            if form == FORM_QUAT:
                 KS.quaternion_into(Rm, out)
+            elif form == FORM_EULER:
+                KE.from_matrix_into(
+                    Rm, s_int[s, I_SEQ], s_int[s, I_SEQ + 1], s_int[s, I_SEQ + 2],
+                    s_int[s, I_SEQ + 3] != 0, EULER_LOCK_TOL, out,
+                )  # fmt: skip
             else:
                 for i in range(9):
                     out[i] = tmp[9 + i]
@@ -682,6 +748,8 @@ def hook_stage(
     if h_int[0] == HOOK_STAR_TRACKER_GYRO:
         if h_int[2] == FORM_QUAT:
             KS.unit_quaternion_matrix_into(y[a : a + 4], Rs)
+        elif h_int[2] == FORM_EULER:
+            KE.to_matrix_into(y[a : a + 3], h_int[6], h_int[7], h_int[8], h_int[9] != 0, Rs)
         else:
             for i in range(9):
                 seen[i] = y[a + i]

@@ -15,7 +15,7 @@ import numpy as np
 
 from liecontrol._jit import njit
 from liecontrol._kernels.mrp_pd import quaternion9
-from liecontrol._kernels.so3 import right_multiply_exp_into
+from liecontrol._kernels.so3 import exp9, right_multiply_exp_into
 
 
 @njit(inline="always")
@@ -184,3 +184,102 @@ def outage_batch(
     for b in range(end.shape[0]):
         out[b], end[b] = outage_step(end[b], thr, t, duration, hit[b], scheduled)
     return out
+
+
+@njit(inline="always")
+def triad_into(
+    b1: np.ndarray, b2: np.ndarray, r1: np.ndarray, r2: np.ndarray, out: np.ndarray
+) -> float:
+    """TRIAD (Black 1964; Shuster & Oh, J. Guidance Control 4(1), 1981) of one pair:
+    ``out (3, 3)`` = [t^r] [t^b]ᵀ with the triads t₁ = v₁/|v₁|, t₂ = (v₁ × v₂)/|v₁ × v₂|,
+    t₃ = t₁ × t₂ of the body pair (b) and the reference pair (r). Returns the smaller sin of
+    the angle within a pair (|v₁ × v₂| / (|v₁| |v₂|)); 0 for a zero vector, when ``out`` is
+    not a rotation (the caller refuses a value below ``PARALLEL_TOL``)."""
+    Tb = np.empty((3, 3))
+    Tr = np.empty((3, 3))
+    s_min = 1.0
+    for p in range(2):
+        v1 = b1 if p == 0 else r1
+        v2 = b2 if p == 0 else r2
+        T = Tb if p == 0 else Tr
+        n1 = math.sqrt(v1[0] * v1[0] + v1[1] * v1[1] + v1[2] * v1[2])
+        n2 = math.sqrt(v2[0] * v2[0] + v2[1] * v2[1] + v2[2] * v2[2])
+        c0 = v1[1] * v2[2] - v1[2] * v2[1]
+        c1 = v1[2] * v2[0] - v1[0] * v2[2]
+        c2 = v1[0] * v2[1] - v1[1] * v2[0]
+        nc = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+        if n1 == 0.0 or n2 == 0.0 or nc == 0.0:
+            s_min = 0.0
+            nc = 1.0 if nc == 0.0 else nc
+            n1 = 1.0 if n1 == 0.0 else n1
+        else:
+            s_min = min(s_min, nc / (n1 * n2))
+        T[0, 0], T[1, 0], T[2, 0] = v1[0] / n1, v1[1] / n1, v1[2] / n1
+        T[0, 1], T[1, 1], T[2, 1] = c0 / nc, c1 / nc, c2 / nc
+        T[0, 2] = T[1, 0] * T[2, 1] - T[2, 0] * T[1, 1]
+        T[1, 2] = T[2, 0] * T[0, 1] - T[0, 0] * T[2, 1]
+        T[2, 2] = T[0, 0] * T[1, 1] - T[1, 0] * T[0, 1]
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = Tr[i, 0] * Tb[j, 0] + Tr[i, 1] * Tb[j, 1] + Tr[i, 2] * Tb[j, 2]
+    return s_min
+
+
+@njit
+def triad_batch(
+    b1: np.ndarray, b2: np.ndarray, r1: np.ndarray, r2: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`triad_into` of every row of ``b1, b2, r1, r2 (N, 3)``: ``(R (N, 3, 3), sin
+    (N,))``."""
+    out = np.empty((b1.shape[0], 3, 3))
+    s = np.empty(b1.shape[0])
+    for n in range(b1.shape[0]):
+        s[n] = triad_into(b1[n], b2[n], r1[n], r2[n], out[n])
+    return out, s
+
+
+@njit(inline="always")
+def body_vector_into(
+    R: np.ndarray, r: np.ndarray, sigma: float, z: np.ndarray, out: np.ndarray
+) -> None:
+    """One measured direction of :class:`spacecraft.sensors.TwoVectorAttitude` for one
+    spacecraft: ``out (3,)`` = exp(δ^) Rᵀ r, δ = σ z (z ~ N(0, I) the draw ``(3,)``; exp by
+    Rodrigues, :func:`liecontrol._kernels.so3.exp9`)."""
+    v0 = R[0, 0] * r[0] + R[1, 0] * r[1] + R[2, 0] * r[2]
+    v1 = R[0, 1] * r[0] + R[1, 1] * r[1] + R[2, 1] * r[2]
+    v2 = R[0, 2] * r[0] + R[1, 2] * r[1] + R[2, 2] * r[2]
+    e = exp9(z[0] * sigma, z[1] * sigma, z[2] * sigma)
+    out[0] = e[0] * v0 + e[1] * v1 + e[2] * v2
+    out[1] = e[3] * v0 + e[4] * v1 + e[5] * v2
+    out[2] = e[6] * v0 + e[7] * v1 + e[8] * v2
+
+
+@njit
+def body_vectors_batch(
+    R: np.ndarray, r1: np.ndarray, r2: np.ndarray, s1: float, s2: float, Z1: np.ndarray,
+    Z2: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """:func:`body_vector_into` of both directions of every spacecraft (``R (B, 3, 3)``,
+    draws ``Z1``, ``Z2`` ``(B, 3)``): ``(b1, b2)``, each ``(B, 3)``."""
+    b1 = np.empty((R.shape[0], 3))
+    b2 = np.empty((R.shape[0], 3))
+    for b in range(R.shape[0]):
+        body_vector_into(R[b], r1, s1, Z1[b], b1[b])
+        body_vector_into(R[b], r2, s2, Z2[b], b2[b])
+    return b1, b2
+
+
+@njit(inline="always")
+def two_vector_into(
+    R: np.ndarray, r1: np.ndarray, r2: np.ndarray, s1: float, s2: float, z1: np.ndarray,
+    z2: np.ndarray, tmp: np.ndarray, out: np.ndarray,
+) -> float:  # fmt: skip
+    """One :class:`spacecraft.sensors.TwoVectorAttitude` sample of one spacecraft: the TRIAD
+    attitude ``out (3, 3)`` (:func:`triad_into`) of b_i = exp(σ_i z_i^) Rᵀ r_i
+    (:func:`body_vector_into`; Wang et al. 2015 §1.2); ``tmp`` ≥ 6 scratch. Returns TRIAD's
+    smaller sin (the caller refuses a value below ``PARALLEL_TOL``)."""
+    b1 = tmp[0:3]
+    b2 = tmp[3:6]
+    body_vector_into(R, r1, s1, z1, b1)
+    body_vector_into(R, r2, s2, z2, b2)
+    return triad_into(b1, b2, r1, r2, out)

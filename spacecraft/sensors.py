@@ -35,6 +35,7 @@ reference pair (r), ``R = [t^r] [t^b]ᵀ`` (body → inertial); the first vector
 from __future__ import annotations
 
 import math
+import warnings
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -43,6 +44,7 @@ from typing import Any
 
 import numpy as np
 
+from liecontrol._kernels import euler as _ke
 from liecontrol._validation import (
     as_array,
     as_int,
@@ -98,12 +100,31 @@ def _batch_R(R: object) -> np.ndarray:
     return R
 
 
+def euler_angles(R: np.ndarray, seq: str) -> np.ndarray:
+    """Euler angles ``(B, 3)`` of measured attitudes ``R (B, 3, 3)`` in sequence ``seq``: the
+    compiled kernel :func:`liecontrol._kernels.euler.from_matrix_into` (the method and ranges of
+    :func:`liecontrol.charts.euler.from_matrix`, against which it is tested), which the fused
+    loop calls too; a :class:`~liecontrol.charts.euler.GimbalLockWarning` at lock, as the chart."""
+    i, j, k, ext = euler.kernel_axes(seq)
+    out, lock = _ke.from_matrix_batch(
+        np.ascontiguousarray(R), i, j, k, ext, euler.FROM_MATRIX_LOCK_TOL
+    )
+    if np.any(lock):
+        warnings.warn(
+            f"R: gimbal lock in sequence {seq!r} for {int(np.count_nonzero(lock))} matrix(es); "
+            "only a1 ± a3 is determined, the third angle was set to 0",
+            euler.GimbalLockWarning,
+            stacklevel=3,
+        )
+    return out
+
+
 def _format(R: np.ndarray, output: str, seq: str) -> np.ndarray:
     if output == "matrix":
         return R
     if output == "quaternion":
         return quaternion.from_matrix(R)
-    return euler.from_matrix(R, seq)
+    return euler_angles(R, seq)
 
 
 def _check_output(output: str, seq: str, allowed: tuple[str, ...]) -> None:
@@ -123,28 +144,28 @@ def triad(b1: object, b2: object, r1: object, r2: object) -> np.ndarray:
     """
     vs = {n: as_array(v, n, (3,)) for n, v in (("b1", b1), ("b2", b2), ("r1", r1), ("r2", r2))}
 
-    def frame(n1: str, n2: str) -> np.ndarray:
+    def frame(n1: str, n2: str) -> None:
         v1, v2 = vs[n1], vs[n2]
         n_1 = np.linalg.norm(v1, axis=-1)
         n_2 = np.linalg.norm(v2, axis=-1)
         for name, nn in ((n1, n_1), (n2, n_2)):
             if np.any(nn == 0.0):
                 raise ValueError(f"{name}: zero vector, no direction")
-        c = np.cross(v1, v2)
-        nc = np.linalg.norm(c, axis=-1)
+        nc = np.linalg.norm(np.cross(v1, v2), axis=-1)
         s = nc / (n_1 * n_2)
         if np.any(s < PARALLEL_TOL):
             raise ValueError(
                 f"{n1}: parallel to {n2} (sin angle = {float(np.min(s)):.1e} < {PARALLEL_TOL:.0e}),"
                 " attitude undetermined"
             )
-        t1 = v1 / n_1[..., None]
-        t2 = c / nc[..., None]
-        return np.stack((t1, t2, np.cross(t1, t2)), axis=-1)  # columns t1, t2, t3
 
-    Tb = frame("b1", "b2")
-    Tr = frame("r1", "r2")
-    return Tr @ np.swapaxes(Tb, -1, -2)
+    frame("b1", "b2")
+    frame("r1", "r2")
+    # the compiled kernel (spacecraft._kernels_sensors.triad_into), as the fused loop
+    shape = np.broadcast_shapes(*(v.shape for v in vs.values()))
+    flat = [np.ascontiguousarray(np.broadcast_to(v, shape).reshape(-1, 3)) for v in vs.values()]
+    out, _ = _ks.triad_batch(*flat)
+    return out.reshape(shape[:-1] + (3, 3))
 
 
 @dataclass(frozen=True)
@@ -543,12 +564,12 @@ class TwoVectorAttitude:
         R = _batch_R(R)
         rng = _check_rng(rng)
         r1, r2 = self.references(t)
-        out = []
-        for r, s in ((r1, self._sig[0]), (r2, self._sig[1])):
-            b = np.einsum("...ji,...j->...i", R, r)
-            delta = rng.standard_normal(b.shape) * s
-            out.append(np.einsum("...ij,...j->...i", so3.exp(delta), b))
-        return out[0], out[1]
+        z1 = rng.standard_normal(R.shape[:-1])
+        z2 = rng.standard_normal(R.shape[:-1])
+        # the compiled kernel (spacecraft._kernels_sensors.body_vector_into), as the fused loop
+        return _ks.body_vectors_batch(
+            np.ascontiguousarray(R), r1, r2, float(self._sig[0]), float(self._sig[1]), z1, z2
+        )
 
     def measure_matrix(self, t: float, R: object, rng: np.random.Generator) -> np.ndarray:
         """TRIAD attitude ``(B, 3, 3)`` from the noisy body directions."""

@@ -41,6 +41,7 @@ from typing import Any
 
 import numpy as np
 
+from liecontrol._kernels import euler as _ke
 from liecontrol._validation import as_int, as_scalar, check_positive_scalar
 from liecontrol.charts import euler
 from liecontrol.control.base import AttitudeController, AttitudeReference, AttitudeState
@@ -435,7 +436,10 @@ class StarTrackerGyro:
         elif vector and y.shape[-1] == 4:
             R = _unit_quaternion_to_matrix(y)
         elif vector and y.shape[-1] == 3:
-            R = euler.to_matrix(y, self.seq)
+            # the compiled kernel of charts.euler.to_matrix, as the fused loop's hook
+            i, j, k, ext = euler.kernel_axes(self.seq)
+            a = np.ascontiguousarray(y, dtype=np.float64).reshape(-1, 3)
+            R = _ke.to_matrix_batch(a, i, j, k, ext).reshape(y.shape[:-1] + (3, 3))
         else:
             raise ValueError(
                 f"outputs: {self.attitude!r} has shape {y.shape}, not an attitude "

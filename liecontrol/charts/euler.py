@@ -56,6 +56,7 @@ __all__ = [
     "kinematics",
     "near_gimbal_lock",
     "is_tait_bryan",
+    "kernel_axes",
 ]
 
 #: The 12 intrinsic and 12 extrinsic sequences.
@@ -96,6 +97,13 @@ def _parse(seq: object) -> tuple[tuple[int, int, int], bool]:
     if extrinsic:
         axes = axes[::-1]
     return axes, extrinsic  # type: ignore[return-value]
+
+
+def kernel_axes(seq: str) -> tuple[int, int, int, bool]:
+    """``(i, j, k, extrinsic)``: the intrinsic axis indices of ``seq`` and its extrinsic flag,
+    the sequence as the compiled kernels of :mod:`liecontrol._kernels.euler` take it."""
+    (i, j, k), ext = _parse(seq)
+    return i, j, k, ext
 
 
 def is_tait_bryan(seq: str) -> bool:
