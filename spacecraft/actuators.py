@@ -924,7 +924,7 @@ def actuator_kernel(act: object) -> tuple | None:
     :class:`IdealTorqueActuator` (``clip`` its per-axis limit ``(3,)`` or ``None``) or an
     :class:`SgcmgActuator` with the ideal servo and a steering law with a kernel — a built-in
     law's code, or a user's through the seam :mod:`spacecraft.steering_kernel` (code
-    ``STEER_KERNEL`` and the law's ``@njit`` kernel; for the others the last entry is
+    ``STEER_KERNEL`` and the law's numba-compiled kernel; for the others the last entry is
     :func:`spacecraft._kernels.no_steering`, never called). Exact types of the actuators only
     (a subclass may override the formulas)."""
     from ._kernels import ACT_IDEAL, ACT_SGCMG, STEER_KERNEL, STEER_PINV, no_steering

@@ -50,8 +50,8 @@ the NumPy shortcuts (compiled kernel, Python floats for one spacecraft, the row 
 batches) are taken for NumPy arrays only, with the same results as before.
 
 A law of your own: subclass :class:`SteeringLaw` (its ``steer``); to fly the simulator's
-compiled loop as the built-in laws do, give it a ``fused_kernel(cluster)`` returning an
-``@njit`` kernel (:mod:`spacecraft.steering_kernel`, guide in ``docs/fast_controllers.md``).
+compiled loop as the built-in laws do, give it a ``fused_kernel(cluster)`` returning a
+numba-compiled kernel (:mod:`spacecraft.steering_kernel`, guide in ``docs/fast_controllers.md``).
 """
 
 from __future__ import annotations
