@@ -122,7 +122,8 @@ class PlantKernel:
             float(t), np.ascontiguousarray(R), np.ascontiguousarray(x),
             np.ascontiguousarray(held), float(h), R_out, x_out,
         )  # fmt: skip
-        _fn_entry(K.rkmk4_step_batch, args, {7: _torque_sig()})(*args)
+        step = _fn_entry(K.rkmk4_step_batch, args, {7: _torque_sig()}) if JIT_ENABLED else None
+        (step or K.rkmk4_step_batch)(*args)  # without numba: the kernel as Python
         return R_out, x_out
 
 
@@ -186,7 +187,8 @@ def hold_steps(
         pk.dist_rows(x.shape[0]), pk.dist_attitude, pk.clip is not None,
         clip, pk.steer, pk.steer_params, pk.rate_limit, sat,
     )  # fmt: skip
-    _fn_entry(_hold_steps, args, {13: _torque_sig()})(*args)
+    run = _fn_entry(_hold_steps, args, {13: _torque_sig()}) if JIT_ENABLED else None
+    (run or _hold_steps)(*args)  # without numba: the kernel as Python
     return R, x, sat
 
 
