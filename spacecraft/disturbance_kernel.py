@@ -116,6 +116,11 @@ def _owner(cls: type, attr: str) -> type | None:
 def resolve(dist: Any) -> tuple[DisturbanceKernel | None, str]:
     """``(kernel, "")`` for a disturbance with a kernel of this seam, else ``(None, reason)``:
     why it keeps the Python loop, in words (the simulator's one log line)."""
+    if not callable(dist):
+        raise TypeError(
+            f"dist: expected a disturbance source (a callable (t, R, omega) -> (B, 3)), got "
+            f"{type(dist).__name__}"
+        )
     label = type(dist).__name__
     if not JIT_ENABLED:
         return None, "numba is not available"
