@@ -148,11 +148,11 @@ def _command_part(reps, S0, C0, steer, sp, rate_limit, u_cmd, x, specialise):  #
 
 
 @numba.njit
-def _step_part(reps, act, J, J_inv, S0, C0, dist, dp, R, x, held, trig, dt, specialise):  # noqa: ANN001, ANN202
+def _step_part(reps, act, J, J_inv, S0, C0, dist, dp, dfn, dpk, R, x, held, trig, dt, specialise):  # noqa: ANN001, ANN202
     B, n = x.shape
     R_own = np.empty_like(R)
     x_own = np.empty_like(x)
-    work_own = np.empty(7 * n)
+    work_own = np.empty(7 * n + 15)
     # unowned views, as the fused loop uses (the owners live to the return)
     J, J_inv, S0, C0, dp = (unowned_view(J), unowned_view(J_inv), unowned_view(S0),
                             unowned_view(C0), unowned_view(dp))  # fmt: skip
@@ -165,13 +165,13 @@ def _step_part(reps, act, J, J_inv, S0, C0, dist, dp, R, x, held, trig, dt, spec
                 work[6 * n + i] = trig[b, 1, i]
             if specialise and act == K.ACT_SGCMG and dist == K.DIST_NONE:  # as the fused loop
                 K.rkmk4_step(
-                    K.ACT_SGCMG, J[0], J_inv[0], S0, C0, K.DIST_NONE, dp, 0.0, R[b], x[b],
-                    held[b], dt, R_next[b], x_next[b], work, True,
+                    K.ACT_SGCMG, J[0], J_inv[0], S0, C0, K.DIST_NONE, dp, dfn, dpk[0], False, 0.0,
+                    R[b], x[b], held[b], dt, R_next[b], x_next[b], work, True,
                 )  # fmt: skip
             else:
                 K.rkmk4_step(
-                    act, J[0], J_inv[0], S0, C0, dist, dp, 0.0, R[b], x[b], held[b], dt,
-                    R_next[b], x_next[b], work, True,
+                    act, J[0], J_inv[0], S0, C0, dist, dp, dfn, dpk[0], False, 0.0, R[b], x[b],
+                    held[b], dt, R_next[b], x_next[b], work, True,
                 )  # fmt: skip
     return R_own, x_own, work_own
 
@@ -213,8 +213,9 @@ def breakdown(batch: int, reps: int, repeat: int) -> dict[str, float]:
     """ns per spacecraft-step of each part (and the whole loop) at this batch size."""
     n_steps = reps
     args, li = capture_args(batch, n_steps * 0.1)
-    (_, t0, dt, every, log_every, R, x, act, J, Ji, S0, C0, dist, dp, clip_on, clip, steer, sp,
-     _steer_fn, limit, law, cparams, cstate, idx, ref_R, ref_w, ref_dw, *logs) = args  # fmt: skip
+    (_, t0, dt, every, log_every, R, x, act, J, Ji, S0, C0, dist, dp, dfn, dpk, _datt, clip_on,
+     clip, steer, sp, _steer_fn, limit, law, cparams, cstate, idx, ref_R, ref_w, ref_dw,
+     *logs) = args  # fmt: skip
     R = np.ascontiguousarray(R)
     x = np.ascontiguousarray(x)
     u = np.zeros((batch, 3))
@@ -246,10 +247,10 @@ def breakdown(batch: int, reps: int, repeat: int) -> dict[str, float]:
             reps, S0, C0, steer, sp, limit, u, x, True
         ),
         "RKMK4 step": lambda: _step_part(
-            reps, act, J, Ji, S0, C0, dist, dp, R, x, held, trig, dt, True
+            reps, act, J, Ji, S0, C0, dist, dp, dfn, dpk, R, x, held, trig, dt, True
         ),
         "RKMK4 step (runtime codes)": lambda: _step_part(
-            reps, act, J, Ji, S0, C0, dist, dp, R, x, held, trig, dt, False
+            reps, act, J, Ji, S0, C0, dist, dp, dfn, dpk, R, x, held, trig, dt, False
         ),
         "finite check": lambda: _check_part(reps, R, x),
         "whole loop": whole,

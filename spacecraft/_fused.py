@@ -7,9 +7,14 @@ actuator with a kernel (:func:`spacecraft.actuators.actuator_kernel`: the ideal 
 or the SGCMG pyramid with the ideal gimbal servo and a steering law with a kernel: a built-in
 law's, :func:`spacecraft.steering.steering_kernel`, or a user's through the seam
 :mod:`spacecraft.steering_kernel`, called through a function pointer) and a disturbance with a
-kernel (:func:`spacecraft.disturbances.disturbance_kernel`). Each of those functions lives next
-to the classes it describes; this module imports none of them at import time, and neither they
-nor the classes import this module (no import circle).
+kernel: a built-in time-only code (:func:`spacecraft.disturbances.disturbance_kernel`: none, a
+constant torque, the constant + harmonic torque) or a torque of the public disturbance seam
+:mod:`spacecraft.disturbance_kernel` (``disturbance.fused_kernel()``: the gravity gradient, a
+user's own torque), called through a function pointer at every RKMK4 stage with the stage
+attitude (``DIST_KERNEL``; the built-in codes keep their own call sites, no pointer call). The
+full CMG model's loop takes the built-in disturbance codes and steering laws only. Each of those
+functions lives next to the classes it describes; this module imports none of them at import
+time, and neither they nor the classes import this module (no import circle).
 
 :func:`run_fused` runs a whole :func:`spacecraft.simulator.simulate` call in compiled code when,
 in addition, the controller supplies a compiled law through the public seam
@@ -23,14 +28,15 @@ first-class function of the documented signature), carries the law's internal st
 logs its diagnostics rows, so one compiled loop (cached on disk) serves the built-in laws and a
 user's own alike. It produces the same :class:`~spacecraft.simulator.SimulationResult` as the
 per-step Python loop, which calls the same kernels one at a time. Anything else — a controller
-without a kernel, a Python disturbance, a user's sensor — runs through that loop, and
+without a kernel, a disturbance without a kernel (or a ``SumOfDisturbances``), a user's sensor —
+runs through that loop, and
 :func:`fused_supported` reports why.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -89,6 +95,23 @@ class PlantKernel:
     steer_params: np.ndarray
     rate_limit: float
     steer_fn: Any = None  # a user's steering kernel (STEER_KERNEL), else K.no_steering
+    # the seam's torque (spacecraft.disturbance_kernel) for dist == DIST_KERNEL, else the
+    # placeholder no_torque; its checked parameters (1, n_p) or (B, n_p); whether it reads R
+    dist_fn: Any = None
+    dist_kparams: np.ndarray = field(default_factory=lambda: np.zeros((1, 0)))
+    dist_attitude: bool = False
+    disturbance: Any = None
+
+    def dist_rows(self, B: int) -> np.ndarray:
+        """The seam torque's parameter rows for a batch of ``B`` (``ValueError`` naming the
+        disturbance when per-spacecraft rows do not match the batch)."""
+        p = self.dist_kparams
+        if p.shape[0] not in (1, B):
+            raise ValueError(
+                f"disturbance {type(self.disturbance).__name__}: kernel params must have shape "
+                f"(n_p,) or ({B}, n_p) for a batch of {B}, got {p.shape}"
+            )
+        return p
 
     def step(
         self, t: float, R: np.ndarray, x: np.ndarray, held: np.ndarray, h: float
@@ -96,10 +119,14 @@ class PlantKernel:
         """One RKMK4 step of the batch ``R (B, 3, 3)``, ``x (B, n)``, held command ``(B, m)``."""
         R_out = np.empty(R.shape)
         x_out = np.empty(x.shape)
-        K.rkmk4_step_batch(
+        args = (
             self.act, self.J, self.J_inv, self.S0, self.C0, self.dist, self.dist_params,
-            float(t), R, x, held, float(h), R_out, x_out,
+            self.dist_fn, self.dist_rows(x.shape[0]), self.dist_attitude,
+            float(t), np.ascontiguousarray(R), np.ascontiguousarray(x),
+            np.ascontiguousarray(held), float(h), R_out, x_out,
         )  # fmt: skip
+        step = _fn_entry(K.rkmk4_step_batch, args, {7: _torque_sig()}) if JIT_ENABLED else None
+        (step or K.rkmk4_step_batch)(*args)  # without numba: the kernel as Python
         return R_out, x_out
 
 
@@ -107,7 +134,8 @@ class PlantKernel:
 def _hold_steps(
     n_sub: int, t: float, dt: float, R: np.ndarray, x: np.ndarray, u: np.ndarray,
     act: int, J: np.ndarray, J_inv: np.ndarray, S0: np.ndarray, C0: np.ndarray,
-    dist: int, dp: np.ndarray, clip_on: bool, clip: np.ndarray,
+    dist: int, dp: np.ndarray, dfn: Any, dpk: np.ndarray, datt: bool,
+    clip_on: bool, clip: np.ndarray,
     steer: int, sp: np.ndarray, steer_fn: Any, rate_limit: float, saturated: np.ndarray,
 ) -> None:  # fmt: skip
     """``n_sub`` steps of the batch under the torque command ``u (B, 3)`` held throughout (the
@@ -118,7 +146,7 @@ def _hold_steps(
     held = np.empty(3 if act == K.ACT_IDEAL else n - 3)
     hd = np.empty(3)
     at_limit = np.zeros(3, dtype=np.bool_)
-    work = np.empty(7 * n)
+    work = np.empty(7 * n + 15)
     A = np.empty((3, max(n - 3, 1)))
     # the command's sin/cos of the gimbal angles land where the step's first stage reads them
     sn = work[5 * n : 5 * n + max(n - 3, 1)]
@@ -127,6 +155,7 @@ def _hold_steps(
     x_next = np.empty(n)
     for b in range(B):
         kb = 0 if shared else b
+        pb = 0 if dpk.shape[0] == 1 else b
         for _ in range(n_sub):
             if act == K.ACT_SGCMG:
                 limited = K.sgcmg_command(
@@ -138,8 +167,8 @@ def _hold_steps(
             if limited:
                 saturated[b] += 1.0
             K.rkmk4_step(
-                act, J[kb], J_inv[kb], S0, C0, dist, dp, t, R[b], x[b], held, dt, R_next,
-                x_next, work, act == K.ACT_SGCMG,
+                act, J[kb], J_inv[kb], S0, C0, dist, dp, dfn, dpk[pb], datt, t, R[b], x[b], held,
+                dt, R_next, x_next, work, act == K.ACT_SGCMG,
             )  # fmt: skip
             R[b] = R_next
             x[b] = x_next
@@ -157,13 +186,16 @@ def hold_steps(
     clip = pk.clip if pk.clip is not None else np.zeros(3)
     args = (
         int(n_sub), float(t), float(dt), R, x, np.ascontiguousarray(u, dtype=np.float64),
-        pk.act, pk.J, pk.J_inv, pk.S0, pk.C0, pk.dist, pk.dist_params, pk.clip is not None,
+        pk.act, pk.J, pk.J_inv, pk.S0, pk.C0, pk.dist, pk.dist_params, pk.dist_fn,
+        pk.dist_rows(x.shape[0]), pk.dist_attitude, pk.clip is not None,
         clip, pk.steer, pk.steer_params, _steer_fn(pk), pk.rate_limit, sat,
     )  # fmt: skip
-    if JIT_ENABLED:
-        _entry(_hold_steps, args, {17: _steering_type()})(*args)
-    else:
-        _hold_steps(*args)
+    run = (
+        _fn_entry(_hold_steps, args, {13: _torque_sig(), 20: _steering_sig()})
+        if JIT_ENABLED
+        else None
+    )
+    (run or _hold_steps)(*args)  # without numba: the kernel as Python
     return R, x, sat
 
 
@@ -171,34 +203,59 @@ def _steer_fn(pk: PlantKernel) -> Any:
     return K.no_steering if pk.steer_fn is None else pk.steer_fn
 
 
-def _steering_type() -> Any:
-    from numba.core import types
-
+def _steering_sig() -> Any:
     from .steering_kernel import STEERING_SIGNATURE
 
-    return types.FunctionType(STEERING_SIGNATURE)
+    return STEERING_SIGNATURE
+
+
+def _disturbance_plan(
+    plant: Any,
+) -> tuple[tuple[int, np.ndarray, Any, np.ndarray, bool] | None, str]:
+    """``((code, code params, torque, kernel params (B', n_p), uses attitude), "")`` of the
+    plant's disturbance — a built-in time-only code (:func:`spacecraft.disturbances.
+    disturbance_kernel`) or a torque of the seam (:mod:`spacecraft.disturbance_kernel`, checked
+    here: ``ValueError`` naming the disturbance and the argument) — else ``(None, why)``."""
+    from . import disturbance_kernel as DK
+    from .disturbances import disturbance_kernel
+
+    dist = plant.disturbance
+    coded = disturbance_kernel(dist)
+    if coded is not None:
+        return (coded[0], coded[1], DK.no_torque, np.zeros((1, 0)), False), ""
+    spec, why = DK.resolve(dist)
+    if spec is None:
+        return None, why
+    params = DK.check(dist, spec, plant.body.batch_size)
+    return (K.DIST_KERNEL, np.zeros(3), spec.torque, params, bool(spec.uses_attitude)), ""
 
 
 def plant_kernel(plant: Any) -> PlantKernel | None:
     """The :class:`PlantKernel` of a :class:`spacecraft.plant.Spacecraft`, or ``None`` when a
-    part has no kernel."""
+    part has no kernel (a malformed disturbance kernel raises ``ValueError``)."""
     from .actuators import actuator_kernel
-    from .disturbances import disturbance_kernel
 
     if plant.modes is not None or plant.momentum_management is not None:
         return None
-    dist = disturbance_kernel(plant.disturbance)
-    if dist is None:
-        return None
+    if not JIT_ENABLED and plant.disturbance is not None:
+        from .disturbances import disturbance_kernel
+
+        if disturbance_kernel(plant.disturbance) is None:
+            return None
     ak = actuator_kernel(plant.actuator)
     if ak is None:
+        return None
+    dist, _ = _disturbance_plan(plant)
+    if dist is None:
         return None
     code, clip, steer, sp, limit, S0, C0, steer_fn = ak
     J3 = np.ascontiguousarray(plant.body.J.reshape(-1, 3, 3))
     Ji3 = np.ascontiguousarray(plant.body.J_inv.reshape(-1, 3, 3))
     return PlantKernel(
-        code, J3, Ji3, S0, C0, dist[0], dist[1], clip, steer, sp, float(limit), steer_fn
-    )
+        code, J3, Ji3, S0, C0, dist[0], dist[1], clip, steer, sp, float(limit),
+        steer_fn=steer_fn, dist_fn=dist[2], dist_kparams=dist[3], dist_attitude=dist[4],
+        disturbance=plant.disturbance,
+    )  # fmt: skip
 
 
 def plant_reason(plant: Any) -> str:
@@ -211,7 +268,18 @@ def plant_reason(plant: Any) -> str:
     if plant.momentum_management is not None:
         return "the plant's momentum management has no compiled kernel"
     if disturbance_kernel(plant.disturbance) is None:
-        return f"the disturbance {type(plant.disturbance).__name__} has no compiled kernel"
+        if not JIT_ENABLED:
+            return f"the disturbance {type(plant.disturbance).__name__} has no compiled kernel"
+        from .disturbance_kernel import resolve
+
+        spec, why = resolve(plant.disturbance)
+        if spec is None:
+            return why
+        if type(plant.actuator).__name__ == "VscmgActuator":
+            return (
+                f"the full CMG model's compiled loop takes the time-only disturbances only, not "
+                f"{type(plant.disturbance).__name__}"
+            )
     if actuator_kernel(plant.actuator) is None:
         from .actuators import steering_reason
 
@@ -239,7 +307,8 @@ def _one_spacecraft(
     b: int, n_steps: int, t0: float, dt: float, every_ctrl: int, log_every: int,
     R: np.ndarray, x: np.ndarray,
     act: int, J: np.ndarray, J_inv: np.ndarray, S0: np.ndarray, C0: np.ndarray,
-    dist: int, dp: np.ndarray, clip_on: bool, clip: np.ndarray,
+    dist: int, dp: np.ndarray, dfn: Any, dpk: np.ndarray, datt: bool,
+    clip_on: bool, clip: np.ndarray,
     steer: int, sp: np.ndarray, steer_fn: Any, rate_limit: float,
     law: Any, cparams: np.ndarray, cstate: np.ndarray,
     ref_index: np.ndarray, ref_R: np.ndarray, ref_w: np.ndarray, ref_dw: np.ndarray,
@@ -273,11 +342,12 @@ def _one_spacecraft(
     C0 = unowned_view(C0)
     sp = unowned_view(sp)
     dp = unowned_view(dp)
+    dpb = unowned_view(dpk[0 if dpk.shape[0] == 1 else b])
     clip = unowned_view(clip)
     cparams = unowned_view(cparams)
     st = unowned_view(cstate[b])
     dg = unowned_view(diag[b])
-    buf = np.empty(18 + 2 * n + 3 + n_held + 3 + 7 * n + 3 * mm + 2 * mm)
+    buf = np.empty(18 + 2 * n + 3 + n_held + 3 + 7 * n + 15 + 3 * mm + 2 * mm)
     raw = unowned_view(buf)
     Rc = raw[0:9].reshape((3, 3))
     Rn = raw[9:18].reshape((3, 3))
@@ -289,8 +359,9 @@ def _one_spacecraft(
     held = raw[o + 3 : o + 3 + n_held]
     hd = raw[o + 3 + n_held : o + 6 + n_held]
     o += 6 + n_held
-    work = raw[o : o + 7 * n]
-    o += 7 * n
+    work = raw[o : o + 7 * n + 15]
+    dout = work[7 * n + 12 : 7 * n + 15]  # the seam torque's output at a log row
+    o += 7 * n + 15
     A = raw[o : o + 3 * mm].reshape((3, mm))
     scratch = raw[o + 3 * mm : o + 5 * mm]
     sat_own = np.zeros(3 if act == K.ACT_IDEAL else 1, dtype=np.bool_)
@@ -392,7 +463,11 @@ def _one_spacecraft(
                 log_hm[rows, b, 1] = h1
                 log_hm[rows, b, 2] = h2
                 log_hm[rows, b, 3] = mm_
-            d0, d1, d2 = K.disturbance_at(dist, dp, t)
+            if dist == K.DIST_KERNEL:
+                dfn(t, Rc, wc, dpb, dout)
+                d0, d1, d2 = dout[0], dout[1], dout[2]
+            else:
+                d0, d1, d2 = K.disturbance_at(dist, dp, t)
             log_dist[rows, b, 0] = d0
             log_dist[rows, b, 1] = d1
             log_dist[rows, b, 2] = d2
@@ -415,20 +490,34 @@ def _one_spacecraft(
         # call sites with the actuator (and the common disturbance) code as constants: the
         # inlined step is specialised per configuration (a quarter of its cost is runtime
         # branching otherwise, docs/performance.md); the arithmetic is the same
-        if act == K.ACT_SGCMG:
-            if dist == K.DIST_NONE:
+        if dist == K.DIST_KERNEL:
+            # a torque of the seam (spacecraft.disturbance_kernel) through its pointer: its own
+            # call sites, so the built-in codes' steps below compile as before
+            if act == K.ACT_SGCMG:
                 K.rkmk4_step(
-                    K.ACT_SGCMG, Jb, Jib, S0, C0, K.DIST_NONE, dp, t, Rc, xc, held, dt, Rn, xn,
-                    work, True,
+                    K.ACT_SGCMG, Jb, Jib, S0, C0, K.DIST_KERNEL, dp, dfn, dpb, datt, t, Rc, xc,
+                    held, dt, Rn, xn, work, True,
                 )  # fmt: skip
             else:
                 K.rkmk4_step(
-                    K.ACT_SGCMG, Jb, Jib, S0, C0, dist, dp, t, Rc, xc, held, dt, Rn, xn, work,
-                    True,
+                    K.ACT_IDEAL, Jb, Jib, S0, C0, K.DIST_KERNEL, dp, dfn, dpb, datt, t, Rc, xc,
+                    held, dt, Rn, xn, work, False,
+                )  # fmt: skip
+        elif act == K.ACT_SGCMG:
+            if dist == K.DIST_NONE:
+                K.rkmk4_step(
+                    K.ACT_SGCMG, Jb, Jib, S0, C0, K.DIST_NONE, dp, dfn, dpb, False, t, Rc, xc,
+                    held, dt, Rn, xn, work, True,
+                )  # fmt: skip
+            else:
+                K.rkmk4_step(
+                    K.ACT_SGCMG, Jb, Jib, S0, C0, dist, dp, dfn, dpb, False, t, Rc, xc, held, dt,
+                    Rn, xn, work, True,
                 )  # fmt: skip
         else:
             K.rkmk4_step(
-                K.ACT_IDEAL, Jb, Jib, S0, C0, dist, dp, t, Rc, xc, held, dt, Rn, xn, work, False
+                K.ACT_IDEAL, Jb, Jib, S0, C0, dist, dp, dfn, dpb, False, t, Rc, xc, held, dt, Rn,
+                xn, work, False,
             )  # fmt: skip
         total = 0.0
         for i in range(n):
@@ -457,7 +546,8 @@ def _fused_loop(
     n_steps: int, t0: float, dt: float, every_ctrl: int, log_every: int,
     R: np.ndarray, x: np.ndarray,
     act: int, J: np.ndarray, J_inv: np.ndarray, S0: np.ndarray, C0: np.ndarray,
-    dist: int, dp: np.ndarray, clip_on: bool, clip: np.ndarray,
+    dist: int, dp: np.ndarray, dfn: Any, dpk: np.ndarray, datt: bool,
+    clip_on: bool, clip: np.ndarray,
     steer: int, sp: np.ndarray, steer_fn: Any, rate_limit: float,
     law: Any, cparams: np.ndarray, cstate: np.ndarray,
     ref_index: np.ndarray, ref_R: np.ndarray, ref_w: np.ndarray, ref_dw: np.ndarray,
@@ -484,11 +574,10 @@ def _fused_loop(
     for b in range(B):
         st[b], tf[b] = _one_spacecraft(
             b, n_steps, t0, dt, every_ctrl, log_every, R, x, act, J, J_inv, S0, C0, dist, dp,
-            clip_on, clip, steer, sp, steer_fn, rate_limit, law, cparams, cstate, ref_index,
-            ref_R, ref_w,
-            ref_dw, log_R, log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_act, log_sat,
-            log_hm, log_diag, diag, s_int, s_par, pub_thr, pub_sched, noise, sst, sy, h_int,
-            seen, log_y, log_est, h_par, h_state, log_hook,
+            dfn, dpk, datt, clip_on, clip, steer, sp, steer_fn, rate_limit, law, cparams, cstate,
+            ref_index, ref_R, ref_w, ref_dw, log_R, log_w, log_Rd, log_wd, log_ucmd, log_u,
+            log_dist, log_act, log_sat, log_hm, log_diag, diag, s_int, s_par, pub_thr, pub_sched,
+            noise, sst, sy, h_int, seen, log_y, log_est, h_par, h_state, log_hook,
             sensing,
         )  # fmt: skip
     return _loop_result(st, tf, n_steps, t0, dt, log_every, log_t)
@@ -499,7 +588,8 @@ def _fused_loop_parallel(
     n_steps: int, t0: float, dt: float, every_ctrl: int, log_every: int,
     R: np.ndarray, x: np.ndarray,
     act: int, J: np.ndarray, J_inv: np.ndarray, S0: np.ndarray, C0: np.ndarray,
-    dist: int, dp: np.ndarray, clip_on: bool, clip: np.ndarray,
+    dist: int, dp: np.ndarray, dfn: Any, dpk: np.ndarray, datt: bool,
+    clip_on: bool, clip: np.ndarray,
     steer: int, sp: np.ndarray, steer_fn: Any, rate_limit: float,
     law: Any, cparams: np.ndarray, cstate: np.ndarray,
     ref_index: np.ndarray, ref_R: np.ndarray, ref_w: np.ndarray, ref_dw: np.ndarray,
@@ -523,11 +613,10 @@ def _fused_loop_parallel(
         b = np.int64(i)
         s, tb = _one_spacecraft(
             b, n_steps, t0, dt, every_ctrl, log_every, R, x, act, J, J_inv, S0, C0, dist, dp,
-            clip_on, clip, steer, sp, steer_fn, rate_limit, law, cparams, cstate, ref_index,
-            ref_R, ref_w,
-            ref_dw, log_R, log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_act, log_sat,
-            log_hm, log_diag, diag, s_int, s_par, pub_thr, pub_sched, noise, sst, sy, h_int,
-            seen, log_y, log_est, h_par, h_state, log_hook,
+            dfn, dpk, datt, clip_on, clip, steer, sp, steer_fn, rate_limit, law, cparams, cstate,
+            ref_index, ref_R, ref_w, ref_dw, log_R, log_w, log_Rd, log_wd, log_ucmd, log_u,
+            log_dist, log_act, log_sat, log_hm, log_diag, diag, s_int, s_par, pub_thr, pub_sched,
+            noise, sst, sy, h_int, seen, log_y, log_est, h_par, h_state, log_hook,
             sensing,
         )  # fmt: skip
         st[b] = s
@@ -875,25 +964,43 @@ def _fused_loop_vscmg_parallel(
 _ENTRIES: dict[tuple, Callable[..., Any]] = {}  # by a cheap key of the argument types
 
 
-def _entry(fn: Any, args: tuple, pointers: dict[int, Any]) -> Callable[..., Any]:
-    """The compiled ``fn`` for these argument types, the arguments at the positions of
-    ``pointers`` typed as the first-class function types given there (a law or a steering
-    kernel: one compiled function, cached on disk, serves every kernel of the signature)."""
+def _torque_sig() -> Any:
+    from .disturbance_kernel import TORQUE_SIGNATURE
+
+    return TORQUE_SIGNATURE
+
+
+def _fn_entry(
+    func: Any, args: tuple, fn_sigs: dict[int, Any], tag: tuple = ()
+) -> Callable[..., Any]:
+    """The compiled entry point of the ``@njit`` ``func`` for these argument types, the
+    arguments at the indices of ``fn_sigs`` typed as first-class functions of the given numba
+    signatures (compiled once per argument types, cached on disk): one compiled loop or step
+    serves every law and every disturbance torque."""
     # a cheap key first (numba's typeof costs ~10 µs per argument)
-    key = (fn,) + tuple(
-        (a.dtype.char, a.ndim, a.flags.c_contiguous, a.flags.writeable, a.flags.aligned)
-        if isinstance(a, np.ndarray)
-        else type(a)
-        for i, a in enumerate(args)
-        if i not in pointers
+    key = (
+        (id(func),)
+        + tag
+        + tuple(
+            (a.dtype.char, a.ndim, a.flags.c_contiguous, a.flags.writeable, a.flags.aligned)
+            if isinstance(a, np.ndarray)
+            else type(a)
+            for i, a in enumerate(args)
+            if i not in fn_sigs
+        )
     )
     entry = _ENTRIES.get(key)
     if entry is None:
         import numba
+        from numba.core import types
 
-        sig = tuple(pointers[i] if i in pointers else numba.typeof(a) for i, a in enumerate(args))
-        fn.compile(sig)
-        entry = fn.overloads[sig].entry_point
+        sig = tuple(
+            types.FunctionType(fn_sigs[i]) if i in fn_sigs else numba.typeof(a)
+            for i, a in enumerate(args)
+        )
+        if sig not in func.overloads:
+            func.compile(sig)
+        entry = func.overloads[sig].entry_point
         _ENTRIES[key] = entry
     return entry
 
@@ -903,18 +1010,16 @@ def _loop_entry(
 ) -> Callable[..., Any]:
     """The compiled :func:`_fused_loop` (``parallel``: :func:`_fused_loop_parallel`; ``vscmg``:
     the full CMG model's :func:`_fused_loop_vscmg`) for these argument types with the law typed
-    as a first-class function of the seam's signature (and, but for the full CMG model, the
-    steering kernel just before the rate limit, two places before the law)."""
-    from numba.core import types
-
+    as a first-class function of the seam's signature and, for the momentum model, the
+    disturbance torque (argument 14) as one of :data:`spacecraft.disturbance_kernel.
+    TORQUE_SIGNATURE` and the steering kernel (two places before the law) as one of
+    :data:`spacecraft.steering_kernel.STEERING_SIGNATURE` (compiled once, cached on disk)."""
     if vscmg:
         loop = _fused_loop_vscmg_parallel if parallel else _fused_loop_vscmg
-    else:
-        loop = _fused_loop_parallel if parallel else _fused_loop
-    pointers = {law_index: types.FunctionType(seam.LAW_SIGNATURE)}
-    if not vscmg:
-        pointers[law_index - 2] = _steering_type()
-    return _entry(loop, args, pointers)
+        return _fn_entry(loop, args, {law_index: seam.LAW_SIGNATURE})
+    loop = _fused_loop_parallel if parallel else _fused_loop
+    pointers = {14: _torque_sig(), law_index - 2: _steering_sig(), law_index: seam.LAW_SIGNATURE}
+    return _fn_entry(loop, args, pointers)
 
 
 def fused_supported(
@@ -1087,6 +1192,13 @@ def run_fused(
             every_ctrl, log_every, control_period, log, Kr, cparams, cstate, notes, workers, sa,
             splan, measurement,
         )  # fmt: skip
+    dpk = pk.dist_rows(B)
+    if pk.dist == K.DIST_KERNEL:
+        # the torque once on the initial state, before any step (spacecraft.disturbance_kernel)
+        from .disturbance_kernel import DisturbanceKernel, check
+
+        spec_d = DisturbanceKernel(pk.dist_fn, dpk[0], pk.dist_attitude)
+        check(pk.disturbance, spec_d, None, (float(t0), R0[0], x0[0, :3]))
     n_held = 3 if pk.act == K.ACT_IDEAL else n - 3
     log_act = np.empty((Kr, B, (n - 3) + n_held))
     n_sat = 3 if pk.act == K.ACT_IDEAL else 1
@@ -1101,8 +1213,9 @@ def run_fused(
     clip = pk.clip if pk.clip is not None else np.zeros(3)
     args = (
         n_steps, float(t0), float(dt), every_ctrl, log_every, R0, x0,
-        pk.act, pk.J, pk.J_inv, pk.S0, pk.C0, pk.dist, pk.dist_params, pk.clip is not None,
-        clip, pk.steer, pk.steer_params, _steer_fn(pk), pk.rate_limit,
+        pk.act, pk.J, pk.J_inv, pk.S0, pk.C0, pk.dist, pk.dist_params, pk.dist_fn, dpk,
+        pk.dist_attitude, pk.clip is not None, clip, pk.steer, pk.steer_params, _steer_fn(pk),
+        pk.rate_limit,
         spec.law, cparams, cstate, index, ref_R, ref_w, ref_dw,
         log.t, log.R, log.omega, log.R_d, log.omega_d, log.u_cmd, log.u, log.disturbance,
         log_act, log_sat, log_hm, log_diag, diag,
@@ -1110,7 +1223,7 @@ def run_fused(
         sa.seen, log_y, log_est, sa.h_par, sa.h_state, log_hook,
         FS.sensing_marker(splan),
     )  # fmt: skip
-    status, rows, t_fail = _call_loop(args, 20, workers, B, vscmg=False)
+    status, rows, t_fail = _call_loop(args, 23, workers, B, vscmg=False)
     if not _finished(status, t_fail, t0, controller, spec, notes):
         return None
     log.rows = rows

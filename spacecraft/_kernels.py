@@ -12,12 +12,15 @@ Codes shared with :mod:`spacecraft._fused`:
   ``STEER_KERNEL``: a user's law through the seam :mod:`spacecraft.steering_kernel` (its
   parameters, and the law itself as a first-class function ``steer_fn``);
 - disturbance: ``DIST_NONE``, ``DIST_CONSTANT`` (params T (3,)), ``DIST_CONSTANT_HARMONIC``
-  (params n, scale).
+  (params n, scale) — time-only, no pointer call — and ``DIST_KERNEL``: a torque of the public
+  seam :mod:`spacecraft.disturbance_kernel` called through a function pointer ``dfn`` with the
+  spacecraft's parameter row ``dpk`` and, when ``datt``, the stage attitude R exp(θ_s).
 """
 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -34,6 +37,7 @@ STEER_KERNEL = 4
 DIST_NONE = 0
 DIST_CONSTANT = 1
 DIST_CONSTANT_HARMONIC = 2
+DIST_KERNEL = 3
 
 #: relative trust threshold of the cofactor determinant (as spacecraft.steering)
 _DET_REL_TRUST = 1e-10
@@ -461,37 +465,67 @@ def _stage_term(
 
 
 @njit(inline="always")
+def stage_disturbance(
+    dist: int, dp: np.ndarray, dfn: Any, dpk: np.ndarray, datt: bool, t: float, R: np.ndarray,
+    u0: float, u1: float, u2: float, first: bool, w0: float, w1: float, w2: float,
+    work: np.ndarray, o: int,
+) -> tuple[float, float, float]:  # fmt: skip
+    """The external torque at an RKMK4 stage: a time-only code (:func:`disturbance_at`), or for
+    ``DIST_KERNEL`` the seam's torque ``dfn(t, R_s, ω_s, dpk, out)`` (spacecraft.
+    disturbance_kernel) at the stage attitude R_s = R exp(u) (R itself at the ``first`` stage;
+    not formed unless ``datt``) and the stage rate; ``work[o:o + 15]`` is its scratch."""
+    if dist == DIST_KERNEL:
+        Rs = work[o : o + 9].reshape((3, 3))
+        ws = work[o + 9 : o + 12]
+        out = work[o + 12 : o + 15]
+        ws[0] = w0
+        ws[1] = w1
+        ws[2] = w2
+        if datt and not first:
+            right_multiply_exp_into(R, u0, u1, u2, Rs)
+            dfn(t, Rs, ws, dpk, out)
+        else:
+            dfn(t, R, ws, dpk, out)
+        return out[0], out[1], out[2]
+    return disturbance_at(dist, dp, t)
+
+
+@njit(inline="always")
 def _field(
-    act: int, J: np.ndarray, Jinv: np.ndarray, dist: int, dp: np.ndarray, t: float,
+    act: int, J: np.ndarray, Jinv: np.ndarray,
+    d: tuple[float, float, float],
     w0: float, w1: float, w2: float, held: np.ndarray,
     hr: tuple[float, float, float, float, float, float],
 ) -> tuple[float, float, float]:  # fmt: skip
     """ω̇ of the packed state (ω, x_act) for a held actuator command (the actuator state's own
-    derivative is the held δ̇ of the SGCMG, nothing for the ideal actuator); the rate ω is
-    passed as values. SGCMG: the bus torque from the stage's ``hr = (h, A δ̇)``
-    (:func:`_stage_term`); ideal: the held torque."""
+    derivative is the held δ̇ of the SGCMG, nothing for the ideal actuator) under the external
+    torque ``d`` (:func:`stage_disturbance`); the rate ω is passed as values. SGCMG: the bus
+    torque from the stage's ``hr = (h, A δ̇)`` (:func:`_stage_term`); ideal: the held torque."""
     if act == ACT_SGCMG:
         t0, t1, t2 = cmg_bus_torque_from(hr, w0, w1, w2)
     else:
         t0, t1, t2 = held[0], held[1], held[2]
-    d0, d1, d2 = disturbance_at(dist, dp, t)
+    d0, d1, d2 = d
     return rigid_acceleration(J, Jinv, w0, w1, w2, t0 + d0, t1 + d1, t2 + d2)
 
 
 @njit(inline="always")
 def rkmk4_step(
     act: int, J: np.ndarray, Jinv: np.ndarray, S0: np.ndarray, C0: np.ndarray,
-    dist: int, dp: np.ndarray, t: float, R: np.ndarray, x: np.ndarray, held: np.ndarray,
+    dist: int, dp: np.ndarray, dfn: Any, dpk: np.ndarray, datt: bool,
+    t: float, R: np.ndarray, x: np.ndarray, held: np.ndarray,
     h: float, R_out: np.ndarray, x_out: np.ndarray, work: np.ndarray, trig_ready: bool,
 ) -> None:  # fmt: skip
     """One RKMK4 step of one rigid spacecraft on SO(3) × ℝⁿ (Munthe-Kaas 1998): the classical
     RK4 tableau on the chart θ with dexp⁻¹ truncated at fourth order; R_{k+1} = R exp(h/6 (K₁ +
-    2K₂ + 2K₃ + K₄)). The time-only disturbances do not read the stage attitudes. ``work``
-    (≥ 7n) is scratch space; with ``trig_ready`` its slots ``[5n, 5n + m)`` and
-    ``[6n, 6n + m)`` already hold sin and cos of the m gimbal angles x[3:] (the SGCMG command of
-    the same step computed them). The stage rates and their derivatives are kept in locals
-    (values, not scratch-array round trips); the actuator state's derivative is the held command
-    in every stage (SGCMG: δ̇), so its stages are x + c h δ̇."""
+    2K₂ + 2K₃ + K₄)). The time-only disturbances do not read the stage attitudes; a seam torque
+    (``DIST_KERNEL``, :func:`stage_disturbance`) that reads them gets R exp(θ_s) with the
+    Python route's θ₂ = h/2 K₁, θ₃ = h/2 K₂, θ₄ = h K₃. ``work`` (≥ 7n + 15) is scratch space;
+    with ``trig_ready`` its slots ``[5n, 5n + m)`` and ``[6n, 6n + m)`` already hold sin and
+    cos of the m gimbal angles x[3:] (the SGCMG command of the same step computed them). The
+    stage rates and their derivatives are kept in locals (values, not scratch-array round
+    trips); the actuator state's derivative is the held command in every stage (SGCMG: δ̇), so
+    its stages are x + c h δ̇."""
     n = x.shape[0]
     m = n - 3
     h2 = 0.5 * h
@@ -499,25 +533,38 @@ def rkmk4_step(
     os_, so, co = 4 * n, 5 * n, 6 * n
     x0, x1, x2 = x[0], x[1], x[2]
     hr = _stage_term(act, S0, C0, x, 3, held, work, so, co, not trig_ready)
-    k10, k11, k12 = _field(act, J, Jinv, dist, dp, t, x0, x1, x2, held, hr)
+    do = 7 * n
+    d = stage_disturbance(
+        dist, dp, dfn, dpk, datt, t, R, 0.0, 0.0, 0.0, True, x0, x1, x2, work, do
+    )  # fmt: skip
+    k10, k11, k12 = _field(act, J, Jinv, d, x0, x1, x2, held, hr)
     u0, u1, u2 = h2 * x0, h2 * x1, h2 * x2
     s0, s1, s2 = x0 + h2 * k10, x1 + h2 * k11, x2 + h2 * k12
     for i in range(m):
         work[os_ + 3 + i] = x[3 + i] + h2 * held[i]
     # stages 2 and 3 have the same gimbal angles bitwise (ẋ_act = held δ̇ in both): one (h, Aδ̇)
     hr = _stage_term(act, S0, C0, work, os_ + 3, held, work, so, co, True)
-    k20, k21, k22 = _field(act, J, Jinv, dist, dp, t + h2, s0, s1, s2, held, hr)
+    d = stage_disturbance(
+        dist, dp, dfn, dpk, datt, t + h2, R, u0, u1, u2, False, s0, s1, s2, work, do
+    )  # fmt: skip
+    k20, k21, k22 = _field(act, J, Jinv, d, s0, s1, s2, held, hr)
     b0, b1, b2 = dexpinv_rkmk4(u0, u1, u2, s0, s1, s2)
     u0, u1, u2 = h2 * b0, h2 * b1, h2 * b2
     s0, s1, s2 = x0 + h2 * k20, x1 + h2 * k21, x2 + h2 * k22
-    k30, k31, k32 = _field(act, J, Jinv, dist, dp, t + h2, s0, s1, s2, held, hr)
+    d = stage_disturbance(
+        dist, dp, dfn, dpk, datt, t + h2, R, u0, u1, u2, False, s0, s1, s2, work, do
+    )  # fmt: skip
+    k30, k31, k32 = _field(act, J, Jinv, d, s0, s1, s2, held, hr)
     c0, c1, c2 = dexpinv_rkmk4(u0, u1, u2, s0, s1, s2)
     u0, u1, u2 = h * c0, h * c1, h * c2
     s0, s1, s2 = x0 + h * k30, x1 + h * k31, x2 + h * k32
     for i in range(m):
         work[os_ + 3 + i] = x[3 + i] + h * held[i]
     hr = _stage_term(act, S0, C0, work, os_ + 3, held, work, so, co, True)
-    k40, k41, k42 = _field(act, J, Jinv, dist, dp, t + h, s0, s1, s2, held, hr)
+    d = stage_disturbance(
+        dist, dp, dfn, dpk, datt, t + h, R, u0, u1, u2, False, s0, s1, s2, work, do
+    )  # fmt: skip
+    k40, k41, k42 = _field(act, J, Jinv, d, s0, s1, s2, held, hr)
     e0, e1, e2 = dexpinv_rkmk4(u0, u1, u2, s0, s1, s2)
     h6 = h / 6.0
     x_out[0] = x0 + (((k20 + k30) * 2.0 + k10) + k40) * h6
@@ -538,17 +585,21 @@ def rkmk4_step(
 @njit
 def rkmk4_step_batch(
     act: int, J: np.ndarray, Jinv: np.ndarray, S0: np.ndarray, C0: np.ndarray,
-    dist: int, dp: np.ndarray, t: float, R: np.ndarray, x: np.ndarray, held: np.ndarray,
+    dist: int, dp: np.ndarray, dfn: Any, dpk: np.ndarray, datt: bool,
+    t: float, R: np.ndarray, x: np.ndarray, held: np.ndarray,
     h: float, R_out: np.ndarray, x_out: np.ndarray,
 ) -> None:  # fmt: skip
-    """:func:`rkmk4_step` over a batch (``J``, ``Jinv`` ``(1, 3, 3)`` shared or ``(B, 3, 3)``)."""
+    """:func:`rkmk4_step` over a batch (``J``, ``Jinv`` ``(1, 3, 3)`` shared or ``(B, 3, 3)``;
+    the seam torque's parameters ``dpk`` ``(1, n_p)`` shared or ``(B, n_p)``)."""
     shared = J.shape[0] == 1
-    work = np.empty(7 * x.shape[1])
+    pshared = dpk.shape[0] == 1
+    work = np.empty(7 * x.shape[1] + 15)
     for b in range(R.shape[0]):
         k = 0 if shared else b
+        kp = 0 if pshared else b
         rkmk4_step(
-            act, J[k], Jinv[k], S0, C0, dist, dp, t, R[b], x[b], held[b], h, R_out[b], x_out[b],
-            work, False,
+            act, J[k], Jinv[k], S0, C0, dist, dp, dfn, dpk[kp], datt, t, R[b], x[b], held[b], h,
+            R_out[b], x_out[b], work, False,
         )  # fmt: skip
 
 

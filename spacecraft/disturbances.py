@@ -21,6 +21,14 @@ stage, so sources must be pure functions of their arguments. The library:
 Sources compose with :class:`SumOfDisturbances`, which also reports each source's torque
 (:meth:`SumOfDisturbances.components`) for the logs.
 
+Compiled: the simulator's fused loop (:mod:`spacecraft._fused`) runs :class:`ZeroDisturbance`
+(or none), :class:`ConstantTorque` with one ``(3,)`` torque and :class:`ConstantHarmonicTorque`
+as built-in time-only codes (:func:`disturbance_kernel`), and any source with a
+``fused_kernel()`` method — :class:`spacecraft.environment.GravityGradientTorque` and a user's
+own — through the public seam :mod:`spacecraft.disturbance_kernel` (an ``@njit`` torque of the
+stage attitude and rate, called through a function pointer). Other sources, and
+:class:`SumOfDisturbances` for now, keep the Python loop (``simulate`` logs which).
+
 A source whose torque does not depend on the attitude sets the class attribute
 ``uses_attitude = False``: the plant then skips forming the attitude at the inner integration
 stages (a subclass that does read ``R`` must set it back to ``True``). Sources without the

@@ -11,6 +11,11 @@ Gravity-gradient torque on a rigid body in a circular orbit:
 since μ/r³ = n² on a circular orbit (Hughes, *Spacecraft Attitude Dynamics*, §8.2; Wie, *Space
 Vehicle Dynamics and Control*, §6.3). It vanishes when ĉ is a principal axis of J (in particular
 for a principal-axis body aligned with LVLH).
+
+The per-spacecraft formula is compiled once (:func:`gravity_gradient_kernel`, the torque of the
+disturbance seam :mod:`spacecraft.disturbance_kernel`, so :class:`GravityGradientTorque` runs in
+the simulator's fused loop); :meth:`GravityGradientTorque.__call__` is its batched numpy layer,
+held to it at 1e-12 by the tests.
 """
 
 from __future__ import annotations
@@ -22,11 +27,41 @@ from typing import Any
 import numpy as np
 
 from liecontrol._array_api import namespace
+from liecontrol._jit import njit
 from liecontrol._validation import as_array, check_inertia_3x3, check_positive_scalar
 
+from .disturbance_kernel import DisturbanceKernel
 from .orbit import CircularOrbit
 
-__all__ = ["GravityGradientTorque", "gravity_gradient_torque"]
+__all__ = ["GravityGradientTorque", "gravity_gradient_kernel", "gravity_gradient_torque"]
+
+
+@njit
+def gravity_gradient_kernel(
+    t: float, R: np.ndarray, omega: np.ndarray, params: np.ndarray, out: np.ndarray
+) -> None:
+    """T_gg = 3n² (ĉ × Jĉ) with ĉ = Rᵀ(−r̂), r̂ = cos u p̂ + sin u q̂, u = u₀ + n t (Hughes §8.2;
+    Wie §6.3) for one spacecraft: the disturbance seam's torque (:mod:`spacecraft.
+    disturbance_kernel`). ``params = (n, u₀, p̂ (3), q̂ (3), J (9, row-major))``: the orbit rate,
+    the argument of latitude at t = 0, the orbit plane's first two axes in inertial axes
+    (``CircularOrbit._R_orb[:, 0]``, ``[:, 1]``) and the true inertia."""
+    n = params[0]
+    u = params[1] + n * t
+    cu = math.cos(u)
+    su = math.sin(u)
+    r0 = -(cu * params[2] + su * params[5])
+    r1 = -(cu * params[3] + su * params[6])
+    r2 = -(cu * params[4] + su * params[7])
+    c0 = R[0, 0] * r0 + R[1, 0] * r1 + R[2, 0] * r2
+    c1 = R[0, 1] * r0 + R[1, 1] * r1 + R[2, 1] * r2
+    c2 = R[0, 2] * r0 + R[1, 2] * r1 + R[2, 2] * r2
+    j0 = params[8] * c0 + params[9] * c1 + params[10] * c2
+    j1 = params[11] * c0 + params[12] * c1 + params[13] * c2
+    j2 = params[14] * c0 + params[15] * c1 + params[16] * c2
+    k = 3.0 * n * n
+    out[0] = (c1 * j2 - c2 * j1) * k
+    out[1] = (c2 * j0 - c0 * j2) * k
+    out[2] = (c0 * j1 - c1 * j0) * k
 
 
 def gravity_gradient_torque(J: object, c: object, n: float) -> np.ndarray:
@@ -92,3 +127,12 @@ class GravityGradientTorque:
             ),
             axis=-1,
         )
+
+    def fused_kernel(self) -> DisturbanceKernel:
+        """The compiled torque (:func:`gravity_gradient_kernel`) and its parameters, shared by
+        the batch (:mod:`spacecraft.disturbance_kernel`)."""
+        o = self.orbit
+        params = np.concatenate(
+            ([o.n, o.arg_lat0], o._R_orb[:, 0], o._R_orb[:, 1], np.asarray(self.J).ravel())
+        ).astype(np.float64)
+        return DisturbanceKernel(gravity_gradient_kernel, params, uses_attitude=True)

@@ -912,6 +912,9 @@ OVERRIDES: dict[str, dict[str, Callable[[], Any]]] = {
     "benchmarks.metrics.compute_metrics": {"result": _sim_result},
     "benchmarks.ranking.wilson_interval": {"k": lambda: 3, "n": lambda: 8},
     "liecontrol.control.kernel.resolve": {"controller": _pd_controller, "batch_size": lambda: 2},
+    "spacecraft.disturbance_kernel.resolve": {
+        "dist": lambda: __import__("spacecraft").ConstantTorque(np.array([0.0, 0.1, 0.0]))
+    },
     "benchmarks.tuning_report.not_equivalent": {"response": lambda: {"overshoot_pct": 1.0}},
     "benchmarks.ranking.cell_verdict": {"k": lambda: 3, "n": lambda: 8},
     "benchmarks.dispersion.member_scenarios": {"scenario": _scenario, "n": lambda: 2},
@@ -1316,6 +1319,14 @@ NOT_SWEPT: dict[str, str] = {
     "spacecraft.steering_kernel.resolve": "needs a steering law with a compiled @njit kernel; "
     "its checks (kernel, params, signature, non-finite rates, the owner rule) are tested in "
     "test_steering_kernel",
+    "spacecraft.disturbance_kernel.check": "needs a compiled @njit torque; its argument checks "
+    "(torque, params, signature, non-finite torque) are tested in test_disturbance_kernel",
+    "spacecraft.disturbance_kernel.DisturbanceKernel": "a record built by a disturbance's "
+    "fused_kernel() and validated by disturbance_kernel.check (test_disturbance_kernel)",
+    "spacecraft.disturbance_kernel.no_torque": "a compiled kernel (no validation by design: "
+    "liecontrol._jit); the loop's placeholder torque",
+    "spacecraft.environment.gravity_gradient_kernel": "a compiled kernel (no validation by "
+    "design: liecontrol._jit); held to GravityGradientTorque in test_disturbance_kernel",
     # report sections over a whole SuiteResult: their argument check (a SuiteResult, named
     # ``result``) is tested in test_dispersion_ranking; a call runs simulations (seconds)
     **{

@@ -1,0 +1,214 @@
+"""The compiled-kernel seam of disturbances: how a disturbance hands the fused loop its torque.
+
+A disturbance source (:mod:`spacecraft.disturbances`) that wants to run inside the simulator's
+compiled closed loop (:func:`spacecraft.simulator.simulate`) defines one more method next to
+``__call__``::
+
+    def fused_kernel(self) -> DisturbanceKernel | None:
+        ...
+
+It returns a :class:`DisturbanceKernel`: a numba ``@njit`` function of the signature below (the
+*torque*), a ``float64`` parameter vector — ``(n_p,)`` shared by the batch or ``(B, n_p)`` one
+row per spacecraft — and whether the torque reads the attitude. ``None`` means "no kernel for
+this configuration"; the Python loop then runs and ``simulate`` logs one line (logger
+``spacecraft.simulator``) naming the disturbance.
+
+The torque, called once per spacecraft at every RKMK4 stage (and at every log row)::
+
+    torque(t, R, omega, params, out) -> None
+
+==========  ====================================================================================
+``t``       float, the stage time [s]
+``R``       ``(3, 3)`` C-contiguous float64: the stage attitude R_k exp(θ_s) (body → inertial),
+            exactly the attitude the Python loop passes at that stage (θ₁ = 0, θ₂ = h/2 K₁,
+            θ₃ = h/2 K₂, θ₄ = h K₃; :func:`liecontrol.integrators.rk.rkmk4_step_unchecked`).
+            When the kernel says ``uses_attitude=False`` the loop does not form the stage
+            attitudes and ``R`` is the step's start attitude: the torque must not read it.
+``omega``   ``(3,)`` the stage body rate [rad/s]
+``params``  ``(n_p,)`` C-contiguous float64: this spacecraft's parameter row (read only)
+``out``     ``(3,)`` body torque [N·m] about the centre of mass, written by the torque
+==========  ====================================================================================
+
+:data:`TORQUE_SIGNATURE` is this signature in numba's types; the loop calls the torque through a
+function pointer (a numba first-class function), so one compiled loop serves every disturbance.
+The built-in time-only sources (:class:`~spacecraft.disturbances.ConstantTorque`,
+:class:`~spacecraft.disturbances.ConstantHarmonicTorque`, none) keep their own integer codes in
+the loop (:func:`spacecraft._kernels.disturbance_at`, no pointer call); the gravity-gradient
+torque (:class:`spacecraft.environment.GravityGradientTorque`) goes through this seam.
+
+Which class the kernel speaks for: :func:`resolve` accepts the kernel only when ``__call__`` is
+defined in the class that defines ``fused_kernel`` or above it (a subclass overriding
+``__call__`` in Python keeps the Python loop until it defines ``fused_kernel`` itself).
+
+Before the loop starts, :func:`check` compiles the torque for :data:`TORQUE_SIGNATURE`, checks
+the parameters (dtype, dimensions, batch size, finiteness) and calls the torque once on the
+initial state of the first spacecraft; a wrong signature, a numba typing error, parameters of
+the wrong shape or dtype, or a non-finite torque raise :class:`ValueError` naming the
+disturbance and the argument. The guide ``docs/fast_controllers.md`` has an example.
+"""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from liecontrol._jit import JIT_ENABLED, njit
+from liecontrol.control.kernel import _summary
+
+__all__ = ["DisturbanceKernel", "TORQUE_SIGNATURE", "check", "no_torque", "resolve"]
+
+
+def _torque_signature() -> Any:
+    if not JIT_ENABLED:
+        return None
+    from numba import types
+
+    C1 = types.Array(types.float64, 1, "C")
+    C2 = types.Array(types.float64, 2, "C")
+    return types.void(types.float64, C2, C1, C1, C1)
+
+
+#: numba signature of a disturbance torque (``None`` without numba)
+TORQUE_SIGNATURE: Any = _torque_signature()
+
+
+@njit
+def no_torque(
+    t: float, R: np.ndarray, omega: np.ndarray, params: np.ndarray, out: np.ndarray
+) -> None:
+    """The zero torque: the loop's placeholder pointer when the disturbance has no kernel of
+    this seam (a built-in code or none)."""
+    out[0] = 0.0
+    out[1] = 0.0
+    out[2] = 0.0
+
+
+@dataclass(frozen=True)
+class DisturbanceKernel:
+    """What ``fused_kernel()`` returns (module docstring).
+
+    Attributes:
+        torque: the ``@njit`` torque of the documented signature.
+        params: ``(n_p,)`` float64 parameters shared by the batch, or ``(B, n_p)`` one row per
+            spacecraft (copied; read only to the torque). ``n_p`` may be 0.
+        uses_attitude: whether the torque reads ``R`` (``False``: the loop skips forming the
+            stage attitudes, as the Python loop does for ``uses_attitude = False`` sources).
+        name: the torque's name in messages (default: the function's name).
+    """
+
+    torque: Callable[..., None]
+    params: np.ndarray
+    uses_attitude: bool = True
+    name: str = ""
+
+
+def _owner(cls: type, attr: str) -> type | None:
+    for klass in inspect.getmro(cls):
+        if attr in vars(klass):
+            return klass
+    return None
+
+
+def resolve(dist: Any) -> tuple[DisturbanceKernel | None, str]:
+    """``(kernel, "")`` for a disturbance with a kernel of this seam, else ``(None, reason)``:
+    why it keeps the Python loop, in words (the simulator's one log line)."""
+    if not callable(dist):
+        raise TypeError(
+            f"dist: expected a disturbance source (a callable (t, R, omega) -> (B, 3)), got "
+            f"{type(dist).__name__}"
+        )
+    label = type(dist).__name__
+    if not JIT_ENABLED:
+        return None, "numba is not available"
+    hook = getattr(dist, "fused_kernel", None)
+    if not callable(hook):
+        return None, f"the disturbance {label} has no compiled kernel (no fused_kernel method)"
+    cls = type(dist)
+    k_owner, c_owner = _owner(cls, "fused_kernel"), _owner(cls, "__call__")
+    if k_owner is not None and c_owner is not None and c_owner is not k_owner:
+        if issubclass(c_owner, k_owner):
+            return None, (
+                f"the disturbance {label} overrides __call__() in {c_owner.__name__} below "
+                f"{k_owner.__name__}.fused_kernel(), whose kernel is not its torque (define "
+                "fused_kernel on the subclass to compile it)"
+            )
+    spec = hook()
+    if spec is None:
+        return None, f"the disturbance {label} has no compiled kernel for this configuration"
+    if not isinstance(spec, DisturbanceKernel):
+        raise ValueError(
+            f"disturbance {label}: fused_kernel() must return a DisturbanceKernel or None, "
+            f"got {type(spec).__name__}"
+        )
+    return spec, ""
+
+
+def check(
+    dist: Any,
+    spec: DisturbanceKernel,
+    batch_size: int | None,
+    probe: tuple[float, np.ndarray, np.ndarray] | None = None,
+) -> np.ndarray:
+    """Validate ``spec`` before a run: compile the torque for :data:`TORQUE_SIGNATURE`, check
+    ``params`` (float64, ``(n_p,)`` or ``(batch_size, n_p)``, finite) and, with ``probe = (t, R
+    (3, 3), ω (3,))``, call it once on copies. Returns the parameters as a C-contiguous
+    ``(B', n_p)`` copy (B' = 1 shared, else the batch); raises ``ValueError`` naming the
+    disturbance and the argument. ``batch_size=None`` accepts any number of rows."""
+    label = type(dist).__name__
+    torque = spec.torque
+    tname = spec.name or getattr(torque, "__name__", repr(torque))
+    p = spec.params
+    if not isinstance(p, np.ndarray):
+        raise ValueError(
+            f"disturbance {label}: kernel params must be a numpy float64 array, "
+            f"got {type(p).__name__}"
+        )
+    if p.dtype != np.float64:
+        raise ValueError(
+            f"disturbance {label}: kernel params must have dtype float64, got {p.dtype}"
+        )
+    rows_ok = p.ndim == 2 and (batch_size is None or p.shape[0] in (1, batch_size))
+    if p.ndim != 1 and not rows_ok:
+        want = "(n_p,) or (B, n_p)" if batch_size is None else f"(n_p,) or ({batch_size}, n_p)"
+        raise ValueError(
+            f"disturbance {label}: kernel params must have shape {want}, got {p.shape}"
+        )
+    if not np.all(np.isfinite(p)):
+        raise ValueError(f"disturbance {label}: kernel params must be finite")
+    params = np.ascontiguousarray(p.reshape(1, -1) if p.ndim == 1 else p).copy()
+    if not isinstance(spec.uses_attitude, (bool, np.bool_)):
+        raise ValueError(
+            f"disturbance {label}: kernel uses_attitude must be a bool, got {spec.uses_attitude!r}"
+        )
+    if not callable(getattr(torque, "compile", None)) or not hasattr(torque, "py_func"):
+        raise ValueError(
+            f"disturbance {label}: kernel torque must be a numba @njit function, got {torque!r}"
+        )
+    from numba.core.errors import NumbaError
+
+    try:
+        if TORQUE_SIGNATURE.args not in torque.overloads:
+            torque.compile(TORQUE_SIGNATURE)
+    except (NumbaError, TypeError, ValueError) as exc:
+        raise ValueError(
+            f"disturbance {label}: kernel torque {tname} does not compile for the documented "
+            "signature torque(t, R, omega, params, out) (spacecraft.disturbance_kernel): "
+            f"{_summary(exc)}"
+        ) from None
+    if probe is not None:
+        t, R, w = probe
+        out = np.full(3, np.nan)
+        torque(
+            float(t), np.ascontiguousarray(R, dtype=np.float64).copy(),
+            np.ascontiguousarray(w, dtype=np.float64).copy(), params[0].copy(), out,
+        )  # fmt: skip
+        if not np.all(np.isfinite(out)):
+            raise ValueError(
+                f"disturbance {label}: kernel torque {tname} returned a non-finite torque out on "
+                f"the initial state (t = {float(t)!r}); check the torque and its params"
+            )
+    return params

@@ -1,0 +1,253 @@
+"""The disturbance kernel seam (spacecraft.disturbance_kernel) and the fused loop that calls it.
+
+- the gravity-gradient torque and a user's @njit torque that reads the attitude and the rate run
+  in the fused loop and equal the numpy Python loop (stage attitudes R exp(θ_s)) to 1e-12, with
+  the ideal actuator and the SGCMG, one spacecraft and a batch with per-spacecraft inertias;
+- the kernel equals the numpy gravity-gradient layer to 1e-12;
+- a malformed kernel (signature, typing error, parameters, non-finite torque) raises before the
+  loop, naming the disturbance and the argument;
+- a subclass overriding ``__call__`` keeps the Python loop and ``simulate`` says so once.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from liecontrol._jit import JIT_ENABLED
+from liecontrol.control import GeometricPD
+from liecontrol.control.reference import ConstantAttitude
+from liecontrol.lie import so3
+from spacecraft import IdealTorqueActuator, RigidBody, SgcmgActuator, SgcmgPyramid, Spacecraft
+from spacecraft import _fused as fused_module
+from spacecraft import simulator as simulator_module
+from spacecraft.disturbance_kernel import DisturbanceKernel
+from spacecraft.environment import GravityGradientTorque
+from spacecraft.orbit import CircularOrbit
+from spacecraft.simulator import simulate
+
+pytestmark = pytest.mark.skipif(not JIT_ENABLED, reason="the fused loop needs numba")
+
+J = np.array([[150.0, 3.0, -1.0], [3.0, 65.0, 2.0], [-1.0, 2.0, 111.0]])
+ORBIT = CircularOrbit(n=0.0011, inclination=0.6, raan=0.3, arg_lat0=0.2)
+
+
+def _numpy_plant(plant: Spacecraft) -> Spacecraft:
+    """The same plant on the numpy route (no compiled step: the disturbance's ``__call__`` at
+    the stage attitudes of liecontrol.integrators.rk)."""
+    twin = Spacecraft(plant.body, plant.actuator, disturbance=plant.disturbance)
+    object.__setattr__(twin, "_kernel_plan", None)
+    return twin
+
+
+def _python_loop(monkeypatch, *args, **kwargs):
+    with monkeypatch.context() as m:
+        m.setattr(simulator_module, "fused_supported", lambda *a, **k: None)
+        return simulate(*args, **kwargs)
+
+
+def _fused(monkeypatch, *args, **kwargs):
+    """``simulate`` that must run (and finish) in the fused loop."""
+    ran = []
+    real = simulator_module.run_fused
+
+    def spy(*a, **k):
+        out = real(*a, **k)
+        ran.append(out is not None)
+        return out
+
+    with monkeypatch.context() as m:
+        m.setattr(simulator_module, "run_fused", spy)
+        res = simulate(*args, **kwargs)
+    assert ran == [True]
+    return res
+
+
+def _assert_same(a, b):
+    for name in ("t", "R", "omega", "u_cmd", "disturbance"):
+        x, y = getattr(a, name), getattr(b, name)
+        np.testing.assert_allclose(x, y, rtol=1e-12, atol=1e-12 * max(1.0, np.abs(y).max()))
+
+
+# ------------------------------------------------------------------ a user's torque
+if JIT_ENABLED:
+    from numba import njit
+
+    @njit
+    def user_torque(t, R, omega, params, out):
+        """A body-fixed magnetic-like torque k (Rᵀ e_z) × e_x − c ω (reads R and ω)."""
+        k, c = params[0], params[1]
+        b0, b1, b2 = R[2, 0], R[2, 1], R[2, 2]
+        out[0] = -c * omega[0]
+        out[1] = k * b2 - c * omega[1]
+        out[2] = -k * b1 - c * omega[2] + 0.0 * b0
+
+    @njit
+    def bad_signature(t, R, omega, out):
+        out[0] = 0.0
+
+    @njit
+    def typing_error(t, R, omega, params, out):
+        out[0] = R + "x"
+
+    @njit
+    def nan_torque(t, R, omega, params, out):
+        out[0] = np.nan
+        out[1] = 0.0
+        out[2] = 0.0
+
+
+@dataclass(frozen=True)
+class UserTorque:
+    """The numpy twin of :func:`user_torque`, with the kernel through the public seam."""
+
+    k: float = 2e-3
+    c: float = 0.05
+    torque: object = None
+    params: object = None
+
+    def __call__(self, t, R, omega):
+        b = R[:, 2, :]
+        out = -self.c * omega
+        out[:, 1] += self.k * b[:, 2]
+        out[:, 2] -= self.k * b[:, 1]
+        return out
+
+    def fused_kernel(self):
+        params = np.array([self.k, self.c]) if self.params is None else self.params
+        fn = user_torque if self.torque is None else self.torque
+        return DisturbanceKernel(fn, params, uses_attitude=True)
+
+
+def _setup(B, actuator, disturbance, per_spacecraft=False, seed=4):
+    rng = np.random.default_rng(seed)
+    Jb = np.stack([J * (1.0 + 0.1 * i) for i in range(B)]) if per_spacecraft else J
+    plant = Spacecraft(RigidBody(Jb), actuator, disturbance=disturbance)
+    ref = ConstantAttitude(so3.random(rng, (B,)) if B > 1 else so3.random(rng))
+    x0 = plant.initial_state(np.eye(3), 0.02 * rng.normal(size=(B, 3)))
+    return plant, GeometricPD(J, 10.0, 60.0), ref, x0
+
+
+ACTUATORS = {
+    "ideal": lambda: IdealTorqueActuator(max_torque=2.0),
+    "sgcmg": lambda: SgcmgActuator(SgcmgPyramid(h0=10.0)),
+}
+SOURCES = {
+    "gravity_gradient": lambda: GravityGradientTorque(J, ORBIT),
+    "user": lambda: UserTorque(),
+}
+
+
+@pytest.mark.parametrize("source", sorted(SOURCES))
+@pytest.mark.parametrize("actuator", sorted(ACTUATORS))
+@pytest.mark.parametrize("B", [1, 3])
+def test_fused_equals_the_numpy_python_loop(source, actuator, B, monkeypatch):
+    plant, ctrl, ref, x0 = _setup(B, ACTUATORS[actuator](), SOURCES[source](), B > 1)
+    assert plant._kernel_plan is not None
+    kw = dict(control_period=0.1, log_every=5)
+    fast = _fused(monkeypatch, plant, ctrl, ref, x0, 20.0, 0.05, **kw)
+    slow = _python_loop(monkeypatch, _numpy_plant(plant), ctrl, ref, x0, 20.0, 0.05, **kw)
+    _assert_same(fast, slow)
+    # the Python loop's compiled step (the plant's kernel plan) is the same arithmetic
+    step = _python_loop(monkeypatch, plant, ctrl, ref, x0, 20.0, 0.05, **kw)
+    _assert_same(step, slow)
+    assert np.abs(fast.disturbance).max() > 0.0
+
+
+def test_the_kernel_is_the_numpy_gravity_gradient():
+    gg = GravityGradientTorque(J, ORBIT)
+    spec = gg.fused_kernel()
+    rng = np.random.default_rng(0)
+    R = so3.random(rng, (8,))
+    w = rng.normal(size=(8, 3))
+    for t in (0.0, 123.4, 5e3):
+        ref = gg(t, R, w)
+        out = np.empty(3)
+        for b in range(8):
+            spec.torque(t, np.ascontiguousarray(R[b]), w[b], spec.params, out)
+            np.testing.assert_allclose(out, ref[b], rtol=1e-12, atol=1e-12 * np.abs(ref).max())
+
+
+def _bad(**kw):
+    return UserTorque(**kw)
+
+
+@pytest.mark.parametrize(
+    ("dist", "words"),
+    [
+        (_bad(torque=bad_signature if JIT_ENABLED else None), "does not compile"),
+        (_bad(torque=typing_error if JIT_ENABLED else None), "does not compile"),
+        (_bad(params=np.array([1, 2])), "dtype float64"),
+        (_bad(params=np.zeros((2, 2, 2))), "shape"),
+        (_bad(params=[1.0, 2.0]), "numpy float64 array"),
+        (_bad(params=np.array([np.inf, 0.0])), "finite"),
+    ],
+)
+def test_a_malformed_kernel_raises_naming_the_disturbance_and_the_argument(dist, words):
+    with pytest.raises(ValueError, match=r"disturbance UserTorque: kernel (torque|params)") as e:
+        Spacecraft(RigidBody(J), IdealTorqueActuator(), disturbance=dist)
+    assert words in str(e.value)
+
+
+def test_per_spacecraft_params_of_the_wrong_batch_raise(monkeypatch):
+    plant, ctrl, ref, x0 = _setup(3, ACTUATORS["ideal"](), _bad(params=np.zeros((2, 2))))
+    with pytest.raises(ValueError, match=r"disturbance UserTorque: kernel params .*\(3, n_p\)"):
+        simulate(plant, ctrl, ref, x0, 1.0, 0.05)
+
+
+def test_a_non_finite_torque_on_the_initial_state_raises_before_the_loop():
+    plant, ctrl, ref, x0 = _setup(1, ACTUATORS["ideal"](), _bad(torque=nan_torque))
+    with pytest.raises(ValueError, match=r"disturbance UserTorque: kernel torque nan_torque .*out"):
+        simulate(plant, ctrl, ref, x0, 1.0, 0.05)
+
+
+class _Override(GravityGradientTorque):
+    def __call__(self, t, R, omega):
+        return 2.0 * super().__call__(t, R, omega)
+
+
+class _Keeps(GravityGradientTorque):
+    pass
+
+
+def test_an_override_of_call_keeps_the_python_loop_and_says_so(caplog):
+    plant, ctrl, ref, x0 = _setup(1, ACTUATORS["ideal"](), _Override(J, ORBIT))
+    assert plant._kernel_plan is None
+    assert _Keeps(J, ORBIT).fused_kernel() is not None
+    keeps, *_ = _setup(1, ACTUATORS["ideal"](), _Keeps(J, ORBIT))
+    assert keeps._kernel_plan is not None
+    with caplog.at_level(logging.INFO, logger="spacecraft.simulator"):
+        simulate(plant, ctrl, ref, x0, 0.5, 0.05)
+    lines = [r.getMessage() for r in caplog.records if r.name == "spacecraft.simulator"]
+    assert len(lines) == 1
+    assert "_Override overrides __call__()" in lines[0]
+    assert "GravityGradientTorque.fused_kernel()" in lines[0]
+
+
+def test_a_source_without_a_kernel_is_named_once(caplog):
+    @dataclass(frozen=True)
+    class PlainTorque:
+        def __call__(self, t, R, omega):
+            return np.zeros(omega.shape)
+
+    plant, ctrl, ref, x0 = _setup(1, ACTUATORS["ideal"](), PlainTorque())
+    with caplog.at_level(logging.INFO, logger="spacecraft.simulator"):
+        simulate(plant, ctrl, ref, x0, 0.5, 0.05)
+    lines = [r.getMessage() for r in caplog.records if r.name == "spacecraft.simulator"]
+    assert len(lines) == 1 and "the disturbance PlainTorque has no compiled kernel" in lines[0]
+
+
+def test_hold_steps_takes_the_seam_torque():
+    plant, _, _, x0 = _setup(2, ACTUATORS["ideal"](), SOURCES["user"]())
+    twin = _numpy_plant(plant)
+    u = np.array([[0.1, 0.0, -0.1], [0.0, 0.2, 0.0]])
+    R, x, _ = fused_module.hold_steps(plant._kernel_plan, 4, 0.0, 0.05, x0.R, x0.packed(), u)
+    Rn, xn = x0.R, x0.packed()
+    for k in range(4):
+        held = twin.actuator.command(u, xn[:, :3], xn[:, 3:], 0.05 * k)
+        Rn, xn = twin.step_packed(0.05 * k, Rn, xn, held, 0.05)
+    np.testing.assert_allclose(R, Rn, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(x, xn, rtol=0, atol=1e-13)
