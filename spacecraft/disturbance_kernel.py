@@ -49,7 +49,6 @@ disturbance and the argument. The guide ``docs/fast_controllers.md`` has an exam
 
 from __future__ import annotations
 
-import inspect
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -57,7 +56,7 @@ from typing import Any
 import numpy as np
 
 from liecontrol._jit import JIT_ENABLED, njit
-from liecontrol.control.kernel import _summary
+from liecontrol.control.kernel import compile_kernel, overridden_below_kernel
 
 __all__ = ["DisturbanceKernel", "TORQUE_SIGNATURE", "check", "no_torque", "resolve"]
 
@@ -106,13 +105,6 @@ class DisturbanceKernel:
     name: str = ""
 
 
-def _owner(cls: type, attr: str) -> type | None:
-    for klass in inspect.getmro(cls):
-        if attr in vars(klass):
-            return klass
-    return None
-
-
 def resolve(dist: Any) -> tuple[DisturbanceKernel | None, str]:
     """``(kernel, "")`` for a disturbance with a kernel of this seam, else ``(None, reason)``:
     why it keeps the Python loop, in words (the simulator's one log line)."""
@@ -127,15 +119,14 @@ def resolve(dist: Any) -> tuple[DisturbanceKernel | None, str]:
     hook = getattr(dist, "fused_kernel", None)
     if not callable(hook):
         return None, f"the disturbance {label} has no compiled kernel (no fused_kernel method)"
-    cls = type(dist)
-    k_owner, c_owner = _owner(cls, "fused_kernel"), _owner(cls, "__call__")
-    if k_owner is not None and c_owner is not None and c_owner is not k_owner:
-        if issubclass(c_owner, k_owner):
-            return None, (
-                f"the disturbance {label} overrides __call__() in {c_owner.__name__} below "
-                f"{k_owner.__name__}.fused_kernel(), whose kernel is not its torque (define "
-                "fused_kernel on the subclass to compile it)"
-            )
+    below = overridden_below_kernel(type(dist), ("__call__",))
+    if below is not None:
+        _, c_owner, k_owner = below
+        return None, (
+            f"the disturbance {label} overrides __call__() in {c_owner.__name__} below "
+            f"{k_owner.__name__}.fused_kernel(), whose kernel is not its torque (define "
+            "fused_kernel on the subclass to compile it)"
+        )
     spec = hook()
     if spec is None:
         return None, f"the disturbance {label} has no compiled kernel for this configuration"
@@ -184,21 +175,10 @@ def check(
         raise ValueError(
             f"disturbance {label}: kernel uses_attitude must be a bool, got {spec.uses_attitude!r}"
         )
-    if not callable(getattr(torque, "compile", None)) or not hasattr(torque, "py_func"):
-        raise ValueError(
-            f"disturbance {label}: kernel torque must be a numba @njit function, got {torque!r}"
-        )
-    from numba.core.errors import NumbaError
-
-    try:
-        if TORQUE_SIGNATURE.args not in torque.overloads:
-            torque.compile(TORQUE_SIGNATURE)
-    except (NumbaError, TypeError, ValueError) as exc:
-        raise ValueError(
-            f"disturbance {label}: kernel torque {tname} does not compile for the documented "
-            "signature torque(t, R, omega, params, out) (spacecraft.disturbance_kernel): "
-            f"{_summary(exc)}"
-        ) from None
+    compile_kernel(
+        torque, TORQUE_SIGNATURE, f"disturbance {label}: kernel torque", tname,
+        "torque(t, R, omega, params, out) (spacecraft.disturbance_kernel)",
+    )  # fmt: skip
     if probe is not None:
         t, R, w = probe
         out = np.full(3, np.nan)

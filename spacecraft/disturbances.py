@@ -25,7 +25,7 @@ Compiled: the simulator's fused loop (:mod:`spacecraft._fused`) runs :class:`Zer
 (or none), :class:`ConstantTorque` with one ``(3,)`` torque and :class:`ConstantHarmonicTorque`
 as built-in time-only codes (:func:`disturbance_kernel`), and any source with a
 ``fused_kernel()`` method — :class:`spacecraft.environment.GravityGradientTorque` and a user's
-own — through the public seam :mod:`spacecraft.disturbance_kernel` (an ``@njit`` torque of the
+own — through the public seam :mod:`spacecraft.disturbance_kernel` (a numba-compiled torque of the
 stage attitude and rate, called through a function pointer). Other sources, and
 :class:`SumOfDisturbances` for now, keep the Python loop (``simulate`` logs which).
 

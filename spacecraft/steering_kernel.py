@@ -48,7 +48,6 @@ SGCMG pyramid with the ideal gimbal servo flies a user's kernel; the full CMG mo
 
 from __future__ import annotations
 
-import inspect
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -56,6 +55,7 @@ from typing import Any
 import numpy as np
 
 from liecontrol._jit import JIT_ENABLED
+from liecontrol.control.kernel import compile_kernel, overridden_below_kernel
 
 __all__ = ["STEERING_SIGNATURE", "SteeringKernel", "resolve"]
 
@@ -89,13 +89,6 @@ class SteeringKernel:
     name: str = ""
 
 
-def _owner(cls: type, attr: str) -> type | None:
-    for klass in inspect.getmro(cls):
-        if attr in vars(klass):
-            return klass
-    return None
-
-
 def resolve(
     law: Any, cluster: Any, A0: np.ndarray, delta0: np.ndarray
 ) -> tuple[SteeringKernel | None, np.ndarray | None, str]:
@@ -109,21 +102,18 @@ def resolve(
     hook = getattr(law, "fused_kernel", None)
     if not callable(hook):
         return None, None, f"steering {label} has no compiled kernel (no fused_kernel method)"
-    cls = type(law)
-    k_owner = _owner(cls, "fused_kernel")
-    for attr in ("steer", "__call__"):
-        owner = _owner(cls, attr)
-        if k_owner is not None and owner is not None and owner is not k_owner:
-            if issubclass(owner, k_owner):
-                return (
-                    None,
-                    None,
-                    (
-                        f"steering {label} overrides {attr}() in {owner.__name__} below "
-                        f"{k_owner.__name__}.fused_kernel(), whose kernel is not its law (define "
-                        "fused_kernel on the subclass to compile it)"
-                    ),
-                )
+    below = overridden_below_kernel(type(law), ("steer", "__call__"))
+    if below is not None:
+        attr, owner, k_owner = below
+        return (
+            None,
+            None,
+            (
+                f"steering {label} overrides {attr}() in {owner.__name__} below "
+                f"{k_owner.__name__}.fused_kernel(), whose kernel is not its law (define "
+                "fused_kernel on the subclass to compile it)"
+            ),
+        )
     spec = hook(cluster)
     if spec is None:
         return None, None, f"steering {label} has no compiled kernel for this cluster"
@@ -151,23 +141,10 @@ def check(law: Any, spec: SteeringKernel, A0: np.ndarray, delta0: np.ndarray) ->
     if not np.all(np.isfinite(p)):
         raise ValueError(f"steering {label}: kernel params must be finite")
     params = np.ascontiguousarray(p).copy()
-    if not callable(getattr(fn, "compile", None)) or not hasattr(fn, "py_func"):
-        raise ValueError(
-            f"steering {label}: kernel steer must be a numba @njit function, got {fn!r}"
-        )
-    from numba.core.errors import NumbaError
-
-    from liecontrol.control.kernel import _summary
-
-    try:
-        if STEERING_SIGNATURE.args not in fn.overloads:
-            fn.compile(STEERING_SIGNATURE)
-    except (NumbaError, TypeError, ValueError) as exc:
-        raise ValueError(
-            f"steering {label}: kernel steer {name} does not compile for the documented "
-            "signature steer(t, A, hdot, delta, params, out) (spacecraft.steering_kernel): "
-            f"{_summary(exc)}"
-        ) from None
+    compile_kernel(
+        fn, STEERING_SIGNATURE, f"steering {label}: kernel steer", name,
+        "steer(t, A, hdot, delta, params, out) (spacecraft.steering_kernel)",
+    )  # fmt: skip
     A = np.ascontiguousarray(A0, dtype=np.float64)
     d = np.ascontiguousarray(delta0, dtype=np.float64)
     out = np.full(d.shape[0], np.nan)

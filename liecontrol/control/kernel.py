@@ -143,6 +143,42 @@ def _owner(cls: type, attr: str) -> type | None:
     return None
 
 
+def overridden_below_kernel(cls: type, laws: tuple[str, ...]) -> tuple[str, type, type] | None:
+    """The seams' owner rule: a ``fused_kernel`` speaks for the class that defines it and for
+    its subclasses that keep its law. Returns ``(method, overriding class, kernel class)`` for
+    the first of ``laws`` (e.g. ``("command",)``) that ``cls`` overrides below the class that
+    defines ``fused_kernel``, else ``None``. Shared by the controller, steering
+    (:mod:`spacecraft.steering_kernel`) and disturbance (:mod:`spacecraft.disturbance_kernel`)
+    seams."""
+    k_owner = _owner(cls, "fused_kernel")
+    for attr in laws:
+        owner = _owner(cls, attr)
+        if k_owner is not None and owner is not None and owner is not k_owner:
+            if issubclass(owner, k_owner):
+                return attr, owner, k_owner
+    return None
+
+
+def compile_kernel(fn: Any, signature: Any, what: str, name: str, documented: str) -> None:
+    """Compile the ``@njit`` ``fn`` for the numba ``signature`` (once: a compiled overload is
+    reused), or raise ``ValueError``: ``"{what} must be a numba @njit function"`` for anything
+    else, ``"{what} {name} does not compile for the documented signature {documented}: …"``
+    with numba's typing error in one line. Shared by the three seams (``what`` names the part
+    and the argument, e.g. ``"controller MyPD: kernel law"``)."""
+    if not callable(getattr(fn, "compile", None)) or not hasattr(fn, "py_func"):
+        raise ValueError(f"{what} must be a numba @njit function, got {fn!r}")
+    from numba.core.errors import NumbaError
+
+    try:
+        if signature.args not in fn.overloads:
+            fn.compile(signature)
+    except (NumbaError, TypeError, ValueError) as exc:
+        raise ValueError(
+            f"{what} {name} does not compile for the documented signature {documented}: "
+            f"{_summary(exc)}"
+        ) from None
+
+
 #: The largest batch a kernel is built for (a guard against a mistyped size).
 _MAX_BATCH = 100_000_000
 
@@ -170,15 +206,14 @@ def resolve(
     hook = getattr(controller, "fused_kernel", None)
     if not callable(hook):
         return None, f"controller {label} has no compiled kernel (no fused_kernel method)"
-    cls = type(controller)
-    k_owner, c_owner = _owner(cls, "fused_kernel"), _owner(cls, "command")
-    if k_owner is not None and c_owner is not None and c_owner is not k_owner:
-        if issubclass(c_owner, k_owner):
-            return None, (
-                f"controller {label} overrides command() in {c_owner.__name__} below "
-                f"{k_owner.__name__}.fused_kernel(), whose kernel is not its law (define "
-                "fused_kernel on the subclass to compile it)"
-            )
+    below = overridden_below_kernel(type(controller), ("command",))
+    if below is not None:
+        _, c_owner, k_owner = below
+        return None, (
+            f"controller {label} overrides command() in {c_owner.__name__} below "
+            f"{k_owner.__name__}.fused_kernel(), whose kernel is not its law (define "
+            "fused_kernel on the subclass to compile it)"
+        )
     spec = hook(batch_size, control_period)
     if spec is None:
         why = getattr(controller, "_kernel_reason", None)
@@ -242,22 +277,11 @@ def check(
     n_diag = spec.n_diag
     if isinstance(n_diag, bool) or not isinstance(n_diag, (int, np.integer)) or n_diag < 0:
         raise ValueError(f"controller {label}: kernel n_diag must be an int >= 0, got {n_diag!r}")
-    if not callable(getattr(law, "compile", None)) or not hasattr(law, "py_func"):
-        raise ValueError(
-            f"controller {label}: kernel law must be a numba @njit function, got {law!r}"
-        )
-    from numba.core.errors import NumbaError
-
-    try:
-        if LAW_SIGNATURE.args not in law.overloads:
-            law.compile(LAW_SIGNATURE)
-    except (NumbaError, TypeError, ValueError) as exc:
-        first = _summary(exc)
-        raise ValueError(
-            f"controller {label}: kernel law {lname} does not compile for the documented "
-            "signature law(t, R, omega, R_d, omega_d, omega_dot_d, params, state, u_out, "
-            f"diag_out) (liecontrol.control.kernel): {first}"
-        ) from None
+    compile_kernel(
+        law, LAW_SIGNATURE, f"controller {label}: kernel law", lname,
+        "law(t, R, omega, R_d, omega_d, omega_dot_d, params, state, u_out, diag_out) "
+        "(liecontrol.control.kernel)",
+    )  # fmt: skip
     if probe is not None:
         t, R, w, R_d, w_d, dw_d = probe
         u = np.full(3, np.nan)
