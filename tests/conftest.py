@@ -133,3 +133,32 @@ def assert_same_outcomes(a, b, rtol: float = 1e-9, atol: float = 1e-12) -> None:
             if k not in TIMING_METRICS and np.isfinite(v):
                 where = f"{oa.controller} member {oa.member}: {k}"
                 np.testing.assert_allclose(ob.metrics[k], v, rtol=rtol, atol=atol, err_msg=where)
+
+
+def simulate_python_loop(monkeypatch, *args, **kwargs):
+    """``spacecraft.simulate`` forced onto the per-step Python loop (the compiled routes'
+    reference in the equality tests)."""
+    from spacecraft import simulator as simulator_module
+
+    with monkeypatch.context() as m:
+        m.setattr(simulator_module, "fused_supported", lambda *a, **k: None)
+        return simulator_module.simulate(*args, **kwargs)
+
+
+def simulate_fused(monkeypatch, *args, **kwargs):
+    """``spacecraft.simulate`` that must run (and finish) in the fused loop."""
+    from spacecraft import simulator as simulator_module
+
+    ran = []
+    real = simulator_module.run_fused
+
+    def spy(*a, **k):
+        out = real(*a, **k)
+        ran.append(out is not None)
+        return out
+
+    with monkeypatch.context() as m:
+        m.setattr(simulator_module, "run_fused", spy)
+        res = simulator_module.simulate(*args, **kwargs)
+    assert ran == [True]
+    return res

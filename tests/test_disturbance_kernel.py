@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pytest
+from conftest import simulate_fused, simulate_python_loop
 
 from liecontrol._jit import JIT_ENABLED
 from liecontrol.control import GeometricPD
@@ -23,7 +24,6 @@ from liecontrol.control.reference import ConstantAttitude
 from liecontrol.lie import so3
 from spacecraft import IdealTorqueActuator, RigidBody, SgcmgActuator, SgcmgPyramid, Spacecraft
 from spacecraft import _fused as fused_module
-from spacecraft import simulator as simulator_module
 from spacecraft.disturbance_kernel import DisturbanceKernel
 from spacecraft.environment import GravityGradientTorque
 from spacecraft.orbit import CircularOrbit
@@ -43,27 +43,8 @@ def _numpy_plant(plant: Spacecraft) -> Spacecraft:
     return twin
 
 
-def _python_loop(monkeypatch, *args, **kwargs):
-    with monkeypatch.context() as m:
-        m.setattr(simulator_module, "fused_supported", lambda *a, **k: None)
-        return simulate(*args, **kwargs)
-
-
-def _fused(monkeypatch, *args, **kwargs):
-    """``simulate`` that must run (and finish) in the fused loop."""
-    ran = []
-    real = simulator_module.run_fused
-
-    def spy(*a, **k):
-        out = real(*a, **k)
-        ran.append(out is not None)
-        return out
-
-    with monkeypatch.context() as m:
-        m.setattr(simulator_module, "run_fused", spy)
-        res = simulate(*args, **kwargs)
-    assert ran == [True]
-    return res
+_python_loop = simulate_python_loop
+_fused = simulate_fused
 
 
 def _assert_same(a, b):

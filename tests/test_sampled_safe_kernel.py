@@ -17,6 +17,7 @@ import warnings
 
 import numpy as np
 import pytest
+from conftest import simulate_fused, simulate_python_loop
 
 from liecontrol._jit import JIT_ENABLED
 from liecontrol._kernels.constrained import FILTER_HEAD, N_WORK, PER_CONE, braking_filter_one
@@ -45,27 +46,8 @@ ANTENNA = KeepInCone((0.0, 1.0, 0.0), (0.0, 0.5, 0.866025), 75.0)
 R0 = so3.exp(np.radians(120.0) * np.array([1.0, 0.0, 0.0]))
 
 
-def _python_loop(monkeypatch, *args, **kwargs):
-    with monkeypatch.context() as m:
-        m.setattr(simulator_module, "fused_supported", lambda *a, **k: None)
-        return simulate(*args, **kwargs)
-
-
-def _fused(monkeypatch, *args, **kwargs):
-    """``simulate`` that must run (and finish) in the fused loop."""
-    ran = []
-    real = simulator_module.run_fused
-
-    def spy(*a, **k):
-        out = real(*a, **k)
-        ran.append(out is not None)
-        return out
-
-    with monkeypatch.context() as m:
-        m.setattr(simulator_module, "run_fused", spy)
-        res = simulate(*args, **kwargs)
-    assert ran == [True]
-    return res
+_python_loop = simulate_python_loop
+_fused = simulate_fused
 
 
 def _assert_same(a, b):
