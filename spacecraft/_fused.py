@@ -1241,7 +1241,55 @@ def run_fused(
         d["actuator"]["saturated"] = log_sat
     d["controller"].update(spec.diagnostics(log_diag))
     spec.finish(cstate, diag.copy())
+    if pk.dist == K.DIST_KERNEL:
+        comps = _component_rows(pk.disturbance, log, rows, B)
+        if comps:
+            d["disturbance_components"].update(comps)
     return log.result(dt, control_period, plant)
+
+
+@njit
+def _torque_rows(
+    torque: Any, params: np.ndarray, t: np.ndarray, R: np.ndarray, omega: np.ndarray,
+    out: np.ndarray,
+) -> None:  # fmt: skip
+    """``out[k, b] = torque(t[k], R[k, b], omega[k, b], params[b])`` (``params`` one shared row
+    or one per spacecraft): a seam torque over the log's rows."""
+    Rk = np.empty((3, 3))
+    wk = np.empty(3)
+    o = np.empty(3)
+    for k in range(out.shape[0]):
+        for b in range(out.shape[1]):
+            for i in range(3):
+                wk[i] = omega[k, b, i]
+                for j in range(3):
+                    Rk[i, j] = R[k, b, i, j]
+            torque(t[k], Rk, wk, params[0 if params.shape[0] == 1 else b], o)
+            for i in range(3):
+                out[k, b, i] = o[i]
+
+
+def _component_rows(dist: Any, log: Any, rows: int, B: int) -> dict[str, np.ndarray]:
+    """The log of each source of a :class:`~spacecraft.disturbances.SumOfDisturbances` by name
+    (the Python loop's ``disturbance_components``, :meth:`SumOfDisturbances.components` at every
+    log row): each source's own kernel at the logged time, attitude and rate, after the run."""
+    from .disturbance_kernel import check, resolve
+    from .disturbances import SumOfDisturbances
+
+    if not isinstance(dist, SumOfDisturbances):
+        return {}
+    t = np.ascontiguousarray(log.t[:rows])
+    R = np.ascontiguousarray(log.R[:rows])
+    w = np.ascontiguousarray(log.omega[:rows])
+    out: dict[str, np.ndarray] = {}
+    for name, src in dist.sources.items():
+        spec, _ = resolve(src)  # every source has one: the sum's kernel was built from them
+        params = check(src, spec, B)
+        comp = np.empty((rows, B, 3))
+        args = (spec.torque, params, t, R, w, comp)
+        _fn_entry(_torque_rows, args, {0: _torque_sig()})(*args)
+        out[name] = comp
+    return out
 
 
 def _call_loop(args: tuple, law_index: int, workers: int, B: int, vscmg: bool) -> Any:

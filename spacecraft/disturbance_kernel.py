@@ -49,7 +49,8 @@ disturbance and the argument. The guide ``docs/fast_controllers.md`` has an exam
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import functools
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -58,7 +59,14 @@ import numpy as np
 from liecontrol._jit import JIT_ENABLED, njit
 from liecontrol.control.kernel import compile_kernel, overridden_below_kernel
 
-__all__ = ["DisturbanceKernel", "TORQUE_SIGNATURE", "check", "no_torque", "resolve"]
+__all__ = [
+    "DisturbanceKernel",
+    "TORQUE_SIGNATURE",
+    "check",
+    "no_torque",
+    "resolve",
+    "sum_kernel",
+]
 
 
 def _torque_signature() -> Any:
@@ -129,7 +137,10 @@ def resolve(dist: Any) -> tuple[DisturbanceKernel | None, str]:
         )
     spec = hook()
     if spec is None:
-        return None, f"the disturbance {label} has no compiled kernel for this configuration"
+        # a composite source may say which of its parts has no kernel (kernel_reason())
+        reason = getattr(dist, "kernel_reason", None)
+        why = reason() if callable(reason) else ""
+        return None, why or f"the disturbance {label} has no compiled kernel for this configuration"
     if not isinstance(spec, DisturbanceKernel):
         raise ValueError(
             f"disturbance {label}: fused_kernel() must return a DisturbanceKernel or None, "
@@ -192,3 +203,74 @@ def check(
                 f"the initial state (t = {float(t)!r}); check the torque and its params"
             )
     return params
+
+
+def _pair_sum(left: Any, right: Any, n_left: int) -> Any:
+    """The compiled ``out = left + right``: ``left``'s torque from ``params[:n_left]``, then
+    ``right``'s from ``params[n_left:]``, added in that order (the order of
+    :meth:`spacecraft.disturbances.SumOfDisturbances.__call__`, so each component's rounding is
+    the Python loop's). Not cached on disk: a closure over other kernels."""
+    from liecontrol._jit import _NUMBA
+
+    def pair(
+        t: float, R: np.ndarray, omega: np.ndarray, params: np.ndarray, out: np.ndarray
+    ) -> None:
+        left(t, R, omega, params[:n_left], out)
+        a0 = out[0]
+        a1 = out[1]
+        a2 = out[2]
+        right(t, R, omega, params[n_left:], out)
+        out[0] = a0 + out[0]
+        out[1] = a1 + out[1]
+        out[2] = a2 + out[2]
+
+    fn = _NUMBA.njit(error_model="numpy")(pair)
+    fn.compile(TORQUE_SIGNATURE)
+    return fn
+
+
+def sum_kernel(
+    parts: Sequence[tuple[str, Any]], label: str = "SumOfDisturbances"
+) -> tuple[DisturbanceKernel | None, str]:
+    """The kernel of the sum of the named sources ``parts`` (``[(name, source), ...]``, summed
+    in that order): ``(kernel, "")`` when every source has a kernel of this seam (each checked
+    as :func:`check` does, without a probe), else ``(None, why)`` naming the first source
+    without one. The parameters are the parts' rows side by side (``(n_1 + n_2 + …,)``, or one
+    row per spacecraft when a part has per-spacecraft rows); ``uses_attitude`` when any part
+    reads the attitude. A mismatch of the parts' batch rows raises ``ValueError`` naming both
+    sources. Used by :class:`spacecraft.disturbances.SumOfDisturbances` (``fused_kernel``);
+    the composed function is compiled once per combination of part kernels and sizes."""
+    if not JIT_ENABLED:
+        return None, "numba is not available"
+    specs: list[tuple[str, DisturbanceKernel, np.ndarray]] = []
+    for name, src in parts:
+        spec, why = resolve(src)
+        if spec is None:
+            return None, f"the {label} source {name!r} keeps the Python loop: {why}"
+        specs.append((name, spec, check(src, spec, None)))
+    rows = {p.shape[0] for _, _, p in specs} - {1}
+    if len(rows) > 1:
+        per = ", ".join(f"{n!r}: {p.shape[0]}" for n, _, p in specs if p.shape[0] != 1)
+        raise ValueError(
+            f"disturbance {label}: the sources' kernel params have different batch rows ({per})"
+        )
+    n_rows = rows.pop() if rows else 1
+    params = np.concatenate([np.broadcast_to(p, (n_rows, p.shape[1])) for _, _, p in specs], axis=1)
+    torque, width = specs[0][1].torque, specs[0][2].shape[1]
+    for _, spec, p in specs[1:]:
+        torque = _combined(torque, spec.torque, width)
+        width += p.shape[1]
+    uses = any(bool(spec.uses_attitude) for _, spec, _ in specs)
+    name = " + ".join(
+        spec.name or getattr(spec.torque, "__name__", "torque") for _, spec, _ in specs
+    )
+    return DisturbanceKernel(
+        torque, np.ascontiguousarray(params), uses_attitude=uses, name=name
+    ), ""
+
+
+@functools.lru_cache(maxsize=256)
+def _combined(left: Any, right: Any, n_left: int) -> Any:
+    # one compiled pair per (left, right, split): a Monte Carlo builds its plant once per batch,
+    # and compiling the same sum again per batch would cost more than the batch's loop
+    return _pair_sum(left, right, n_left)

@@ -24,10 +24,14 @@ Sources compose with :class:`SumOfDisturbances`, which also reports each source'
 Compiled: the simulator's fused loop (:mod:`spacecraft._fused`) runs :class:`ZeroDisturbance`
 (or none), :class:`ConstantTorque` with one ``(3,)`` torque and :class:`ConstantHarmonicTorque`
 as built-in time-only codes (:func:`disturbance_kernel`), and any source with a
-``fused_kernel()`` method — :class:`spacecraft.environment.GravityGradientTorque` and a user's
-own — through the public seam :mod:`spacecraft.disturbance_kernel` (a numba-compiled torque of the
-stage attitude and rate, called through a function pointer). Other sources, and
-:class:`SumOfDisturbances` for now, keep the Python loop (``simulate`` logs which).
+``fused_kernel()`` method — :class:`spacecraft.environment.GravityGradientTorque`, the
+surface and magnetic torques of :mod:`spacecraft.surface_forces`, the sources of this module
+(inside a sum, or a per-spacecraft :class:`ConstantTorque`) and a user's own — through the
+public seam :mod:`spacecraft.disturbance_kernel` (a numba-compiled torque of the stage attitude
+and rate, called through a function pointer). A :class:`SumOfDisturbances` whose every source
+has a kernel is compiled as their sum (:func:`spacecraft.disturbance_kernel.sum_kernel`, the
+Python sum's order); a sum with a source without one keeps the Python loop, and ``simulate``'s
+log line names that source.
 
 A source whose torque does not depend on the attitude sets the class attribute
 ``uses_attitude = False``: the plant then skips forming the attitude at the inner integration
@@ -45,7 +49,11 @@ from typing import ClassVar
 import numpy as np
 
 from liecontrol._array_api import namespace
+from liecontrol._jit import njit
 from liecontrol._validation import as_array, as_scalar, check_positive_scalar
+
+from . import _kernels as K
+from .disturbance_kernel import DisturbanceKernel, no_torque, sum_kernel
 
 __all__ = [
     "DisturbanceSource",
@@ -59,6 +67,29 @@ __all__ = [
 DisturbanceSource = Callable[[float, np.ndarray, np.ndarray], np.ndarray]
 
 
+@njit
+def constant_torque_kernel(
+    t: float, R: np.ndarray, omega: np.ndarray, params: np.ndarray, out: np.ndarray
+) -> None:
+    """The seam's torque (:mod:`spacecraft.disturbance_kernel`) of :class:`ConstantTorque`:
+    ``params = (τ_x, τ_y, τ_z)``, this spacecraft's row."""
+    out[0] = params[0]
+    out[1] = params[1]
+    out[2] = params[2]
+
+
+@njit
+def constant_harmonic_kernel(
+    t: float, R: np.ndarray, omega: np.ndarray, params: np.ndarray, out: np.ndarray
+) -> None:
+    """The seam's torque of :class:`ConstantHarmonicTorque`, ``params = (n, scale)``: the loop's
+    built-in code's formula (:func:`spacecraft._kernels.disturbance_at`), one implementation."""
+    a, b, c = K.disturbance_at(K.DIST_CONSTANT_HARMONIC, params, t)
+    out[0] = a
+    out[1] = b
+    out[2] = c
+
+
 @dataclass(frozen=True)
 class ZeroDisturbance:
     """No external torque."""
@@ -67,6 +98,10 @@ class ZeroDisturbance:
 
     def __call__(self, t: float, R: np.ndarray, omega: np.ndarray) -> np.ndarray:
         return np.zeros(omega.shape)
+
+    def fused_kernel(self) -> DisturbanceKernel:
+        """The zero torque of the seam (alone, the loop's built-in code runs instead)."""
+        return DisturbanceKernel(no_torque, np.zeros(0), uses_attitude=False)
 
 
 @dataclass(frozen=True)
@@ -87,6 +122,13 @@ class ConstantTorque:
     def __call__(self, t: float, R: np.ndarray, omega: np.ndarray) -> np.ndarray:
         # broadcast_to gives a read-only view; the plant only reads it
         return np.broadcast_to(self.torque, omega.shape)
+
+    def fused_kernel(self) -> DisturbanceKernel:
+        """:func:`constant_torque_kernel` with the torque as parameters, one row per spacecraft
+        for a ``(B, 3)`` torque (one ``(3,)`` torque alone runs the loop's built-in code)."""
+        return DisturbanceKernel(
+            constant_torque_kernel, np.array(self.torque, dtype=np.float64), uses_attitude=False
+        )
 
 
 @dataclass(frozen=True)
@@ -135,6 +177,13 @@ class ConstantHarmonicTorque:
     def __call__(self, t: float, R: np.ndarray, omega: np.ndarray) -> np.ndarray:
         return np.broadcast_to(self.torque_at(t), omega.shape)
 
+    def fused_kernel(self) -> DisturbanceKernel:
+        """:func:`constant_harmonic_kernel` with ``(n, scale)`` (alone, the loop's built-in code
+        runs instead; in a :class:`SumOfDisturbances` this kernel)."""
+        return DisturbanceKernel(
+            constant_harmonic_kernel, np.array([self.n, self.scale]), uses_attitude=False
+        )
+
 
 def disturbance_kernel(dist: object) -> tuple[int, np.ndarray] | None:
     """``(code, params)`` of a disturbance with a compiled kernel
@@ -142,7 +191,7 @@ def disturbance_kernel(dist: object) -> tuple[int, np.ndarray] | None:
     constant + harmonic torque), else ``None``. Exact types only (a subclass may override)."""
     from ._kernels import DIST_CONSTANT, DIST_CONSTANT_HARMONIC, DIST_NONE
 
-    if dist is None:
+    if dist is None or type(dist) is ZeroDisturbance:
         return DIST_NONE, np.zeros(3)
     if type(dist) is ConstantHarmonicTorque:
         return DIST_CONSTANT_HARMONIC, np.array([dist.n, dist.scale, 0.0])
@@ -190,6 +239,17 @@ class SumOfDisturbances:
     def uses_attitude(self) -> bool:
         """Whether any source reads the attitude (see the module docstring)."""
         return any(getattr(src, "uses_attitude", True) for _, src in self._items)
+
+    def fused_kernel(self) -> DisturbanceKernel | None:
+        """The compiled sum of the sources' kernels (:func:`spacecraft.disturbance_kernel.
+        sum_kernel`, in the order of :meth:`__call__`), or ``None`` when a source has none
+        (:meth:`kernel_reason` names it)."""
+        return sum_kernel(self._items)[0]
+
+    def kernel_reason(self) -> str:
+        """Why the sum has no compiled kernel (``""`` when it has one): the first source
+        without one, by name."""
+        return sum_kernel(self._items)[1]
 
     def components(self, t: float, R: np.ndarray, omega: np.ndarray) -> dict[str, np.ndarray]:
         """Each source's torque ``(B, 3)``, by name."""

@@ -42,6 +42,7 @@ from typing import ClassVar, Protocol, runtime_checkable
 import numpy as np
 from scipy.optimize import least_squares
 
+from liecontrol._jit import njit
 from liecontrol._validation import (
     as_array,
     as_int,
@@ -52,6 +53,8 @@ from liecontrol._validation import (
     check_positive_scalar,
     check_rotation_matrix,
 )
+
+from .disturbance_kernel import DisturbanceKernel
 
 __all__ = [
     "SpinProfile",
@@ -327,6 +330,90 @@ class RotatingPayload:
         return gyro
 
 
+#: parameters per payload in :func:`rotating_payload_kernel`'s row
+_PAYLOAD_WIDTH = 21
+
+
+@njit(inline="always")
+def _payload_component(
+    params: np.ndarray, p: int, i: int, c: float, s: float, k0: float, k1: float
+) -> tuple[float, float, float, float]:  # fmt: skip
+    """Component ``i`` of R_A I_A e_z, e_z × I_A e_z (rotated), r_c and r̈_c for the payload whose
+    row starts at ``p`` (:func:`rotating_payload_kernel`; R_A's first two columns from cos α,
+    sin α)."""
+    i02 = params[p + 11]
+    i12 = params[p + 12]
+    i22 = params[p + 13]
+    m0 = params[p + 2 + i]
+    m1 = params[p + 5 + i]
+    a2 = params[p + 8 + i]
+    a0 = c * m0 + s * m1
+    a1 = -s * m0 + c * m1
+    Ie = a0 * i02 + a1 * i12 + a2 * i22
+    ex = a0 * (-i12) + a1 * i02
+    rc = params[p + 17 + i] + a0 * params[p + 14] + a1 * params[p + 15] + a2 * params[p + 16]
+    return Ie, ex, rc, a0 * k0 + a1 * k1
+
+
+@njit
+def rotating_payload_kernel(
+    t: float, R: np.ndarray, omega: np.ndarray, params: np.ndarray, out: np.ndarray
+) -> None:
+    """:class:`RotatingPayloadTorque` of constant-spin payloads for one spacecraft (the
+    disturbance seam, :mod:`spacecraft.disturbance_kernel`): per payload the four terms of
+    :meth:`RotatingPayload._torque_at` in its order of operations (ω̇_p = 0), summed over the
+    payloads in their order. ``params = (count, then per payload: phase, ω_pz, the mount's
+    columns 0, 1, 2, I_A[:, 2], ρ, hinge, m)``. Reads ``t`` and ``omega`` only."""
+    n = int(params[0])
+    w0 = omega[0]
+    w1 = omega[1]
+    w2 = omega[2]
+    t0 = 0.0
+    t1 = 0.0
+    t2 = 0.0
+    for k in range(n):
+        p = 1 + _PAYLOAD_WIDTH * k
+        rate = params[p + 1]
+        acc = 0.0
+        alpha = params[p] + rate * t
+        c = math.cos(alpha)
+        s = math.sin(alpha)
+        r0 = params[p + 14]
+        r1 = params[p + 15]
+        m = params[p + 20]
+        k0 = -rate * rate * r0 - acc * r1
+        k1 = -rate * rate * r1 + acc * r0
+        rr = rate * rate
+        Ie0, ex0, rc0, rd0 = _payload_component(params, p, 0, c, s, k0, k1)
+        Ie1, ex1, rc1, rd1 = _payload_component(params, p, 1, c, s, k0, k1)
+        Ie2, ex2, rc2, rd2 = _payload_component(params, p, 2, c, s, k0, k1)
+        Ie = (Ie0, Ie1, Ie2)
+        ex = (ex0, ex1, ex2)
+        rc = (rc0, rc1, rc2)
+        rdd = (rd0, rd1, rd2)
+        x0 = rc[1] * rdd[2] - rc[2] * rdd[1]
+        x1 = rc[2] * rdd[0] - rc[0] * rdd[2]
+        x2 = rc[0] * rdd[1] - rc[1] * rdd[0]
+        c0 = -acc * Ie[0] - rr * ex[0] - m * x0
+        c1 = -acc * Ie[1] - rr * ex[1] - m * x1
+        c2 = -acc * Ie[2] - rr * ex[2] - m * x2
+        h0 = rate * Ie[0]
+        h1 = rate * Ie[1]
+        h2 = rate * Ie[2]
+        g0 = c0 - (w1 * h2 - w2 * h1)
+        g1 = c1 - (w2 * h0 - w0 * h2)
+        g2 = c2 - (w0 * h1 - w1 * h0)
+        if k == 0:
+            t0, t1, t2 = g0, g1, g2
+        else:
+            t0 += g0
+            t1 += g1
+            t2 += g2
+    out[0] = t0
+    out[1] = t1
+    out[2] = t2
+
+
 @dataclass(frozen=True)
 class RotatingPayloadTorque:
     """Disturbance source ``(t, R, omega) -> (B, 3)``: the sum of several payloads' torques."""
@@ -364,6 +451,30 @@ class RotatingPayloadTorque:
         for p in self.payloads[1:]:
             total += p._torque_at(float(t), omega)
         return total
+
+    def fused_kernel(self) -> DisturbanceKernel | None:
+        """:func:`rotating_payload_kernel` and its parameters, shared by the batch, when every
+        payload spins at a constant rate; ``None`` (the Python loop, :meth:`kernel_reason`
+        says why) for a speed profile."""
+        if self.kernel_reason():
+            return None
+        row: list[float] = [float(len(self.payloads))]
+        for p in self.payloads:
+            m0, m1, a2, ie, rho, hinge, m = p._float_params()
+            row += [p.phase, p._profile.rate, *m0, *m1, *a2, *ie, *rho, *hinge, m]
+        return DisturbanceKernel(
+            rotating_payload_kernel, np.array(row, dtype=np.float64), uses_attitude=False
+        )
+
+    def kernel_reason(self) -> str:
+        """Why the source has no compiled kernel (``""`` when it has one)."""
+        for i, p in enumerate(self.payloads):
+            if not isinstance(p._profile, ConstantSpin):
+                return (
+                    f"the disturbance RotatingPayloadTorque has no compiled kernel for payload "
+                    f"{i}'s spin profile {type(p._profile).__name__} (constant spin rates only)"
+                )
+        return ""
 
 
 # ---------------------------------------------------------------------------------------------

@@ -51,6 +51,12 @@ Residual dipole (:class:`ResidualDipoleTorque`). A body-fixed magnetic dipole m 
 currents, magnetised parts) in the geomagnetic field B (body axes, from
 :class:`spacecraft.geomagnetic.TiltedDipoleField` at the orbit position) feels τ = m × B
 (Wertz §17.2; Markley & Crassidis §3.3.6.4).
+
+Compiled: each source has a ``fused_kernel()`` (:mod:`spacecraft.disturbance_kernel`), so the
+simulator's fused loop runs it — alone or inside a
+:class:`~spacecraft.disturbances.SumOfDisturbances` — with the formulas above written out for
+one spacecraft (:func:`aerodynamic_kernel`, :func:`solar_pressure_kernel`,
+:func:`residual_dipole_kernel`; the tests hold them to the sources' ``__call__`` to 1e-12).
 """
 
 from __future__ import annotations
@@ -63,8 +69,10 @@ from typing import ClassVar
 
 import numpy as np
 
+from liecontrol._jit import njit
 from liecontrol._validation import as_array, as_scalar, check_bool, check_positive_scalar
 
+from .disturbance_kernel import DisturbanceKernel
 from .geomagnetic import EARTH_ROTATION_RATE, TiltedDipoleField
 from .orbit import R_EARTH, CircularOrbit
 
@@ -82,6 +90,9 @@ __all__ = [
     "AerodynamicTorque",
     "SolarPressureTorque",
     "ResidualDipoleTorque",
+    "aerodynamic_kernel",
+    "solar_pressure_kernel",
+    "residual_dipole_kernel",
 ]
 
 #: Solar radiation pressure at 1 AU, P₀ = 1361 W/m² / 299792458 m/s [N/m²].
@@ -437,6 +448,177 @@ def _orbit_rv(
     return r * (c * e1 + s * e2), (r * o.n) * (c * e2 - s * e1)
 
 
+# ---------------------------------------------------------------- compiled torques (one spacecraft)
+# Parameter rows (float64): the orbit as (n, u₀, radius, p̂ (3), q̂ (3)) — the plane's first two
+# axes, CircularOrbit._R_orb[:, 0] and [:, 1] — then the source's constants, then the plates
+# as columns of P entries: N (P×3), C (P×3), A (P), c × n (P×3), C_s (P), C_d (P).
+_ORBIT_WIDTH = 9
+
+
+def _orbit_params(o: CircularOrbit, radius: float) -> list[float]:
+    return [o.n, o.arg_lat0, radius, *o._R_orb[:, 0], *o._R_orb[:, 1]]
+
+
+def _plate_params(P: _PlateArrays) -> list[float]:
+    return [*P.N.ravel(), *P.C.ravel(), *P.A, *P.CxN.ravel(), *P.spec, *P.diff]
+
+
+@njit(inline="always")
+def _orbit_position_velocity(
+    p: np.ndarray, t: float
+) -> tuple[float, float, float, float, float, float]:  # fmt: skip
+    """r, ṙ on the circular orbit of the row ``p`` (layout above): :func:`_orbit_rv`."""
+    u = p[1] + p[0] * t
+    c = math.cos(u)
+    s = math.sin(u)
+    r = p[2]
+    rn = r * p[0]
+    return (
+        r * (c * p[3] + s * p[6]), r * (c * p[4] + s * p[7]), r * (c * p[5] + s * p[8]),
+        rn * (c * p[6] - s * p[3]), rn * (c * p[7] - s * p[4]), rn * (c * p[8] - s * p[5]),
+    )  # fmt: skip
+
+
+@njit
+def aerodynamic_kernel(
+    t: float, R: np.ndarray, omega: np.ndarray, params: np.ndarray, out: np.ndarray
+) -> None:
+    """:class:`AerodynamicTorque` for one spacecraft: τ = −q‖v‖² (Σ_p A_p max(n̂_p·v̂, 0) c_p) × v̂
+    with v̂ = Rᵀ v/‖v‖, v = ṙ − ω_E ẑ × r when co-rotating. ``params``: the orbit (9), then
+    (co-rotating 0/1, ω_E, q = ½ρC_D, P), then the plates (module comment)."""
+    r0, r1, _, v0, v1, v2 = _orbit_position_velocity(params, t)
+    o = _ORBIT_WIDTH
+    if params[o] != 0.0:
+        wE = params[o + 1]
+        v0 = v0 - wE * -r1
+        v1 = v1 - wE * r0
+    speed = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+    u0 = v0 / speed
+    u1 = v1 / speed
+    u2 = v2 / speed
+    h0 = u0 * R[0, 0] + u1 * R[1, 0] + u2 * R[2, 0]
+    h1 = u0 * R[0, 1] + u1 * R[1, 1] + u2 * R[2, 1]
+    h2 = u0 * R[0, 2] + u1 * R[1, 2] + u2 * R[2, 2]
+    qq = params[o + 2] * speed * speed
+    n_p = int(params[o + 3])
+    N = o + 4
+    C = N + 3 * n_p
+    A = C + 3 * n_p
+    c0 = 0.0
+    c1 = 0.0
+    c2 = 0.0
+    for i in range(n_p):
+        w = max(
+            h0 * params[N + 3 * i] + h1 * params[N + 3 * i + 1] + h2 * params[N + 3 * i + 2], 0.0
+        )
+        w = w * params[A + i]
+        c0 += w * params[C + 3 * i]
+        c1 += w * params[C + 3 * i + 1]
+        c2 += w * params[C + 3 * i + 2]
+    out[0] = -qq * (c1 * h2 - c2 * h1)
+    out[1] = -qq * (c2 * h0 - c0 * h2)
+    out[2] = -qq * (c0 * h1 - c1 * h0)
+
+
+@njit
+def solar_pressure_kernel(
+    t: float, R: np.ndarray, omega: np.ndarray, params: np.ndarray, out: np.ndarray
+) -> None:
+    """:class:`SolarPressureTorque` for one spacecraft: the Almanac's Sun
+    (:func:`sun_position_au`), P = P₀/d², zero in the cylindrical shadow when eclipses are on,
+    τ = −P (Σ_p w₁ c_p × ŝ + Σ_p w₂ c_p × n̂_p), w₁ = A cos θ (1 − C_s), w₂ = 2A cos θ (C_s cos θ +
+    C_d/3), cos θ = max(n̂·ŝ, 0), ŝ = Rᵀ ŝ_I. ``params``: the orbit (9), then (epoch JD, P₀,
+    eclipse 0/1, R_e, P), then the plates (module comment)."""
+    o = _ORBIT_WIDTH
+    d = params[o] + t / 86400.0 - J2000_JD
+    g = math.radians(357.528 + 0.9856003 * d)
+    lam = math.radians(280.460 + 0.9856474 * d + 1.915 * math.sin(g) + 0.020 * math.sin(2.0 * g))
+    eps = math.radians(23.439 - 4e-7 * d)
+    rho = 1.00014 - 0.01671 * math.cos(g) - 0.00014 * math.cos(2.0 * g)
+    sl = math.sin(lam)
+    s0 = math.cos(lam)
+    s1 = math.cos(eps) * sl
+    s2 = math.sin(eps) * sl
+    pr = params[o + 1] / (rho * rho)
+    if params[o + 2] != 0.0:
+        r0, r1, r2, _, _, _ = _orbit_position_velocity(params, t)
+        along = r0 * s0 + r1 * s1 + r2 * s2
+        if along < 0.0:
+            p0 = r0 - along * s0
+            p1 = r1 - along * s1
+            p2 = r2 - along * s2
+            Re = params[o + 3]
+            if p0 * p0 + p1 * p1 + p2 * p2 < Re * Re:
+                pr = 0.0
+    if pr == 0.0:
+        out[0] = 0.0
+        out[1] = 0.0
+        out[2] = 0.0
+        return
+    b0 = s0 * R[0, 0] + s1 * R[1, 0] + s2 * R[2, 0]
+    b1 = s0 * R[0, 1] + s1 * R[1, 1] + s2 * R[2, 1]
+    b2 = s0 * R[0, 2] + s1 * R[1, 2] + s2 * R[2, 2]
+    n_p = int(params[o + 4])
+    N = o + 5
+    C = N + 3 * n_p
+    A = C + 3 * n_p
+    X = A + n_p
+    S = X + 3 * n_p
+    D = S + n_p
+    a0 = 0.0
+    a1 = 0.0
+    a2 = 0.0
+    e0 = 0.0
+    e1 = 0.0
+    e2 = 0.0
+    for i in range(n_p):
+        cth = max(
+            b0 * params[N + 3 * i] + b1 * params[N + 3 * i + 1] + b2 * params[N + 3 * i + 2], 0.0
+        )
+        wa = cth * params[A + i]
+        w1 = wa * (1.0 - params[S + i])
+        w2 = 2.0 * wa * (params[S + i] * cth + params[D + i] / 3.0)
+        a0 += w1 * params[C + 3 * i]
+        a1 += w1 * params[C + 3 * i + 1]
+        a2 += w1 * params[C + 3 * i + 2]
+        e0 += w2 * params[X + 3 * i]
+        e1 += w2 * params[X + 3 * i + 1]
+        e2 += w2 * params[X + 3 * i + 2]
+    out[0] = -pr * ((a1 * b2 - a2 * b1) + e0)
+    out[1] = -pr * ((a2 * b0 - a0 * b2) + e1)
+    out[2] = -pr * ((a0 * b1 - a1 * b0) + e2)
+
+
+@njit
+def residual_dipole_kernel(
+    t: float, R: np.ndarray, omega: np.ndarray, params: np.ndarray, out: np.ndarray
+) -> None:
+    """:class:`ResidualDipoleTorque` for one spacecraft: τ = m × Rᵀ B, B = B₀(a/r)³ [3 (m̂·r̂) r̂ −
+    m̂] with m̂ = (sin β cos λ, sin β sin λ, −cos β), λ = λ₀ + θ_G0 + ω_E t. ``params``: the orbit
+    (9, radius 1), then (B₀(a/r)³, λ₀ + θ_G0, ω_E, β, m (3))."""
+    r0, r1, r2, _, _, _ = _orbit_position_velocity(params, t)
+    o = _ORBIT_WIDTH
+    lam = params[o + 1] + params[o + 2] * t
+    st = math.sin(params[o + 3])
+    m0 = st * math.cos(lam)
+    m1 = st * math.sin(lam)
+    m2 = -math.cos(params[o + 3])
+    k = 3.0 * (m0 * r0 + m1 * r1 + m2 * r2)
+    sc = params[o]
+    B0 = sc * (k * r0 - m0)
+    B1 = sc * (k * r1 - m1)
+    B2 = sc * (k * r2 - m2)
+    b0 = B0 * R[0, 0] + B1 * R[1, 0] + B2 * R[2, 0]
+    b1 = B0 * R[0, 1] + B1 * R[1, 1] + B2 * R[2, 1]
+    b2 = B0 * R[0, 2] + B1 * R[1, 2] + B2 * R[2, 2]
+    d0 = params[o + 4]
+    d1 = params[o + 5]
+    d2 = params[o + 6]
+    out[0] = d1 * b2 - d2 * b1
+    out[1] = d2 * b0 - d0 * b2
+    out[2] = d0 * b1 - d1 * b0
+
+
 @dataclass(frozen=True)
 class AerodynamicTorque:
     """Aerodynamic torque of flat ``plates`` on a circular ``orbit`` (module docstring).
@@ -500,6 +682,13 @@ class AerodynamicTorque:
         vhat = (v / speed) @ R  # Rᵀ v̂ for each spacecraft, (B, 3)
         return _aero(self._P, vhat, self._q * speed * speed)
 
+    def fused_kernel(self) -> DisturbanceKernel:
+        """:func:`aerodynamic_kernel` and its parameters, shared by the batch
+        (:mod:`spacecraft.disturbance_kernel`)."""
+        head = [float(self.corotating), EARTH_ROTATION_RATE, self._q, len(self.plates)]
+        params = _orbit_params(self.orbit, self._radius) + head + _plate_params(self._P)
+        return DisturbanceKernel(aerodynamic_kernel, np.array(params, dtype=np.float64))
+
 
 @dataclass(frozen=True)
 class SolarPressureTorque:
@@ -561,6 +750,13 @@ class SolarPressureTorque:
             return np.zeros(np.shape(omega))
         return _srp(self._P, s @ R, p)
 
+    def fused_kernel(self) -> DisturbanceKernel:
+        """:func:`solar_pressure_kernel` and its parameters, shared by the batch
+        (:mod:`spacecraft.disturbance_kernel`)."""
+        head = [self.epoch_jd, self.pressure, float(self.eclipse), R_EARTH, len(self.plates)]
+        params = _orbit_params(self.orbit, self._radius) + head + _plate_params(self._P)
+        return DisturbanceKernel(solar_pressure_kernel, np.array(params, dtype=np.float64))
+
 
 @dataclass(frozen=True)
 class ResidualDipoleTorque:
@@ -610,3 +806,11 @@ class ResidualDipoleTorque:
     def __call__(self, t: float, R: np.ndarray, omega: np.ndarray) -> np.ndarray:
         B = self.field_inertial(t) @ R  # Rᵀ B per spacecraft, (B, 3)
         return _cross(self.dipole, B)
+
+    def fused_kernel(self) -> DisturbanceKernel:
+        """:func:`residual_dipole_kernel` and its parameters, shared by the batch
+        (:mod:`spacecraft.disturbance_kernel`)."""
+        f = self.field
+        head = [self._B_scale, f.longitude + f.greenwich0, f.earth_rate, f.tilt]
+        params = _orbit_params(self.orbit, 1.0) + head + [*self.dipole]
+        return DisturbanceKernel(residual_dipole_kernel, np.array(params, dtype=np.float64))

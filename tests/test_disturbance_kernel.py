@@ -6,7 +6,12 @@
 - the kernel equals the numpy gravity-gradient layer to 1e-12;
 - a malformed kernel (signature, typing error, parameters, non-finite torque) raises before the
   loop, naming the disturbance and the argument;
-- a subclass overriding ``__call__`` keeps the Python loop and ``simulate`` says so once.
+- a subclass overriding ``__call__`` keeps the Python loop and ``simulate`` says so once;
+- a ``SumOfDisturbances`` of sources with kernels (gravity gradient, the built-in time-only
+  sources, a per-spacecraft constant torque, a user's torque, a nested sum) runs in the fused loop
+  and equals the Python loop's sum bit for bit where the parts' kernels are the numpy formulas'
+  operations, to 1e-12 otherwise; a sum with a source without kernel keeps the Python loop and
+  the log line names that source; parts with different batch rows raise naming both.
 """
 
 from __future__ import annotations
@@ -25,6 +30,12 @@ from liecontrol.lie import so3
 from spacecraft import IdealTorqueActuator, RigidBody, SgcmgActuator, SgcmgPyramid, Spacecraft
 from spacecraft import _fused as fused_module
 from spacecraft.disturbance_kernel import DisturbanceKernel
+from spacecraft.disturbances import (
+    ConstantHarmonicTorque,
+    ConstantTorque,
+    SumOfDisturbances,
+    ZeroDisturbance,
+)
 from spacecraft.environment import GravityGradientTorque
 from spacecraft.orbit import CircularOrbit
 from spacecraft.simulator import simulate
@@ -232,3 +243,144 @@ def test_hold_steps_takes_the_seam_torque():
         Rn, xn = twin.step_packed(0.05 * k, Rn, xn, held, 0.05)
     np.testing.assert_allclose(R, Rn, rtol=0, atol=1e-13)
     np.testing.assert_allclose(x, xn, rtol=0, atol=1e-13)
+
+
+# ------------------------------------------------------------------ sums of sources
+def _sum(B):
+    rng = np.random.default_rng(9)
+    bias = ConstantTorque(0.01 * rng.normal(size=(B, 3)) if B > 1 else [0.0, 0.01, -0.02])
+    inner = SumOfDisturbances({"harmonic": ConstantHarmonicTorque(scale=0.5), "bias": bias})
+    return SumOfDisturbances(
+        {"gg": GravityGradientTorque(J, ORBIT), "user": UserTorque(), "inner": inner,
+         "zero": ZeroDisturbance()}
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize("actuator", sorted(ACTUATORS))
+@pytest.mark.parametrize("B", [1, 3])
+def test_a_sum_of_sources_with_kernels_runs_fused_and_equals_the_python_sum(
+    actuator, B, monkeypatch
+):
+    plant, ctrl, ref, x0 = _setup(B, ACTUATORS[actuator](), _sum(B), B > 1)
+    assert plant._kernel_plan is not None and plant._kernel_plan.dist_attitude
+    kw = dict(control_period=0.1, log_every=5)
+    fast = _fused(monkeypatch, plant, ctrl, ref, x0, 20.0, 0.05, **kw)
+    slow = _python_loop(monkeypatch, _numpy_plant(plant), ctrl, ref, x0, 20.0, 0.05, **kw)
+    _assert_same(fast, slow)
+    assert np.abs(fast.disturbance).max() > 0.0
+    # the per-source log (SimulationResult.disturbance_components) by the sources' own kernels
+    assert list(fast.disturbance_components) == ["gg", "user", "inner", "zero"]
+    for name, want in slow.disturbance_components.items():
+        got = fast.disturbance_components[name]
+        assert got.shape == want.shape
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12 * np.abs(want).max())
+
+
+def test_the_sum_kernel_adds_in_the_python_order_bit_for_bit():
+    """Time-only parts (the kernels are the numpy formulas' operations): the compiled sum is the
+    Python sum to the last bit, per spacecraft row."""
+    B = 4
+    rng = np.random.default_rng(2)
+    dist = SumOfDisturbances(
+        [ConstantHarmonicTorque(n=0.002, scale=1.7), ConstantTorque(rng.normal(size=(B, 3))),
+         ConstantHarmonicTorque(), ConstantTorque([1e-3, 0.0, 3.0])]
+    )  # fmt: skip
+    spec = dist.fused_kernel()
+    assert spec is not None and spec.params.shape == (B, 2 + 3 + 2 + 3)
+    assert not spec.uses_attitude
+    R = np.broadcast_to(np.eye(3), (B, 3, 3))
+    w = np.zeros((B, 3))
+    for t in (0.0, 17.25, 3.3e4):
+        want = dist(t, R, w)
+        out = np.empty(3)
+        for b in range(B):
+            spec.torque(t, np.eye(3), w[b], spec.params[b], out)
+            assert np.array_equal(out, want[b])
+
+
+def test_a_per_spacecraft_constant_torque_runs_fused(monkeypatch):
+    rng = np.random.default_rng(1)
+    plant, ctrl, ref, x0 = _setup(3, ACTUATORS["ideal"](), ConstantTorque(rng.normal(size=(3, 3))))
+    assert plant._kernel_plan is not None
+    fast = _fused(monkeypatch, plant, ctrl, ref, x0, 5.0, 0.05)
+    slow = _python_loop(monkeypatch, _numpy_plant(plant), ctrl, ref, x0, 5.0, 0.05)
+    _assert_same(fast, slow)
+
+
+def test_a_sum_with_a_source_without_kernel_names_it_once(caplog):
+    @dataclass(frozen=True)
+    class PlainTorque:
+        def __call__(self, t, R, omega):
+            return np.zeros(omega.shape)
+
+    dist = SumOfDisturbances({"gg": GravityGradientTorque(J, ORBIT), "plain": PlainTorque()})
+    assert dist.fused_kernel() is None
+    plant, ctrl, ref, x0 = _setup(1, ACTUATORS["ideal"](), dist)
+    assert plant._kernel_plan is None
+    with caplog.at_level(logging.INFO, logger="spacecraft.simulator"):
+        res = simulate(plant, ctrl, ref, x0, 0.5, 0.05)
+    assert np.all(np.isfinite(res.omega))
+    lines = [r.getMessage() for r in caplog.records if r.name == "spacecraft.simulator"]
+    assert len(lines) == 1
+    assert "SumOfDisturbances source 'plain'" in lines[0]
+    assert "PlainTorque has no compiled kernel" in lines[0]
+
+
+def test_sum_parts_with_different_batch_rows_raise_naming_them():
+    dist = SumOfDisturbances(
+        {"a": ConstantTorque(np.zeros((2, 3))), "b": ConstantTorque(np.zeros((3, 3)))}
+    )
+    with pytest.raises(
+        ValueError, match=r"SumOfDisturbances: .*different batch rows.*'a': 2.*'b': 3"
+    ):
+        dist.fused_kernel()
+
+
+# ------------------------------------------------------------------ the rotating payload
+def _payloads():
+    import dataclasses
+
+    from spacecraft.payload import ROTATING_PAYLOAD_EXAMPLE as P
+
+    second = dataclasses.replace(
+        P, mass=7.0, hinge=np.array([-0.4, 0.1, 0.3]), spin_rate=-3.1, phase=0.4
+    )
+    return (P, second)
+
+
+def test_the_rotating_payload_kernel_is_the_numpy_torque():
+    from spacecraft.payload import RotatingPayloadTorque
+
+    src = RotatingPayloadTorque(_payloads())
+    spec = src.fused_kernel()
+    assert spec is not None and not spec.uses_attitude
+    rng = np.random.default_rng(8)
+    w = 0.05 * rng.normal(size=(6, 3))
+    R = np.broadcast_to(np.eye(3), (6, 3, 3))
+    out = np.empty(3)
+    for t in (0.0, 0.37, 12.5, 4.4e3):
+        want = src(t, R, w)
+        for b in range(6):
+            spec.torque(t, np.eye(3), w[b], spec.params, out)
+            np.testing.assert_allclose(out, want[b], rtol=0, atol=1e-13 * np.abs(want).max())
+
+
+def test_the_rotating_payload_runs_fused_and_a_speed_profile_says_why_not(monkeypatch, caplog):
+    import dataclasses
+
+    from spacecraft.payload import RotatingPayloadTorque, SpinRamp
+
+    plant, ctrl, ref, x0 = _setup(2, ACTUATORS["sgcmg"](), RotatingPayloadTorque(_payloads()))
+    assert plant._kernel_plan is not None
+    kw = dict(control_period=0.1, log_every=5)
+    fast = _fused(monkeypatch, plant, ctrl, ref, x0, 10.0, 0.05, **kw)
+    slow = _python_loop(monkeypatch, _numpy_plant(plant), ctrl, ref, x0, 10.0, 0.05, **kw)
+    _assert_same(fast, slow)
+    ramp = dataclasses.replace(_payloads()[0], spin_rate=SpinRamp(1.0, 2.0, 1.0, 2.0))
+    src = RotatingPayloadTorque((_payloads()[1], ramp))
+    assert src.fused_kernel() is None
+    plant, ctrl, ref, x0 = _setup(1, ACTUATORS["ideal"](), src)
+    with caplog.at_level(logging.INFO, logger="spacecraft.simulator"):
+        simulate(plant, ctrl, ref, x0, 0.5, 0.05)
+    lines = [r.getMessage() for r in caplog.records if r.name == "spacecraft.simulator"]
+    assert len(lines) == 1 and "payload 1's spin profile SpinRamp" in lines[0]
