@@ -38,10 +38,14 @@ Supported configurations (others raise ``ValueError`` naming the part): a
 :class:`~spacecraft.steering.GeneralizedSingularityRobust` (its dither at each step's time) or
 :class:`~spacecraft.steering.PseudoInverseNullMotion` steering, a
 :class:`~spacecraft.disturbances.ConstantTorque` (one for the batch),
-:class:`~spacecraft.disturbances.ConstantHarmonicTorque` or
-:class:`~spacecraft.environment.GravityGradientTorque` disturbance or a
+:class:`~spacecraft.disturbances.ConstantHarmonicTorque`,
+:class:`~spacecraft.environment.GravityGradientTorque`,
+:class:`~spacecraft.surface_forces.AerodynamicTorque`,
+:class:`~spacecraft.surface_forces.SolarPressureTorque` or
+:class:`~spacecraft.surface_forces.ResidualDipoleTorque` disturbance or a
 :class:`~spacecraft.disturbances.SumOfDisturbances` of them (at each RKMK4 stage's time, and
-attitude for the gravity gradient) or none, no flexible modes or momentum management; any
+attitude for the attitude-dependent ones, each by its own pure ``torque_at``) or none, no
+flexible modes or momentum management; any
 controller whose law has an array form (:mod:`liecontrol.control.array_law`: every registered
 attitude controller but the OSQP MPC and the small-angle payload PID — the geometric PD with
 the trace, log or large-angle error,
@@ -98,6 +102,7 @@ from .steering import (
     SingularityRobust,
     _saturate_unchecked,
 )
+from .surface_forces import AerodynamicTorque, ResidualDipoleTorque, SolarPressureTorque
 
 __all__ = [
     "JaxClosedLoop",
@@ -238,7 +243,8 @@ class JaxClosedLoop:
     :class:`liecontrol.control.array_law.ArrayLaw` (its pure step and initial state).
     ``disturbance``: the body torque ``(t, R) -> (3,)`` added in every RKMK4 stage at the
     stage's time and attitude (the plant's own ``ConstantTorque``, ``ConstantHarmonicTorque``,
-    ``GravityGradientTorque`` or their ``SumOfDisturbances``, each by its own formula), or
+    ``GravityGradientTorque``, the surface-force and dipole torques or their
+    ``SumOfDisturbances``, each by its own formula), or
     ``None``; ``disturbance_source`` the plant's disturbance object (the stage attitudes are
     formed only when it reads them, as the plant does).
     ``member_refs``: the reference gives each member its own samples; ``R_d`` is then
@@ -671,6 +677,12 @@ _STEERING_PARAMS: dict[type, tuple[str, ...]] = {
 }
 
 
+#: the attitude-dependent sources the route flies, each by its own pure ``torque_at(t, R)``
+_ATTITUDE_SOURCES = (
+    GravityGradientTorque, AerodynamicTorque, SolarPressureTorque, ResidualDipoleTorque
+)  # fmt: skip
+
+
 def _disturbance(dist: Any) -> Callable[[Any, Any], Any] | None:
     """The plant's disturbance as ``(t, R) -> (3,)`` on JAX values (its own formula; ``R`` the
     stage's attitude, ``None`` for a source that does not read it)."""
@@ -681,7 +693,7 @@ def _disturbance(dist: Any) -> Callable[[Any, Any], Any] | None:
         return lambda t, R: torque
     if type(dist) is ConstantHarmonicTorque:
         return lambda t, R: dist.torque_at(t)
-    if type(dist) is GravityGradientTorque:
+    if type(dist) in _ATTITUDE_SOURCES:
         return dist.torque_at
     parts = [_disturbance(s) for _, s in dist._items]  # SumOfDisturbances (checked before)
 
@@ -705,7 +717,7 @@ def _reads_attitude(dist: Any) -> bool:
 
 def _check_disturbance(dist: Any, name: str = "plant.disturbance") -> None:
     """``ValueError`` naming a disturbance the JAX route does not fly."""
-    if dist is None or type(dist) in (ConstantHarmonicTorque, GravityGradientTorque):
+    if dist is None or type(dist) is ConstantHarmonicTorque or type(dist) in _ATTITUDE_SOURCES:
         return
     if type(dist) is ConstantTorque and dist.torque.ndim == 1:
         return
@@ -715,8 +727,9 @@ def _check_disturbance(dist: Any, name: str = "plant.disturbance") -> None:
         return
     raise ValueError(
         f"{name}: the JAX route flies ConstantTorque (one torque for the batch), "
-        f"ConstantHarmonicTorque, GravityGradientTorque and their SumOfDisturbances, got "
-        f"{type(dist).__name__}; run spacecraft.simulate"
+        f"ConstantHarmonicTorque, GravityGradientTorque, AerodynamicTorque, SolarPressureTorque, "
+        f"ResidualDipoleTorque and their SumOfDisturbances, got {type(dist).__name__}; run "
+        "spacecraft.simulate"
     )
 
 
@@ -1000,9 +1013,15 @@ def simulate_jax(
     refs = [reference(float(tk)) for tk in t]
     act = {k: v[rows] for k, v in run.actuator.items()}
     dist_log = np.zeros((len(rows), B, 3))
+    components: dict[str, np.ndarray] = {}
     if plant.disturbance is not None:
+        summed = isinstance(plant.disturbance, SumOfDisturbances)
         for i, r in enumerate(rows):  # the plant's own call at the logged times, as simulate's log
             dist_log[i] = plant.disturbance(float(t[i]), run.R[r], run.omega[r])
+            if summed:  # and each source's torque by name, as simulate's log
+                parts = plant.disturbance.components(float(t[i]), run.R[r], run.omega[r])
+                for name, v in parts.items():
+                    components.setdefault(name, np.zeros((len(rows), B, 3)))[i] = v
     derived = getattr(plant.actuator, "derived_log", None)
     if derived is not None:
         act.update(derived(act))
@@ -1011,7 +1030,8 @@ def simulate_jax(
         R_d=np.stack([np.broadcast_to(r.R_d, (B, 3, 3)) for r in refs]),
         omega_d=np.stack([np.broadcast_to(r.omega_d, (B, 3)) for r in refs]),
         u_cmd=run.u_cmd[rows], u=run.u[rows], disturbance=dist_log,
-        actuator=act, controller={k: v[rows] for k, v in run.controller.items()},
+        disturbance_components=components, actuator=act,
+        controller={k: v[rows] for k, v in run.controller.items()},
         dt=loop.dt, control_period=loop.control_period,
     )  # fmt: skip
     if run.diverged.any():

@@ -50,7 +50,7 @@ disturbance and the argument. The guide ``docs/fast_controllers.md`` has an exam
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -230,20 +230,25 @@ def _pair_sum(left: Any, right: Any, n_left: int) -> Any:
 
 
 def sum_kernel(
-    parts: Sequence[tuple[str, Any]], label: str = "SumOfDisturbances"
+    parts: Sequence[tuple[str, Any]] | Mapping[str, Any], label: str = "SumOfDisturbances"
 ) -> tuple[DisturbanceKernel | None, str]:
-    """The kernel of the sum of the named sources ``parts`` (``[(name, source), ...]``, summed
-    in that order): ``(kernel, "")`` when every source has a kernel of this seam (each checked
-    as :func:`check` does, without a probe), else ``(None, why)`` naming the first source
-    without one. The parameters are the parts' rows side by side (``(n_1 + n_2 + …,)``, or one
-    row per spacecraft when a part has per-spacecraft rows); ``uses_attitude`` when any part
-    reads the attitude. A mismatch of the parts' batch rows raises ``ValueError`` naming both
-    sources. Used by :class:`spacecraft.disturbances.SumOfDisturbances` (``fused_kernel``);
-    the composed function is compiled once per combination of part kernels and sizes."""
+    """The kernel of the sum of the named sources ``parts`` (``[(name, source), ...]`` or a
+    mapping name -> source, summed in that order; ``ValueError`` naming ``parts`` otherwise):
+    ``(kernel, "")`` when every source has a kernel of this seam (each checked as :func:`check`
+    does, without a probe), else ``(None, why)`` naming the first source without one. The
+    parameters are the parts' rows side by side (``(n_1 + n_2 + …,)``, or one row per
+    spacecraft when a part has per-spacecraft rows); ``uses_attitude`` when any part reads the
+    attitude. A mismatch of the parts' batch rows raises ``ValueError`` naming both sources.
+    ``label`` names the sum in messages. Used by :class:`spacecraft.disturbances.
+    SumOfDisturbances` (``fused_kernel``); the composed function is compiled once per
+    combination of part kernels and sizes in a process."""
+    items = _named_parts(parts)
+    if not isinstance(label, str):
+        raise ValueError(f"label: expected a str, got {type(label).__name__}")
     if not JIT_ENABLED:
         return None, "numba is not available"
     specs: list[tuple[str, DisturbanceKernel, np.ndarray]] = []
-    for name, src in parts:
+    for name, src in items:
         spec, why = resolve(src)
         if spec is None:
             return None, f"the {label} source {name!r} keeps the Python loop: {why}"
@@ -267,6 +272,27 @@ def sum_kernel(
     return DisturbanceKernel(
         torque, np.ascontiguousarray(params), uses_attitude=uses, name=name
     ), ""
+
+
+def _named_parts(parts: Any) -> list[tuple[str, Any]]:
+    """``parts`` as a list of ``(name, source)`` pairs (a mapping's items, or the pairs), or
+    ``ValueError`` naming ``parts``."""
+    if isinstance(parts, Mapping):
+        parts = list(parts.items())
+    if isinstance(parts, (str, bytes)) or not isinstance(parts, Iterable):
+        raise ValueError(
+            f"parts: expected a mapping name -> source or a sequence of (name, source) pairs, "
+            f"got {type(parts).__name__}"
+        )
+    items = list(parts)
+    if not items:
+        raise ValueError("parts: at least one source is required")
+    for i, item in enumerate(items):
+        if not (isinstance(item, tuple) and len(item) == 2 and isinstance(item[0], str)):
+            raise ValueError(f"parts[{i}]: expected a (name, source) pair, got {item!r}")
+        if not callable(item[1]):
+            raise ValueError(f"parts[{i}]: source {item[0]!r} is not callable")
+    return items
 
 
 @functools.lru_cache(maxsize=256)

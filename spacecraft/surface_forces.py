@@ -57,6 +57,9 @@ simulator's fused loop runs it — alone or inside a
 :class:`~spacecraft.disturbances.SumOfDisturbances` — with the formulas above written out for
 one spacecraft (:func:`aerodynamic_kernel`, :func:`solar_pressure_kernel`,
 :func:`residual_dipole_kernel`; the tests hold them to the sources' ``__call__`` to 1e-12).
+Each source's ``__call__`` is its ``torque_at(t, R)``, a pure function that also runs on JAX
+values: the differentiable loop (:mod:`spacecraft.differentiable`) evaluates the same formula
+at every RKMK4 stage (the eclipse switch is a ``where`` on the pressure).
 """
 
 from __future__ import annotations
@@ -65,10 +68,11 @@ import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 from dataclasses import field as _dc_field
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
+from liecontrol._array_api import cross, namespace
 from liecontrol._jit import njit
 from liecontrol._validation import as_array, as_scalar, check_bool, check_positive_scalar
 
@@ -269,28 +273,22 @@ class _PlateArrays:
         return arrs
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    # explicit components: np.cross costs several µs per call on small arrays
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
-    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
-    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
-    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
-    return out
+def _aero(P: _PlateArrays, vhat: Any, q: Any) -> Any:
+    """−q Σ_p A_p max(n̂_p·v̂, 0) c_p × v̂ for unit flow directions ``vhat`` (..., 3), q = ½ρC_D‖v‖²
+    (pure: NumPy or JAX)."""
+    xp = namespace(vhat, q)
+    w = xp.maximum(vhat @ P.N.T, 0.0) * P.A  # (..., P)
+    return -q * cross(w @ P.C, vhat)
 
 
-def _aero(P: _PlateArrays, vhat: np.ndarray, q: float) -> np.ndarray:
-    """−q Σ_p A_p max(n̂_p·v̂, 0) c_p × v̂ for unit flow directions ``vhat`` (B, 3), q = ½ρC_D‖v‖²."""
-    w = np.maximum(vhat @ P.N.T, 0.0) * P.A  # (B, P)
-    return -q * _cross(w @ P.C, vhat)
-
-
-def _srp(P: _PlateArrays, s: np.ndarray, pressure: float) -> np.ndarray:
-    """Σ_p c_p × F_p for unit Sun directions ``s`` (B, 3) in body axes."""
-    cos = np.maximum(s @ P.N.T, 0.0)  # (B, P)
+def _srp(P: _PlateArrays, s: Any, pressure: Any) -> Any:
+    """Σ_p c_p × F_p for unit Sun directions ``s`` (..., 3) in body axes (pure: NumPy or JAX)."""
+    xp = namespace(s, pressure)
+    cos = xp.maximum(s @ P.N.T, 0.0)  # (..., P)
     wa = cos * P.A
     w1 = wa * (1.0 - P.spec)
     w2 = 2.0 * wa * (P.spec * cos + P.diff / 3.0)
-    return -pressure * (_cross(w1 @ P.C, s) + w2 @ P.CxN)
+    return -pressure * (cross(w1 @ P.C, s) + w2 @ P.CxN)
 
 
 def aerodynamic_torque(
@@ -314,9 +312,7 @@ def aerodynamic_torque(
     speed = np.linalg.norm(v, axis=-1, keepdims=True)
     with np.errstate(invalid="ignore", divide="ignore"):
         vhat = np.where(speed > 0.0, v / np.where(speed > 0.0, speed, 1.0), 0.0)
-    q = 0.5 * rho * cd * speed**2
-    w = np.maximum(vhat @ P.N.T, 0.0) * P.A
-    out = -q * _cross(w @ P.C, vhat)
+    out = _aero(P, vhat, 0.5 * rho * cd * speed**2)
     if not np.all(np.isfinite(out)):
         raise ValueError("velocity: the torque overflows float64 (velocity too large)")
     return out
@@ -402,15 +398,22 @@ def sun_position_au(jd: object) -> np.ndarray:
     return rho[..., None] * np.stack((np.cos(lam), np.cos(eps) * sl, np.sin(eps) * sl), axis=-1)
 
 
-def _sun_unit_and_distance(jd: float) -> tuple[np.ndarray, float]:
-    """Hot path of :func:`sun_position_au` for one scalar date: (unit vector, distance [AU])."""
+def _sun_unit_and_distance(jd: Any) -> tuple[Any, Any]:
+    """Hot path of :func:`sun_position_au` for one scalar date: (unit vector, distance [AU]).
+    ``jd`` a Python float (``math``'s functions) or a JAX scalar (``jax.numpy``'s: the
+    differentiable loop, :mod:`spacecraft.differentiable`), one formula."""
+    if isinstance(jd, float):
+        sin, cos, rad, stack = math.sin, math.cos, math.radians, np.array
+    else:
+        xp = namespace(jd)
+        sin, cos, rad, stack = xp.sin, xp.cos, xp.radians, xp.stack
     d = jd - J2000_JD
-    g = math.radians(357.528 + 0.9856003 * d)
-    lam = math.radians(280.460 + 0.9856474 * d + 1.915 * math.sin(g) + 0.020 * math.sin(2.0 * g))
-    eps = math.radians(23.439 - 4e-7 * d)
-    rho = 1.00014 - 0.01671 * math.cos(g) - 0.00014 * math.cos(2.0 * g)
-    sl = math.sin(lam)
-    return np.array([math.cos(lam), math.cos(eps) * sl, math.sin(eps) * sl]), rho
+    g = rad(357.528 + 0.9856003 * d)
+    lam = rad(280.460 + 0.9856474 * d + 1.915 * sin(g) + 0.020 * sin(2.0 * g))
+    eps = rad(23.439 - 4e-7 * d)
+    rho = 1.00014 - 0.01671 * cos(g) - 0.00014 * cos(2.0 * g)
+    sl = sin(lam)
+    return stack([cos(lam), cos(eps) * sl, sin(eps) * sl]), rho
 
 
 def in_cylindrical_shadow(
@@ -437,12 +440,15 @@ def _check_orbit(orbit: object) -> CircularOrbit:
     return orbit
 
 
-def _orbit_rv(
-    o: CircularOrbit, t: float, radius: float | None = None
-) -> tuple[np.ndarray, np.ndarray]:
-    # hot path: position and velocity from the orbit-plane angle, no validation
+def _orbit_rv(o: CircularOrbit, t: Any, radius: float | None = None) -> tuple[Any, Any]:
+    # hot path: position and velocity from the orbit-plane angle, no validation; a JAX ``t``
+    # takes jax.numpy's cos/sin (the differentiable loop), a Python float math's
     u = o.arg_lat0 + o.n * t
-    c, s = math.cos(u), math.sin(u)
+    if isinstance(t, float):
+        c, s = math.cos(u), math.sin(u)
+    else:
+        xp = namespace(t)
+        c, s = xp.cos(u), xp.sin(u)
     e1, e2 = o._R_orb[:, 0], o._R_orb[:, 1]
     r = o.radius if radius is None else radius
     return r * (c * e1 + s * e2), (r * o.n) * (c * e2 - s * e1)
@@ -677,9 +683,18 @@ class AerodynamicTorque:
         return v
 
     def __call__(self, t: float, R: np.ndarray, omega: np.ndarray) -> np.ndarray:
-        v = self.relative_velocity(t)
-        speed = math.sqrt(float(v @ v))
-        vhat = (v / speed) @ R  # Rᵀ v̂ for each spacecraft, (B, 3)
+        return self.torque_at(as_scalar(t, "t"), np.asarray(R))
+
+    def torque_at(self, t: Any, R: Any) -> Any:
+        """The torque ``(..., 3)`` at time ``t`` for attitudes ``R`` ``(..., 3, 3)`` (module
+        docstring). Pure, NumPy or JAX (the differentiable loop, :mod:`spacecraft.
+        differentiable`, evaluates it at every RKMK4 stage's attitude)."""
+        xp = namespace(R, t)
+        r, v = _orbit_rv(self.orbit, t, self._radius)
+        if self.corotating:
+            v = v - EARTH_ROTATION_RATE * xp.stack([-r[1], r[0], 0.0 * r[2]])
+        speed = xp.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+        vhat = (v / speed) @ R  # Rᵀ v̂ for each spacecraft, (..., 3)
         return _aero(self._P, vhat, self._q * speed * speed)
 
     def fused_kernel(self) -> DisturbanceKernel:
@@ -745,10 +760,23 @@ class SolarPressureTorque:
         return bool(in_cylindrical_shadow(_orbit_rv(self.orbit, t)[0], s))
 
     def __call__(self, t: float, R: np.ndarray, omega: np.ndarray) -> np.ndarray:
-        s, p = self.sun(t)
-        if p == 0.0:
-            return np.zeros(np.shape(omega))
-        return _srp(self._P, s @ R, p)
+        return self.torque_at(as_scalar(t, "t"), np.asarray(R))
+
+    def torque_at(self, t: Any, R: Any) -> Any:
+        """The torque ``(..., 3)`` at time ``t`` for attitudes ``R`` ``(..., 3, 3)`` (module
+        docstring; zero in the shadow when ``eclipse``). Pure, NumPy or JAX (the differentiable
+        loop, :mod:`spacecraft.differentiable`): the shadow is a ``where`` on the pressure."""
+        xp = namespace(R, t)
+        s, d = _sun_unit_and_distance(self.epoch_jd + t / 86400.0)
+        p = self.pressure / (d * d)
+        if self.eclipse:
+            r, _ = _orbit_rv(self.orbit, t, self._radius)
+            along = r[0] * s[0] + r[1] * s[1] + r[2] * s[2]
+            perp = r - along * s
+            shade = (along < 0.0) & (perp[0] * perp[0] + perp[1] * perp[1] + perp[2] * perp[2]
+                                     < R_EARTH * R_EARTH)  # fmt: skip
+            p = xp.where(shade, 0.0, p)
+        return _srp(self._P, s @ R, p)  # Rᵀ ŝ for each spacecraft, (..., 3)
 
     def fused_kernel(self) -> DisturbanceKernel:
         """:func:`solar_pressure_kernel` and its parameters, shared by the batch
@@ -791,21 +819,33 @@ class ResidualDipoleTorque:
         scale = self.field.strength * (self.field.radius / self.orbit.radius) ** 3
         object.__setattr__(self, "_B_scale", scale)
 
-    def field_inertial(self, t: float) -> np.ndarray:
+    def field_inertial(self, t: Any) -> Any:
         """B [T] at the orbit position at time ``t``, inertial axes ``(3,)``: the field's dipole
         formula B₀ (a/r)³ [3 (m̂·r̂) r̂ − m̂] written out for one scalar time (the hot path;
-        the tests check it against :meth:`TiltedDipoleField.inertial`)."""
-        t = as_scalar(t, "t")
+        the tests check it against :meth:`TiltedDipoleField.inertial`). ``t`` a float or a JAX
+        scalar (the differentiable loop)."""
+        if isinstance(t, (int, float, np.ndarray)):
+            t = as_scalar(t, "t")
+            sin, cos, stack = math.sin, math.cos, np.array
+        else:
+            xp = namespace(t)
+            sin, cos, stack = xp.sin, xp.cos, xp.stack
         f = self.field
         lam = f.longitude + f.greenwich0 + f.earth_rate * t
         st = math.sin(f.tilt)
-        m = np.array([st * math.cos(lam), st * math.sin(lam), -math.cos(f.tilt)])
+        m0, m1, m2 = st * cos(lam), st * sin(lam), -math.cos(f.tilt)
         rhat = _orbit_rv(self.orbit, t, 1.0)[0]  # unit position: radius 1
-        return self._B_scale * (3.0 * float(m @ rhat) * rhat - m)
+        k = 3.0 * (m0 * rhat[0] + m1 * rhat[1] + m2 * rhat[2])
+        return self._B_scale * (k * rhat - stack([m0, m1, m2]))
 
     def __call__(self, t: float, R: np.ndarray, omega: np.ndarray) -> np.ndarray:
-        B = self.field_inertial(t) @ R  # Rᵀ B per spacecraft, (B, 3)
-        return _cross(self.dipole, B)
+        return self.torque_at(as_scalar(t, "t"), np.asarray(R))
+
+    def torque_at(self, t: Any, R: Any) -> Any:
+        """m × Rᵀ B(t) ``(..., 3)`` for attitudes ``R`` ``(..., 3, 3)``. Pure, NumPy or JAX (the
+        differentiable loop, :mod:`spacecraft.differentiable`)."""
+        B = self.field_inertial(t) @ R  # Rᵀ B per spacecraft, (..., 3)
+        return cross(self.dipole, B)
 
     def fused_kernel(self) -> DisturbanceKernel:
         """:func:`residual_dipole_kernel` and its parameters, shared by the batch

@@ -912,6 +912,12 @@ OVERRIDES: dict[str, dict[str, Callable[[], Any]]] = {
     "benchmarks.metrics.compute_metrics": {"result": _sim_result},
     "benchmarks.ranking.wilson_interval": {"k": lambda: 3, "n": lambda: 8},
     "liecontrol.control.kernel.resolve": {"controller": _pd_controller, "batch_size": lambda: 2},
+    "spacecraft.disturbance_kernel.sum_kernel": {
+        "parts": lambda: [
+            ("bias", __import__("spacecraft").ConstantTorque(np.array([0.0, 0.1, 0.0]))),
+            ("harmonic", __import__("spacecraft").ConstantHarmonicTorque()),
+        ]
+    },
     "spacecraft.disturbance_kernel.resolve": {
         "dist": lambda: __import__("spacecraft").ConstantTorque(np.array([0.0, 0.1, 0.0]))
     },
@@ -1327,6 +1333,11 @@ NOT_SWEPT: dict[str, str] = {
     "liecontrol._jit); the loop's placeholder torque",
     "spacecraft.environment.gravity_gradient_kernel": "a compiled kernel (no validation by "
     "design: liecontrol._jit); held to GravityGradientTorque in test_disturbance_kernel",
+    **{
+        f"spacecraft.surface_forces.{name}_kernel": "a compiled kernel (no validation by design: "
+        "liecontrol._jit); held to its source's __call__ in test_surface_force_kernels"
+        for name in ("aerodynamic", "solar_pressure", "residual_dipole")
+    },
     # report sections over a whole SuiteResult: their argument check (a SuiteResult, named
     # ``result``) is tested in test_dispersion_ranking; a call runs simulations (seconds)
     **{
