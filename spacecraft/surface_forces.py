@@ -485,6 +485,22 @@ def _orbit_position_velocity(
     )  # fmt: skip
 
 
+@njit(inline="always")
+def _to_body(R: np.ndarray, u0: float, u1: float, u2: float) -> tuple[float, float, float]:
+    """Rᵀ u: an inertial vector in body axes."""
+    return (
+        u0 * R[0, 0] + u1 * R[1, 0] + u2 * R[2, 0],
+        u0 * R[0, 1] + u1 * R[1, 1] + u2 * R[2, 1],
+        u0 * R[0, 2] + u1 * R[1, 2] + u2 * R[2, 2],
+    )
+
+
+@njit(inline="always")
+def _facing(p: np.ndarray, N: int, i: int, h0: float, h1: float, h2: float) -> float:
+    """max(n̂_i·h, 0): how much plate ``i`` (normals from ``p[N]``, 3 per plate) faces ``h``."""
+    return max(h0 * p[N + 3 * i] + h1 * p[N + 3 * i + 1] + h2 * p[N + 3 * i + 2], 0.0)
+
+
 @njit
 def aerodynamic_kernel(
     t: float, R: np.ndarray, omega: np.ndarray, params: np.ndarray, out: np.ndarray
@@ -502,9 +518,7 @@ def aerodynamic_kernel(
     u0 = v0 / speed
     u1 = v1 / speed
     u2 = v2 / speed
-    h0 = u0 * R[0, 0] + u1 * R[1, 0] + u2 * R[2, 0]
-    h1 = u0 * R[0, 1] + u1 * R[1, 1] + u2 * R[2, 1]
-    h2 = u0 * R[0, 2] + u1 * R[1, 2] + u2 * R[2, 2]
+    h0, h1, h2 = _to_body(R, u0, u1, u2)
     qq = params[o + 2] * speed * speed
     n_p = int(params[o + 3])
     N = o + 4
@@ -514,10 +528,7 @@ def aerodynamic_kernel(
     c1 = 0.0
     c2 = 0.0
     for i in range(n_p):
-        w = max(
-            h0 * params[N + 3 * i] + h1 * params[N + 3 * i + 1] + h2 * params[N + 3 * i + 2], 0.0
-        )
-        w = w * params[A + i]
+        w = _facing(params, N, i, h0, h1, h2) * params[A + i]
         c0 += w * params[C + 3 * i]
         c1 += w * params[C + 3 * i + 1]
         c2 += w * params[C + 3 * i + 2]
@@ -561,9 +572,7 @@ def solar_pressure_kernel(
         out[1] = 0.0
         out[2] = 0.0
         return
-    b0 = s0 * R[0, 0] + s1 * R[1, 0] + s2 * R[2, 0]
-    b1 = s0 * R[0, 1] + s1 * R[1, 1] + s2 * R[2, 1]
-    b2 = s0 * R[0, 2] + s1 * R[1, 2] + s2 * R[2, 2]
+    b0, b1, b2 = _to_body(R, s0, s1, s2)
     n_p = int(params[o + 4])
     N = o + 5
     C = N + 3 * n_p
@@ -578,9 +587,7 @@ def solar_pressure_kernel(
     e1 = 0.0
     e2 = 0.0
     for i in range(n_p):
-        cth = max(
-            b0 * params[N + 3 * i] + b1 * params[N + 3 * i + 1] + b2 * params[N + 3 * i + 2], 0.0
-        )
+        cth = _facing(params, N, i, b0, b1, b2)
         wa = cth * params[A + i]
         w1 = wa * (1.0 - params[S + i])
         w2 = 2.0 * wa * (params[S + i] * cth + params[D + i] / 3.0)
@@ -614,9 +621,7 @@ def residual_dipole_kernel(
     B0 = sc * (k * r0 - m0)
     B1 = sc * (k * r1 - m1)
     B2 = sc * (k * r2 - m2)
-    b0 = B0 * R[0, 0] + B1 * R[1, 0] + B2 * R[2, 0]
-    b1 = B0 * R[0, 1] + B1 * R[1, 1] + B2 * R[2, 1]
-    b2 = B0 * R[0, 2] + B1 * R[1, 2] + B2 * R[2, 2]
+    b0, b1, b2 = _to_body(R, B0, B1, B2)
     d0 = params[o + 4]
     d1 = params[o + 5]
     d2 = params[o + 6]
