@@ -12,9 +12,11 @@ constant torque, the constant + harmonic torque) or a torque of the public distu
 :mod:`spacecraft.disturbance_kernel` (``disturbance.fused_kernel()``: the gravity gradient, a
 user's own torque), called through a function pointer at every RKMK4 stage with the stage
 attitude (``DIST_KERNEL``; the built-in codes keep their own call sites, no pointer call). The
-full CMG model's loop takes the built-in disturbance codes and steering laws only. Each of those
-functions lives next to the classes it describes; this module imports none of them at import
-time, and neither they nor the classes import this module (no import circle).
+full CMG model's loop takes the same disturbances (the seam's torque at every stage of its own
+step, :func:`spacecraft._kernels_vscmg.vscmg_rkmk4_step_batch`) and the built-in regularised
+steering laws only. Each of those functions lives next to the classes it describes; this module
+imports none of them at import time, and neither they nor the classes import this module at
+import time (no import circle).
 
 :func:`run_fused` runs a whole :func:`spacecraft.simulator.simulate` call in compiled code when,
 in addition, the controller supplies a compiled law through the public seam
@@ -28,9 +30,9 @@ first-class function of the documented signature), carries the law's internal st
 logs its diagnostics rows, so one compiled loop (cached on disk) serves the built-in laws and a
 user's own alike. It produces the same :class:`~spacecraft.simulator.SimulationResult` as the
 per-step Python loop, which calls the same kernels one at a time. Anything else — a controller
-without a kernel, a disturbance without a kernel (or a ``SumOfDisturbances``), a user's sensor —
-runs through that loop, and
-:func:`fused_supported` reports why.
+without a kernel, a disturbance without a kernel (or a ``SumOfDisturbances`` with a source
+without one), a user's sensor — runs through that loop, and :func:`fused_supported` reports
+why.
 """
 
 from __future__ import annotations
@@ -46,6 +48,8 @@ from liecontrol.control import kernel as seam
 
 from . import _fused_sensors as FS
 from . import _kernels as K
+from ._entry import fn_entry as _fn_entry
+from ._entry import torque_signature as _torque_sig
 from ._kernels_vscmg import vscmg_command_one, vscmg_derivatives_one, vscmg_rkmk4_step_batch
 
 #: reference samples held in memory by the fused loop at most (else the Python loop runs)
@@ -103,15 +107,8 @@ class PlantKernel:
     disturbance: Any = None
 
     def dist_rows(self, B: int) -> np.ndarray:
-        """The seam torque's parameter rows for a batch of ``B`` (``ValueError`` naming the
-        disturbance when per-spacecraft rows do not match the batch)."""
-        p = self.dist_kparams
-        if p.shape[0] not in (1, B):
-            raise ValueError(
-                f"disturbance {type(self.disturbance).__name__}: kernel params must have shape "
-                f"(n_p,) or ({B}, n_p) for a batch of {B}, got {p.shape}"
-            )
-        return p
+        """The seam torque's parameter rows for a batch of ``B`` (:func:`dist_rows`)."""
+        return dist_rows(self.disturbance, self.dist_kparams, B)
 
     def step(
         self, t: float, R: np.ndarray, x: np.ndarray, held: np.ndarray, h: float
@@ -128,6 +125,15 @@ class PlantKernel:
         step = _fn_entry(K.rkmk4_step_batch, args, {7: _torque_sig()}) if JIT_ENABLED else None
         (step or K.rkmk4_step_batch)(*args)  # without numba: the kernel as Python
         return R_out, x_out
+
+
+def dist_rows(disturbance: Any, p: np.ndarray, B: int) -> np.ndarray:
+    """The seam torque's parameter rows ``p (B', n_p)`` for a batch of ``B``
+    (:func:`spacecraft.disturbances.kernel_rows`: ``ValueError`` naming the disturbance when
+    per-spacecraft rows do not match the batch)."""
+    from .disturbances import kernel_rows
+
+    return kernel_rows(disturbance, p, B)
 
 
 @njit
@@ -215,19 +221,11 @@ def _disturbance_plan(
     """``((code, code params, torque, kernel params (B', n_p), uses attitude), "")`` of the
     plant's disturbance — a built-in time-only code (:func:`spacecraft.disturbances.
     disturbance_kernel`) or a torque of the seam (:mod:`spacecraft.disturbance_kernel`, checked
-    here: ``ValueError`` naming the disturbance and the argument) — else ``(None, why)``."""
-    from . import disturbance_kernel as DK
-    from .disturbances import disturbance_kernel
+    here: ``ValueError`` naming the disturbance and the argument) — else ``(None, why)``
+    (:func:`spacecraft.disturbances.disturbance_plan` for the plant's batch)."""
+    from .disturbances import disturbance_plan
 
-    dist = plant.disturbance
-    coded = disturbance_kernel(dist)
-    if coded is not None:
-        return (coded[0], coded[1], DK.no_torque, np.zeros((1, 0)), False), ""
-    spec, why = DK.resolve(dist)
-    if spec is None:
-        return None, why
-    params = DK.check(dist, spec, plant.body.batch_size)
-    return (K.DIST_KERNEL, np.zeros(3), spec.torque, params, bool(spec.uses_attitude)), ""
+    return disturbance_plan(plant.disturbance, plant.body.batch_size)
 
 
 def plant_kernel(plant: Any) -> PlantKernel | None:
@@ -275,11 +273,6 @@ def plant_reason(plant: Any) -> str:
         spec, why = resolve(plant.disturbance)
         if spec is None:
             return why
-        if type(plant.actuator).__name__ == "VscmgActuator":
-            return (
-                f"the full CMG model's compiled loop takes the time-only disturbances only, not "
-                f"{type(plant.disturbance).__name__}"
-            )
     if actuator_kernel(plant.actuator) is None:
         from .actuators import steering_reason
 
@@ -650,8 +643,9 @@ def _loop_result(
 class VscmgPlan:
     """The kernel parameters of a plant flying the full CMG model
     (:class:`spacecraft.cmg_dynamics.VscmgActuator`) in the fused loop: no gimbal stops, a
-    regularised steering law with a kernel, a time-only disturbance with a kernel, the body's
-    inertia the actuator's bus inertia (:func:`vscmg_plan`)."""
+    regularised steering law with a kernel, a disturbance with a kernel (a built-in time-only
+    code or a torque of the seam :mod:`spacecraft.disturbance_kernel`, as for
+    :class:`PlantKernel`), the body's inertia the actuator's bus inertia (:func:`vscmg_plan`)."""
 
     kinematic: bool
     variable_speed: bool
@@ -663,13 +657,23 @@ class VscmgPlan:
     steer: int
     steer_params: np.ndarray
     rate_limit: float
+    # the seam's torque for dist == DIST_KERNEL (else no_torque), its checked parameters
+    # (1, n_p) or (B, n_p), whether it reads R (as PlantKernel)
+    dist_fn: Any = None
+    dist_kparams: np.ndarray = field(default_factory=lambda: np.zeros((1, 0)))
+    dist_attitude: bool = False
+    disturbance: Any = None
+
+    def dist_rows(self, B: int) -> np.ndarray:
+        """The seam torque's parameter rows for a batch of ``B`` (:func:`dist_rows`)."""
+        return dist_rows(self.disturbance, self.dist_kparams, B)
 
 
 def _vscmg_support(plant: Any) -> tuple[VscmgPlan | None, str]:
     """``(plan, "")`` or ``(None, why)`` for a plant flying the full CMG model; ``(None, "")``
-    for any other plant."""
+    for any other plant (a malformed disturbance kernel raises ``ValueError``,
+    :func:`_disturbance_plan`)."""
     from .cmg_dynamics import VscmgActuator
-    from .disturbances import disturbance_kernel
     from .steering import steering_kernel
 
     act = plant.actuator
@@ -679,9 +683,9 @@ def _vscmg_support(plant: Any) -> tuple[VscmgPlan | None, str]:
         return None, ""  # the generic reasons apply (plant_reason)
     if act.stops is not None:
         return None, "the full CMG model with gimbal stops has no compiled loop (stop contact)"
-    dk = disturbance_kernel(plant.disturbance)
+    dk, _ = _disturbance_plan(plant)
     if dk is None:
-        return None, ""
+        return None, ""  # plant_reason names the disturbance
     if plant._coupled_plan is None:
         return None, "the full CMG model's body inertia differs from its bus_inertia"
     sk = steering_kernel(act.steering, act.cluster)
@@ -695,7 +699,8 @@ def _vscmg_support(plant: Any) -> tuple[VscmgPlan | None, str]:
     plan = VscmgPlan(
         bool(kin), bool(var), ff, np.ascontiguousarray(par), np.ascontiguousarray(M), dk[0],
         np.ascontiguousarray(dk[1], dtype=np.float64), sk[0], np.ascontiguousarray(sk[1]),
-        float(act.rate_limit),
+        float(act.rate_limit), dist_fn=dk[2], dist_kparams=dk[3], dist_attitude=dk[4],
+        disturbance=plant.disturbance,
     )  # fmt: skip
     return plan, ""
 
@@ -714,7 +719,8 @@ def _one_vscmg(
     b: int, n_steps: int, t0: float, dt: float, every_ctrl: int, log_every: int,
     R: np.ndarray, x: np.ndarray,
     kin: bool, var: bool, ff: bool, par: np.ndarray, M: np.ndarray,
-    dist: int, dp: np.ndarray, steer: int, sp: np.ndarray, rate_limit: float,
+    dist: int, dp: np.ndarray, dfn: Any, dpk: np.ndarray, datt: bool,
+    steer: int, sp: np.ndarray, rate_limit: float,
     law: Any, cparams: np.ndarray, cstate: np.ndarray,
     ref_index: np.ndarray, ref_R: np.ndarray, ref_w: np.ndarray, ref_dw: np.ndarray,
     log_R: np.ndarray, log_w: np.ndarray, log_Rd: np.ndarray,
@@ -731,12 +737,19 @@ def _one_vscmg(
     (:func:`spacecraft._kernels_vscmg.vscmg_command_one`) and one RKMK4 step
     (:func:`~spacecraft._kernels_vscmg.vscmg_rkmk4_step_batch` on this spacecraft) at every
     step, the log's torques from the coupled derivatives under no external torque, as
-    :meth:`~spacecraft.cmg_dynamics.VscmgActuator.body_torque` and ``log`` compute them."""
+    :meth:`~spacecraft.cmg_dynamics.VscmgActuator.body_torque` and ``log`` compute them. The
+    disturbance is a time-only code ``(dist, dp)`` or the seam's torque ``dfn`` with this
+    spacecraft's row of ``dpk`` (``datt``: it reads the stage attitudes), as in
+    :func:`_one_spacecraft`."""
     n = x.shape[1]
     rb = b if ref_R.shape[1] > 1 else 0
     par = unowned_view(par)
     M = unowned_view(M)
     dp = unowned_view(dp)
+    # this spacecraft's parameter row of the seam torque, as the step's (1, n_p) rows
+    pb = 0 if dpk.shape[0] == 1 else b
+    dpk1 = unowned_view(dpk)[pb : pb + 1]
+    dpb = dpk1[0]
     sp = unowned_view(sp)
     cparams = unowned_view(cparams)
     st = unowned_view(cstate[b])
@@ -744,7 +757,7 @@ def _one_vscmg(
     rR = unowned_view(ref_R)
     rw = unowned_view(ref_w)
     rdw = unowned_view(ref_dw)
-    buf = np.empty(18 + 2 * n + 3 + 12 + 12 + 3 + 3 + n + 20)
+    buf = np.empty(18 + 2 * n + 3 + 12 + 12 + 3 + 3 + n + 20 + 3)
     raw = unowned_view(buf)
     Rc = raw[0:9].reshape((1, 3, 3))
     Rn = raw[9:18].reshape((1, 3, 3))
@@ -759,6 +772,7 @@ def _one_vscmg(
     zero = raw[o + 30 : o + 33]
     out = raw[o + 33 : o + 33 + n]
     det = raw[o + 33 + n : o + 53 + n].reshape((5, 4))
+    dout = raw[o + 53 + n : o + 56 + n]  # the seam torque's output at a log row
     for i in range(3):
         u_cmd[i] = 0.0
         zero[i] = 0.0
@@ -841,7 +855,11 @@ def _one_vscmg(
             log_u[rows, b, 0] = (a0 * M[0, 0] + a1 * M[0, 1] + a2 * M[0, 2]) + (w1 * jw2 - w2 * jw1)
             log_u[rows, b, 1] = (a0 * M[1, 0] + a1 * M[1, 1] + a2 * M[1, 2]) + (w2 * jw0 - w0 * jw2)
             log_u[rows, b, 2] = (a0 * M[2, 0] + a1 * M[2, 1] + a2 * M[2, 2]) + (w0 * jw1 - w1 * jw0)
-            d0, d1, d2 = K.disturbance_at(dist, dp, t)
+            if dist == K.DIST_KERNEL:
+                dfn(t, Rb, xb[:3], dpb, dout)
+                d0, d1, d2 = dout[0], dout[1], dout[2]
+            else:
+                d0, d1, d2 = K.disturbance_at(dist, dp, t)
             log_dist[rows, b, 0] = d0
             log_dist[rows, b, 1] = d1
             log_dist[rows, b, 2] = d2
@@ -866,9 +884,17 @@ def _one_vscmg(
             rows += 1
         if k == n_steps:
             break
-        vscmg_rkmk4_step_batch(
-            kin, var, False, False, par, M, dist, dp, t, Rc, xc, held, dt, Rn, xn
-        )  # fmt: skip
+        if dist == K.DIST_KERNEL:
+            # a torque of the seam through its pointer: its own call site (as _one_spacecraft)
+            vscmg_rkmk4_step_batch(
+                kin, var, False, False, par, M, K.DIST_KERNEL, dp, dfn, dpk1, datt, t, Rc, xc,
+                held, dt, Rn, xn,
+            )  # fmt: skip
+        else:
+            vscmg_rkmk4_step_batch(
+                kin, var, False, False, par, M, dist, dp, dfn, dpk1, False, t, Rc, xc, held, dt,
+                Rn, xn,
+            )  # fmt: skip
         total = 0.0
         for i in range(n):
             total += xn[0, i]
@@ -895,7 +921,8 @@ def _fused_loop_vscmg(
     n_steps: int, t0: float, dt: float, every_ctrl: int, log_every: int,
     R: np.ndarray, x: np.ndarray,
     kin: bool, var: bool, ff: bool, par: np.ndarray, M: np.ndarray,
-    dist: int, dp: np.ndarray, steer: int, sp: np.ndarray, rate_limit: float,
+    dist: int, dp: np.ndarray, dfn: Any, dpk: np.ndarray, datt: bool,
+    steer: int, sp: np.ndarray, rate_limit: float,
     law: Any, cparams: np.ndarray, cstate: np.ndarray,
     ref_index: np.ndarray, ref_R: np.ndarray, ref_w: np.ndarray, ref_dw: np.ndarray,
     log_t: np.ndarray, log_R: np.ndarray, log_w: np.ndarray, log_Rd: np.ndarray,
@@ -914,10 +941,10 @@ def _fused_loop_vscmg(
     for b in range(B):
         st[b], tf[b] = _one_vscmg(
             b, n_steps, t0, dt, every_ctrl, log_every, R, x, kin, var, ff, par, M, dist, dp,
-            steer, sp, rate_limit, law, cparams, cstate, ref_index, ref_R, ref_w, ref_dw, log_R,
-            log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_vs, log_work, log_sat,
-            log_diag, diag, s_int, s_par, pub_thr, pub_sched, noise, sst, sy, h_int, seen, log_y,
-            log_est, h_par, h_state, log_hook,
+            dfn, dpk, datt, steer, sp, rate_limit, law, cparams, cstate, ref_index, ref_R, ref_w,
+            ref_dw, log_R, log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_vs, log_work,
+            log_sat, log_diag, diag, s_int, s_par, pub_thr, pub_sched, noise, sst, sy, h_int,
+            seen, log_y, log_est, h_par, h_state, log_hook,
             sensing,
         )  # fmt: skip
     return _loop_result(st, tf, n_steps, t0, dt, log_every, log_t)
@@ -928,7 +955,8 @@ def _fused_loop_vscmg_parallel(
     n_steps: int, t0: float, dt: float, every_ctrl: int, log_every: int,
     R: np.ndarray, x: np.ndarray,
     kin: bool, var: bool, ff: bool, par: np.ndarray, M: np.ndarray,
-    dist: int, dp: np.ndarray, steer: int, sp: np.ndarray, rate_limit: float,
+    dist: int, dp: np.ndarray, dfn: Any, dpk: np.ndarray, datt: bool,
+    steer: int, sp: np.ndarray, rate_limit: float,
     law: Any, cparams: np.ndarray, cstate: np.ndarray,
     ref_index: np.ndarray, ref_R: np.ndarray, ref_w: np.ndarray, ref_dw: np.ndarray,
     log_t: np.ndarray, log_R: np.ndarray, log_w: np.ndarray, log_Rd: np.ndarray,
@@ -948,10 +976,10 @@ def _fused_loop_vscmg_parallel(
         b = np.int64(i)
         s, tb = _one_vscmg(
             b, n_steps, t0, dt, every_ctrl, log_every, R, x, kin, var, ff, par, M, dist, dp,
-            steer, sp, rate_limit, law, cparams, cstate, ref_index, ref_R, ref_w, ref_dw, log_R,
-            log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_vs, log_work, log_sat,
-            log_diag, diag, s_int, s_par, pub_thr, pub_sched, noise, sst, sy, h_int, seen, log_y,
-            log_est, h_par, h_state, log_hook,
+            dfn, dpk, datt, steer, sp, rate_limit, law, cparams, cstate, ref_index, ref_R, ref_w,
+            ref_dw, log_R, log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_vs, log_work,
+            log_sat, log_diag, diag, s_int, s_par, pub_thr, pub_sched, noise, sst, sy, h_int,
+            seen, log_y, log_est, h_par, h_state, log_hook,
             sensing,
         )  # fmt: skip
         st[b] = s
@@ -959,64 +987,18 @@ def _fused_loop_vscmg_parallel(
     return _loop_result(st, tf, n_steps, t0, dt, log_every, log_t)
 
 
-#: compiled entry points of the fused loop, per argument types (the law's type is the seam's
-#: function type, so one compiled loop serves every law)
-_ENTRIES: dict[tuple, Callable[..., Any]] = {}  # by a cheap key of the argument types
-
-
-def _torque_sig() -> Any:
-    from .disturbance_kernel import TORQUE_SIGNATURE
-
-    return TORQUE_SIGNATURE
-
-
-def _fn_entry(
-    func: Any, args: tuple, fn_sigs: dict[int, Any], tag: tuple = ()
-) -> Callable[..., Any]:
-    """The compiled entry point of the ``@njit`` ``func`` for these argument types, the
-    arguments at the indices of ``fn_sigs`` typed as first-class functions of the given numba
-    signatures (compiled once per argument types, cached on disk): one compiled loop or step
-    serves every law and every disturbance torque."""
-    # a cheap key first (numba's typeof costs ~10 µs per argument)
-    key = (
-        (id(func),)
-        + tag
-        + tuple(
-            (a.dtype.char, a.ndim, a.flags.c_contiguous, a.flags.writeable, a.flags.aligned)
-            if isinstance(a, np.ndarray)
-            else type(a)
-            for i, a in enumerate(args)
-            if i not in fn_sigs
-        )
-    )
-    entry = _ENTRIES.get(key)
-    if entry is None:
-        import numba
-        from numba.core import types
-
-        sig = tuple(
-            types.FunctionType(fn_sigs[i]) if i in fn_sigs else numba.typeof(a)
-            for i, a in enumerate(args)
-        )
-        if sig not in func.overloads:
-            func.compile(sig)
-        entry = func.overloads[sig].entry_point
-        _ENTRIES[key] = entry
-    return entry
-
-
 def _loop_entry(
     args: tuple, law_index: int, parallel: bool = False, vscmg: bool = False
 ) -> Callable[..., Any]:
     """The compiled :func:`_fused_loop` (``parallel``: :func:`_fused_loop_parallel`; ``vscmg``:
     the full CMG model's :func:`_fused_loop_vscmg`) for these argument types with the law typed
-    as a first-class function of the seam's signature and, for the momentum model, the
-    disturbance torque (argument 14) as one of :data:`spacecraft.disturbance_kernel.
-    TORQUE_SIGNATURE` and the steering kernel (two places before the law) as one of
+    as a first-class function of the seam's signature, the disturbance torque (argument 14) as
+    one of :data:`spacecraft.disturbance_kernel.TORQUE_SIGNATURE` and, for the momentum model,
+    the steering kernel (two places before the law) as one of
     :data:`spacecraft.steering_kernel.STEERING_SIGNATURE` (compiled once, cached on disk)."""
     if vscmg:
         loop = _fused_loop_vscmg_parallel if parallel else _fused_loop_vscmg
-        return _fn_entry(loop, args, {law_index: seam.LAW_SIGNATURE})
+        return _fn_entry(loop, args, {14: _torque_sig(), law_index: seam.LAW_SIGNATURE})
     loop = _fused_loop_parallel if parallel else _fused_loop
     pointers = {14: _torque_sig(), law_index - 2: _steering_sig(), law_index: seam.LAW_SIGNATURE}
     return _fn_entry(loop, args, pointers)
@@ -1186,12 +1168,6 @@ def run_fused(
                 notes.append("the sensors' noise of this run does not fit in memory")
             return None
     log = make_log(Kr, B)
-    if isinstance(pk, VscmgPlan):
-        return _run_vscmg(
-            pk, spec, plant, controller, index, ref_R, ref_w, ref_dw, R0, x0, t0, n_steps, dt,
-            every_ctrl, log_every, control_period, log, Kr, cparams, cstate, notes, workers, sa,
-            splan, measurement,
-        )  # fmt: skip
     dpk = pk.dist_rows(B)
     if pk.dist == K.DIST_KERNEL:
         # the torque once on the initial state, before any step (spacecraft.disturbance_kernel)
@@ -1199,6 +1175,12 @@ def run_fused(
 
         spec_d = DisturbanceKernel(pk.dist_fn, dpk[0], pk.dist_attitude)
         check(pk.disturbance, spec_d, None, (float(t0), R0[0], x0[0, :3]))
+    if isinstance(pk, VscmgPlan):
+        return _run_vscmg(
+            pk, spec, plant, controller, index, ref_R, ref_w, ref_dw, R0, x0, t0, n_steps, dt,
+            every_ctrl, log_every, control_period, log, Kr, cparams, cstate, notes, workers, sa,
+            splan, measurement, dpk,
+        )  # fmt: skip
     n_held = 3 if pk.act == K.ACT_IDEAL else n - 3
     log_act = np.empty((Kr, B, (n - 3) + n_held))
     n_sat = 3 if pk.act == K.ACT_IDEAL else 1
@@ -1241,10 +1223,7 @@ def run_fused(
         d["actuator"]["saturated"] = log_sat
     d["controller"].update(spec.diagnostics(log_diag))
     spec.finish(cstate, diag.copy())
-    if pk.dist == K.DIST_KERNEL:
-        comps = _component_rows(pk.disturbance, log, rows, B)
-        if comps:
-            d["disturbance_components"].update(comps)
+    _log_components(pk, log, rows, B)
     return log.result(dt, control_period, plant)
 
 
@@ -1267,6 +1246,15 @@ def _torque_rows(
             torque(t[k], Rk, wk, params[0 if params.shape[0] == 1 else b], o)
             for i in range(3):
                 out[k, b, i] = o[i]
+
+
+def _log_components(pk: PlantKernel | VscmgPlan, log: Any, rows: int, B: int) -> None:
+    """A seam disturbance's per-source log (:func:`_component_rows`) into the log's
+    ``disturbance_components``."""
+    if pk.dist == K.DIST_KERNEL:
+        comps = _component_rows(pk.disturbance, log, rows, B)
+        if comps:
+            log.dicts["disturbance_components"].update(comps)
 
 
 def _component_rows(dist: Any, log: Any, rows: int, B: int) -> dict[str, np.ndarray]:
@@ -1338,9 +1326,10 @@ def _run_vscmg(
     R0: np.ndarray, x0: np.ndarray, t0: float, n_steps: int, dt: float, every_ctrl: int,
     log_every: int, control_period: float, log: Any, Kr: int, cparams: np.ndarray,
     cstate: np.ndarray, notes: list[str] | None, workers: int, sa: FS.SensorArrays,
-    splan: FS.SensorPlan | None, measurement: Any,
+    splan: FS.SensorPlan | None, measurement: Any, dpk: np.ndarray,
 ) -> Any:  # fmt: skip
-    """:func:`run_fused` for the full CMG model (:func:`_fused_loop_vscmg`)."""
+    """:func:`run_fused` for the full CMG model (:func:`_fused_loop_vscmg`); ``dpk`` the seam
+    torque's parameter rows for the batch."""
     B = x0.shape[0]
     n_diag = int(spec.n_diag)
     diag = np.zeros((B, n_diag))
@@ -1354,7 +1343,7 @@ def _run_vscmg(
     args = (
         n_steps, float(t0), float(dt), every_ctrl, log_every, R0, x0,
         vp.kinematic, vp.variable_speed, vp.feedforward, vp.par, vp.M, vp.dist, vp.dist_params,
-        vp.steer, vp.steer_params, vp.rate_limit,
+        vp.dist_fn, dpk, vp.dist_attitude, vp.steer, vp.steer_params, vp.rate_limit,
         spec.law, cparams, cstate, index, ref_R, ref_w, ref_dw,
         log.t, log.R, log.omega, log.R_d, log.omega_d, log.u_cmd, log.u, log.disturbance,
         log_vs, log_work, log_sat, log_diag, diag,
@@ -1362,7 +1351,7 @@ def _run_vscmg(
         sa.seen, log_y, log_est, sa.h_par, sa.h_state, log_hook,
         FS.sensing_marker(splan),
     )  # fmt: skip
-    status, rows, t_fail = _call_loop(args, 17, workers, B, vscmg=True)
+    status, rows, t_fail = _call_loop(args, 20, workers, B, vscmg=True)
     if not _finished(status, t_fail, t0, controller, spec, notes):
         return None
     log.rows = rows
@@ -1384,4 +1373,5 @@ def _run_vscmg(
     a["stop_limited"] = np.zeros((Kr, B, 4), dtype=np.bool_)
     log.dicts["controller"].update(spec.diagnostics(log_diag))
     spec.finish(cstate, diag.copy())
+    _log_components(vp, log, rows, B)
     return log.result(dt, control_period, plant)

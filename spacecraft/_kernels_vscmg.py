@@ -5,7 +5,9 @@
   stop bumpers and the motor power — the one scalar implementation of the per-stage formulas;
 - :func:`vscmg_command_inputs_one`: what the steering law needs at a command sample (torque
   Jacobian, momentum-rate command, gyroscopic feed-forward);
-- :func:`vscmg_rkmk4_step_batch`: a whole RKMK4 step of the plant under a time-only disturbance.
+- :func:`vscmg_rkmk4_step_batch`: a whole RKMK4 step of the plant under a time-only disturbance
+  or a torque of the disturbance seam :mod:`spacecraft.disturbance_kernel` (its pointer called
+  at every stage, :func:`spacecraft._kernels.stage_disturbance`).
 
 :meth:`spacecraft.cmg_dynamics.VscmgActuator._solve` and ``_command_inputs`` stay as the batched
 numpy reference and the route for batches without a compiler; the tests hold the kernels to them
@@ -30,13 +32,14 @@ definite 3×3 system for ω̇, solved by its adjugate.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
 from liecontrol._jit import njit
 from liecontrol._kernels.so3 import dexpinv_rkmk4, right_multiply_exp_into
 
-from ._kernels import disturbance_at, steer_regularised
+from ._kernels import DIST_KERNEL, disturbance_at, stage_disturbance, steer_regularised
 
 #: ``par`` layout of :func:`vscmg_derivatives_one` (then the stops: lower ``par[_LO:_LO + 4]``,
 #: upper ``par[_HI:_HI + 4]``)
@@ -383,14 +386,19 @@ def vscmg_command_inputs_batch(
 @njit
 def vscmg_rkmk4_step_batch(
     kinematic: bool, variable_speed: bool, open_loop: bool, has_stops: bool, par: np.ndarray,
-    M: np.ndarray, dist: int, dp: np.ndarray, t: float, R: np.ndarray, x: np.ndarray,
-    held: np.ndarray, h: float, R_out: np.ndarray, x_out: np.ndarray,
+    M: np.ndarray, dist: int, dp: np.ndarray, dfn: Any, dpk: np.ndarray, datt: bool, t: float,
+    R: np.ndarray, x: np.ndarray, held: np.ndarray, h: float, R_out: np.ndarray,
+    x_out: np.ndarray,
 ) -> None:  # fmt: skip
     """One RKMK4 step (Munthe-Kaas 1998; the tableau of :func:`spacecraft._kernels.rkmk4_step`:
     classical RK4 on the chart θ, dexp⁻¹ truncated at fourth order, R_{k+1} = R exp(h/6 (K₁ +
     2K₂ + 2K₃ + K₄))) of a batch flying the full CMG cluster: ``R (B, 3, 3)``, ``x = (ω, x_act)
-    (B, 20)``, the held command ``held (B, 3, 4)``, a time-only disturbance ``(dist, dp)`` (codes
-    of :mod:`spacecraft._kernels`); ``par``, ``M`` as for :func:`vscmg_derivatives_one`.
+    (B, 20)``, the held command ``held (B, 3, 4)``, the disturbance: a time-only code ``(dist,
+    dp)`` (codes of :mod:`spacecraft._kernels`), or for ``DIST_KERNEL`` the seam's torque ``dfn``
+    with the parameter rows ``dpk`` ``(1, n_p)`` shared or ``(B, n_p)``, called per spacecraft
+    at each stage's time, attitude R exp(θ_s) (θ₁ = 0, θ₂ = h/2 K₁, θ₃ = h/2 K₂, θ₄ = h K₃;
+    formed only when ``datt``, else R) and rate (:func:`spacecraft._kernels.
+    stage_disturbance`); ``par``, ``M`` as for :func:`vscmg_derivatives_one`.
 
     Stage-major: each RK stage is evaluated for the whole batch before the next, so the
     spacecraft are independent work inside a stage (a spacecraft-major loop chains the four
@@ -400,12 +408,22 @@ def vscmg_rkmk4_step_batch(
     d = np.empty((4, B, n))
     xs = np.empty((B, n))
     k = np.empty((B, 4, 3))  # the chart velocities K₁..K₄
-    tau = np.empty(3)
+    # the external torque, then the seam torque's scratch (stage attitude, rate, output)
+    sc = np.empty(18)
+    tau = sc[:3]
     det = np.empty((5, 4))
+    seam = dist == DIST_KERNEL  # else one time-only torque per stage for the whole batch
+    pshared = dpk.shape[0] == 1
     # stage 1 at (t, x): K₁ = ω
-    tau[0], tau[1], tau[2] = disturbance_at(dist, dp, t)
+    if not seam:
+        tau[0], tau[1], tau[2] = disturbance_at(dist, dp, t)
     for b in range(B):
         xb = x[b]
+        if seam:
+            tau[0], tau[1], tau[2] = stage_disturbance(
+                dist, dp, dfn, dpk[0 if pshared else b], datt, t, R[b], 0.0, 0.0, 0.0, True,
+                xb[0], xb[1], xb[2], sc, 3,
+            )  # fmt: skip
         vscmg_derivatives_one(
             kinematic, variable_speed, open_loop, has_stops, par, M,
             xb[0:3], xb[3:], held[b], tau, d[0, b], det,
@@ -418,9 +436,17 @@ def vscmg_rkmk4_step_batch(
     for j in range(1, 4):
         cj = h if j == 3 else h2  # the chart step (and time offset) of this stage
         cn = h if j == 2 else h2  # the state step to the next stage
-        tau[0], tau[1], tau[2] = disturbance_at(dist, dp, t + cj)
+        if not seam:
+            tau[0], tau[1], tau[2] = disturbance_at(dist, dp, t + cj)
         for b in range(B):
             xb = xs[b]
+            if seam:
+                # the stage attitude R exp(c h K_{j−1}): the chart argument of dexp⁻¹ below
+                tau[0], tau[1], tau[2] = stage_disturbance(
+                    dist, dp, dfn, dpk[0 if pshared else b], datt, t + cj, R[b],
+                    cj * k[b, j - 1, 0], cj * k[b, j - 1, 1], cj * k[b, j - 1, 2], False,
+                    xb[0], xb[1], xb[2], sc, 3,
+                )  # fmt: skip
             vscmg_derivatives_one(
                 kinematic, variable_speed, open_loop, has_stops, par, M,
                 xb[0:3], xb[3:], held[b], tau, d[j, b], det,

@@ -925,31 +925,47 @@ class VscmgActuator(Actuator):
         """The compiled RKMK4 step of ``plant`` (a :class:`spacecraft.plant.Spacecraft` flying
         this actuator) as ``step(t, R, x, held, h) -> (R, x)`` on packed states — the step of
         :meth:`~spacecraft.plant.Spacecraft.step_packed`'s numpy route through
-        :func:`spacecraft._kernels_vscmg.vscmg_rkmk4_step` — or ``None`` when a part has no
-        kernel (structural modes, momentum management, a disturbance other than the time-only
-        ones of :mod:`spacecraft._kernels`, a body inertia that is not ``bus_inertia``)."""
-        from .disturbances import disturbance_kernel as _disturbance_kernel
-
+        :func:`spacecraft._kernels_vscmg.vscmg_rkmk4_step_batch`, the step of the fused loop —
+        or ``None`` when a part has no kernel (structural modes, momentum management, a
+        disturbance with neither a time-only code of :mod:`spacecraft._kernels` nor a torque of
+        the seam :mod:`spacecraft.disturbance_kernel`, a body inertia that is not
+        ``bus_inertia``). A malformed seam kernel raises ``ValueError`` naming the disturbance
+        (as for the momentum model's plan)."""
         if plant.actuator is not self or plant.modes is not None:
             return None
         if plant.momentum_management is not None:
             return None
-        dk = _disturbance_kernel(plant.disturbance)
         J = np.asarray(plant.body.J)
-        if dk is None or J.shape != (3, 3) or not np.array_equal(J, self.bus_inertia):
+        if J.shape != (3, 3) or not np.array_equal(J, self.bus_inertia):
             return None
-        dist, dp = dk
+        from ._entry import fn_entry, torque_signature
+        from .disturbances import disturbance_plan, kernel_rows
+
+        dk, _ = disturbance_plan(plant.disturbance, plant.body.batch_size)
+        if dk is None:
+            return None
+        dist, dp, dfn, dpk, datt = dk
+        disturbance = plant.disturbance
         kin, var, has_stops, par, M = self._kargs
 
         def step(
             t: float, R: np.ndarray, x: np.ndarray, held: VscmgCommand, h: float
         ) -> tuple[np.ndarray, np.ndarray]:
+            R = np.ascontiguousarray(R)  # the seam torque takes C-contiguous attitudes
+            x = np.ascontiguousarray(x)
             R_out = np.empty(R.shape)
             x_out = np.empty(x.shape)
-            vscmg_rkmk4_step_batch(
-                kin, var, bool(held.open_loop), has_stops, par, M, dist, dp, float(t), R, x,
+            args = (
+                kin, var, bool(held.open_loop), has_stops, par, M, dist, dp, dfn,
+                kernel_rows(disturbance, dpk, x.shape[0]), datt, float(t), R, x,
                 self._held_packed(held), float(h), R_out, x_out,
             )  # fmt: skip
+            entry = (
+                fn_entry(vscmg_rkmk4_step_batch, args, {8: torque_signature()})
+                if JIT_ENABLED
+                else None
+            )
+            (entry or vscmg_rkmk4_step_batch)(*args)  # without numba: the kernel as Python
             return R_out, x_out
 
         return step

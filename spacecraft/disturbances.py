@@ -53,7 +53,7 @@ from liecontrol._jit import njit
 from liecontrol._validation import as_array, as_scalar, check_positive_scalar
 
 from . import _kernels as K
-from .disturbance_kernel import DisturbanceKernel, no_torque, sum_kernel
+from .disturbance_kernel import DisturbanceKernel, check, no_torque, resolve, sum_kernel
 
 __all__ = [
     "DisturbanceSource",
@@ -198,6 +198,36 @@ def disturbance_kernel(dist: object) -> tuple[int, np.ndarray] | None:
     if type(dist) is ConstantTorque and np.shape(dist.torque) == (3,):
         return DIST_CONSTANT, np.array(dist.torque, dtype=np.float64)
     return None
+
+
+def disturbance_plan(
+    dist: object, batch_size: int | None
+) -> tuple[tuple[int, np.ndarray, object, np.ndarray, bool] | None, str]:
+    """``((code, code params, torque, kernel params (B', n_p), uses attitude), "")`` of a
+    disturbance for the compiled steps — a built-in time-only code (:func:`disturbance_kernel`;
+    the torque the placeholder :func:`spacecraft.disturbance_kernel.no_torque`) or a torque of
+    the seam (:mod:`spacecraft.disturbance_kernel`, code ``DIST_KERNEL``, checked for a batch of
+    ``batch_size``: ``ValueError`` naming the disturbance and the argument) — else ``(None,
+    why)``. The one resolution behind the momentum model's and the full CMG model's plans."""
+    coded = disturbance_kernel(dist)
+    if coded is not None:
+        return (coded[0], coded[1], no_torque, np.zeros((1, 0)), False), ""
+    spec, why = resolve(dist)
+    if spec is None:
+        return None, why
+    params = check(dist, spec, batch_size)
+    return (K.DIST_KERNEL, np.zeros(3), spec.torque, params, bool(spec.uses_attitude)), ""
+
+
+def kernel_rows(dist: object, params: np.ndarray, B: int) -> np.ndarray:
+    """The seam torque's parameter rows ``params (B', n_p)`` for a batch of ``B``
+    (``ValueError`` naming the disturbance when per-spacecraft rows do not match the batch)."""
+    if params.shape[0] not in (1, B):
+        raise ValueError(
+            f"disturbance {type(dist).__name__}: kernel params must have shape "
+            f"(n_p,) or ({B}, n_p) for a batch of {B}, got {params.shape}"
+        )
+    return params
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,10 @@
   sources, a per-spacecraft constant torque, a user's torque, a nested sum) runs in the fused loop
   and equals the Python loop's sum bit for bit where the parts' kernels are the numpy formulas'
   operations, to 1e-12 otherwise; a sum with a source without kernel keeps the Python loop and
-  the log line names that source; parts with different batch rows raise naming both.
+  the log line names that source; parts with different batch rows raise naming both;
+- the full CMG model (VscmgActuator) takes the seam torque (the gravity gradient, a sum with a
+  user's torque and per-spacecraft rows): its fused loop and the Python loop through its
+  compiled step equal the numpy Python loop to 1e-12, the per-source log included.
 """
 
 from __future__ import annotations
@@ -384,3 +387,87 @@ def test_the_rotating_payload_runs_fused_and_a_speed_profile_says_why_not(monkey
         simulate(plant, ctrl, ref, x0, 0.5, 0.05)
     lines = [r.getMessage() for r in caplog.records if r.name == "spacecraft.simulator"]
     assert len(lines) == 1 and "payload 1's spin profile SpinRamp" in lines[0]
+
+
+# ------------------------------------------------------------- the full CMG model (VSCMG)
+JB = np.diag([900.0, 800.0, 600.0])
+
+
+def _vscmg_setup(B, disturbance, seed=6):
+    """A plant flying the full CMG model (body inertia = the actuator's bus inertia, as the
+    compiled step requires), a PD law, a reference and an initial state."""
+    from spacecraft.cmg_dynamics import CmgInertias, GimbalServo, VscmgActuator
+    from spacecraft.steering import SingularityRobust
+
+    act = VscmgActuator(
+        JB, CmgInertias(0.5, 0.25, (0.1, 0.1, 0.1)), SgcmgPyramid(h0=20.0), SingularityRobust(),
+        servo=GimbalServo(5.0, 50.0),
+    )  # fmt: skip
+    plant = Spacecraft(RigidBody(JB), act, disturbance=disturbance)
+    rng = np.random.default_rng(seed)
+    ref = ConstantAttitude(so3.random(rng, (B,)) if B > 1 else so3.random(rng))
+    x0 = plant.initial_state(so3.exp(0.3 * rng.normal(size=(B, 3))), 0.01 * rng.normal(size=(B, 3)))
+    return plant, GeometricPD(JB, 20.0, 200.0), ref, x0
+
+
+def _numpy_vscmg(plant: Spacecraft) -> Spacecraft:
+    """The same plant with neither compiled step: the numpy derivatives at every stage."""
+    twin = _numpy_plant(plant)
+    object.__setattr__(twin, "_coupled_plan", None)
+    return twin
+
+
+def _vscmg_sum(B):
+    rng = np.random.default_rng(3)
+    parts = {
+        "gg": GravityGradientTorque(JB, ORBIT),
+        "harmonic": ConstantHarmonicTorque(scale=0.5),
+        "user": UserTorque(k=0.05),
+    }
+    if B > 1:  # per-spacecraft parameter rows of the sum
+        parts["bias"] = ConstantTorque(0.01 * rng.normal(size=(B, 3)))
+    return SumOfDisturbances(parts)
+
+
+def _assert_same_vscmg(a, b):
+    _assert_same(a, b)
+    for name in ("delta", "delta_dot", "wheel_speed", "gimbal_torque"):
+        x, y = a.actuator[name], b.actuator[name]
+        np.testing.assert_allclose(x, y, rtol=1e-12, atol=1e-12 * max(1.0, np.abs(y).max()))
+
+
+VSCMG_SOURCES = {
+    "gravity_gradient": lambda B: GravityGradientTorque(JB, ORBIT),
+    "sum": _vscmg_sum,
+}
+
+
+@pytest.mark.parametrize("source", sorted(VSCMG_SOURCES))
+@pytest.mark.parametrize("B", [1, 2])
+def test_the_full_cmg_model_takes_the_seam_torque_fused_and_in_the_python_loop(
+    source, B, monkeypatch
+):
+    plant, ctrl, ref, x0 = _vscmg_setup(B, VSCMG_SOURCES[source](B))
+    assert plant._kernel_plan is None and plant._coupled_plan is not None
+    vp = fused_module.vscmg_plan(plant)
+    assert vp is not None and vp.dist == fused_module.K.DIST_KERNEL and vp.dist_attitude
+    kw = dict(control_period=0.1, log_every=2)
+    fast = _fused(monkeypatch, plant, ctrl, ref, x0, 4.0, 0.05, **kw)
+    slow = _python_loop(monkeypatch, _numpy_vscmg(plant), ctrl, ref, x0, 4.0, 0.05, **kw)
+    _assert_same_vscmg(fast, slow)
+    assert np.abs(fast.disturbance).max() > 0.0
+    # the Python loop through the plant's compiled step (the fused loop's step kernel)
+    step = _python_loop(monkeypatch, plant, ctrl, ref, x0, 4.0, 0.05, **kw)
+    _assert_same_vscmg(step, slow)
+    if source == "sum":
+        # the per-source log by the sources' own kernels
+        assert list(fast.disturbance_components) == list(slow.disturbance_components)
+        for name, want in slow.disturbance_components.items():
+            got = fast.disturbance_components[name]
+            assert got.shape == want.shape
+            np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12 * np.abs(want).max())
+
+
+def test_the_full_cmg_model_raises_on_a_malformed_kernel():
+    with pytest.raises(ValueError, match=r"disturbance UserTorque: kernel params"):
+        _vscmg_setup(1, _bad(params=np.array([1, 2])))
