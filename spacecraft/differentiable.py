@@ -41,10 +41,12 @@ Supported configurations (others raise ``ValueError`` naming the part): a
 :class:`~spacecraft.disturbances.ConstantHarmonicTorque`,
 :class:`~spacecraft.environment.GravityGradientTorque`,
 :class:`~spacecraft.surface_forces.AerodynamicTorque`,
-:class:`~spacecraft.surface_forces.SolarPressureTorque` or
-:class:`~spacecraft.surface_forces.ResidualDipoleTorque` disturbance or a
-:class:`~spacecraft.disturbances.SumOfDisturbances` of them (at each RKMK4 stage's time, and
-attitude for the attitude-dependent ones, each by its own pure ``torque_at``) or none, no
+:class:`~spacecraft.surface_forces.SolarPressureTorque`,
+:class:`~spacecraft.surface_forces.ResidualDipoleTorque` or
+:class:`~spacecraft.payload.RotatingPayloadTorque` (payloads at a constant rate or on a
+:class:`~spacecraft.payload.SpinRamp`) disturbance or a
+:class:`~spacecraft.disturbances.SumOfDisturbances` of them (at each RKMK4 stage's time, rate,
+and attitude for the attitude-dependent ones, each by its own pure ``torque_at``) or none, no
 flexible modes or momentum management; any
 controller whose law has an array form (:mod:`liecontrol.control.array_law`: every registered
 attitude controller but the OSQP MPC and the small-angle payload PID — the geometric PD with
@@ -92,6 +94,7 @@ from liecontrol.lie import so3
 from .actuators import IdealTorqueActuator, SgcmgActuator
 from .disturbances import ConstantHarmonicTorque, ConstantTorque, SumOfDisturbances
 from .environment import GravityGradientTorque
+from .payload import ConstantSpin, RotatingPayloadTorque, SpinRamp
 from .plant import Spacecraft
 from .rigid_body import euler_acceleration
 from .sgcmg import SgcmgPyramid, bus_torque
@@ -241,10 +244,10 @@ class JaxClosedLoop:
     period (``jax.checkpoint`` of the period's body): memory ∝ samples instead of steps, for
     about one more forward pass of compute. ``law``: the controller's
     :class:`liecontrol.control.array_law.ArrayLaw` (its pure step and initial state).
-    ``disturbance``: the body torque ``(t, R) -> (3,)`` added in every RKMK4 stage at the
-    stage's time and attitude (the plant's own ``ConstantTorque``, ``ConstantHarmonicTorque``,
-    ``GravityGradientTorque``, the surface-force and dipole torques or their
-    ``SumOfDisturbances``, each by its own formula), or
+    ``disturbance``: the body torque ``(t, R, ω) -> (3,)`` added in every RKMK4 stage at the
+    stage's time, attitude and rate (the plant's own ``ConstantTorque``,
+    ``ConstantHarmonicTorque``, ``GravityGradientTorque``, the surface-force, dipole and
+    rotating-payload torques or their ``SumOfDisturbances``, each by its own formula), or
     ``None``; ``disturbance_source`` the plant's disturbance object (the stage attitudes are
     formed only when it reads them, as the plant does).
     ``member_refs``: the reference gives each member its own samples; ``R_d`` is then
@@ -434,7 +437,7 @@ class JaxClosedLoop:
                 def field_(t: Any, RR: Any, xx: Any) -> tuple[Any, Any]:
                     tau = torque(xx, held)
                     if dist is not None:
-                        tau = tau + dist(t, RR)
+                        tau = tau + dist(t, RR, xx[:3])
                     acc = euler_acceleration(J, J_inv, xx[:3], tau)
                     return xx[:3], acc if cluster is None else jnp.concatenate((acc, held[0]))
 
@@ -683,24 +686,26 @@ _ATTITUDE_SOURCES = (
 )  # fmt: skip
 
 
-def _disturbance(dist: Any) -> Callable[[Any, Any], Any] | None:
-    """The plant's disturbance as ``(t, R) -> (3,)`` on JAX values (its own formula; ``R`` the
-    stage's attitude, ``None`` for a source that does not read it)."""
+def _disturbance(dist: Any) -> Callable[[Any, Any, Any], Any] | None:
+    """The plant's disturbance as ``(t, R, ω) -> (3,)`` on JAX values (its own formula; ``R``
+    the stage's attitude, ``None`` when no source reads it; ``ω`` the stage's rate)."""
     if dist is None:
         return None
     if type(dist) is ConstantTorque:
         torque = np.array(dist.torque)
-        return lambda t, R: torque
+        return lambda t, R, w: torque
     if type(dist) is ConstantHarmonicTorque:
-        return lambda t, R: dist.torque_at(t)
+        return lambda t, R, w: dist.torque_at(t)
     if type(dist) in _ATTITUDE_SOURCES:
+        return lambda t, R, w: dist.torque_at(t, R)
+    if type(dist) is RotatingPayloadTorque:
         return dist.torque_at
     parts = [_disturbance(s) for _, s in dist._items]  # SumOfDisturbances (checked before)
 
-    def total(t: Any, R: Any) -> Any:
-        out = parts[0](t, R)
+    def total(t: Any, R: Any, w: Any) -> Any:
+        out = parts[0](t, R, w)
         for p in parts[1:]:
-            out = out + p(t, R)
+            out = out + p(t, R, w)
         return out
 
     return total
@@ -708,7 +713,11 @@ def _disturbance(dist: Any) -> Callable[[Any, Any], Any] | None:
 
 def _reads_attitude(dist: Any) -> bool:
     """Whether the disturbance reads the stage attitude (the integrator forms it then)."""
-    if dist is None or type(dist) in (ConstantTorque, ConstantHarmonicTorque):
+    if dist is None or type(dist) in (
+        ConstantTorque,
+        ConstantHarmonicTorque,
+        RotatingPayloadTorque,
+    ):
         return False
     if type(dist) is SumOfDisturbances:
         return any(_reads_attitude(s) for _, s in dist._items)
@@ -721,6 +730,14 @@ def _check_disturbance(dist: Any, name: str = "plant.disturbance") -> None:
         return
     if type(dist) is ConstantTorque and dist.torque.ndim == 1:
         return
+    if type(dist) is RotatingPayloadTorque:
+        for i, p in enumerate(dist.payloads):
+            if type(p._profile) not in (ConstantSpin, SpinRamp):
+                raise ValueError(
+                    f"{name}.payloads[{i}]: the JAX route flies the spin profiles ConstantSpin "
+                    f"and SpinRamp, got {type(p._profile).__name__}; run spacecraft.simulate"
+                )
+        return
     if type(dist) is SumOfDisturbances:
         for k, s in dist._items:
             _check_disturbance(s, f"{name}.sources[{k!r}]")
@@ -728,8 +745,8 @@ def _check_disturbance(dist: Any, name: str = "plant.disturbance") -> None:
     raise ValueError(
         f"{name}: the JAX route flies ConstantTorque (one torque for the batch), "
         f"ConstantHarmonicTorque, GravityGradientTorque, AerodynamicTorque, SolarPressureTorque, "
-        f"ResidualDipoleTorque and their SumOfDisturbances, got {type(dist).__name__}; run "
-        "spacecraft.simulate"
+        f"ResidualDipoleTorque, RotatingPayloadTorque and their SumOfDisturbances, got "
+        f"{type(dist).__name__}; run spacecraft.simulate"
     )
 
 

@@ -42,6 +42,7 @@ from typing import ClassVar, Protocol, runtime_checkable
 import numpy as np
 from scipy.optimize import least_squares
 
+from liecontrol._array_api import namespace
 from liecontrol._jit import njit
 from liecontrol._validation import (
     as_array,
@@ -94,8 +95,9 @@ class ConstantSpin:
         object.__setattr__(self, "rate", as_scalar(self.rate, "rate"))
 
     def state(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        t = np.asarray(t, dtype=np.float64)
-        return self.rate * t, np.full(t.shape, self.rate), np.zeros(t.shape)
+        xp = namespace(t)
+        t = xp.asarray(t, dtype=xp.float64)
+        return self.rate * t, xp.full(t.shape, self.rate), xp.zeros(t.shape)
 
 
 @dataclass(frozen=True)
@@ -114,15 +116,18 @@ class SpinRamp:
         object.__setattr__(self, "duration", check_positive_scalar(self.duration, "duration"))
 
     def state(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        t = np.asarray(t, dtype=np.float64)
+        # NumPy or jax.numpy (the JAX route traces it); the compiled route's
+        # rotating_payload_kernel evaluates the same operations in the same order
+        xp = namespace(t)
+        t = xp.asarray(t, dtype=xp.float64)
         a = (self.rate1 - self.rate0) / self.duration
-        tau = np.clip(t - self.t_start, 0.0, self.duration)  # time spent ramping so far
-        after = np.maximum(t - self.t_start - self.duration, 0.0)
-        before = np.minimum(t, self.t_start)
-        angle = self.rate0 * before + self.rate0 * tau + 0.5 * a * tau**2 + self.rate1 * after
+        tau = xp.clip(t - self.t_start, 0.0, self.duration)  # time spent ramping so far
+        after = xp.maximum(t - self.t_start - self.duration, 0.0)
+        before = xp.minimum(t, self.t_start)
+        angle = self.rate0 * before + self.rate0 * tau + 0.5 * a * (tau * tau) + self.rate1 * after
         rate = self.rate0 + a * tau
         ramping = (t > self.t_start) & (t < self.t_start + self.duration)
-        accel = np.where(ramping, a, 0.0)
+        accel = xp.where(ramping, a, 0.0)
         return angle, rate, accel
 
 
@@ -273,17 +278,24 @@ class RotatingPayload:
             object.__setattr__(self, "_floats", cached)
         return cached
 
-    def _torque_at(self, t: float, omega: np.ndarray) -> np.ndarray:
-        """Fast path of :meth:`torque` for a scalar ``t`` and ``omega`` ``(..., 3)`` (the plant
-        calls the source at every integration stage): the same four terms with 3-vector algebra
-        in Python floats; inputs are trusted (the plant has validated the state)."""
-        if isinstance(self._profile, ConstantSpin):
+    def torque_at(self, t: float, omega: np.ndarray) -> np.ndarray:
+        """:meth:`torque` for a scalar ``t`` and ``omega`` ``(..., 3)``, inputs trusted (the
+        plant has validated the state): the same four terms with 3-vector algebra on scalars —
+        Python floats on the NumPy route (the plant calls the source at every integration
+        stage), JAX scalars when ``t`` or ``omega`` is traced (the JAX route of
+        :mod:`spacecraft.differentiable`, which flies the built-in spin profiles)."""
+        xp = namespace(t, omega)
+        if type(self._profile) is ConstantSpin:
             rate, acc = self._profile.rate, 0.0
             alpha = self.phase + rate * t
-        else:
+        elif xp is np:
             ang, r_, a_ = self._profile.state(np.float64(t))
             alpha, rate, acc = self.phase + float(ang), float(r_), float(a_)
-        c, s = math.cos(alpha), math.sin(alpha)
+        else:
+            ang, rate, acc = self._profile.state(t)
+            alpha = self.phase + ang
+        cos, sin = (math.cos, math.sin) if xp is np else (xp.cos, xp.sin)
+        c, s = cos(alpha), sin(alpha)
         # every 3-vector below is a tuple of Python floats (the parameters' float copies are
         # made once, _float_params): the same per-component IEEE operations in the same order
         # as on (3,) arrays, ~5× cheaper than ~20 numpy calls on 3-element arrays
@@ -311,7 +323,7 @@ class RotatingPayload:
             -acc * x - rr * y - m * z for x, y, z in zip(Ie, ez_x_Ie, rc_x_rdd, strict=True)
         )
         h = tuple(rate * x for x in Ie)
-        if np.shape(omega) == (1, 3):
+        if xp is np and np.shape(omega) == (1, 3):
             wx, wy, wz = omega[0].tolist()
             return np.array(
                 [
@@ -322,16 +334,22 @@ class RotatingPayload:
                     ]
                 ]
             )
-        gyro = np.empty(np.shape(omega))
         wx, wy, wz = omega[..., 0], omega[..., 1], omega[..., 2]
-        gyro[..., 0] = const[0] - (wy * h[2] - wz * h[1])
-        gyro[..., 1] = const[1] - (wz * h[0] - wx * h[2])
-        gyro[..., 2] = const[2] - (wx * h[1] - wy * h[0])
-        return gyro
+        return xp.stack(
+            (
+                const[0] - (wy * h[2] - wz * h[1]),
+                const[1] - (wz * h[0] - wx * h[2]),
+                const[2] - (wx * h[1] - wy * h[0]),
+            ),
+            axis=-1,
+        )
 
 
 #: parameters per payload in :func:`rotating_payload_kernel`'s row
-_PAYLOAD_WIDTH = 21
+_PAYLOAD_WIDTH = 25
+#: the spin profile's code in the row: constant rate, or a :class:`SpinRamp`
+_SPIN_CONSTANT = 0.0
+_SPIN_RAMP = 1.0
 
 
 @njit(inline="always")
@@ -359,11 +377,13 @@ def _payload_component(
 def rotating_payload_kernel(
     t: float, R: np.ndarray, omega: np.ndarray, params: np.ndarray, out: np.ndarray
 ) -> None:
-    """:class:`RotatingPayloadTorque` of constant-spin payloads for one spacecraft (the
-    disturbance seam, :mod:`spacecraft.disturbance_kernel`): per payload the four terms of
-    :meth:`RotatingPayload._torque_at` in its order of operations (ω̇_p = 0), summed over the
-    payloads in their order. ``params = (count, then per payload: phase, ω_pz, the mount's
-    columns 0, 1, 2, I_A[:, 2], ρ, hinge, m)``. Reads ``t`` and ``omega`` only."""
+    """:class:`RotatingPayloadTorque` for one spacecraft (the disturbance seam,
+    :mod:`spacecraft.disturbance_kernel`): per payload the spin state of its profile — a
+    constant rate, or :meth:`SpinRamp.state` in its order of operations — and the four terms of
+    :meth:`RotatingPayload.torque_at` in its order of operations, summed over the payloads in
+    their order. ``params = (count, then per payload: phase, ω_pz (a ramp's rate0), the
+    mount's columns 0, 1, 2, I_A[:, 2], ρ, hinge, m, the profile's code (0 constant, 1 ramp),
+    rate1, t_start, duration)``. Reads ``t`` and ``omega`` only."""
     n = int(params[0])
     w0 = omega[0]
     w1 = omega[1]
@@ -373,9 +393,23 @@ def rotating_payload_kernel(
     t2 = 0.0
     for k in range(n):
         p = 1 + _PAYLOAD_WIDTH * k
-        rate = params[p + 1]
-        acc = 0.0
-        alpha = params[p] + rate * t
+        if params[p + 21] == _SPIN_RAMP:
+            rate0 = params[p + 1]
+            rate1 = params[p + 22]
+            t_start = params[p + 23]
+            duration = params[p + 24]
+            a = (rate1 - rate0) / duration
+            tau = min(max(t - t_start, 0.0), duration)  # np.clip's order: max, then min
+            after = max(t - t_start - duration, 0.0)
+            before = min(t, t_start)
+            angle = rate0 * before + rate0 * tau + 0.5 * a * (tau * tau) + rate1 * after
+            rate = rate0 + a * tau
+            acc = a if (t > t_start and t < t_start + duration) else 0.0
+            alpha = params[p] + angle
+        else:
+            rate = params[p + 1]
+            acc = 0.0
+            alpha = params[p] + rate * t
         c = math.cos(alpha)
         s = math.sin(alpha)
         r0 = params[p + 14]
@@ -446,22 +480,33 @@ class RotatingPayloadTorque:
         return out
 
     def __call__(self, t: float, R: np.ndarray, omega: np.ndarray) -> np.ndarray:
-        omega = np.asarray(omega, dtype=np.float64)
-        total = self.payloads[0]._torque_at(float(t), omega)
+        return self.torque_at(float(t), R, np.asarray(omega, dtype=np.float64))
+
+    def torque_at(self, t: float, R: object, omega: np.ndarray) -> np.ndarray:
+        """The summed torque ``omega.shape`` at a scalar time, inputs trusted: the one formula
+        of the NumPy and JAX routes (:meth:`RotatingPayload.torque_at`; ``R`` is not read)."""
+        total = self.payloads[0].torque_at(t, omega)
         for p in self.payloads[1:]:
-            total += p._torque_at(float(t), omega)
+            total = total + p.torque_at(t, omega)
         return total
 
     def fused_kernel(self) -> DisturbanceKernel | None:
         """:func:`rotating_payload_kernel` and its parameters, shared by the batch, when every
-        payload spins at a constant rate; ``None`` (the Python loop, :meth:`kernel_reason`
-        says why) for a speed profile."""
+        payload spins at a constant rate or follows a :class:`SpinRamp`; ``None`` (the Python
+        loop, :meth:`kernel_reason` says why) for another :class:`SpinProfile`."""
         if self.kernel_reason():
             return None
         row: list[float] = [float(len(self.payloads))]
         for p in self.payloads:
             m0, m1, a2, ie, rho, hinge, m = p._float_params()
-            row += [p.phase, p._profile.rate, *m0, *m1, *a2, *ie, *rho, *hinge, m]
+            prof = p._profile
+            if isinstance(prof, SpinRamp):
+                spin = [prof.rate0]
+                tail = [_SPIN_RAMP, prof.rate1, prof.t_start, prof.duration]
+            else:
+                spin = [prof.rate]
+                tail = [_SPIN_CONSTANT, 0.0, 0.0, 1.0]
+            row += [p.phase, *spin, *m0, *m1, *a2, *ie, *rho, *hinge, m, *tail]
         return DisturbanceKernel(
             rotating_payload_kernel, np.array(row, dtype=np.float64), uses_attitude=False
         )
@@ -469,10 +514,11 @@ class RotatingPayloadTorque:
     def kernel_reason(self) -> str:
         """Why the source has no compiled kernel (``""`` when it has one)."""
         for i, p in enumerate(self.payloads):
-            if not isinstance(p._profile, ConstantSpin):
+            if type(p._profile) not in (ConstantSpin, SpinRamp):
                 return (
                     f"the disturbance RotatingPayloadTorque has no compiled kernel for payload "
-                    f"{i}'s spin profile {type(p._profile).__name__} (constant spin rates only)"
+                    f"{i}'s spin profile {type(p._profile).__name__} (ConstantSpin and SpinRamp "
+                    "only)"
                 )
         return ""
 

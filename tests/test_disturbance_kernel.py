@@ -351,42 +351,73 @@ def _payloads():
     return (P, second)
 
 
-def test_the_rotating_payload_kernel_is_the_numpy_torque():
+def _ramped():
+    """The two payloads of :func:`_payloads`, the second on a speed ramp (1.5 → −2 rad/s from
+    t = 3 s over 4 s): before, during and after the ramp within a 10 s run."""
+    import dataclasses
+
+    from spacecraft.payload import SpinRamp
+
+    first, second = _payloads()
+    return (first, dataclasses.replace(second, spin_rate=SpinRamp(1.5, -2.0, 3.0, 4.0)))
+
+
+@pytest.mark.parametrize("payloads", [_payloads, _ramped], ids=["constant", "ramp"])
+def test_the_rotating_payload_kernel_is_the_numpy_torque(payloads):
+    """Bit for bit (the kernel evaluates the NumPy formula's operations in its order), at times
+    before, inside and after a ramp and on its two ends."""
     from spacecraft.payload import RotatingPayloadTorque
 
-    src = RotatingPayloadTorque(_payloads())
+    src = RotatingPayloadTorque(payloads())
     spec = src.fused_kernel()
     assert spec is not None and not spec.uses_attitude
     rng = np.random.default_rng(8)
     w = 0.05 * rng.normal(size=(6, 3))
     R = np.broadcast_to(np.eye(3), (6, 3, 3))
     out = np.empty(3)
-    for t in (0.0, 0.37, 12.5, 4.4e3):
+    times = (0.0, 0.37, 2.9999999, 3.0, 3.0000001, 5.2, 6.9999999, 7.0, 7.0000001, 12.5, 4.4e3)
+    for t in times:
         want = src(t, R, w)
         for b in range(6):
             spec.torque(t, np.eye(3), w[b], spec.params, out)
-            np.testing.assert_allclose(out, want[b], rtol=0, atol=1e-13 * np.abs(want).max())
+            np.testing.assert_array_equal(out, want[b])
+    if payloads is _ramped:  # the speed-change term acts only inside the ramp (ω̇_p ≠ 0)
+        ramp = src.payloads[1]
+        assert np.abs(ramp.torque_terms(5.0, np.zeros(3))["speed_change"]).max() > 0.0
+        assert np.abs(ramp.torque_terms(8.0, np.zeros(3))["speed_change"]).max() == 0.0
 
 
-def test_the_rotating_payload_runs_fused_and_a_speed_profile_says_why_not(monkeypatch, caplog):
+def test_the_rotating_payload_runs_fused_and_a_user_profile_says_why_not(monkeypatch, caplog):
     import dataclasses
 
-    from spacecraft.payload import RotatingPayloadTorque, SpinRamp
+    from spacecraft.payload import ConstantSpin, RotatingPayloadTorque
 
-    plant, ctrl, ref, x0 = _setup(2, ACTUATORS["sgcmg"](), RotatingPayloadTorque(_payloads()))
-    assert plant._kernel_plan is not None
     kw = dict(control_period=0.1, log_every=5)
-    fast = _fused(monkeypatch, plant, ctrl, ref, x0, 10.0, 0.05, **kw)
-    slow = _python_loop(monkeypatch, _numpy_plant(plant), ctrl, ref, x0, 10.0, 0.05, **kw)
-    _assert_same(fast, slow)
-    ramp = dataclasses.replace(_payloads()[0], spin_rate=SpinRamp(1.0, 2.0, 1.0, 2.0))
-    src = RotatingPayloadTorque((_payloads()[1], ramp))
+    for payloads in (_payloads(), _ramped()):
+        src = RotatingPayloadTorque(payloads)
+        plant, ctrl, ref, x0 = _setup(2, ACTUATORS["sgcmg"](), src)
+        assert plant._kernel_plan is not None
+        fast = _fused(monkeypatch, plant, ctrl, ref, x0, 10.0, 0.05, **kw)
+        slow = _python_loop(monkeypatch, _numpy_plant(plant), ctrl, ref, x0, 10.0, 0.05, **kw)
+        _assert_same(fast, slow)
+
+    class Wobble(ConstantSpin):  # a user's profile (a subclass may change the formula)
+        def state(self, t):
+            a, r, acc = super().state(t)
+            return a + 0.01 * np.sin(t), r + 0.01 * np.cos(t), acc - 0.01 * np.sin(t)
+
+    odd = dataclasses.replace(_payloads()[0], spin_rate=Wobble(2.0))
+    src = RotatingPayloadTorque((_payloads()[1], odd))
     assert src.fused_kernel() is None
     plant, ctrl, ref, x0 = _setup(1, ACTUATORS["ideal"](), src)
     with caplog.at_level(logging.INFO, logger="spacecraft.simulator"):
-        simulate(plant, ctrl, ref, x0, 0.5, 0.05)
+        res = simulate(plant, ctrl, ref, x0, 0.5, 0.05)
     lines = [r.getMessage() for r in caplog.records if r.name == "spacecraft.simulator"]
-    assert len(lines) == 1 and "payload 1's spin profile SpinRamp" in lines[0]
+    assert len(lines) == 1 and "payload 1's spin profile Wobble" in lines[0]
+    # the user's profile is what the Python loop flies (not the parent's constant rate)
+    want = src.payloads[0].torque(0.25, np.zeros(3)) + odd.torque(0.25, np.zeros(3))
+    np.testing.assert_allclose(src(0.25, None, np.zeros((1, 3)))[0], want, rtol=0, atol=1e-14)
+    assert np.all(np.isfinite(res.omega))
 
 
 # ------------------------------------------------------------- the full CMG model (VSCMG)
