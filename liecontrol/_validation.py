@@ -96,6 +96,12 @@ def _to_float_array(x: object, name: str, matrix: int | None = None) -> np.ndarr
                 f"{raw.dtype})"
             )
         raw = raw.real
+    elif raw.dtype.kind == "O" and any(v is None for v in raw.flat):
+        # numpy would turn None into NaN: the error would then speak of a non-finite value
+        raise ValueError(
+            f"{name}: expected real numbers, got None"
+            + ("" if raw.ndim == 0 else " among the entries")
+        )
     elif raw.dtype.kind in "USVMm":
         # numpy would parse "1.5" as a number: text, bytes and dates are not numbers here
         raise ValueError(

@@ -27,8 +27,11 @@ from .orbit import CircularOrbit, EarthPointingReference
 from .payload import (
     PAYLOAD_SATELLITE_J,
     ROTATING_PAYLOAD_EXAMPLE,
+    ConstantSpin,
     RotatingPayload,
     RotatingPayloadTorque,
+    SpinProfile,
+    SpinRamp,
     jitter_estimate,
 )
 from .plant import PlantState, Spacecraft
@@ -97,6 +100,9 @@ __all__ = [
     "RigidBody",
     "RotatingPayload",
     "RotatingPayloadTorque",
+    "ConstantSpin",
+    "SpinRamp",
+    "SpinProfile",
     "PAYLOAD_SATELLITE_J",
     "ROTATING_PAYLOAD_EXAMPLE",
     "ConstantHarmonicTorque",

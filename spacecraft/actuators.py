@@ -30,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from liecontrol._array_api import any_true, cross, namespace
 from liecontrol._jit import JIT_ENABLED
 from liecontrol._validation import as_array, as_scalar, check_nonnegative, check_positive
 
@@ -821,11 +822,14 @@ class ReactionWheelAssembly(Actuator):
         return self._friction(w)
 
     def _friction(self, w: np.ndarray) -> np.ndarray:
+        # NumPy or jax.numpy (the JAX route of spacecraft.differentiable): the parameters are
+        # NumPy arrays, so their tests stay concrete under tracing
+        xp = namespace(w)
         level = self.coulomb_friction
         if self.stribeck_speed is not None and np.any(self.stribeck_torque > 0):
             extra = np.where(self.stribeck_torque > 0, self.stribeck_torque - level, 0.0)
-            level = level + extra * np.exp(-((w / self.stribeck_speed) ** 2))
-        return -level * np.tanh(w / self.friction_smoothing) - self.viscous_friction * w
+            level = level + extra * xp.exp(-((w / self.stribeck_speed) ** 2))
+        return -level * xp.tanh(w / self.friction_smoothing) - self.viscous_friction * w
 
     @classmethod
     def orthogonal(cls, **kwargs: Any) -> ReactionWheelAssembly:
@@ -852,7 +856,7 @@ class ReactionWheelAssembly(Actuator):
 
     def _speed_gate(self, speed: np.ndarray, torque: np.ndarray) -> np.ndarray:
         """True where a wheel at/over max speed would be pushed further by ``torque``."""
-        return (np.abs(speed) >= self.max_speed) & (speed * torque > 0.0)
+        return (abs(speed) >= self.max_speed) & (speed * torque > 0.0)
 
     def command(
         self, u_cmd: np.ndarray, omega: np.ndarray, x_act: np.ndarray, t: float
@@ -863,26 +867,27 @@ class ReactionWheelAssembly(Actuator):
     def command_unchecked(
         self, u_cmd: np.ndarray, omega: np.ndarray, x_act: np.ndarray, t: float
     ) -> WheelCommand:
-        """:meth:`command` without validation (the simulator's per-step call)."""
+        """:meth:`command` without validation (the simulator's per-step call). Pure: NumPy or
+        jax.numpy arrays (the JAX route of :mod:`spacecraft.differentiable` runs it)."""
+        xp = namespace(u_cmd, omega, x_act)
         h = x_act @ self._AI.T
-        h_dot_cmd = _cross(omega, h)
-        h_dot_cmd += u_cmd
-        np.negative(h_dot_cmd, out=h_dot_cmd)
+        h_dot_cmd = -(cross(omega, h) + u_cmd)
         tau_cmd = h_dot_cmd @ self._pinv.T
-        tau = np.clip(tau_cmd, -self.max_torque, self.max_torque)
+        tau = xp.clip(tau_cmd, -self.max_torque, self.max_torque)
         if self.torque_lsb > 0.0:
             q = self.torque_lsb
-            tau = np.clip(np.round(tau / q) * q, -self.max_torque, self.max_torque)
-        torque_sat = np.abs(tau_cmd) > self.max_torque
+            tau = xp.clip(xp.round(tau / q) * q, -self.max_torque, self.max_torque)
+        torque_sat = abs(tau_cmd) > self.max_torque
         speed_sat = self._speed_gate(x_act, tau)
-        tau[speed_sat] = 0.0
+        tau = xp.where(speed_sat, 0.0, tau)
         return WheelCommand(tau, tau_cmd, torque_sat, speed_sat, h_dot_cmd)
 
     def _torque(self, x_act: np.ndarray, held: WheelCommand) -> np.ndarray:
         """Total torque on each wheel: gated motor torque + friction."""
+        xp = namespace(x_act, held.torque)
         tau = held.torque
         gate = self._speed_gate(x_act, tau)
-        tau = np.where(gate, 0.0, tau) if gate.any() else tau
+        tau = xp.where(gate, 0.0, tau) if any_true(gate, xp) else tau
         if self._friction_on:
             tau = tau + self._friction(x_act)
         return tau
@@ -891,10 +896,7 @@ class ReactionWheelAssembly(Actuator):
         return self._torque(x_act, held) / self.wheel_inertia
 
     def body_torque(self, omega: np.ndarray, x_act: np.ndarray, held: WheelCommand) -> np.ndarray:
-        tau = _cross(omega, x_act @ self._AI.T)
-        tau += self._torque(x_act, held) @ self.axes.T
-        np.negative(tau, out=tau)
-        return tau
+        return -(cross(omega, x_act @ self._AI.T) + self._torque(x_act, held) @ self.axes.T)
 
     def momentum(self, x_act: np.ndarray) -> np.ndarray:
         return x_act @ self._AI.T

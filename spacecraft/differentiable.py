@@ -33,7 +33,8 @@ functions, run on ``jax.numpy``.
 Supported configurations (others raise ``ValueError`` naming the part): a
 :class:`spacecraft.plant.Spacecraft` with a shared inertia ``J`` ``(3, 3)`` or one per member
 ``(B, 3, 3)``, an :class:`spacecraft.actuators.IdealTorqueActuator` (with or without
-``max_torque``) or an :class:`spacecraft.actuators.SgcmgActuator` with the ideal servo and
+``max_torque``), a :class:`spacecraft.actuators.ReactionWheelAssembly` (its own pure command,
+speed gate and friction) or an :class:`spacecraft.actuators.SgcmgActuator` with the ideal servo and
 :class:`spacecraft.steering.PseudoInverse`, :class:`~spacecraft.steering.SingularityRobust`,
 :class:`~spacecraft.steering.GeneralizedSingularityRobust` (its dither at each step's time) or
 :class:`~spacecraft.steering.PseudoInverseNullMotion` steering, a
@@ -91,7 +92,7 @@ from liecontrol.control.base import AttitudeController, AttitudeReference
 from liecontrol.integrators.rk import rkmk4_step_unchecked
 from liecontrol.lie import so3
 
-from .actuators import IdealTorqueActuator, SgcmgActuator
+from .actuators import IdealTorqueActuator, ReactionWheelAssembly, SgcmgActuator
 from .disturbances import ConstantHarmonicTorque, ConstantTorque, SumOfDisturbances
 from .environment import GravityGradientTorque
 from .payload import ConstantSpin, RotatingPayloadTorque, SpinRamp
@@ -200,11 +201,13 @@ class JaxRun:
         R: ``(K, B, 3, 3)`` attitudes at those times; omega: ``(K, B, 3)`` body rates.
         u_cmd: ``(K, B, 3)`` the controller's torque at each sample (the last at the final time).
         u: ``(K, B, 3)`` the torque the actuator delivers on the bus at each sample (ideal: the
-            command after saturation; SGCMG: −(Ω × h + A δ̇) with the step's gimbal rates).
+            command after saturation; SGCMG: −(Ω × h + A δ̇) with the step's gimbal rates;
+            wheels: −(Ω × h + A τ) with the gated wheel torques).
         diverged: ``(B,)`` whether the member's state became non-finite.
         diverged_at: ``(B,)`` the first logged time with a non-finite state (NaN if none).
         actuator: the actuator's log ``(K, B, ...)``: ideal with ``max_torque``: ``saturated``
-            ``(K, B, 3)``; SGCMG: ``delta``, ``delta_dot`` ``(K, B, 4)``, ``saturated`` ``(K, B)``.
+            ``(K, B, 3)``; SGCMG: ``delta``, ``delta_dot`` ``(K, B, 4)``, ``saturated`` ``(K, B)``;
+            wheels: the keys of :meth:`ReactionWheelAssembly.log` ``(K, B, N)``.
         controller: the geometric PD's ``Psi`` ``(K, B)``, ``e_R``, ``e_Omega`` ``(K, B, 3)``.
     """
 
@@ -236,7 +239,10 @@ class JaxClosedLoop:
     ``(n_ctrl, 3, 3)`` or ``(3, 3)`` when constant (likewise ``omega_d``, ``omega_dot_d``), the
     step ``dt``, ``n_sub`` steps per control period and ``n_ctrl`` periods from ``t0``; with the
     SGCMG cluster its ``cluster``, ``steering`` law, gimbal ``rate_limit`` and ``delta0``
-    ``(4,)`` or ``(B, 4)`` (``None`` for the ideal actuator). The reference arrays hold
+    ``(4,)`` or ``(B, 4)`` (``None`` for the ideal actuator); with reaction wheels the
+    :class:`~spacecraft.actuators.ReactionWheelAssembly` as ``wheels`` (its own pure command,
+    wheel torques, speed gate and friction run on JAX values) and its initial speeds as
+    ``delta0`` ``(N,)`` or ``(B, N)``. The reference arrays hold
     ``n_ctrl + 1`` samples when they vary (the last at the final time). ``J``/``J_inv`` are
     ``(3, 3)`` (one inertia for the batch) or ``(B, 3, 3)`` (each member its own true inertia, as a
     dispersed batch has; the controller keeps its own model). ``checkpoint``: the scan keeps
@@ -278,6 +284,7 @@ class JaxClosedLoop:
     disturbance: Any = None
     member_refs: bool = False
     disturbance_source: Any = None
+    wheels: Any = None
     _compiled: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @property
@@ -386,10 +393,13 @@ class JaxClosedLoop:
         refs, varying = self._member_reference(ref)
         law_params, law = self._split(params)
         cluster, rate_limit = self.cluster, self.rate_limit
+        wheels = self.wheels
 
         def command(u_cmd: Any, x: Any, t: Any) -> tuple:
             """The actuator's command held over the step from x at time t (simulate's
             per-step call)."""
+            if wheels is not None:  # the assembly's own pure command (a WheelCommand)
+                return (wheels.command_unchecked(u_cmd, x[:3], x[3:], t),)
             if cluster is None:
                 return (u_cmd if limit is None else jnp.clip(u_cmd, -limit, limit),)
             w, d = x[:3], x[3:]
@@ -398,6 +408,8 @@ class JaxClosedLoop:
             return _saturate_unchecked(law.steer(A, h_dot_cmd, d, t, cluster), rate_limit)
 
         def torque(x: Any, held: tuple) -> Any:
+            if wheels is not None:
+                return wheels.body_torque(x[:3], x[3:], held[0])
             if cluster is None:
                 return held[0]
             h, A = cluster._momentum_and_jacobian(x[3:])
@@ -414,7 +426,14 @@ class JaxClosedLoop:
             held = command(u_cmd, x, t)
             row = {"R": R, "x": x, "u_cmd": u_cmd, "u": torque(x, held),
                    **{_CTRL + k: v for k, v in diag.items()}}  # fmt: skip
-            if cluster is None:
+            if wheels is not None:
+                cmd = held[0]
+                row.update(wheel_torque=cmd.torque, wheel_torque_cmd=cmd.torque_cmd,
+                           torque_saturated=cmd.torque_saturated,
+                           speed_saturated=cmd.speed_saturated)  # fmt: skip
+                if wheels.has_friction:
+                    row["friction_torque"] = wheels._friction(x[3:])
+            elif cluster is None:
                 row["held"] = held[0]
             else:
                 row["delta_dot"], row["saturated"] = held
@@ -439,6 +458,9 @@ class JaxClosedLoop:
                     if dist is not None:
                         tau = tau + dist(t, RR, xx[:3])
                     acc = euler_acceleration(J, J_inv, xx[:3], tau)
+                    if wheels is not None:
+                        rates = wheels.state_derivative(xx[3:], held[0])
+                        return xx[:3], jnp.concatenate((acc, rates))
                     return xx[:3], acc if cluster is None else jnp.concatenate((acc, held[0]))
 
                 return rkmk4_step_unchecked(
@@ -471,14 +493,21 @@ class JaxClosedLoop:
             return self.J, self.J_inv
         return (np.broadcast_to(self.J, (B, 3, 3)), np.broadcast_to(self.J_inv, (B, 3, 3)))
 
+    @property
+    def n_act(self) -> int:
+        """Length of the actuator's state: 4 gimbal angles, N wheel speeds, or 0 (ideal)."""
+        if self.wheels is not None:
+            return int(self.wheels.n_wheels)
+        return 0 if self.cluster is None else 4
+
     def _pack(self, omega0: Any, delta0: Any = None) -> Any:
-        """``(B, n_x)``: the body rates ``(B, 3)`` and the initial gimbal angles (``delta0``, by
-        default the actuator's)."""
-        if self.cluster is None:
+        """``(B, n_x)``: the body rates ``(B, 3)`` and the actuator's initial state
+        (``delta0``: gimbal angles or wheel speeds, by default the actuator's)."""
+        if self.n_act == 0:
             return omega0
         xp = require_jax().numpy if not isinstance(omega0, np.ndarray) else np
         d0 = self.delta0 if delta0 is None else delta0
-        d0 = xp.broadcast_to(xp.asarray(d0), omega0.shape[:-1] + (4,))
+        d0 = xp.broadcast_to(xp.asarray(d0), omega0.shape[:-1] + (self.n_act,))
         return xp.concatenate((omega0, d0), axis=-1)
 
     def cost_terms(
@@ -554,12 +583,13 @@ class JaxClosedLoop:
         R0, w0 = _initial(R0, omega0)
         B = R0.shape[0]
         d0 = None
-        if self.cluster is not None:
-            d0 = self.delta0 if delta0 is None else as_array(delta0, "delta0", (4,))
+        n_act = self.n_act
+        if n_act:
+            d0 = self.delta0 if delta0 is None else as_array(delta0, "delta0", (n_act,))
             if d0.ndim not in (1, 2) or (d0.ndim == 2 and d0.shape[0] != B):
                 raise ValueError(
-                    f"delta0: expected shape (4,) or ({B}, 4) for the {B} spacecraft of R0, got "
-                    f"{d0.shape}"
+                    f"delta0: expected shape ({n_act},) or ({B}, {n_act}) for the {B} spacecraft "
+                    f"of R0, got {d0.shape}"
                 )
         x0 = self._pack(w0, d0)
         J, J_inv = self.inertias(B)
@@ -593,7 +623,14 @@ class JaxClosedLoop:
         diverged = bad.any(axis=0)
         t = self.times
         at = np.where(diverged, t[np.argmax(bad, axis=0)], np.nan)
-        if self.cluster is not None:
+        if self.wheels is not None:  # the keys and order of ReactionWheelAssembly.log
+            act = {"wheel_speed": xs[..., 3:]}
+            for k in ("wheel_torque", "wheel_torque_cmd", "torque_saturated", "speed_saturated"):
+                act[k] = out[k]
+            act["saturated"] = out["torque_saturated"] | out["speed_saturated"]
+            if "friction_torque" in out:
+                act["friction_torque"] = out["friction_torque"]
+        elif self.cluster is not None:
             act = {"delta": xs[..., 3:], "delta_dot": out["delta_dot"],
                    "saturated": out["saturated"]}  # fmt: skip
         elif self.max_torque is not None:
@@ -735,7 +772,8 @@ def _check_disturbance(dist: Any, name: str = "plant.disturbance") -> None:
             if type(p._profile) not in (ConstantSpin, SpinRamp):
                 raise ValueError(
                     f"{name}.payloads[{i}]: the JAX route flies the spin profiles ConstantSpin "
-                    f"and SpinRamp, got {type(p._profile).__name__}; run spacecraft.simulate"
+                    f"and SpinRamp, got {type(p._profile).__name__}; run spacecraft.simulate "
+                    "with backend='numba'"
                 )
         return
     if type(dist) is SumOfDisturbances:
@@ -746,7 +784,7 @@ def _check_disturbance(dist: Any, name: str = "plant.disturbance") -> None:
         f"{name}: the JAX route flies ConstantTorque (one torque for the batch), "
         f"ConstantHarmonicTorque, GravityGradientTorque, AerodynamicTorque, SolarPressureTorque, "
         f"ResidualDipoleTorque, RotatingPayloadTorque and their SumOfDisturbances, got "
-        f"{type(dist).__name__}; run spacecraft.simulate"
+        f"{type(dist).__name__}; run spacecraft.simulate with backend='numba'"
     )
 
 
@@ -831,7 +869,8 @@ def closed_loop(
         if getattr(plant, part) is not None:
             raise ValueError(
                 f"plant.{part}: not supported by the JAX route (got "
-                f"{type(getattr(plant, part)).__name__}); run spacecraft.simulate"
+                f"{type(getattr(plant, part)).__name__}); run spacecraft.simulate with "
+                "backend='numba'"
             )
     law = array_law_of(controller)
     if not callable(reference):
@@ -860,8 +899,14 @@ def closed_loop(
             f"reference: gives {R_d.shape[0]} members their own samples, the plant has "
             f"{plant.body.J.shape[0]} per-spacecraft inertias"
         )
-    mt = getattr(act, "max_torque", None)
     sgcmg = isinstance(act, SgcmgActuator)
+    wheels = act if type(act) is ReactionWheelAssembly else None
+    mt = getattr(act, "max_torque", None) if wheels is None else None  # wheels: per wheel
+    delta0 = None
+    if sgcmg:
+        delta0 = np.array(act.delta0)
+    elif wheels is not None:
+        delta0 = np.array(wheels.initial_speeds)
     return JaxClosedLoop(
         J=np.array(plant.body.J), J_inv=np.array(plant.body.J_inv),
         k_R=_gain(law.k_R, "k_R"), k_Omega=_gain(law.k_Omega, "k_Omega"),
@@ -869,37 +914,38 @@ def closed_loop(
         R_d=R_d, omega_d=w_d, omega_dot_d=dw_d, dt=dt, n_sub=n_sub, n_ctrl=n_ctrl, t0=t0,
         cluster=act.cluster if sgcmg else None, steering=act.steering if sgcmg else None,
         rate_limit=act.rate_limit if sgcmg else math.inf,
-        delta0=np.array(act.delta0) if sgcmg else None, checkpoint=bool(checkpoint),
+        delta0=delta0, checkpoint=bool(checkpoint),
         law=law, disturbance=_disturbance(dist), member_refs=per_member,
-        disturbance_source=dist,
+        disturbance_source=dist, wheels=wheels,
     )  # fmt: skip
 
 
 def _check_actuator(act: object) -> None:
     """``ValueError`` naming the part of an actuator the JAX route does not run."""
-    if type(act) is IdealTorqueActuator:
+    if type(act) in (IdealTorqueActuator, ReactionWheelAssembly):
         return
     if type(act) is not SgcmgActuator:
         raise ValueError(
-            f"plant.actuator: the JAX route supports IdealTorqueActuator and SgcmgActuator, got "
-            f"{type(act).__name__}; run spacecraft.simulate"
+            f"plant.actuator: the JAX route supports IdealTorqueActuator, SgcmgActuator and "
+            f"ReactionWheelAssembly, got {type(act).__name__}; run spacecraft.simulate with "
+            "backend='numba'"
         )
     if act.servo != "ideal":
         raise ValueError(
             f"plant.actuator.servo: the JAX route supports the ideal gimbal servo only, got "
-            f"{act.servo!r}; run spacecraft.simulate"
+            f"{act.servo!r}; run spacecraft.simulate with backend='numba'"
         )
     if type(act.steering) not in _STEERING_PARAMS:
         raise ValueError(
             f"plant.actuator.steering: the JAX route supports PseudoInverse, SingularityRobust, "
             f"GeneralizedSingularityRobust and PseudoInverseNullMotion steering, got "
             f"{type(act.steering).__name__}; run "
-            "spacecraft.simulate"
+            "spacecraft.simulate with backend='numba'"
         )
     if type(act.cluster) is not SgcmgPyramid:
         raise ValueError(
             f"plant.actuator.cluster: the JAX route runs SgcmgPyramid's own formulas, got "
-            f"{type(act.cluster).__name__}; run spacecraft.simulate"
+            f"{type(act.cluster).__name__}; run spacecraft.simulate with backend='numba'"
         )
 
 
@@ -1021,7 +1067,7 @@ def simulate_jax(
         )
     x = state.packed()
     x_act = x[:, plant.act_slice]
-    run = loop.run(state.R, x[:, :3], delta0=x_act[:, :4] if loop.cluster is not None else None)
+    run = loop.run(state.R, x[:, :3], delta0=x_act if loop.n_act else None)
     rows = np.arange(0, loop.n_ctrl + 1, every // loop.n_sub)
     if rows[-1] != loop.n_ctrl:
         rows = np.append(rows, loop.n_ctrl)  # the final time is always logged

@@ -57,7 +57,7 @@ from typing import Any
 import numpy as np
 
 from liecontrol._jit import JIT_ENABLED, njit
-from liecontrol.control.kernel import compile_kernel, overridden_below_kernel
+from liecontrol.control.kernel import compile_kernel, missing_hook, overridden_below_kernel
 
 __all__ = [
     "DisturbanceKernel",
@@ -126,7 +126,7 @@ def resolve(dist: Any) -> tuple[DisturbanceKernel | None, str]:
         return None, "numba is not available"
     hook = getattr(dist, "fused_kernel", None)
     if not callable(hook):
-        return None, f"the disturbance {label} has no compiled kernel (no fused_kernel method)"
+        return None, f"the disturbance {label} has no compiled kernel ({missing_hook(dist)})"
     below = overridden_below_kernel(type(dist), ("__call__",))
     if below is not None:
         _, c_owner, k_owner = below
@@ -198,11 +198,29 @@ def check(
             np.ascontiguousarray(w, dtype=np.float64).copy(), params[0].copy(), out,
         )  # fmt: skip
         if not np.all(np.isfinite(out)):
+            _raise_for_source(dist, probe)
             raise ValueError(
                 f"disturbance {label}: kernel torque {tname} returned a non-finite torque out on "
                 f"the initial state (t = {float(t)!r}); check the torque and its params"
             )
     return params
+
+
+def _raise_for_source(dist: Any, probe: tuple[float, np.ndarray, np.ndarray]) -> None:
+    """For a composite source with named ``sources`` (a :class:`spacecraft.disturbances.
+    SumOfDisturbances`, nested or not) whose kernel is non-finite on the probe: ``ValueError``
+    naming the first source whose own kernel is, with that source's message."""
+    sources = getattr(dist, "sources", None)
+    if not isinstance(sources, Mapping):
+        return
+    for name, src in sources.items():
+        spec, _ = resolve(src)
+        if spec is None:
+            continue
+        try:
+            check(src, spec, None, probe)
+        except ValueError as exc:
+            raise ValueError(f"disturbance {type(dist).__name__}, source {name!r}: {exc}") from None
 
 
 def _pair_sum(left: Any, right: Any, n_left: int) -> Any:
@@ -224,6 +242,10 @@ def _pair_sum(left: Any, right: Any, n_left: int) -> Any:
         out[1] = a1 + out[1]
         out[2] = a2 + out[2]
 
+    # the composed torque's name in messages: its parts' names
+    pair.__name__ = pair.__qualname__ = (
+        f"{getattr(left, '__name__', 'torque')} + {getattr(right, '__name__', 'torque')}"
+    )
     fn = _NUMBA.njit(error_model="numpy")(pair)
     fn.compile(TORQUE_SIGNATURE)
     return fn

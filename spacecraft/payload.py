@@ -131,6 +131,33 @@ class SpinRamp:
         return angle, rate, accel
 
 
+def _probe_profile(profile: SpinProfile) -> None:
+    """``ValueError`` naming ``spin_rate`` when a user's profile does not return three finite
+    values of ``t``'s shape at t = 0 (checked once, when the payload is built, instead of an
+    unpacking error or a NaN state in the middle of a simulation)."""
+    name = type(profile).__name__
+    try:
+        out = profile.state(np.zeros(()))
+    except Exception as exc:  # noqa: BLE001 - reported with the profile's name
+        raise ValueError(
+            f"spin_rate: the profile {name}'s state(t) raised at t = 0: "
+            f"{type(exc).__name__}: {exc}"
+        ) from exc
+    if not isinstance(out, (tuple, list)) or len(out) != 3:
+        got = f"{len(out)} values" if isinstance(out, (tuple, list)) else type(out).__name__
+        raise ValueError(
+            f"spin_rate: the profile {name}'s state(t) must return (angle, rate, accel), "
+            f"got {got}"
+        )
+    for label, v in zip(("angle", "rate", "accel"), out, strict=True):
+        a = np.asarray(v, dtype=np.float64)
+        if a.shape != () or not np.isfinite(a):
+            raise ValueError(
+                f"spin_rate: the profile {name}'s state(t) at t = 0 gave a {label} that is "
+                f"not one finite value (shape {a.shape}, {a.tolist()!r})"
+            )
+
+
 def _rz(alpha: np.ndarray) -> np.ndarray:
     c, s = np.cos(alpha), np.sin(alpha)
     z, o = np.zeros_like(alpha), np.ones_like(alpha)
@@ -205,8 +232,17 @@ class RotatingPayload:
         sp = self.spin_rate
         if isinstance(sp, SpinProfile):
             prof = sp
+            if type(sp) not in (ConstantSpin, SpinRamp):
+                _probe_profile(sp)
         else:
-            prof = ConstantSpin(as_scalar(sp, "spin_rate"))
+            try:
+                rate = as_scalar(sp, "spin_rate")
+            except ValueError as exc:
+                raise ValueError(
+                    f"{exc} (spin_rate is a constant rate [rad/s] or a SpinProfile: an object "
+                    "with state(t) -> (angle, rate, accel))"
+                ) from None
+            prof = ConstantSpin(rate)
             object.__setattr__(self, "spin_rate", prof.rate)
         object.__setattr__(self, "_profile", prof)
 

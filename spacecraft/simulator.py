@@ -777,6 +777,8 @@ def simulate(
             ctrl.command(t0, AttitudeState(state.R, x0[:, :3], h0, x_act), reference(t0))
             raise
         if result is not None:
+            # DEBUG, not INFO: the fused loop is the normal case; INFO is for a slow run's cause
+            _logger.debug("simulate: the compiled loop ran (%d spacecraft, %d steps)", B, n_steps)
             return result
         ctrl.reset(t0, B)  # a failing run is repeated below, which reports the failure
         if rng_state is not None:

@@ -55,7 +55,7 @@ from typing import Any
 import numpy as np
 
 from liecontrol._jit import JIT_ENABLED
-from liecontrol.control.kernel import compile_kernel, overridden_below_kernel
+from liecontrol.control.kernel import compile_kernel, missing_hook, overridden_below_kernel
 
 __all__ = ["STEERING_SIGNATURE", "SteeringKernel", "resolve"]
 
@@ -101,7 +101,7 @@ def resolve(
         return None, None, "numba is not available"
     hook = getattr(law, "fused_kernel", None)
     if not callable(hook):
-        return None, None, f"steering {label} has no compiled kernel (no fused_kernel method)"
+        return None, None, f"steering {label} has no compiled kernel ({missing_hook(law)})"
     below = overridden_below_kernel(type(law), ("steer", "__call__"))
     if below is not None:
         attr, owner, k_owner = below

@@ -199,6 +199,35 @@ def test_a_non_finite_torque_on_the_initial_state_raises_before_the_loop():
         simulate(plant, ctrl, ref, x0, 1.0, 0.05)
 
 
+def test_a_non_finite_source_of_a_sum_is_named_by_its_key():
+    dist = SumOfDisturbances(
+        {
+            "gg": GravityGradientTorque(J, ORBIT),
+            "inner": SumOfDisturbances({"ok": UserTorque(), "bad": _bad(torque=nan_torque)}),
+        }  # fmt: skip
+    )
+    plant, ctrl, ref, x0 = _setup(1, ACTUATORS["ideal"](), dist)
+    with pytest.raises(
+        ValueError,
+        match=r"disturbance SumOfDisturbances, source 'inner': disturbance SumOfDisturbances, "
+        r"source 'bad': disturbance UserTorque: kernel torque nan_torque .*out",
+    ):
+        simulate(plant, ctrl, ref, x0, 1.0, 0.05)
+
+
+def test_a_fused_kernel_attribute_that_is_not_a_method_is_named(caplog):
+    class NoKernel(UserTorque):
+        fused_kernel = None
+
+    plant, ctrl, ref, x0 = _setup(1, ACTUATORS["ideal"](), NoKernel())
+    with caplog.at_level(logging.INFO, logger="spacecraft.simulator"):
+        simulate(plant, ctrl, ref, x0, 0.5, 0.05)
+    lines = [r.getMessage() for r in caplog.records if r.name == "spacecraft.simulator"]
+    assert (
+        len(lines) == 1 and "NoKernel has no compiled kernel (its fused_kernel is None" in lines[0]
+    )
+
+
 class _Override(GravityGradientTorque):
     def __call__(self, t, R, omega):
         return 2.0 * super().__call__(t, R, omega)

@@ -386,3 +386,39 @@ def test_bad_jitter_and_profile_inputs():
     ramp = RotatingPayload(1.0, np.eye(3), np.zeros(3), np.zeros(3), SpinRamp(0, 1, 0, 1))
     with pytest.raises(ValueError, match="^payload:"):
         jitter_estimate(ramp, PAYLOAD_SATELLITE_J)
+
+
+class _TwoValues:
+    def state(self, t):
+        return t, t
+
+
+class _NanRate:
+    def state(self, t):
+        return t, np.nan * t, t
+
+
+class _Raises:
+    def state(self, t):
+        raise KeyError("table")
+
+
+@pytest.mark.parametrize(
+    "spin, fragment",
+    [
+        (None, r"spin_rate: expected real numbers, got None .*SpinProfile"),
+        (object(), r"spin_rate: cannot be converted .*SpinProfile"),
+        (
+            _TwoValues(),
+            r"spin_rate: the profile _TwoValues's state\(t\) must return "
+            r"\(angle, rate, accel\), got 2 values",
+        ),  # fmt: skip
+        (_NanRate(), r"spin_rate: the profile _NanRate's .* rate that is not one finite value"),
+        (_Raises(), r"spin_rate: the profile _Raises's state\(t\) raised at t = 0: KeyError"),
+    ],
+)
+def test_a_bad_spin_rate_or_profile_is_refused_when_the_payload_is_built(spin, fragment):
+    import dataclasses
+
+    with pytest.raises(ValueError, match=fragment):
+        dataclasses.replace(ROTATING_PAYLOAD_EXAMPLE, spin_rate=spin)

@@ -178,3 +178,9 @@ def test_constant_reference_validates_and_is_read_only():
         sample.R_d[0, 0] = 2.0
     with pytest.raises(ValueError, match="^R_d: not orthonormal"):
         ConstantAttitude(np.eye(3) * 2.0)
+
+
+@pytest.mark.parametrize("value", [None, [1.0, None, 2.0]])
+def test_none_is_named_as_none_not_as_a_non_finite_value(value):
+    with pytest.raises(ValueError, match=r"^speed: expected real numbers, got None"):
+        as_array(value, "speed")

@@ -959,7 +959,7 @@ class ChartAdapter(AttitudeController):
         if not callable(fn):
             raise ValueError(
                 f"controller.law: {lname} has no array_law (the chart-law protocol's pure form, "
-                "liecontrol.control.adapters); run spacecraft.simulate"
+                "liecontrol.control.adapters); run spacecraft.simulate with backend='numba'"
             )
         law_owner, call_owner = _owner(type(law), "array_law"), _owner(type(law), "__call__")
         if (
@@ -976,12 +976,12 @@ class ChartAdapter(AttitudeController):
             raise ValueError(
                 "controller.base: the array law converts with the desired frame ('reference') "
                 "or the inertial frame as base; a callable frame is sampled in Python (run "
-                "spacecraft.simulate)"
+                "spacecraft.simulate with backend='numba')"
             )
         if not self._array_chart:
             raise ValueError(
                 f"controller: {type(self).__name__}'s chart conversion has no array form; run "
-                "spacecraft.simulate"
+                "spacecraft.simulate with backend='numba'"
             )
         claw = fn()
         if not isinstance(claw, ChartArrayLaw):

@@ -183,6 +183,14 @@ def compile_kernel(fn: Any, signature: Any, what: str, name: str, documented: st
 _MAX_BATCH = 100_000_000
 
 
+def missing_hook(obj: Any) -> str:
+    """Why ``obj`` offers no ``fused_kernel()`` hook, in words (the simulator's log line): no
+    such attribute, or one that is not callable (e.g. ``fused_kernel = None`` on a class)."""
+    if not hasattr(obj, "fused_kernel"):
+        return "no fused_kernel method"
+    return f"its fused_kernel is {obj.fused_kernel!r}, not a method"
+
+
 def resolve(
     controller: Any, batch_size: int, control_period: float | None = None
 ) -> tuple[ControllerKernel | None, str]:
@@ -205,7 +213,7 @@ def resolve(
         return None, "numba is not available"
     hook = getattr(controller, "fused_kernel", None)
     if not callable(hook):
-        return None, f"controller {label} has no compiled kernel (no fused_kernel method)"
+        return None, f"controller {label} has no compiled kernel ({missing_hook(controller)})"
     below = overridden_below_kernel(type(controller), ("command",))
     if below is not None:
         _, c_owner, k_owner = below
