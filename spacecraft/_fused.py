@@ -51,6 +51,7 @@ from . import _kernels as K
 from ._entry import fn_entry as _fn_entry
 from ._entry import torque_signature as _torque_sig
 from ._kernels_vscmg import vscmg_command_one, vscmg_derivatives_one, vscmg_rkmk4_step_batch
+from ._kernels_wheels import WheelPlan, wheel_support
 
 #: reference samples held in memory by the fused loop at most (else the Python loop runs)
 _MAX_REFERENCE_BYTES = 256 * 2**20
@@ -1015,8 +1016,10 @@ def fused_supported(
     control_period: float | None = None,
     reasons: list[str] | None = None,
     **extra: Any,
-) -> tuple[PlantKernel | VscmgPlan, seam.ControllerKernel, FS.SensorPlan | None] | None:
-    """``(plant kernel, controller kernel, sensor plan)`` when :func:`run_fused` applies (the
+) -> tuple[PlantKernel | VscmgPlan | WheelPlan, seam.ControllerKernel, FS.SensorPlan | None] | None:
+    """``(plant kernel, controller kernel, sensor plan)`` when :func:`run_fused` applies — for
+    a :class:`~spacecraft._kernels_wheels.WheelPlan`, :func:`spacecraft._fused_wheels.
+    run_fused_wheels` — (the
     sensor plan ``None`` without sensors and hook: :func:`spacecraft._fused_sensors.
     sensor_plan`), else ``None`` — and then, when ``reasons`` is given, one sentence appended
     to it saying which part keeps the Python loop."""
@@ -1040,6 +1043,8 @@ def fused_supported(
     pk = plant._kernel_plan
     if pk is None:
         pk, why = _vscmg_support(plant)
+        if pk is None and not why:
+            pk, why = wheel_support(plant)  # reaction wheels (spacecraft._fused_wheels)
         if pk is None:
             return no(why or plant_reason(plant))
     spec, why = seam.resolve(controller, batch_size, control_period)

@@ -49,7 +49,9 @@ from liecontrol.control.kernel import NonFiniteTorque
 from liecontrol.lie import so3
 
 from ._fused import fused_supported, run_fused
+from ._fused_wheels import run_fused_wheels
 from ._kernels_sensors import unit_quaternion_matrix_batch
+from ._kernels_wheels import WheelPlan
 from .disturbances import SumOfDisturbances
 from .plant import PlantState, Spacecraft
 
@@ -762,11 +764,18 @@ def simulate(
     rng_state = rng.bit_generator.state if (fused is not None and rng is not None) else None
     if fused is not None:
         try:
-            result = run_fused(
-                fused, plant, ctrl, reference, state.R, state.packed(), t0, n_steps, dt,
-                every_ctrl, log_every, control_period, _Log, reasons, workers=workers, rng=rng,
-                measurement=measurement,
-            )  # fmt: skip
+            if isinstance(fused[0], WheelPlan):
+                result = run_fused_wheels(
+                    fused[0], fused[1], fused[2], plant, ctrl, reference, state.R,
+                    state.packed(), t0, n_steps, dt, every_ctrl, log_every, control_period, _Log,
+                    reasons, workers, rng, measurement,
+                )  # fmt: skip
+            else:
+                result = run_fused(
+                    fused, plant, ctrl, reference, state.R, state.packed(), t0, n_steps, dt,
+                    every_ctrl, log_every, control_period, _Log, reasons, workers=workers, rng=rng,
+                    measurement=measurement,
+                )  # fmt: skip
         except NonFiniteTorque:
             # the controller's own (Python) command at the first sample: a built-in law raises
             # its precise error there (e.g. an infeasible funnel); else the kernel's error stands

@@ -150,15 +150,19 @@ def simulate_fused(monkeypatch, *args, **kwargs):
     from spacecraft import simulator as simulator_module
 
     ran = []
-    real = simulator_module.run_fused
 
-    def spy(*a, **k):
-        out = real(*a, **k)
-        ran.append(out is not None)
-        return out
+    def spying(real):
+        def spy(*a, **k):
+            out = real(*a, **k)
+            ran.append(out is not None)
+            return out
+
+        return spy
 
     with monkeypatch.context() as m:
-        m.setattr(simulator_module, "run_fused", spy)
+        # the momentum model's and full CMG model's loop, or the reaction wheels'
+        for name in ("run_fused", "run_fused_wheels"):
+            m.setattr(simulator_module, name, spying(getattr(simulator_module, name)))
         res = simulator_module.simulate(*args, **kwargs)
     assert ran == [True]
     return res
