@@ -368,7 +368,7 @@ def _mekf_both(actuator, B=3, t_final=12.0, estimator="mekf", **kw):
     return out
 
 
-@pytest.mark.parametrize("actuator", ["sgcmg", "ideal"])
+@pytest.mark.parametrize("actuator", ["sgcmg", "ideal", "wheels"])
 def test_mekf_hook_in_the_fused_loop_equals_the_python_loop(actuator, caplog):
     """The MEKF between the sensors (latency, outages, gyro bias) and the law, over a batch with
     control_period > dt and log_every > 1: the log, the estimate, the filters' final state and
@@ -382,13 +382,16 @@ def test_mekf_hook_in_the_fused_loop_equals_the_python_loop(actuator, caplog):
     if rejected:  # the gate acted (the SGCMG case): the compiled run says so once, with the count
         assert f"{int(rejected)} innovation(s) rejected" in compiled[0]
     assert ra.bit_generator.state == rp.bit_generator.state
+    # the wheels' Python loop steps the NumPy assembly (BLAS sums): its states differ from the
+    # compiled loop's in the last bits, which the filter's gated updates carry into the NIS
+    rtol = 1e-12 if actuator != "wheels" else 1e-10
     for b in range(3):
         for key, vp in hp._log[b].items():
             va = ha._log[b][key]
             assert len(va) == len(vp) > 0, key
-            np.testing.assert_allclose(va, vp, rtol=1e-12, atol=1e-12, err_msg=key)
-        np.testing.assert_allclose(ha._filters[b].x, hp._filters[b].x, rtol=1e-12, atol=1e-15)
-        np.testing.assert_allclose(ha._filters[b].P, hp._filters[b].P, rtol=1e-12, atol=1e-20)
+            np.testing.assert_allclose(va, vp, rtol=rtol, atol=1e-12, err_msg=key)
+        np.testing.assert_allclose(ha._filters[b].x, hp._filters[b].x, rtol=rtol, atol=1e-15)
+        np.testing.assert_allclose(ha._filters[b].P, hp._filters[b].P, rtol=rtol, atol=1e-20)
         ca, cp = ha.consistency(b, since=6.0), hp.consistency(b, since=6.0)
         assert sorted(ca) == sorted(cp)
         for k in cp:

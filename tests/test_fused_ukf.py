@@ -114,12 +114,12 @@ def _spec():
     )  # fmt: skip
 
 
-def _ukf_both(B=3, t_final=12.0, hook_cls=None, first=_fused, **kw):
+def _ukf_both(B=3, t_final=12.0, hook_cls=None, first=_fused, actuator="sgcmg", **kw):
     """(fused, hook, rng), (Python, hook, rng) with the benchmarks' UKF hook on the SGCMG
-    pyramid."""
+    pyramid (or another ``actuator`` of :func:`test_fused_sensors._case`)."""
     from benchmarks.runner import build_sensors
 
-    plant, ctrl, ref, x0 = _case("sgcmg", B=B)
+    plant, ctrl, ref, x0 = _case(actuator, B=B)
     assert np.all(np.abs(x0.omega) > 0.0)  # non-zero initial rates
     out = []
     for run in (first, _python_loop):
@@ -221,3 +221,15 @@ def test_estimator_hook_kind_is_checked():
     with pytest.raises(ValueError, match="^weights:"):
         EstimatorHook(*args, kind="ukf")
     assert EstimatorHook(*args).filter_name == "MEKF"
+
+
+def test_ukf_hook_with_reaction_wheels_in_the_fused_loop_equals_the_python_loop():
+    """The same hook on the wheels' compiled loop (spacecraft._fused_wheels): the log, the
+    estimate and the filters' final state equal the Python loop's (the NumPy assembly, whose
+    BLAS sums differ in the last bits: the filter's state to 1e-10 relative)."""
+    (fa, ha, _), (py, hp, _) = _ukf_both(actuator="wheels", control_period=0.2, log_every=3)
+    _assert_same(fa, py)
+    for b in range(3):
+        np.testing.assert_allclose(ha._filters[b].x, hp._filters[b].x, rtol=1e-10, atol=1e-15)
+        P = hp._filters[b].P
+        np.testing.assert_allclose(ha._filters[b].P, P, rtol=0, atol=1e-10 * np.abs(P).max())
