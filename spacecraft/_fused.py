@@ -1104,40 +1104,39 @@ def _reference_samples(
     return index, R_s, w_s, dw_s
 
 
-def run_fused(
-    plan: tuple[PlantKernel | VscmgPlan, seam.ControllerKernel, FS.SensorPlan | None],
-    plant: Any,
-    controller: Any,
-    reference: Any,
-    R0: np.ndarray,
-    x0: np.ndarray,
-    t0: float,
-    n_steps: int,
-    dt: float,
-    every_ctrl: int,
-    log_every: int,
-    control_period: float,
-    make_log: Callable[[int, int], Any],
-    notes: list[str] | None = None,
-    workers: int = 1,
-    rng: np.random.Generator | None = None,
-    measurement: Any = None,
-) -> Any:
-    """The whole run in :func:`_fused_loop`; returns the
-    :class:`~spacecraft.simulator.SimulationResult`, or ``None`` when the run must go through
-    the Python loop instead (an invalid reference, or a run that fails: the Python loop
-    reports the failure with its partial log; ``notes`` then gets one sentence why).
-    ``make_log(rows, B)`` builds the simulator's log. Raises ``ValueError`` naming the
-    controller and the argument when its kernel is malformed (:func:`liecontrol.control.
-    kernel.check`).
+@dataclass(frozen=True)
+class RunSetup:
+    """What every compiled loop starts from (:func:`prepare_run`): the reference samples at the
+    steps that need them, the initial state as float64 copies, the controller's checked
+    parameters and state rows, the log (``Kr`` rows), the sensors' arrays, the seam torque's
+    parameter rows and the log stride (capped at the run)."""
 
-    With sensors (``plan[2]``), the sensors are reset (``reset(B, rng)``, then the hook's
-    ``reset(t0, B)``, as the Python loop does) and their noise is drawn from ``rng`` before the
-    loop (:func:`spacecraft._fused_sensors.draw_noise`); a caller that falls back to the Python
-    loop restores ``rng``'s state first."""
-    pk, spec = plan[0], plan[1]
-    splan = plan[2] if len(plan) > 2 else None
-    B, n = x0.shape
+    index: np.ndarray
+    ref_R: np.ndarray
+    ref_w: np.ndarray
+    ref_dw: np.ndarray
+    R0: np.ndarray
+    x0: np.ndarray
+    cparams: np.ndarray
+    cstate: np.ndarray
+    Kr: int
+    sa: Any
+    log: Any
+    dpk: np.ndarray
+    log_every: int
+
+
+def prepare_run(
+    pk: Any, spec: seam.ControllerKernel, splan: FS.SensorPlan | None, controller: Any,
+    reference: Any, R0: np.ndarray, x0: np.ndarray, t0: float, n_steps: int, dt: float,
+    every_ctrl: int, log_every: int, make_log: Callable[[int, int], Any],
+    notes: list[str] | None, rng: np.random.Generator | None, measurement: Any,
+) -> RunSetup | None:  # fmt: skip
+    """The part of :func:`run_fused` before the loop, shared by every plant's compiled loop
+    (``pk`` a :class:`PlantKernel`, :class:`VscmgPlan` or the wheels' plan: anything with the
+    disturbance fields and ``dist_rows``); ``None`` when the run must go through the Python
+    loop (``notes`` says why)."""
+    B = x0.shape[0]
     steps = np.arange(n_steps + 1)
     times = t0 + steps * dt
     # log_every beyond the run logs only the first and last steps (and must not overflow int64)
@@ -1180,6 +1179,54 @@ def run_fused(
 
         spec_d = DisturbanceKernel(pk.dist_fn, dpk[0], pk.dist_attitude)
         check(pk.disturbance, spec_d, None, (float(t0), R0[0], x0[0, :3]))
+    return RunSetup(
+        index, ref_R, ref_w, ref_dw, R0, x0, cparams, cstate, Kr, sa, log, dpk, log_every
+    )
+
+
+def run_fused(
+    plan: tuple[PlantKernel | VscmgPlan, seam.ControllerKernel, FS.SensorPlan | None],
+    plant: Any,
+    controller: Any,
+    reference: Any,
+    R0: np.ndarray,
+    x0: np.ndarray,
+    t0: float,
+    n_steps: int,
+    dt: float,
+    every_ctrl: int,
+    log_every: int,
+    control_period: float,
+    make_log: Callable[[int, int], Any],
+    notes: list[str] | None = None,
+    workers: int = 1,
+    rng: np.random.Generator | None = None,
+    measurement: Any = None,
+) -> Any:
+    """The whole run in :func:`_fused_loop`; returns the
+    :class:`~spacecraft.simulator.SimulationResult`, or ``None`` when the run must go through
+    the Python loop instead (an invalid reference, or a run that fails: the Python loop
+    reports the failure with its partial log; ``notes`` then gets one sentence why).
+    ``make_log(rows, B)`` builds the simulator's log. Raises ``ValueError`` naming the
+    controller and the argument when its kernel is malformed (:func:`liecontrol.control.
+    kernel.check`).
+
+    With sensors (``plan[2]``), the sensors are reset (``reset(B, rng)``, then the hook's
+    ``reset(t0, B)``, as the Python loop does) and their noise is drawn from ``rng`` before the
+    loop (:func:`spacecraft._fused_sensors.draw_noise`); a caller that falls back to the Python
+    loop restores ``rng``'s state first."""
+    pk, spec = plan[0], plan[1]
+    splan = plan[2] if len(plan) > 2 else None
+    B, n = x0.shape
+    setup = prepare_run(
+        pk, spec, splan, controller, reference, R0, x0, t0, n_steps, dt, every_ctrl, log_every,
+        make_log, notes, rng, measurement,
+    )  # fmt: skip
+    if setup is None:
+        return None
+    index, ref_R, ref_w, ref_dw = setup.index, setup.ref_R, setup.ref_w, setup.ref_dw
+    R0, x0, cparams, cstate = setup.R0, setup.x0, setup.cparams, setup.cstate
+    Kr, sa, log, dpk, log_every = setup.Kr, setup.sa, setup.log, setup.dpk, setup.log_every
     if isinstance(pk, VscmgPlan):
         return _run_vscmg(
             pk, spec, plant, controller, index, ref_R, ref_w, ref_dw, R0, x0, t0, n_steps, dt,

@@ -18,7 +18,7 @@ from liecontrol.control import kernel as seam
 from . import _fused_sensors as FS
 from . import _kernels as K
 from ._entry import fn_entry, torque_signature
-from ._fused import _finished, _log_components, _loop_result, _reference_samples, unowned_view
+from ._fused import _finished, _log_components, _loop_result, prepare_run, unowned_view
 from ._kernels_wheels import (
     WheelPlan,
     friction_one,
@@ -296,45 +296,14 @@ def run_fused_wheels(
     :class:`~spacecraft.simulator.SimulationResult` of :func:`fused_loop_wheels`, with the
     assembly's log keys (``ReactionWheelAssembly.log``), or ``None`` when the run must go
     through the Python loop (``notes`` says why)."""
-    B, n = x0.shape
-    steps = np.arange(n_steps + 1)
-    times = t0 + steps * dt
-    log_every = min(log_every, n_steps + 1)
-    needed = (steps % every_ctrl == 0) | (steps % log_every == 0)
-    needed[-1] = True
-    refs = _reference_samples(reference, times, needed, B)
-    if refs is None:
-        if notes is not None:
-            notes.append("the reference could not be sampled for the compiled loop")
+    B = x0.shape[0]
+    setup = prepare_run(
+        wp_plan, spec, splan, controller, reference, R0, x0, t0, n_steps, dt, every_ctrl,
+        log_every, make_log, notes, rng, measurement,
+    )  # fmt: skip
+    if setup is None:
         return None
-    index, ref_R, ref_w, ref_dw = refs
-    R0 = np.array(R0, dtype=np.float64)
-    x0 = np.array(x0, dtype=np.float64)
-    cparams, cstate = seam.check(controller, spec, B, None)
-    if spec.preflight is not None:
-        spec.preflight(float(t0), R0, x0[:, :3], reference(float(t0)))
-    Kr = n_steps // log_every + 1 + (1 if n_steps % log_every else 0)
-    if splan is None:
-        sa = FS.empty_arrays(B)
-    else:
-        for sensor in splan.sensors:
-            if callable(getattr(sensor, "reset", None)):
-                sensor.reset(B, rng)
-        if measurement is not None and callable(getattr(measurement, "reset", None)):
-            measurement.reset(t0, B)
-        try:
-            sa = FS.prepare(splan, rng, B, float(t0), float(dt), n_steps)
-        except MemoryError:
-            if notes is not None:
-                notes.append("the sensors' noise of this run does not fit in memory")
-            return None
-    log = make_log(Kr, B)
-    dpk = wp_plan.dist_rows(B)
-    if wp_plan.dist == K.DIST_KERNEL:
-        from .disturbance_kernel import DisturbanceKernel, check
-
-        spec_d = DisturbanceKernel(wp_plan.dist_fn, dpk[0], wp_plan.dist_attitude)
-        check(wp_plan.disturbance, spec_d, None, (float(t0), R0[0], x0[0, :3]))
+    sa, log, Kr = setup.sa, setup.log, setup.Kr
     nw = wp_plan.n
     n_diag = int(spec.n_diag)
     diag = np.zeros((B, n_diag))
@@ -345,10 +314,11 @@ def run_fused_wheels(
     log_est = np.empty((Kr, B, sa.n_est))
     log_hook = FS.hook_log(sa, n_steps, every_ctrl, B)
     args = (
-        n_steps, float(t0), float(dt), every_ctrl, log_every, R0, x0,
+        n_steps, float(t0), float(dt), every_ctrl, setup.log_every, setup.R0, setup.x0,
         wp_plan.J, wp_plan.J_inv, wp_plan.wp, nw, wp_plan.friction,
-        wp_plan.dist, wp_plan.dist_params, wp_plan.dist_fn, dpk, wp_plan.dist_attitude,
-        spec.law, cparams, cstate, index, ref_R, ref_w, ref_dw,
+        wp_plan.dist, wp_plan.dist_params, wp_plan.dist_fn, setup.dpk, wp_plan.dist_attitude,
+        spec.law, setup.cparams, setup.cstate, setup.index, setup.ref_R, setup.ref_w,
+        setup.ref_dw,
         log.t, log.R, log.omega, log.R_d, log.omega_d, log.u_cmd, log.u, log.disturbance,
         log_whl, log_flags, log_diag, diag,
         sa.s_int, sa.s_par, sa.pub_thr, sa.pub_sched, sa.noise, sa.state, sa.y, sa.h_int,
@@ -376,16 +346,17 @@ def run_fused_wheels(
     if splan is not None:
         FS.finish(splan, sa, log_y, log_est, d, B, n_steps)
         FS.finish_hook(splan, sa, log_hook, measurement)
-    a = d["actuator"]  # the keys and order of ReactionWheelAssembly.log
-    a["wheel_speed"] = log_whl[:, :, _W_SPEED]
-    a["wheel_torque"] = log_whl[:, :, _W_TORQUE]
-    a["wheel_torque_cmd"] = log_whl[:, :, _W_CMD]
-    a["torque_saturated"] = log_flags[:, :, _F_TORQUE]
-    a["speed_saturated"] = log_flags[:, :, _F_SPEED]
+    a = d["actuator"]  # the keys and order of ReactionWheelAssembly.log, contiguous as its
+    flat = np.ascontiguousarray
+    a["wheel_speed"] = flat(log_whl[:, :, _W_SPEED])
+    a["wheel_torque"] = flat(log_whl[:, :, _W_TORQUE])
+    a["wheel_torque_cmd"] = flat(log_whl[:, :, _W_CMD])
+    a["torque_saturated"] = flat(log_flags[:, :, _F_TORQUE])
+    a["speed_saturated"] = flat(log_flags[:, :, _F_SPEED])
     a["saturated"] = log_flags[:, :, _F_TORQUE] | log_flags[:, :, _F_SPEED]
     if wp_plan.friction:
-        a["friction_torque"] = log_whl[:, :, _W_FRICTION]
+        a["friction_torque"] = flat(log_whl[:, :, _W_FRICTION])
     d["controller"].update(spec.diagnostics(log_diag))
-    spec.finish(cstate, diag.copy())
+    spec.finish(setup.cstate, diag.copy())
     _log_components(wp_plan, log, rows, B)
     return log.result(dt, control_period, plant)
