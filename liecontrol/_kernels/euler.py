@@ -113,6 +113,64 @@ def from_matrix_batch(
     return out, lock
 
 
+@njit(inline="always")
+def _elem_entry(axis: int, c: float, s: float, r: int, q: int) -> float:
+    """Entry (r, q) of R_axis(a) with c = cos a, s = sin a (:func:`elem_into`)."""
+    if r == axis or q == axis:
+        return 1.0 if r == q else 0.0
+    if r == q:
+        return c
+    return s if r == (axis + 2) % 3 else -s
+
+
+@njit
+def rates_matrix_into(a: np.ndarray, i: int, j: int, k: int, ext: bool, out: np.ndarray) -> float:
+    """``out (3, 3)`` = B(a) with ȧ = B(a) ω (``charts.euler.rates_matrix`` without its lock
+    check): M(a)'s columns c₁ = (R_k(a3)ᵀ R_j(a2)ᵀ)[:, i], c₂ = R_k(a3)ᵀ[:, j], c₃ = e_k for the
+    intrinsic axes (angles and columns reversed for an extrinsic sequence), B's rows c₂×c₃,
+    c₃×c₁, c₁×c₂ over det M. Returns det M (0 at gimbal lock: the caller guards it). No
+    allocation (the compiled laws call it at every sample)."""
+    b1, b2 = (a[1], a[0]) if ext else (a[1], a[2])
+    c2_, s2_ = math.cos(b1), math.sin(b1)
+    c3_, s3_ = math.cos(b2), math.sin(b2)
+    # (R_k(a3)ᵀ R_j(a2)ᵀ)[r, i] = Σ_q R_k[q, r] R_j[i, q]
+    m0 = (
+        _elem_entry(k, c3_, s3_, 0, 0) * _elem_entry(j, c2_, s2_, i, 0)
+        + _elem_entry(k, c3_, s3_, 1, 0) * _elem_entry(j, c2_, s2_, i, 1)
+        + _elem_entry(k, c3_, s3_, 2, 0) * _elem_entry(j, c2_, s2_, i, 2)
+    )
+    m1 = (
+        _elem_entry(k, c3_, s3_, 0, 1) * _elem_entry(j, c2_, s2_, i, 0)
+        + _elem_entry(k, c3_, s3_, 1, 1) * _elem_entry(j, c2_, s2_, i, 1)
+        + _elem_entry(k, c3_, s3_, 2, 1) * _elem_entry(j, c2_, s2_, i, 2)
+    )
+    m2 = (
+        _elem_entry(k, c3_, s3_, 0, 2) * _elem_entry(j, c2_, s2_, i, 0)
+        + _elem_entry(k, c3_, s3_, 1, 2) * _elem_entry(j, c2_, s2_, i, 1)
+        + _elem_entry(k, c3_, s3_, 2, 2) * _elem_entry(j, c2_, s2_, i, 2)
+    )
+    ca = (m0, m1, m2)
+    cb = (
+        _elem_entry(k, c3_, s3_, j, 0),
+        _elem_entry(k, c3_, s3_, j, 1),
+        _elem_entry(k, c3_, s3_, j, 2),
+    )
+    cc = (1.0 if k == 0 else 0.0, 1.0 if k == 1 else 0.0, 1.0 if k == 2 else 0.0)
+    c1, c2, c3 = (cc, cb, ca) if ext else (ca, cb, cc)
+    r1 = (c2[1] * c3[2] - c2[2] * c3[1], c2[2] * c3[0] - c2[0] * c3[2],
+          c2[0] * c3[1] - c2[1] * c3[0])  # fmt: skip
+    r2 = (c3[1] * c1[2] - c3[2] * c1[1], c3[2] * c1[0] - c3[0] * c1[2],
+          c3[0] * c1[1] - c3[1] * c1[0])  # fmt: skip
+    r3 = (c1[1] * c2[2] - c1[2] * c2[1], c1[2] * c2[0] - c1[0] * c2[2],
+          c1[0] * c2[1] - c1[1] * c2[0])  # fmt: skip
+    det = c1[0] * r1[0] + c1[1] * r1[1] + c1[2] * r1[2]
+    for q in range(3):
+        out[0, q] = r1[q] / det
+        out[1, q] = r2[q] / det
+        out[2, q] = r3[q] / det
+    return det
+
+
 @njit
 def to_matrix_into(a: np.ndarray, i: int, j: int, k: int, ext: bool, out: np.ndarray) -> None:
     """``out (3, 3)`` = R_i(a1) R_j(a2) R_k(a3) for the intrinsic axes (i, j, k); for an

@@ -84,6 +84,7 @@ from .._validation import (
 from ..charts import euler as _euler
 from .adapters import ChartState, EulerChartAdapter
 from .base import AttitudeController, AttitudeReference, AttitudeState, finite_command
+from .kernel import ControllerKernel
 
 __all__ = [
     "MODES",
@@ -623,6 +624,140 @@ class SmallAnglePIDWithFeedforward(AttitudeController):
         self._g_pid = g
         self._u_int = np.zeros_like(self._u_int)
 
+    def fused_kernel(
+        self, batch_size: int, control_period: float | None = None
+    ) -> ControllerKernel | None:
+        """The compiled law (:func:`liecontrol._kernels.payload_pid.payload_pid_ff_law`) for the
+        simulator's fused loop (:mod:`liecontrol.control.kernel`): the PID, the identifier and
+        the feed-forward with their memory carried per spacecraft. ``None`` (the Python loop
+        runs, and the log line says why: :meth:`_kernel_reason`) for a base other than the
+        reference frame, ``gyro_momentum="controller"`` (the seam's law does not see the
+        actuator momentum), a control period longer than Δt_p (the Python loop refuses it) or a
+        swapped law, adapter or identifier."""
+        from .._kernels import payload_pid as K
+
+        B = int(batch_size)
+        law, ad, idf = self.law, self.adapter, self.identifier
+        if (
+            self._B != B
+            or type(law) is not SmallAnglePIDLaw
+            or type(ad) is not EulerChartAdapter
+            or type(idf) is not HarmonicIdentifier
+            or ad.law is not law
+            or ad.base != "reference"
+            or law.gyro_momentum != "actuator"
+            or ad.chart.seq != law.seq
+            or idf.batch_size != B
+            or any(
+                getattr(type(self), m) is not getattr(SmallAnglePIDWithFeedforward, m)
+                for m in ("_pid_sample", "compensation_torque", "_amplitude_phase")
+            )
+        ):
+            return None
+        if control_period is not None and control_period > self.dt_p * (1.0 + _GRID_EPS) + 1e-12:
+            return None
+        i, j, k, ext = _euler.kernel_axes(law.seq)
+        yd = ad._identity_coords(1)[0] + 0.0
+        mode = {"identify": K.MODE_IDENTIFY, "inject": K.MODE_INJECT, "off": K.MODE_OFF}
+        params = np.concatenate(
+            [
+                [self._t0, self.dt_c, self.dt_p, self.omega_p, self._hold_gain, self._hold_shift],
+                [self.compensation_start, mode[self.mode], float(idf.n_params)],
+                [idf.forgetting, idf.initial_covariance, idf.max_covariance],
+                [-1.0 if law.integral_limit is None else law.integral_limit],
+                [ad.chart.lock_tol, float(ad.unwrap), _euler.FROM_MATRIX_LOCK_TOL],
+                law.J.ravel(), law.kp, law.ki, law.kd, law.extra_momentum,
+                law.perm.astype(np.float64), yd, [float(i), float(j), float(k), float(ext)],
+            ]
+        )  # fmt: skip
+        st = np.zeros((B, K.N_STATE))
+        for flag, at, value in (
+            (K.S_HKC, K.S_KC, self._k_c),
+            (K.S_HKP, K.S_KP, self._k_p),
+            (K.S_HTCALL, K.S_TCALL, self._t_call),
+            (K.S_HTPID, K.S_TPID, self._t_pid),
+            (K.S_HTLAST, K.S_TLAST, law._t_last),
+        ):
+            if value is not None:
+                st[:, flag] = 1.0
+                st[:, at] = float(value)
+        if ad._y_d_prev is not None:
+            st[:, K.S_HASYD] = 1.0
+            st[:, K.S_YD : K.S_YD + 3] = ad._y_d_prev
+        if np.all(np.isfinite(self._residual)):
+            st[:, K.S_HRES] = 1.0
+            st[:, K.S_RES : K.S_RES + 3] = self._residual
+        for at, a in (
+            (K.S_INT, law._integral), (K.S_ULAST, self._u_last), (K.S_UPID, self._u_pid),
+            (K.S_UCOMP, self._u_comp), (K.S_UINT, self._u_int), (K.S_WPID, self._w_pid),
+            (K.S_GPID, self._g_pid),
+        ):  # fmt: skip
+            st[:, at : at + 3] = a
+        p = idf.n_params
+        theta = np.zeros((B, 3, 3))
+        theta[:, :, :p] = idf._theta
+        st[:, K.S_THETA : K.S_THETA + 9] = theta.reshape(B, 9)
+        P = np.zeros((3, 3))
+        P[:p, :p] = idf._P
+        st[:, K.S_P : K.S_P + 9] = P.ravel()
+        st[:, K.S_NUPD] = idf.n_updates
+        st[:, K.S_NREP] = idf.n_repairs
+        if self.injected is not None:
+            W, beta = self.injected
+            st[:, K.S_W : K.S_W + 3] = W
+            st[:, K.S_BETA : K.S_BETA + 3] = beta
+        if ad._diag:
+            d = ad._diag
+            names = ("att_error", "rate_error", "integral", "pid_torque", "gyro_torque")
+            for n, key in enumerate(names + ("chart_y", "chart_y_d")):
+                st[:, K.S_DIAG + 3 * n : K.S_DIAG + 3 * n + 3] = d[key]
+        if not np.all(np.isfinite(st)):
+            return None
+        return ControllerKernel(K.payload_pid_ff_law, params, st, K.N_DIAG, _pff_rows, self._finish)
+
+    def _kernel_reason(self) -> str:
+        return (
+            "a base other than the reference frame, gyro_momentum='controller', a control "
+            "period longer than dt_p, or a swapped law, adapter or identifier"
+        )
+
+    def _finish(self, state: np.ndarray, diag: np.ndarray) -> None:
+        """The controller, its law, adapter and identifier as the Python loop leaves them."""
+        from .._kernels import payload_pid as K
+
+        law, ad, idf = self.law, self.adapter, self.identifier
+        s0 = state[0]
+
+        def opt(flag: int, at: int) -> float | None:
+            return float(s0[at]) if s0[flag] != 0.0 else None
+
+        kc, kp = opt(K.S_HKC, K.S_KC), opt(K.S_HKP, K.S_KP)
+        self._k_c = None if kc is None else int(kc)
+        self._k_p = None if kp is None else int(kp)
+        self._t_call = opt(K.S_HTCALL, K.S_TCALL)
+        self._t_pid = opt(K.S_HTPID, K.S_TPID)
+        law._t_last = opt(K.S_HTLAST, K.S_TLAST)
+        for name, at in (
+            ("_u_last", K.S_ULAST), ("_u_pid", K.S_UPID), ("_u_comp", K.S_UCOMP),
+            ("_u_int", K.S_UINT), ("_w_pid", K.S_WPID), ("_g_pid", K.S_GPID),
+        ):  # fmt: skip
+            setattr(self, name, state[:, at : at + 3].copy())
+        law._integral = state[:, K.S_INT : K.S_INT + 3].copy()
+        if s0[K.S_HRES] != 0.0:
+            self._residual = state[:, K.S_RES : K.S_RES + 3].copy()
+        if s0[K.S_HASYD] != 0.0:
+            ad._y_d_prev = state[:, K.S_YD : K.S_YD + 3].copy()
+        p = idf.n_params
+        idf._theta = state[:, K.S_THETA : K.S_THETA + 9].reshape(-1, 3, 3)[:, :, :p].copy()
+        idf._P = s0[K.S_P : K.S_P + 9].reshape(3, 3)[:p, :p].copy()
+        idf.n_updates = int(s0[K.S_NUPD])
+        idf.n_repairs = int(s0[K.S_NREP])
+        rows = _pff_rows(diag)
+        if s0[K.S_HKC] != 0.0:
+            law_keys = ("att_error", "rate_error", "integral", "pid_torque", "gyro_torque")
+            law._diag = {k: rows[k] for k in law_keys}
+            ad._diag = {k: rows[k] for k in law_keys + ("chart_y", "chart_y_d", "chart_switched")}
+
     def diagnostics(self) -> dict[str, np.ndarray]:
         """The adapter/law diagnostics of the last PID sample (``att_error``, ``rate_error``,
         ``integral``, ``pid_torque``, ``gyro_torque``, ``chart_y``, ...) plus ``comp_torque``,
@@ -641,3 +776,14 @@ class SmallAnglePIDWithFeedforward(AttitudeController):
             }
         )
         return d
+
+
+def _pff_rows(rows: np.ndarray) -> dict[str, np.ndarray]:
+    """:meth:`SmallAnglePIDWithFeedforward.diagnostics` from the kernel rows ``(..., 33)``."""
+    names = ("att_error", "rate_error", "integral", "pid_torque", "gyro_torque", "chart_y",
+             "chart_y_d")  # fmt: skip
+    out = {k: rows[..., 3 * i : 3 * i + 3].copy() for i, k in enumerate(names)}
+    out["chart_switched"] = np.zeros(rows.shape[:-1], dtype=bool)
+    for i, k in enumerate(("comp_torque", "W_hat", "beta_hat", "residual")):
+        out[k] = rows[..., 21 + 3 * i : 24 + 3 * i].copy()
+    return out
