@@ -37,6 +37,7 @@ why.
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -1063,6 +1064,17 @@ def _reference_samples(
     from liecontrol._validation import check_rotation_matrix
 
     index = np.zeros(times.shape[0], dtype=np.int64)
+    many = getattr(reference, "samples", None)
+    if callable(many) and getattr(reference, "time_invariant", False) is not True:
+        got = _vectorised_samples(many, times, needed, B)
+        if got is not None:
+            return got
+        # the reference's own calls stay the ground truth: sampled one by one below
+        logging.getLogger("spacecraft.simulator").info(
+            "simulate: %s.samples() did not give valid arrays of the documented shapes "
+            "(liecontrol.control.reference); the reference is sampled call by call",
+            type(reference).__name__,
+        )
     uniq: list[Any] = []
     last = None
     # a reference that declares itself time-invariant (ConstantAttitude) is sampled once: the
@@ -1101,6 +1113,41 @@ def _reference_samples(
         R_s[i] = np.broadcast_to(R_d, (Bp, 3, 3))
         w_s[i] = np.broadcast_to(w_d, (Bp, 3))
         dw_s[i] = np.broadcast_to(dw_d, (Bp, 3))
+    return index, R_s, w_s, dw_s
+
+
+def _vectorised_samples(
+    many: Any, times: np.ndarray, needed: np.ndarray, B: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """:func:`_reference_samples` through the reference's ``samples(times)`` (the sampling
+    protocol of :mod:`liecontrol.control.reference`): one call for every needed step, the
+    arrays validated at once; ``None`` (the Python loop reports the failure) for anything
+    else than valid arrays of the documented shapes."""
+    from liecontrol._validation import check_rotation_matrix
+
+    steps = np.flatnonzero(needed)
+    N = steps.shape[0]
+    try:
+        R_d, w_d, dw_d = many(times[steps].copy())
+        R_d = check_rotation_matrix(np.asarray(R_d, dtype=np.float64), "R_d")
+        w_d = np.asarray(w_d, dtype=np.float64)
+        dw_d = np.asarray(dw_d, dtype=np.float64)
+    except Exception:  # noqa: BLE001 - the Python loop reproduces (and reports) the failure
+        return None
+    if R_d.shape not in ((N, 3, 3), (N, B, 3, 3)):
+        return None
+    batched = R_d.ndim == 4 or w_d.shape == (N, B, 3) or dw_d.shape == (N, B, 3)
+    for a in (w_d, dw_d):
+        if a.shape not in ((N, 3), (N, B, 3)) or not np.all(np.isfinite(a)):
+            return None
+    Bp = B if batched else 1
+    if N * Bp * 15 * 8 > _MAX_REFERENCE_BYTES:
+        return None
+    index = np.zeros(times.shape[0], dtype=np.int64)
+    index[steps] = np.arange(N)
+    R_s = np.ascontiguousarray(np.broadcast_to(R_d.reshape(N, -1, 3, 3), (N, Bp, 3, 3)))
+    w_s = np.ascontiguousarray(np.broadcast_to(w_d.reshape(N, -1, 3), (N, Bp, 3)))
+    dw_s = np.ascontiguousarray(np.broadcast_to(dw_d.reshape(N, -1, 3), (N, Bp, 3)))
     return index, R_s, w_s, dw_s
 
 

@@ -230,6 +230,21 @@ class EarthPointingReference:
         w = self.omega_d
         return AttitudeReference(R_d=R_d, omega_d=w, omega_dot_d=np.zeros_like(w))
 
+    def samples(self, times: object) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The reference at every time of ``times`` ``(N,)`` in one vectorised call (the
+        simulator's compiled loop samples a time-varying reference up front: the sampling
+        protocol of :mod:`liecontrol.control.reference`): ``(R_d, ω_d, ω̇_d)`` of shapes
+        ``(N, 3, 3)``, ``(N, 3)``, ``(N, 3)`` — ``(N, B, …)`` for a per-spacecraft offset —
+        equal to ``self(times[k])`` sample by sample."""
+        t = as_array(times, "times")
+        if t.ndim != 1:
+            raise ValueError(f"times: expected shape (N,), got {t.shape}")
+        C = self.orbit.lvlh_attitude(t)  # (N, 3, 3)
+        O = self.offset
+        R_d = C @ O if O.ndim == 2 else C[:, None] @ O
+        w = np.broadcast_to(self.omega_d, t.shape + self.omega_d.shape)
+        return R_d, w, np.zeros(w.shape)
+
 
 def _r_norm(r: object) -> tuple[np.ndarray, np.ndarray]:
     r = as_array(r, "r", (3,))

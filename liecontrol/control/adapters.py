@@ -571,6 +571,19 @@ class RotatingFrame:
         R = self.R0 @ so3.exp((as_scalar(t, "t") - self.t0) * self.omega)
         return AttitudeReference(R_d=R, omega_d=self.omega.copy(), omega_dot_d=np.zeros(3))
 
+    def samples(self, times: object) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(R_b, ω_b, ω̇_b)`` at every time of ``times`` ``(N,)``, shapes ``(N, 3, 3)``,
+        ``(N, 3)``, ``(N, 3)``, in one vectorised call: the sampling protocol of
+        :mod:`liecontrol.control.reference` (equal to ``self(times[k])`` sample by sample)."""
+        from ..lie import so3
+
+        t = as_array(times, "times")
+        if t.ndim != 1:
+            raise ValueError(f"times: expected shape (N,), got {t.shape}")
+        R = self.R0 @ so3.exp((t - self.t0)[:, None] * self.omega)
+        w = np.broadcast_to(self.omega, t.shape + (3,))
+        return R, w, np.zeros(w.shape)
+
 
 # --------------------------------------------------------------------------- chart state
 

@@ -1,4 +1,23 @@
-"""Reference trajectories: callables ``t -> AttitudeReference``."""
+"""Reference trajectories: callables ``t -> AttitudeReference``.
+
+Sampling protocol (optional, for speed). The simulator's compiled loop
+(:func:`spacecraft.simulator.simulate`) reads the reference at every control sample and logged
+step, and samples it before the loop starts. A reference that declares ``time_invariant = True``
+(:class:`ConstantAttitude`) is sampled once. A time-varying one is called once per needed step
+— a Python call of tens of µs each, more than a compiled step of one spacecraft — unless it
+defines::
+
+    def samples(self, times) -> tuple[R_d, omega_d, omega_dot_d]:
+        ...
+
+``times`` ``(N,)`` float64 → arrays with a leading time axis: ``R_d`` ``(N, 3, 3)`` or
+``(N, B, 3, 3)``, ``omega_d`` and ``omega_dot_d`` ``(N, 3)`` or ``(N, B, 3)``, equal to
+``self(times[k])`` sample by sample (to rounding). The simulator validates the arrays as it
+validates each call's sample (rotations, finiteness, shapes; anything else sends the run to the
+Python loop, which reports the reference's own error). Library references with it:
+:class:`spacecraft.orbit.EarthPointingReference`,
+:class:`liecontrol.control.adapters.RotatingFrame`.
+"""
 
 from __future__ import annotations
 
