@@ -258,6 +258,42 @@ class StackedReference:
     def __call__(self, t: float) -> AttitudeReference:
         return self._const if self._const is not None else self._stack(t)
 
+    @property
+    def time_invariant(self) -> bool:
+        """Every member is a constant attitude (the simulator then samples the stack once)."""
+        return self._const is not None
+
+    def samples(self, times: object) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The stacked reference at every time of ``times`` ``(N,)``: ``(N, B, 3, 3)``,
+        ``(N, B, 3)``, ``(N, B, 3)`` (the sampling protocol of
+        :mod:`liecontrol.control.reference`); each member through its own ``samples`` where it
+        has one, else called at every time."""
+        t = as_array(times, "times")
+        if t.ndim != 1:
+            raise ValueError(f"times: expected shape (N,), got {t.shape}")
+        N = t.shape[0]
+        parts: list[tuple[np.ndarray, ...]] = []
+        for ref, n in zip(self.references, self.sizes, strict=True):
+            many = getattr(ref, "samples", None)
+            if callable(many):
+                got = tuple(np.asarray(a, dtype=np.float64) for a in many(t))
+            else:
+                rs = [ref(float(tk)) for tk in t]
+                got = tuple(
+                    np.stack([np.broadcast_to(getattr(r, k), getattr(rs[0], k).shape) for r in rs])
+                    for k in ("R_d", "omega_d", "omega_dot_d")
+                )
+            R_d, w_d, dw_d = got
+            parts.append(
+                (
+                    np.broadcast_to(R_d.reshape(N, -1, 3, 3), (N, n, 3, 3)),
+                    np.broadcast_to(w_d.reshape(N, -1, 3), (N, n, 3)),
+                    np.broadcast_to(dw_d.reshape(N, -1, 3), (N, n, 3)),
+                )
+            )
+        R_d, w_d, dw_d = (np.concatenate(a, axis=1) for a in zip(*parts, strict=True))
+        return R_d, w_d, dw_d
+
 
 @dataclass(frozen=True)
 class ConstantRateReference:
@@ -285,6 +321,19 @@ class ConstantRateReference:
         w = np.asarray(self.omega_d, dtype=np.float64)
         R_d = np.asarray(self.R_d0) @ so3.exp((float(t) - self.t0) * w)
         return AttitudeReference(R_d=R_d, omega_d=w, omega_dot_d=np.zeros(3))
+
+    def samples(self, times: object) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The reference at every time of ``times`` ``(N,)`` in one vectorised call (the
+        sampling protocol of :mod:`liecontrol.control.reference`): ``(N, 3, 3)``, ``(N, 3)``,
+        ``(N, 3)``, equal to ``self(times[k])`` sample by sample."""
+        from liecontrol.lie import so3
+
+        t = as_array(times, "times")
+        if t.ndim != 1:
+            raise ValueError(f"times: expected shape (N,), got {t.shape}")
+        w = np.asarray(self.omega_d, dtype=np.float64)
+        R_d = np.asarray(self.R_d0) @ so3.exp((t - self.t0)[:, None] * w)
+        return R_d, np.broadcast_to(w, t.shape + (3,)), np.zeros(t.shape + (3,))
 
 
 # --------------------------------------------------------------------------- plant from data

@@ -1089,6 +1089,13 @@ def _reference_samples(
                 uniq.append(ref)
                 last = ref
             index[k] = len(uniq) - 1
+        R_l = [np.asarray(r.R_d, dtype=np.float64) for r in uniq]
+        w_l = [np.asarray(r.omega_d, dtype=np.float64) for r in uniq]
+        dw_l = [np.asarray(r.omega_dot_d, dtype=np.float64) for r in uniq]
+        if all(len({a.shape for a in lst}) == 1 for lst in (R_l, w_l, dw_l)):
+            # samples of one shape (the usual case): validated at once, not ~15 µs each
+            got = _checked_stack(np.stack(R_l), np.stack(w_l), np.stack(dw_l), B)
+            return None if got is None else (index, *got)
         arrays = []
         for r in uniq:
             R_d = check_rotation_matrix(r.R_d, "R_d")
@@ -1123,32 +1130,51 @@ def _vectorised_samples(
     protocol of :mod:`liecontrol.control.reference`): one call for every needed step, the
     arrays validated at once; ``None`` (the Python loop reports the failure) for anything
     else than valid arrays of the documented shapes."""
-    from liecontrol._validation import check_rotation_matrix
-
     steps = np.flatnonzero(needed)
-    N = steps.shape[0]
     try:
         R_d, w_d, dw_d = many(times[steps].copy())
-        R_d = check_rotation_matrix(np.asarray(R_d, dtype=np.float64), "R_d")
+        R_d = np.asarray(R_d, dtype=np.float64)
         w_d = np.asarray(w_d, dtype=np.float64)
         dw_d = np.asarray(dw_d, dtype=np.float64)
     except Exception:  # noqa: BLE001 - the Python loop reproduces (and reports) the failure
         return None
+    if R_d.shape[:1] != steps.shape:
+        return None
+    got = _checked_stack(R_d, w_d, dw_d, B)
+    if got is None:
+        return None
+    index = np.zeros(times.shape[0], dtype=np.int64)
+    index[steps] = np.arange(steps.shape[0])
+    return (index, *got)
+
+
+def _checked_stack(
+    R_d: np.ndarray, w_d: np.ndarray, dw_d: np.ndarray, B: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """N reference samples stacked on a leading axis — ``R_d`` ``(N, 3, 3)`` or ``(N, B, 3,
+    3)``, ``ω_d``, ``ω̇_d`` ``(N, 3)`` or ``(N, B, 3)`` — validated at once (rotations, finite,
+    shapes) and laid out as the loop reads them, ``(N, B', …)``; ``None`` if invalid or too
+    large."""
+    from liecontrol._validation import check_rotation_matrix
+
+    N = R_d.shape[0]
+    try:
+        R_d = check_rotation_matrix(R_d, "R_d")
+    except Exception:  # noqa: BLE001 - the Python loop reproduces (and reports) the failure
+        return None
     if R_d.shape not in ((N, 3, 3), (N, B, 3, 3)):
         return None
-    batched = R_d.ndim == 4 or w_d.shape == (N, B, 3) or dw_d.shape == (N, B, 3)
     for a in (w_d, dw_d):
         if a.shape not in ((N, 3), (N, B, 3)) or not np.all(np.isfinite(a)):
             return None
+    batched = R_d.ndim == 4 or w_d.ndim == 3 or dw_d.ndim == 3
     Bp = B if batched else 1
     if N * Bp * 15 * 8 > _MAX_REFERENCE_BYTES:
         return None
-    index = np.zeros(times.shape[0], dtype=np.int64)
-    index[steps] = np.arange(N)
     R_s = np.ascontiguousarray(np.broadcast_to(R_d.reshape(N, -1, 3, 3), (N, Bp, 3, 3)))
     w_s = np.ascontiguousarray(np.broadcast_to(w_d.reshape(N, -1, 3), (N, Bp, 3)))
     dw_s = np.ascontiguousarray(np.broadcast_to(dw_d.reshape(N, -1, 3), (N, Bp, 3)))
-    return index, R_s, w_s, dw_s
+    return R_s, w_s, dw_s
 
 
 @dataclass(frozen=True)

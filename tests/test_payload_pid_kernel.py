@@ -249,3 +249,67 @@ def test_vectorised_reference_samples_equal_the_calls_and_a_bad_one_falls_back(m
     with caplog.at_level(logging.INFO, logger="spacecraft.simulator"):
         _both(monkeypatch, make, (plant, BadSamples(orbit, refs[1].offset), x0), t_final=4.0)
     assert "BadSamples.samples() did not give valid arrays" in caplog.text
+
+
+def test_slew_profile_and_constant_rate_samples_equal_their_calls():
+    """``samples`` of the benchmark's other time-varying references: before, inside every
+    segment, on every knot and after the eigenaxis profile (with and without a coast)."""
+    from benchmarks.runner import ConstantRateReference
+    from liecontrol.control.slew_profile import EigenaxisSlewProfile
+
+    rng = np.random.default_rng(5)
+    refs = [ConstantRateReference(so3.random(rng), np.array([0.01, -0.003, 0.02]), t0=3.0)]
+    for rate in (0.02, 0.5):  # a coast, and a profile that never reaches its rate limit
+        p = EigenaxisSlewProfile(
+            so3.random(rng), so3.random(rng), max_rate=rate, max_accel=0.002, max_jerk=1e-4,
+            t0=10.0,
+        )  # fmt: skip
+        refs.append(p)
+    for ref in refs:
+        knots = [10.0 + kn[0] for kn in getattr(ref, "_knots", ())]
+        end = getattr(ref, "slew_time", 100.0) + 10.0
+        times = np.concatenate([rng.uniform(-5.0, end + 20.0, 200), knots, [10.0, end]])
+        R, w, dw = ref.samples(times)
+        for k, t in enumerate(times):
+            r = ref(t)
+            np.testing.assert_allclose(R[k], r.R_d, rtol=0, atol=2e-15)
+            np.testing.assert_allclose(w[k], r.omega_d, rtol=1e-13, atol=1e-18)
+            np.testing.assert_allclose(dw[k], r.omega_dot_d, rtol=1e-13, atol=1e-18)
+
+
+def test_stacked_reference_samples_equal_its_calls():
+    """The suite's stacked batch: members with and without ``samples`` (a constant attitude of
+    two rows, a user's callable), per-spacecraft offsets, sizes 2, 2, 1, 3."""
+    from benchmarks.runner import ConstantRateReference, StackedReference
+    from liecontrol.control.reference import ConstantAttitude
+    from spacecraft.orbit import CircularOrbit, EarthPointingReference
+
+    rng = np.random.default_rng(9)
+    rate = ConstantRateReference(so3.random(rng), np.array([0.0, 0.01, -0.02]))
+    members = [
+        EarthPointingReference(CircularOrbit(), so3.random(rng, (2,))),
+        ConstantAttitude(so3.random(rng, (2,))),
+        lambda t: rate(t),  # a user's reference without samples
+        rate,
+    ]
+    stack = StackedReference(members, [2, 2, 1, 3])
+    assert stack.time_invariant is False
+    assert StackedReference([members[1]], [2]).time_invariant is True
+    times = np.linspace(0.0, 500.0, 7)
+    R, w, dw = stack.samples(times)
+    assert R.shape == (7, 8, 3, 3) and w.shape == dw.shape == (7, 8, 3)
+    for k, t in enumerate(times):
+        r = stack(t)
+        np.testing.assert_allclose(R[k], r.R_d, rtol=0, atol=2e-15)
+        np.testing.assert_allclose(w[k], r.omega_d, rtol=1e-13, atol=1e-18)
+        np.testing.assert_array_equal(dw[k], r.omega_dot_d)
+
+
+def test_a_weak_prior_gets_room_under_the_covariance_cap():
+    """``initial_covariance`` ≥ 1e6 used to fail on the identifier's own default cap, naming an
+    argument the caller never passed; the cap now follows the prior unless given."""
+    ctrl = SmallAnglePIDWithFeedforward(J, WP, initial_covariance=1e7)
+    assert ctrl.identifier.max_covariance == 1e10
+    assert SmallAnglePIDWithFeedforward(J, WP).identifier.max_covariance == 1e6
+    with pytest.raises(ValueError, match="^max_covariance"):
+        SmallAnglePIDWithFeedforward(J, WP, initial_covariance=1e3, max_covariance=10.0)

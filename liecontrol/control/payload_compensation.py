@@ -427,7 +427,9 @@ class SmallAnglePIDWithFeedforward(AttitudeController):
         injected: ``(W, β)`` for ``"inject"``: amplitudes ``(3,)`` or ``(B, 3)`` [N·m] (≥ 0) and
             phases [rad]; the payload torque model is W_j sin(ω_p t + β_j).
         compensation_start: time the feed-forward is switched on [s].
-        forgetting, include_bias, initial_covariance: :class:`HarmonicIdentifier` settings.
+        forgetting, include_bias, initial_covariance, max_covariance: :class:`HarmonicIdentifier`
+            settings (``max_covariance`` ``None``: 1e6, or 1e3 × ``initial_covariance`` when that
+            is larger, so any prior has room above it).
         seq, base, lock_tol: the :class:`EulerChartAdapter` (``base="reference"``: angles of the
             body relative to the reference, which for Wang et al. 2016 is the orbit frame).
         extra_momentum, gyro_momentum, integral_limit: :class:`SmallAnglePIDLaw` settings.
@@ -451,6 +453,7 @@ class SmallAnglePIDWithFeedforward(AttitudeController):
         forgetting: float = 0.999,
         include_bias: bool = True,
         initial_covariance: float = 1.0e3,
+        max_covariance: float | None = None,
         seq: str = "XYZ",
         base: object = "reference",
         lock_tol: float = 1e-2,
@@ -518,6 +521,7 @@ class SmallAnglePIDWithFeedforward(AttitudeController):
             forgetting=forgetting,
             include_bias=include_bias,
             initial_covariance=initial_covariance,
+            max_covariance=_max_covariance(initial_covariance, max_covariance),
         )
         self.hold_correction = bool(hold_correction)
         x = 0.5 * self.omega_p * self.dt_p
@@ -776,6 +780,17 @@ class SmallAnglePIDWithFeedforward(AttitudeController):
             }
         )
         return d
+
+
+def _max_covariance(initial: object, given: object) -> object:
+    """The identifier's trace cap: ``given``, else 1e6 or 1e3 × ``initial`` if larger (a
+    non-number ``initial`` is passed on for the identifier to name)."""
+    if given is not None:
+        return given
+    try:
+        return max(1.0e6, 1.0e3 * float(initial))
+    except (TypeError, ValueError):
+        return 1.0e6
 
 
 def _pff_rows(rows: np.ndarray) -> dict[str, np.ndarray]:

@@ -16,7 +16,9 @@ defines::
 validates each call's sample (rotations, finiteness, shapes; anything else sends the run to the
 Python loop, which reports the reference's own error). Library references with it:
 :class:`spacecraft.orbit.EarthPointingReference`,
-:class:`liecontrol.control.adapters.RotatingFrame`.
+:class:`liecontrol.control.adapters.RotatingFrame`,
+:class:`liecontrol.control.slew_profile.EigenaxisSlewProfile` and the benchmark's
+``ConstantRateReference``.
 """
 
 from __future__ import annotations

@@ -259,6 +259,37 @@ class EigenaxisSlewProfile:
             jk,
         )
 
+    def _angles_at(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(s, ṡ, s̈)`` of :meth:`angle_at` at every time of a finite ``t`` ``(N,)``, the same
+        arithmetic vectorised (the segment by search over the knots' start times)."""
+        tau = t - self.t0
+        starts = np.array([kn[0] for kn in self._knots])
+        k = np.clip(np.searchsorted(starts, tau, side="right") - 1, 0, len(starts) - 1)
+        kn = np.array(self._knots)[k]  # (N, 5): start, jerk, s, ṡ, s̈
+        t_k, jk, s, sd, sdd = kn.T
+        h = tau - t_k
+        pos = np.minimum(s + sd * h + sdd * h * h / 2.0 + jk * h**3 / 6.0, self.angle)
+        vel = sd + sdd * h + jk * h * h / 2.0
+        acc = sdd + jk * h
+        before, after = tau <= 0.0, tau >= self.slew_time
+        pos = np.where(before, 0.0, np.where(after, self.angle, pos))
+        vel = np.where(before | after, 0.0, vel)
+        acc = np.where(before | after, 0.0, acc)
+        return pos, vel, acc
+
+    def samples(self, times: object) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The reference at every time of ``times`` ``(N,)`` in one vectorised call (the
+        sampling protocol of :mod:`liecontrol.control.reference`): ``(N, 3, 3)``, ``(N, 3)``,
+        ``(N, 3)``, equal to ``self(times[k])`` sample by sample (to rounding)."""
+        t = as_array(times, "times")
+        if t.ndim != 1:
+            raise ValueError(f"times: expected shape (N,), got {t.shape}")
+        if not np.all(np.isfinite(t)):
+            raise ValueError("times: must be finite")
+        s, sd, sdd = self._angles_at(t)
+        R_d = self.R_target @ so3.exp((self.angle - s)[:, None] * self.axis)
+        return R_d, -sd[:, None] * self.axis, -sdd[:, None] * self.axis
+
     def __call__(self, t: float) -> AttitudeReference:
         s, sd, sdd, _ = self.angle_at(t)
         R_d = self.R_target @ so3.exp((self.angle - s) * self.axis)
