@@ -49,6 +49,7 @@ from liecontrol.control import kernel as seam
 
 from . import _fused_sensors as FS
 from . import _kernels as K
+from . import _kernels_momentum as KM
 from ._entry import fn_entry as _fn_entry
 from ._entry import torque_signature as _torque_sig
 from ._kernels_vscmg import vscmg_command_one, vscmg_derivatives_one, vscmg_rkmk4_step_batch
@@ -107,10 +108,18 @@ class PlantKernel:
     dist_kparams: np.ndarray = field(default_factory=lambda: np.zeros((1, 0)))
     dist_attitude: bool = False
     disturbance: Any = None
+    # momentum management in the compiled loop (momentum_plan): the offset of the magnetic
+    # torque's block in the seam torque's row, whose held dipole the loop writes (−1: none)
+    mm_at: int = -1
 
     def dist_rows(self, B: int) -> np.ndarray:
-        """The seam torque's parameter rows for a batch of ``B`` (:func:`dist_rows`)."""
-        return dist_rows(self.disturbance, self.dist_kparams, B)
+        """The seam torque's parameter rows for a batch of ``B`` (:func:`dist_rows`); with
+        momentum management a fresh ``(B, n_p)`` array: the loop writes each spacecraft's
+        held dipole into its row."""
+        rows = dist_rows(self.disturbance, self.dist_kparams, B)
+        if self.mm_at >= 0:
+            rows = np.ascontiguousarray(np.broadcast_to(rows, (B, rows.shape[1]))).copy()
+        return rows
 
     def step(
         self, t: float, R: np.ndarray, x: np.ndarray, held: np.ndarray, h: float
@@ -258,6 +267,55 @@ def plant_kernel(plant: Any) -> PlantKernel | None:
     )  # fmt: skip
 
 
+def momentum_plan(plant: Any) -> tuple[PlantKernel | None, str]:
+    """The momentum model's plan (ideal torques or the SGCMG cluster) with the plant's momentum
+    management in the compiled loop: its ``fused_kernel()`` gives a torque of the disturbance
+    seam (magnetic dumping: m × B with the held dipole in its row,
+    :mod:`spacecraft._kernels_momentum`), composed after the plant's disturbance as the seam
+    composes a sum. ``(None, why)`` when a part has no kernel (``why`` empty: the generic
+    reasons of :func:`plant_reason` apply)."""
+    from .actuators import actuator_kernel
+    from .disturbance_kernel import _combined, check, resolve
+
+    mm = plant.momentum_management
+    label = type(mm).__name__
+    if plant.modes is not None:
+        return None, ""
+    hook = getattr(mm, "fused_kernel", None)
+    mspec = hook() if callable(hook) else None
+    if mspec is None:
+        return None, f"the plant's momentum management {label} has no compiled kernel"
+    ak = actuator_kernel(plant.actuator)
+    if ak is None:
+        act = type(plant.actuator).__name__
+        return None, (
+            f"the plant's momentum management {label} is compiled for the momentum model's "
+            f"actuators (ideal torques, SgcmgActuator) only, not with {act}"
+        )
+    mrow = check(mm, mspec, None)
+    if plant.disturbance is None:
+        torque, rows, at = mspec.torque, mrow, 0
+    else:
+        dspec, why = resolve(plant.disturbance)
+        if dspec is None:
+            return None, why
+        drow = check(plant.disturbance, dspec, plant.body.batch_size)
+        n = max(drow.shape[0], mrow.shape[0])
+        rows = np.concatenate(
+            [np.broadcast_to(drow, (n, drow.shape[1])), np.broadcast_to(mrow, (n, mrow.shape[1]))],
+            axis=1,
+        )
+        torque, at = _combined(dspec.torque, mspec.torque, drow.shape[1]), drow.shape[1]
+    code, clip, steer, sp, limit, S0, C0, steer_fn = ak
+    J3 = np.ascontiguousarray(plant.body.J.reshape(-1, 3, 3))
+    Ji3 = np.ascontiguousarray(plant.body.J_inv.reshape(-1, 3, 3))
+    return PlantKernel(
+        code, J3, Ji3, S0, C0, K.DIST_KERNEL, np.zeros(3), clip, steer, sp, float(limit),
+        steer_fn=steer_fn, dist_fn=torque, dist_kparams=np.ascontiguousarray(rows),
+        dist_attitude=True, disturbance=plant.disturbance, mm_at=at,
+    ), ""  # fmt: skip
+
+
 def plant_reason(plant: Any) -> str:
     """Why a plant has no kernel plan, in words (the simulator's log line)."""
     from .actuators import actuator_kernel
@@ -314,7 +372,7 @@ def _one_spacecraft(
     s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
     noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
     log_y: np.ndarray, log_est: np.ndarray, h_par: np.ndarray, h_state: np.ndarray,
-    log_hook: np.ndarray, sensing: Any,
+    log_hook: np.ndarray, sensing: Any, mm_at: int, log_mm: np.ndarray,
 ) -> tuple[int, float]:  # fmt: skip
     """The whole run of spacecraft ``b`` (the loop's body, see :func:`_fused_loop`): every step
     of one spacecraft before the next, its state, command and scratch in locals and views made
@@ -402,6 +460,7 @@ def _one_spacecraft(
     rows = 0
     status = 0
     t = t0
+    md0, md1, md2 = 0.0, 0.0, 0.0
     for k in range(n_steps + 1):
         t = t0 + k * dt
         r = ref_index[k]
@@ -435,6 +494,21 @@ def _one_spacecraft(
             )  # fmt: skip
         else:
             K.ideal_command(u_cmd, clip_on, clip, held, sat)
+        if mm_at >= 0:
+            # momentum management: the dipole held over this step, from the state at its start
+            # (Plant.held_dipole); its slots stay zero while the log reads the disturbance, so
+            # the composed torque gives the plant's disturbance alone there (m = 0 adds 0)
+            if act == K.ACT_SGCMG:
+                mh0, mh1, mh2, _ = K.cmg_momentum_and_measure(
+                    S0, C0, xc[3:], A, scratch[:m], scratch[m : 2 * m]
+                )
+            else:
+                mh0, mh1, mh2 = 0.0, 0.0, 0.0
+            mp = dpb[mm_at:]
+            md0, md1, md2 = KM.dipole(t, Rc, mh0, mh1, mh2, mp)
+            mp[KM.P_DIPOLE] = 0.0
+            mp[KM.P_DIPOLE + 1] = 0.0
+            mp[KM.P_DIPOLE + 2] = 0.0
         if k % log_every == 0 or k == n_steps:
             for i in range(3):
                 log_w[rows, b, i] = xc[i]
@@ -479,9 +553,23 @@ def _one_spacecraft(
                     log_y[rows, b, i] = yb[i]
                 for i in range(log_est.shape[2]):
                     log_est[rows, b, i] = sb[i]
+            if mm_at >= 0:
+                # the management's log: the dipole held from t and its torque m × B(t, R)
+                fb0, fb1, fb2 = KM.field_body(t, Rc, dpb[mm_at:])
+                log_mm[rows, b, 0] = md0
+                log_mm[rows, b, 1] = md1
+                log_mm[rows, b, 2] = md2
+                log_mm[rows, b, 3] = md1 * fb2 - md2 * fb1
+                log_mm[rows, b, 4] = md2 * fb0 - md0 * fb2
+                log_mm[rows, b, 5] = md0 * fb1 - md1 * fb0
             rows += 1
         if k == n_steps:
             break
+        if mm_at >= 0:
+            mp = dpb[mm_at:]
+            mp[KM.P_DIPOLE] = md0
+            mp[KM.P_DIPOLE + 1] = md1
+            mp[KM.P_DIPOLE + 2] = md2
         # call sites with the actuator (and the common disturbance) code as constants: the
         # inlined step is specialised per configuration (a quarter of its cost is runtime
         # branching otherwise, docs/performance.md); the arithmetic is the same
@@ -553,7 +641,7 @@ def _fused_loop(
     s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
     noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
     log_y: np.ndarray, log_est: np.ndarray, h_par: np.ndarray, h_state: np.ndarray,
-    log_hook: np.ndarray, sensing: Any,
+    log_hook: np.ndarray, sensing: Any, mm_at: int, log_mm: np.ndarray,
 ) -> tuple[int, int, float]:  # fmt: skip
     """The closed loop of :func:`spacecraft.simulator.simulate` for ``B`` spacecraft: the
     controller's ``law`` (a first-class function of :data:`liecontrol.control.kernel.
@@ -573,7 +661,7 @@ def _fused_loop(
             ref_index, ref_R, ref_w, ref_dw, log_R, log_w, log_Rd, log_wd, log_ucmd, log_u,
             log_dist, log_act, log_sat, log_hm, log_diag, diag, s_int, s_par, pub_thr, pub_sched,
             noise, sst, sy, h_int, seen, log_y, log_est, h_par, h_state, log_hook,
-            sensing,
+            sensing, mm_at, log_mm,
         )  # fmt: skip
     return _loop_result(st, tf, n_steps, t0, dt, log_every, log_t)
 
@@ -595,7 +683,7 @@ def _fused_loop_parallel(
     s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
     noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
     log_y: np.ndarray, log_est: np.ndarray, h_par: np.ndarray, h_state: np.ndarray,
-    log_hook: np.ndarray, sensing: Any,
+    log_hook: np.ndarray, sensing: Any, mm_at: int, log_mm: np.ndarray,
 ) -> tuple[int, int, float]:  # fmt: skip
     """:func:`_fused_loop` with the spacecraft spread over numba's threads (``prange``): each
     spacecraft's run is the same arithmetic in the same order, so the results are bit-identical
@@ -612,7 +700,7 @@ def _fused_loop_parallel(
             ref_index, ref_R, ref_w, ref_dw, log_R, log_w, log_Rd, log_wd, log_ucmd, log_u,
             log_dist, log_act, log_sat, log_hm, log_diag, diag, s_int, s_par, pub_thr, pub_sched,
             noise, sst, sy, h_int, seen, log_y, log_est, h_par, h_state, log_hook,
-            sensing,
+            sensing, mm_at, log_mm,
         )  # fmt: skip
         st[b] = s
         tf[b] = tb
@@ -1043,9 +1131,13 @@ def fused_supported(
             return no(f"{name} = {v!r} needs the Python loop")
     pk = plant._kernel_plan
     if pk is None:
-        pk, why = _vscmg_support(plant)
+        why = ""
+        if plant.momentum_management is not None:
+            pk, why = momentum_plan(plant)
         if pk is None and not why:
-            pk, why = wheel_support(plant)  # reaction wheels (spacecraft._fused_wheels)
+            pk, why = _vscmg_support(plant)
+            if pk is None and not why:
+                pk, why = wheel_support(plant)  # reaction wheels (spacecraft._fused_wheels)
         if pk is None:
             return no(why or plant_reason(plant))
     spec, why = seam.resolve(controller, batch_size, control_period)
@@ -1317,6 +1409,7 @@ def run_fused(
     log_y = np.empty((Kr, B, sa.y.shape[1]))
     log_est = np.empty((Kr, B, sa.n_est))
     log_hook = FS.hook_log(sa, n_steps, every_ctrl, B)
+    log_mm = np.empty((Kr if pk.mm_at >= 0 else 0, B, 6))  # dipole, magnetic torque
     clip = pk.clip if pk.clip is not None else np.zeros(3)
     args = (
         n_steps, float(t0), float(dt), every_ctrl, log_every, R0, x0,
@@ -1328,7 +1421,7 @@ def run_fused(
         log_act, log_sat, log_hm, log_diag, diag,
         sa.s_int, sa.s_par, sa.pub_thr, sa.pub_sched, sa.noise, sa.state, sa.y, sa.h_int,
         sa.seen, log_y, log_est, sa.h_par, sa.h_state, log_hook,
-        FS.sensing_marker(splan),
+        FS.sensing_marker(splan), pk.mm_at, log_mm,
     )  # fmt: skip
     status, rows, t_fail = _call_loop(args, 23, workers, B, vscmg=False)
     if not _finished(status, t_fail, t0, controller, spec, notes):
@@ -1342,10 +1435,14 @@ def run_fused(
         d["actuator"]["delta"] = log_act[:, :, : n - 3]
         d["actuator"]["delta_dot"] = log_act[:, :, n - 3 :]
         d["actuator"]["saturated"] = log_sat[:, :, 0]
-        d["actuator"]["h"] = log_hm[:, :, :3]
-        d["actuator"]["singularity"] = log_hm[:, :, 3]
     elif pk.clip is not None:
         d["actuator"]["saturated"] = log_sat
+    if pk.mm_at >= 0:  # after the actuator's own entries, as the Python loop puts them
+        d["actuator"]["dipole"] = log_mm[:, :, :3]
+        d["actuator"]["magnetic_torque"] = log_mm[:, :, 3:]
+    if pk.act == K.ACT_SGCMG:  # in SgcmgActuator.derived_log's order
+        d["actuator"]["singularity"] = log_hm[:, :, 3]
+        d["actuator"]["h"] = log_hm[:, :, :3]
     d["controller"].update(spec.diagnostics(log_diag))
     spec.finish(cstate, diag.copy())
     _log_components(pk, log, rows, B)

@@ -245,6 +245,39 @@ class CrossProductDumping:
         m = self.dipole(t, R, h)
         return {"dipole": m, "magnetic_torque": self.torque(t, R, m)}
 
+    def fused_kernel(self) -> object:
+        """The magnetic torque as a torque of the disturbance seam
+        (:func:`spacecraft._kernels_momentum.magnetic_torque`, a
+        :class:`~spacecraft.disturbance_kernel.DisturbanceKernel` reading the attitude) whose
+        parameter row carries the field, the law and the held dipole (zero here: the compiled
+        loop writes each step's dipole, :func:`spacecraft._kernels_momentum.dipole`, into it).
+        ``None`` without numba or for a subclass that overrides the law."""
+        from liecontrol._jit import JIT_ENABLED
+
+        from . import _kernels_momentum as KM
+        from .disturbance_kernel import DisturbanceKernel
+
+        cls = type(self)
+        if not JIT_ENABLED or any(
+            getattr(cls, m) is not getattr(CrossProductDumping, m)
+            for m in ("dipole", "torque", "field_body", "_field_inertial", "log")
+        ):
+            return None
+        o, f = self.orbit, self.field
+        Ro = o._R_orb
+        row = np.zeros(KM.N_PARAMS)
+        row[KM.P_ARG], row[KM.P_N] = o.arg_lat0, o.n
+        row[KM.P_RO : KM.P_RO + 6] = (Ro[0, 0], Ro[0, 1], Ro[1, 0], Ro[1, 1], Ro[2, 0], Ro[2, 1])
+        row[KM.P_LAM], row[KM.P_RATE] = f.longitude + f.greenwich0, f.earth_rate
+        row[KM.P_ST], row[KM.P_MZ] = math.sin(f.tilt), -math.cos(f.tilt)
+        row[KM.P_K] = f.strength * (f.radius / o.radius) ** 3
+        row[KM.P_GAIN] = self.gain
+        row[KM.P_MMAX : KM.P_MMAX + 3] = self.magnetorquers.max_dipole
+        row[KM.P_HT : KM.P_HT + 3] = self.h_target
+        return DisturbanceKernel(
+            KM.magnetic_torque, row, uses_attitude=True, name="magnetic_torque"
+        )
+
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Row-wise a × b of ``(B, 3)`` arrays (cheaper than ``np.cross`` for a few rows)."""
