@@ -269,50 +269,32 @@ def plant_kernel(plant: Any) -> PlantKernel | None:
 
 def momentum_plan(plant: Any) -> tuple[PlantKernel | None, str]:
     """The momentum model's plan (ideal torques or the SGCMG cluster) with the plant's momentum
-    management in the compiled loop: its ``fused_kernel()`` gives a torque of the disturbance
-    seam (magnetic dumping: m × B with the held dipole in its row,
-    :mod:`spacecraft._kernels_momentum`), composed after the plant's disturbance as the seam
-    composes a sum. ``(None, why)`` when a part has no kernel (``why`` empty: the generic
-    reasons of :func:`plant_reason` apply)."""
+    management in the compiled loop: its torque of the seam composed after the plant's
+    disturbance (:func:`spacecraft.disturbances.managed_disturbance_plan`; magnetic dumping:
+    m × B with the held dipole in its row, :mod:`spacecraft._kernels_momentum`). ``(None,
+    why)`` when a part has no kernel (``why`` empty: the generic reasons of
+    :func:`plant_reason` apply)."""
     from .actuators import actuator_kernel
-    from .disturbance_kernel import _combined, check, resolve
+    from .disturbances import managed_disturbance_plan
 
-    mm = plant.momentum_management
-    label = type(mm).__name__
     if plant.modes is not None:
         return None, ""
-    hook = getattr(mm, "fused_kernel", None)
-    mspec = hook() if callable(hook) else None
-    if mspec is None:
-        return None, f"the plant's momentum management {label} has no compiled kernel"
     ak = actuator_kernel(plant.actuator)
     if ak is None:
-        act = type(plant.actuator).__name__
-        return None, (
-            f"the plant's momentum management {label} is compiled for the momentum model's "
-            f"actuators (ideal torques, SgcmgActuator) only, not with {act}"
-        )
-    mrow = check(mm, mspec, None)
-    if plant.disturbance is None:
-        torque, rows, at = mspec.torque, mrow, 0
-    else:
-        dspec, why = resolve(plant.disturbance)
-        if dspec is None:
-            return None, why
-        drow = check(plant.disturbance, dspec, plant.body.batch_size)
-        n = max(drow.shape[0], mrow.shape[0])
-        rows = np.concatenate(
-            [np.broadcast_to(drow, (n, drow.shape[1])), np.broadcast_to(mrow, (n, mrow.shape[1]))],
-            axis=1,
-        )
-        torque, at = _combined(dspec.torque, mspec.torque, drow.shape[1]), drow.shape[1]
+        return None, ""
+    got, why = managed_disturbance_plan(
+        plant.disturbance, plant.momentum_management, plant.body.batch_size
+    )
+    if got is None:
+        return None, why
+    torque, rows, at = got
     code, clip, steer, sp, limit, S0, C0, steer_fn = ak
     J3 = np.ascontiguousarray(plant.body.J.reshape(-1, 3, 3))
     Ji3 = np.ascontiguousarray(plant.body.J_inv.reshape(-1, 3, 3))
     return PlantKernel(
         code, J3, Ji3, S0, C0, K.DIST_KERNEL, np.zeros(3), clip, steer, sp, float(limit),
-        steer_fn=steer_fn, dist_fn=torque, dist_kparams=np.ascontiguousarray(rows),
-        dist_attitude=True, disturbance=plant.disturbance, mm_at=at,
+        steer_fn=steer_fn, dist_fn=torque, dist_kparams=rows, dist_attitude=True,
+        disturbance=plant.disturbance, mm_at=at,
     ), ""  # fmt: skip
 
 
@@ -324,7 +306,10 @@ def plant_reason(plant: Any) -> str:
     if plant.modes is not None:
         return "the plant's flexible modes have no compiled kernel"
     if plant.momentum_management is not None:
-        return "the plant's momentum management has no compiled kernel"
+        return (
+            f"the plant's momentum management {type(plant.momentum_management).__name__} is "
+            f"not compiled with the actuator {type(plant.actuator).__name__}"
+        )
     if disturbance_kernel(plant.disturbance) is None:
         if not JIT_ENABLED:
             return f"the disturbance {type(plant.disturbance).__name__} has no compiled kernel"

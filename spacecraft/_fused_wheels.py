@@ -17,9 +17,11 @@ from liecontrol.control import kernel as seam
 
 from . import _fused_sensors as FS
 from . import _kernels as K
+from . import _kernels_momentum as KM
 from ._entry import fn_entry, torque_signature
 from ._fused import _finished, _log_components, _loop_result, prepare_run, unowned_view
 from ._kernels_wheels import (
+    _AI,
     WheelPlan,
     friction_one,
     wheel_bus_torque,
@@ -47,7 +49,7 @@ def _one_wheels(
     s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
     noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
     log_y: np.ndarray, log_est: np.ndarray, h_par: np.ndarray, h_state: np.ndarray,
-    log_hook: np.ndarray, sensing: Any,
+    log_hook: np.ndarray, sensing: Any, mm_at: int, log_mm: np.ndarray,
 ) -> tuple[int, float]:  # fmt: skip
     """The whole run of spacecraft ``b`` (as :func:`spacecraft._fused._one_spacecraft`):
     status 0 done, 1 non-finite state, 2 non-finite torque, 3/4 the sensors' failures; the
@@ -112,6 +114,7 @@ def _one_wheels(
     rows = 0
     status = 0
     t = t0
+    md0, md1, md2 = 0.0, 0.0, 0.0
     for k in range(n_steps + 1):
         t = t0 + k * dt
         r = ref_index[k]
@@ -141,6 +144,21 @@ def _one_wheels(
         wheel_command(
             wp, nw, u_cmd[0], u_cmd[1], u_cmd[2], xc[0], xc[1], xc[2], xc[3:], held
         )  # fmt: skip
+        if mm_at >= 0:
+            # momentum management (as spacecraft._fused._one_spacecraft): the dipole held over
+            # this step from the wheels' momentum A I_w Ω; zero slots while the log reads the
+            # disturbance
+            mh0, mh1, mh2 = 0.0, 0.0, 0.0
+            for j in range(nw):
+                s = xc[3 + j]
+                mh0 += s * wp[_AI, j]
+                mh1 += s * wp[_AI + 1, j]
+                mh2 += s * wp[_AI + 2, j]
+            mp = dpb[mm_at:]
+            md0, md1, md2 = KM.dipole(t, Rc, mh0, mh1, mh2, mp)
+            mp[KM.P_DIPOLE] = 0.0
+            mp[KM.P_DIPOLE + 1] = 0.0
+            mp[KM.P_DIPOLE + 2] = 0.0
         if k % log_every == 0 or k == n_steps:
             for i in range(3):
                 log_w[rows, b, i] = xc[i]
@@ -177,9 +195,22 @@ def _one_wheels(
                     log_y[rows, b, i] = yb[i]
                 for i in range(log_est.shape[2]):
                     log_est[rows, b, i] = sb[i]
+            if mm_at >= 0:
+                fb0, fb1, fb2 = KM.field_body(t, Rc, dpb[mm_at:])
+                log_mm[rows, b, 0] = md0
+                log_mm[rows, b, 1] = md1
+                log_mm[rows, b, 2] = md2
+                log_mm[rows, b, 3] = md1 * fb2 - md2 * fb1
+                log_mm[rows, b, 4] = md2 * fb0 - md0 * fb2
+                log_mm[rows, b, 5] = md0 * fb1 - md1 * fb0
             rows += 1
         if k == n_steps:
             break
+        if mm_at >= 0:
+            mp = dpb[mm_at:]
+            mp[KM.P_DIPOLE] = md0
+            mp[KM.P_DIPOLE + 1] = md1
+            mp[KM.P_DIPOLE + 2] = md2
         # the seam torque's own call site (as in _one_spacecraft): the built-in codes' step
         # compiles without the pointer call
         if dist == K.DIST_KERNEL:
@@ -228,7 +259,7 @@ def fused_loop_wheels(
     s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
     noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
     log_y: np.ndarray, log_est: np.ndarray, h_par: np.ndarray, h_state: np.ndarray,
-    log_hook: np.ndarray, sensing: Any,
+    log_hook: np.ndarray, sensing: Any, mm_at: int, log_mm: np.ndarray,
 ) -> tuple[int, int, float]:  # fmt: skip
     """The closed loop with reaction wheels for ``B`` spacecraft (:func:`_one_wheels` each):
     ``(status, rows, t)`` as :func:`spacecraft._fused._fused_loop`."""
@@ -241,7 +272,7 @@ def fused_loop_wheels(
             dp, dfn, dpk, datt, law, cparams, cstate, ref_index, ref_R, ref_w, ref_dw, log_R,
             log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_whl, log_flags, log_diag,
             diag, s_int, s_par, pub_thr, pub_sched, noise, sst, sy, h_int, seen, log_y,
-            log_est, h_par, h_state, log_hook, sensing,
+            log_est, h_par, h_state, log_hook, sensing, mm_at, log_mm,
         )  # fmt: skip
     return _loop_result(st, tf, n_steps, t0, dt, log_every, log_t)
 
@@ -260,7 +291,7 @@ def fused_loop_wheels_parallel(
     s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
     noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
     log_y: np.ndarray, log_est: np.ndarray, h_par: np.ndarray, h_state: np.ndarray,
-    log_hook: np.ndarray, sensing: Any,
+    log_hook: np.ndarray, sensing: Any, mm_at: int, log_mm: np.ndarray,
 ) -> tuple[int, int, float]:  # fmt: skip
     """:func:`fused_loop_wheels` with the spacecraft spread over numba's threads (each
     spacecraft's arithmetic unchanged: bit-identical for any thread count)."""
@@ -274,7 +305,7 @@ def fused_loop_wheels_parallel(
             dp, dfn, dpk, datt, law, cparams, cstate, ref_index, ref_R, ref_w, ref_dw, log_R,
             log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_whl, log_flags, log_diag,
             diag, s_int, s_par, pub_thr, pub_sched, noise, sst, sy, h_int, seen, log_y,
-            log_est, h_par, h_state, log_hook, sensing,
+            log_est, h_par, h_state, log_hook, sensing, mm_at, log_mm,
         )  # fmt: skip
         st[b] = s
         tf[b] = tb
@@ -313,6 +344,7 @@ def run_fused_wheels(
     log_y = np.empty((Kr, B, sa.y.shape[1]))
     log_est = np.empty((Kr, B, sa.n_est))
     log_hook = FS.hook_log(sa, n_steps, every_ctrl, B)
+    log_mm = np.empty((Kr if wp_plan.mm_at >= 0 else 0, B, 6))  # dipole, magnetic torque
     args = (
         n_steps, float(t0), float(dt), every_ctrl, setup.log_every, setup.R0, setup.x0,
         wp_plan.J, wp_plan.J_inv, wp_plan.wp, nw, wp_plan.friction,
@@ -323,7 +355,7 @@ def run_fused_wheels(
         log_whl, log_flags, log_diag, diag,
         sa.s_int, sa.s_par, sa.pub_thr, sa.pub_sched, sa.noise, sa.state, sa.y, sa.h_int,
         sa.seen, log_y, log_est, sa.h_par, sa.h_state, log_hook,
-        FS.sensing_marker(splan),
+        FS.sensing_marker(splan), wp_plan.mm_at, log_mm,
     )  # fmt: skip
     parallel = workers > 1 and B > 1
     loop = fused_loop_wheels_parallel if parallel else fused_loop_wheels
@@ -356,6 +388,9 @@ def run_fused_wheels(
     a["saturated"] = log_flags[:, :, _F_TORQUE] | log_flags[:, :, _F_SPEED]
     if wp_plan.friction:
         a["friction_torque"] = flat(log_whl[:, :, _W_FRICTION])
+    if wp_plan.mm_at >= 0:  # after the assembly's own entries, as the Python loop puts them
+        a["dipole"] = log_mm[:, :, :3]
+        a["magnetic_torque"] = log_mm[:, :, 3:]
     d["controller"].update(spec.diagnostics(log_diag))
     spec.finish(setup.cstate, diag.copy())
     _log_components(wp_plan, log, rows, B)

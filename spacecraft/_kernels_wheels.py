@@ -28,7 +28,7 @@ import numpy as np
 from liecontrol._jit import njit
 from liecontrol._kernels.so3 import dexpinv_rkmk4, right_multiply_exp_into
 
-from ._kernels import rigid_acceleration, stage_disturbance
+from ._kernels import DIST_KERNEL, rigid_acceleration, stage_disturbance
 
 #: rows of the parameter array (module docstring)
 _AX, _AI, _PINV, _IW, _TMAX, _WMAX = 0, 3, 6, 9, 10, 11
@@ -74,12 +74,18 @@ class WheelPlan:
     dist_kparams: np.ndarray
     dist_attitude: bool
     disturbance: Any
+    # momentum management: the offset of its block in the seam torque's row (−1: none)
+    mm_at: int = -1
 
     def dist_rows(self, B: int) -> np.ndarray:
-        """The seam torque's parameter rows for a batch of ``B``."""
+        """The seam torque's parameter rows for a batch of ``B`` (a fresh ``(B, n_p)`` array
+        with momentum management: the loop writes each spacecraft's held dipole into it)."""
         from .disturbances import kernel_rows
 
-        return kernel_rows(self.disturbance, self.dist_kparams, B)
+        rows = kernel_rows(self.disturbance, self.dist_kparams, B)
+        if self.mm_at >= 0:
+            rows = np.ascontiguousarray(np.broadcast_to(rows, (B, rows.shape[1]))).copy()
+        return rows
 
 
 def wheel_support(plant: Any) -> tuple[WheelPlan | None, str]:
@@ -87,21 +93,33 @@ def wheel_support(plant: Any) -> tuple[WheelPlan | None, str]:
     (exact type: a subclass may change a formula) that the compiled loop runs, ``(None, why)``
     when a part keeps the Python loop, ``(None, "")`` for any other plant."""
     from .actuators import ReactionWheelAssembly
-    from .disturbances import disturbance_plan
+    from .disturbances import disturbance_plan, managed_disturbance_plan
 
     act = plant.actuator
     if type(act) is not ReactionWheelAssembly:
         return None, ""
-    if plant.modes is not None or plant.momentum_management is not None:
+    if plant.modes is not None:
         return None, ""  # the generic reasons apply (plant_reason)
-    dk, _ = disturbance_plan(plant.disturbance, plant.body.batch_size)
-    if dk is None:
-        return None, ""  # plant_reason names the disturbance
+    at = -1
+    if plant.momentum_management is not None:
+        # its torque composed after the disturbance's (the held dipole written per step)
+        got, why = managed_disturbance_plan(
+            plant.disturbance, plant.momentum_management, plant.body.batch_size
+        )
+        if got is None:
+            return None, why
+        torque, rows, at = got
+        dk = (DIST_KERNEL, np.zeros(3), torque, rows, True)
+    else:
+        dk, _ = disturbance_plan(plant.disturbance, plant.body.batch_size)
+        if dk is None:
+            return None, ""  # plant_reason names the disturbance
     J3 = np.ascontiguousarray(plant.body.J.reshape(-1, 3, 3))
     Ji3 = np.ascontiguousarray(plant.body.J_inv.reshape(-1, 3, 3))
     plan = WheelPlan(
         J3, Ji3, wheel_params(act), int(act.n_wheels), bool(act.has_friction), dk[0],
         np.ascontiguousarray(dk[1], dtype=np.float64), dk[2], dk[3], dk[4], plant.disturbance,
+        mm_at=at,
     )  # fmt: skip
     return plan, ""
 

@@ -219,6 +219,39 @@ def disturbance_plan(
     return (K.DIST_KERNEL, np.zeros(3), spec.torque, params, bool(spec.uses_attitude)), ""
 
 
+def managed_disturbance_plan(
+    dist: object, management: object, batch_size: int | None
+) -> tuple[tuple[object, np.ndarray, int] | None, str]:
+    """The compiled loops' torque of a plant with momentum management: ``((torque, rows
+    (B', n_p), offset), "")`` — the management's torque of the seam (its ``fused_kernel()``,
+    e.g. :meth:`spacecraft.momentum.CrossProductDumping.fused_kernel`) composed after the
+    disturbance's (as :func:`spacecraft.disturbance_kernel.sum_kernel` composes a sum: the
+    disturbance first, then ``+=`` the management's), their rows side by side, ``offset`` the
+    column where the management's block starts (the loop writes its held dipole there) — else
+    ``(None, why)``."""
+    from .disturbance_kernel import _combined
+
+    label = type(management).__name__
+    hook = getattr(management, "fused_kernel", None)
+    mspec = hook() if callable(hook) else None
+    if mspec is None:
+        return None, f"the plant's momentum management {label} has no compiled kernel"
+    mrow = check(management, mspec, None)
+    if dist is None:
+        return (mspec.torque, mrow, 0), ""
+    dspec, why = resolve(dist)
+    if dspec is None:
+        return None, why
+    drow = check(dist, dspec, batch_size)
+    n = max(drow.shape[0], mrow.shape[0])
+    rows = np.concatenate(
+        [np.broadcast_to(drow, (n, drow.shape[1])), np.broadcast_to(mrow, (n, mrow.shape[1]))],
+        axis=1,
+    )
+    torque = _combined(dspec.torque, mspec.torque, drow.shape[1])
+    return (torque, np.ascontiguousarray(rows), drow.shape[1]), ""
+
+
 def kernel_rows(dist: object, params: np.ndarray, B: int) -> np.ndarray:
     """The seam torque's parameter rows ``params (B', n_p)`` for a batch of ``B``
     (``ValueError`` naming the disturbance when per-spacecraft rows do not match the batch)."""
