@@ -251,16 +251,21 @@ class CrossProductDumping:
         :class:`~spacecraft.disturbance_kernel.DisturbanceKernel` reading the attitude) whose
         parameter row carries the field, the law and the held dipole (zero here: the compiled
         loop writes each step's dipole, :func:`spacecraft._kernels_momentum.dipole`, into it).
-        ``None`` without numba or for a subclass that overrides the law."""
+        ``None`` without numba, for a subclass that overrides the law or with rods of a
+        subclass of :class:`Magnetorquers` (its saturation may differ)."""
         from liecontrol._jit import JIT_ENABLED
 
         from . import _kernels_momentum as KM
         from .disturbance_kernel import DisturbanceKernel
 
         cls = type(self)
-        if not JIT_ENABLED or any(
-            getattr(cls, m) is not getattr(CrossProductDumping, m)
-            for m in ("dipole", "torque", "field_body", "_field_inertial", "log")
+        if (
+            not JIT_ENABLED
+            or type(self.magnetorquers) is not Magnetorquers
+            or any(
+                getattr(cls, m) is not getattr(CrossProductDumping, m)
+                for m in ("dipole", "torque", "field_body", "_field_inertial", "log")
+            )
         ):
             return None
         o, f = self.orbit, self.field

@@ -173,9 +173,17 @@ def test_what_the_loop_does_not_compile_keeps_the_python_loop_and_says_why(caplo
     r0 = ref(0.0)
     full = VscmgActuator(J, CmgInertias(0.5, 0.25, (0.1, 0.1, 0.1)), SgcmgPyramid(h0=20.0),
                          SingularityRobust())  # fmt: skip
+
+    class ClipRods(Magnetorquers):  # per-rod clipping: another saturation
+        def _saturate(self, m):
+            return np.clip(m, -self.max_dipole, self.max_dipole)
+
+    clipped = CrossProductDumping(ORBIT, magnetorquers=ClipRods(30.0))
     cases = [
         (Spacecraft(RigidBody(J), IdealTorqueActuator(), momentum_management=OwnLaw(ORBIT)),
          "momentum management OwnLaw has no compiled kernel"),
+        (Spacecraft(RigidBody(J), IdealTorqueActuator(), momentum_management=clipped),
+         "momentum management CrossProductDumping has no compiled kernel"),
         (Spacecraft(RigidBody(J), SgcmgActuator(SgcmgPyramid(h0=50.0)), momentum_management=
                     ThrusterUnloading(ThrusterLayout.pairs(1.0))),
          "momentum management ThrusterUnloading has no compiled kernel"),
