@@ -1,11 +1,12 @@
 """Magnetic momentum dumping in the compiled loop against the Python loop, in one process:
 ``python -m benchmarks.perf_dumping [--repeat N] [--orbits K]``.
 
-The ``momentum-dumping`` scenario's plant and law: the SGCMG bus (4-SGCMG pyramid, SR steering)
-holding the Earth-pointing attitude of a 530 km sun-synchronous orbit under the orbit-rate
-constant + harmonic torque, the large-angle geometric PD at 0.03 rad/s, and
-:class:`spacecraft.momentum.CrossProductDumping` with 3000 A·m² rods, for ``--orbits`` orbits at
-dt = 1 s (control and logging at every step, as the suite's single runs). The same run without
+The dumping example of docs/plant.md on the ``momentum-dumping`` scenario's orbit, rods,
+disturbance and step: the SGCMG bus (4-SGCMG pyramid, SR steering) holding the Earth-pointing
+attitude of a 530 km sun-synchronous orbit under the orbit-rate constant + harmonic torque, the
+large-angle geometric PD at 0.03 rad/s, and :class:`spacecraft.momentum.CrossProductDumping`
+with 3000 A·m² rods, for ``--orbits`` orbits at dt = 1 s (control and logging at every step, as
+the suite's single runs). The same run without
 dumping is the reference row. CPU seconds per run and µs per step, best of ``--repeat``
 alternated runs after a warm-up.
 """
