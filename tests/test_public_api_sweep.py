@@ -1496,11 +1496,6 @@ KNOWN_GAPS: dict[tuple[str, str, str], str] = {
         "dt_c",
         "huge",
     ): "relational message names payload_frequency",
-    (
-        "liecontrol.control.payload_compensation.SmallAnglePIDWithFeedforward",
-        "initial_covariance",
-        "huge",
-    ): "relational message names max_covariance",
 }
 
 #: modules whose callables must all have an example (elsewhere a missing example is reported

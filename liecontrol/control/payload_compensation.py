@@ -788,9 +788,20 @@ def _max_covariance(initial: object, given: object) -> object:
     if given is not None:
         return given
     try:
-        return max(1.0e6, 1.0e3 * float(initial))
+        p0 = float(initial)
     except (TypeError, ValueError):
         return 1.0e6
+    if not math.isfinite(p0) or p0 <= 0.0:
+        return 1.0e6  # the identifier names initial_covariance
+    cap = max(1.0e6, 1.0e3 * p0)
+    if not math.isfinite(cap):
+        cap = float(np.finfo(np.float64).max)
+    if cap <= p0:
+        raise ValueError(
+            f"initial_covariance: {p0:g} leaves no room for the covariance cap above it "
+            "(pass a smaller prior)"
+        )
+    return cap
 
 
 def _pff_rows(rows: np.ndarray) -> dict[str, np.ndarray]:
