@@ -13,7 +13,7 @@ alternated runs after a warm-up.
 
 from __future__ import annotations
 
-from benchmarks._perf import pin_blas_threads
+from benchmarks._perf import best_of, pin_blas_threads
 
 pin_blas_threads()  # before numpy is imported
 
@@ -73,13 +73,7 @@ def dumping_costs(repeat: int = 3, orbits: float = 1.0) -> tuple[dict[str, float
             sim.fused_supported = real
 
     routes = ("dumping, compiled", "dumping, Python loop", "no dumping, compiled")
-    for r in routes:
-        run(r)  # warm-up: compilation, cache loading
-    best = dict.fromkeys(routes, float("inf"))
-    for _ in range(repeat):
-        for r in routes:
-            best[r] = min(best[r], run(r))
-    return best, round(t_final / DT)
+    return best_of(run, routes, repeat), round(t_final / DT)
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -20,7 +20,7 @@ warm-up.
 
 from __future__ import annotations
 
-from benchmarks._perf import pin_blas_threads
+from benchmarks._perf import best_of, pin_blas_threads
 
 pin_blas_threads()  # before numpy is imported
 
@@ -73,13 +73,7 @@ def reference_costs(repeat: int = 3) -> dict[str, float]:
         finally:
             sim.fused_supported = real
 
-    routes = ("samples", "call by call", "Python loop")
-    for r in routes:
-        run(r)  # warm-up: compilation, cache loading
-    best = dict.fromkeys(routes, float("inf"))
-    for _ in range(repeat):
-        for r in routes:
-            best[r] = min(best[r], run(r))
+    best = best_of(run, ("samples", "call by call", "Python loop"), repeat)
     return best
 
 

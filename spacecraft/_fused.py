@@ -257,13 +257,21 @@ def plant_kernel(plant: Any) -> PlantKernel | None:
     dist, _ = _disturbance_plan(plant)
     if dist is None:
         return None
+    return _plant_kernel_of(plant, ak, dist)
+
+
+def _plant_kernel_of(
+    plant: Any, ak: tuple, dist: tuple[int, np.ndarray, Any, np.ndarray, bool], mm_at: int = -1
+) -> PlantKernel:
+    """The :class:`PlantKernel` of ``plant`` from its actuator's kernel ``ak`` and a
+    disturbance plan ``(code, code params, torque, kernel params, uses attitude)``."""
     code, clip, steer, sp, limit, S0, C0, steer_fn = ak
     J3 = np.ascontiguousarray(plant.body.J.reshape(-1, 3, 3))
     Ji3 = np.ascontiguousarray(plant.body.J_inv.reshape(-1, 3, 3))
     return PlantKernel(
         code, J3, Ji3, S0, C0, dist[0], dist[1], clip, steer, sp, float(limit),
         steer_fn=steer_fn, dist_fn=dist[2], dist_kparams=dist[3], dist_attitude=dist[4],
-        disturbance=plant.disturbance,
+        disturbance=plant.disturbance, mm_at=mm_at,
     )  # fmt: skip
 
 
@@ -288,14 +296,7 @@ def momentum_plan(plant: Any) -> tuple[PlantKernel | None, str]:
     if got is None:
         return None, why
     torque, rows, at = got
-    code, clip, steer, sp, limit, S0, C0, steer_fn = ak
-    J3 = np.ascontiguousarray(plant.body.J.reshape(-1, 3, 3))
-    Ji3 = np.ascontiguousarray(plant.body.J_inv.reshape(-1, 3, 3))
-    return PlantKernel(
-        code, J3, Ji3, S0, C0, K.DIST_KERNEL, np.zeros(3), clip, steer, sp, float(limit),
-        steer_fn=steer_fn, dist_fn=torque, dist_kparams=rows, dist_attitude=True,
-        disturbance=plant.disturbance, mm_at=at,
-    ), ""  # fmt: skip
+    return _plant_kernel_of(plant, ak, (K.DIST_KERNEL, np.zeros(3), torque, rows, True), at), ""
 
 
 def plant_reason(plant: Any) -> str:
@@ -491,9 +492,7 @@ def _one_spacecraft(
                 mh0, mh1, mh2 = 0.0, 0.0, 0.0
             mp = dpb[mm_at:]
             md0, md1, md2 = KM.dipole(t, Rc, mh0, mh1, mh2, mp)
-            mp[KM.P_DIPOLE] = 0.0
-            mp[KM.P_DIPOLE + 1] = 0.0
-            mp[KM.P_DIPOLE + 2] = 0.0
+            KM.hold_dipole(mp, 0.0, 0.0, 0.0)
         if k % log_every == 0 or k == n_steps:
             for i in range(3):
                 log_w[rows, b, i] = xc[i]
@@ -538,23 +537,13 @@ def _one_spacecraft(
                     log_y[rows, b, i] = yb[i]
                 for i in range(log_est.shape[2]):
                     log_est[rows, b, i] = sb[i]
-            if mm_at >= 0:
-                # the management's log: the dipole held from t and its torque m × B(t, R)
-                fb0, fb1, fb2 = KM.field_body(t, Rc, dpb[mm_at:])
-                log_mm[rows, b, 0] = md0
-                log_mm[rows, b, 1] = md1
-                log_mm[rows, b, 2] = md2
-                log_mm[rows, b, 3] = md1 * fb2 - md2 * fb1
-                log_mm[rows, b, 4] = md2 * fb0 - md0 * fb2
-                log_mm[rows, b, 5] = md0 * fb1 - md1 * fb0
+            if mm_at >= 0:  # the management's log (the dipole held from t, m × B)
+                KM.log_row(log_mm, rows, b, t, Rc, dpb[mm_at:], md0, md1, md2)
             rows += 1
         if k == n_steps:
             break
         if mm_at >= 0:
-            mp = dpb[mm_at:]
-            mp[KM.P_DIPOLE] = md0
-            mp[KM.P_DIPOLE + 1] = md1
-            mp[KM.P_DIPOLE + 2] = md2
+            KM.hold_dipole(dpb[mm_at:], md0, md1, md2)
         # call sites with the actuator (and the common disturbance) code as constants: the
         # inlined step is specialised per configuration (a quarter of its cost is runtime
         # branching otherwise, docs/performance.md); the arithmetic is the same

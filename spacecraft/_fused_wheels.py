@@ -156,9 +156,7 @@ def _one_wheels(
                 mh2 += s * wp[_AI + 2, j]
             mp = dpb[mm_at:]
             md0, md1, md2 = KM.dipole(t, Rc, mh0, mh1, mh2, mp)
-            mp[KM.P_DIPOLE] = 0.0
-            mp[KM.P_DIPOLE + 1] = 0.0
-            mp[KM.P_DIPOLE + 2] = 0.0
+            KM.hold_dipole(mp, 0.0, 0.0, 0.0)
         if k % log_every == 0 or k == n_steps:
             for i in range(3):
                 log_w[rows, b, i] = xc[i]
@@ -195,22 +193,13 @@ def _one_wheels(
                     log_y[rows, b, i] = yb[i]
                 for i in range(log_est.shape[2]):
                     log_est[rows, b, i] = sb[i]
-            if mm_at >= 0:
-                fb0, fb1, fb2 = KM.field_body(t, Rc, dpb[mm_at:])
-                log_mm[rows, b, 0] = md0
-                log_mm[rows, b, 1] = md1
-                log_mm[rows, b, 2] = md2
-                log_mm[rows, b, 3] = md1 * fb2 - md2 * fb1
-                log_mm[rows, b, 4] = md2 * fb0 - md0 * fb2
-                log_mm[rows, b, 5] = md0 * fb1 - md1 * fb0
+            if mm_at >= 0:  # the management's log (the dipole held from t, m × B)
+                KM.log_row(log_mm, rows, b, t, Rc, dpb[mm_at:], md0, md1, md2)
             rows += 1
         if k == n_steps:
             break
         if mm_at >= 0:
-            mp = dpb[mm_at:]
-            mp[KM.P_DIPOLE] = md0
-            mp[KM.P_DIPOLE + 1] = md1
-            mp[KM.P_DIPOLE + 2] = md2
+            KM.hold_dipole(dpb[mm_at:], md0, md1, md2)
         # the seam torque's own call site (as in _one_spacecraft): the built-in codes' step
         # compiles without the pointer call
         if dist == K.DIST_KERNEL:

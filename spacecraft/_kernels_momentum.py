@@ -92,3 +92,28 @@ def magnetic_torque(
     out[0] = m1 * B2 - m2 * B1
     out[1] = m2 * B0 - m0 * B2
     out[2] = m0 * B1 - m1 * B0
+
+
+@njit(inline="always")
+def hold_dipole(p: np.ndarray, m0: float, m1: float, m2: float) -> None:
+    """Write the dipole held over the next step into the torque's row ``p`` (zeros while the
+    compiled loop's log reads the disturbance: the magnetic block then adds exactly 0)."""
+    p[P_DIPOLE] = m0
+    p[P_DIPOLE + 1] = m1
+    p[P_DIPOLE + 2] = m2
+
+
+@njit(inline="always")
+def log_row(
+    log_mm: np.ndarray, row: int, b: int, t: float, R: np.ndarray, p: np.ndarray,
+    m0: float, m1: float, m2: float,
+) -> None:  # fmt: skip
+    """The management's log row of spacecraft ``b``: the dipole held from ``t`` and its torque
+    m × B(t, R) (``CrossProductDumping.log``)."""
+    B0, B1, B2 = field_body(t, R, p)
+    log_mm[row, b, 0] = m0
+    log_mm[row, b, 1] = m1
+    log_mm[row, b, 2] = m2
+    log_mm[row, b, 3] = m1 * B2 - m2 * B1
+    log_mm[row, b, 4] = m2 * B0 - m0 * B2
+    log_mm[row, b, 5] = m0 * B1 - m1 * B0
