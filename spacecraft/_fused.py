@@ -1268,13 +1268,16 @@ class RunSetup:
 def prepare_run(
     pk: Any, spec: seam.ControllerKernel, splan: FS.SensorPlan | None, controller: Any,
     reference: Any, R0: np.ndarray, x0: np.ndarray, t0: float, n_steps: int, dt: float,
-    every_ctrl: int, log_every: int, make_log: Callable[[int, int], Any],
+    every_ctrl: int, log_every: int, make_log: Callable[..., Any],
     notes: list[str] | None, rng: np.random.Generator | None, measurement: Any,
+    log_shapes: Callable[[int, int, Any], dict[str, tuple[tuple[int, ...], Any]]],
 ) -> RunSetup | None:  # fmt: skip
     """The part of :func:`run_fused` before the loop, shared by every plant's compiled loop
     (``pk`` a :class:`PlantKernel`, :class:`VscmgPlan` or the wheels' plan: anything with the
     disturbance fields and ``dist_rows``); ``None`` when the run must go through the Python
-    loop (``notes`` says why)."""
+    loop (``notes`` says why). ``make_log(rows, B, extra)`` builds the simulator's log with the
+    loop's own log arrays ``extra = log_shapes(rows, B, sensor_arrays)`` in the same
+    allocation (:mod:`spacecraft._log_memory`)."""
     B = x0.shape[0]
     steps = np.arange(n_steps + 1)
     times = t0 + steps * dt
@@ -1310,7 +1313,7 @@ def prepare_run(
             if notes is not None:
                 notes.append("the sensors' noise of this run does not fit in memory")
             return None
-    log = make_log(Kr, B)
+    log = make_log(Kr, B, log_shapes(Kr, B, sa))
     dpk = pk.dist_rows(B)
     if pk.dist == K.DIST_KERNEL:
         # the torque once on the initial state, before any step (spacecraft.disturbance_kernel)
@@ -1357,9 +1360,36 @@ def run_fused(
     pk, spec = plan[0], plan[1]
     splan = plan[2] if len(plan) > 2 else None
     B, n = x0.shape
+    n_diag = int(spec.n_diag)
+    f8, b1 = np.float64, np.bool_
+
+    def log_shapes(Kr: int, B: int, sa: Any) -> dict[str, tuple[tuple[int, ...], Any]]:
+        common = {
+            "diag": ((Kr, B, n_diag), f8),
+            "y": ((Kr, B, sa.y.shape[1]), f8),
+            "est": ((Kr, B, sa.n_est), f8),
+        }
+        if isinstance(pk, VscmgPlan):
+            return {
+                **common,
+                "vs": ((Kr, B, 8, 4), f8),
+                "work": ((Kr, B), f8),
+                "sat": ((Kr, B), b1),
+            }
+        n_held = 3 if pk.act == K.ACT_IDEAL else n - 3
+        return {
+            **common,
+            "act": ((Kr, B, (n - 3) + n_held), f8),
+            "sat": ((Kr, B, 3 if pk.act == K.ACT_IDEAL else 1), b1),
+            # h (3), singularity measure
+            "hm": ((Kr, B, 4 if pk.act == K.ACT_SGCMG else 0), f8),
+            # dipole, magnetic torque
+            "mm": ((Kr if pk.mm_at >= 0 else 0, B, 6), f8),
+        }
+
     setup = prepare_run(
         pk, spec, splan, controller, reference, R0, x0, t0, n_steps, dt, every_ctrl, log_every,
-        make_log, notes, rng, measurement,
+        make_log, notes, rng, measurement, log_shapes,
     )  # fmt: skip
     if setup is None:
         return None
@@ -1372,18 +1402,11 @@ def run_fused(
             every_ctrl, log_every, control_period, log, Kr, cparams, cstate, notes, workers, sa,
             splan, measurement, dpk,
         )  # fmt: skip
-    n_held = 3 if pk.act == K.ACT_IDEAL else n - 3
-    log_act = np.empty((Kr, B, (n - 3) + n_held))
-    n_sat = 3 if pk.act == K.ACT_IDEAL else 1
-    log_sat = np.empty((Kr, B, n_sat), dtype=np.bool_)
-    log_hm = np.empty((Kr, B, 4 if pk.act == K.ACT_SGCMG else 0))  # h (3), singularity measure
-    n_diag = int(spec.n_diag)
+    ex = log.extra
+    log_act, log_sat, log_hm, log_mm = ex["act"], ex["sat"], ex["hm"], ex["mm"]
+    log_diag, log_y, log_est = ex["diag"], ex["y"], ex["est"]
     diag = np.zeros((B, n_diag))
-    log_diag = np.empty((Kr, B, n_diag))
-    log_y = np.empty((Kr, B, sa.y.shape[1]))
-    log_est = np.empty((Kr, B, sa.n_est))
     log_hook = FS.hook_log(sa, n_steps, every_ctrl, B)
-    log_mm = np.empty((Kr if pk.mm_at >= 0 else 0, B, 6))  # dipole, magnetic torque
     clip = pk.clip if pk.clip is not None else np.zeros(3)
     args = (
         n_steps, float(t0), float(dt), every_ctrl, log_every, R0, x0,
@@ -1527,14 +1550,10 @@ def _run_vscmg(
     """:func:`run_fused` for the full CMG model (:func:`_fused_loop_vscmg`); ``dpk`` the seam
     torque's parameter rows for the batch."""
     B = x0.shape[0]
-    n_diag = int(spec.n_diag)
-    diag = np.zeros((B, n_diag))
-    log_diag = np.empty((Kr, B, n_diag))
-    log_vs = np.empty((Kr, B, 8, 4))
-    log_work = np.empty((Kr, B))
-    log_sat = np.empty((Kr, B), dtype=np.bool_)
-    log_y = np.empty((Kr, B, sa.y.shape[1]))
-    log_est = np.empty((Kr, B, sa.n_est))
+    diag = np.zeros((B, int(spec.n_diag)))
+    ex = log.extra  # carved with the simulator's log (run_fused's log_shapes)
+    log_diag, log_vs, log_work, log_sat = ex["diag"], ex["vs"], ex["work"], ex["sat"]
+    log_y, log_est = ex["y"], ex["est"]
     log_hook = FS.hook_log(sa, n_steps, every_ctrl, B)
     args = (
         n_steps, float(t0), float(dt), every_ctrl, log_every, R0, x0,

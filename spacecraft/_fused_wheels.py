@@ -317,23 +317,32 @@ def run_fused_wheels(
     assembly's log keys (``ReactionWheelAssembly.log``), or ``None`` when the run must go
     through the Python loop (``notes`` says why)."""
     B = x0.shape[0]
+    nw = wp_plan.n
+    n_diag = int(spec.n_diag)
+    f8 = np.float64
+
+    def log_shapes(Kr: int, B: int, sa: Any) -> dict[str, tuple[tuple[int, ...], Any]]:
+        return {
+            "diag": ((Kr, B, n_diag), f8),
+            "whl": ((Kr, B, 4, nw), f8),
+            "flags": ((Kr, B, 2, nw), np.bool_),
+            "y": ((Kr, B, sa.y.shape[1]), f8),
+            "est": ((Kr, B, sa.n_est), f8),
+            "mm": ((Kr if wp_plan.mm_at >= 0 else 0, B, 6), f8),  # dipole, magnetic torque
+        }
+
     setup = prepare_run(
         wp_plan, spec, splan, controller, reference, R0, x0, t0, n_steps, dt, every_ctrl,
-        log_every, make_log, notes, rng, measurement,
+        log_every, make_log, notes, rng, measurement, log_shapes,
     )  # fmt: skip
     if setup is None:
         return None
-    sa, log, Kr = setup.sa, setup.log, setup.Kr
-    nw = wp_plan.n
-    n_diag = int(spec.n_diag)
+    sa, log = setup.sa, setup.log
+    ex = log.extra  # carved with the simulator's log (spacecraft._log_memory)
     diag = np.zeros((B, n_diag))
-    log_diag = np.empty((Kr, B, n_diag))
-    log_whl = np.empty((Kr, B, 4, nw))
-    log_flags = np.empty((Kr, B, 2, nw), dtype=np.bool_)
-    log_y = np.empty((Kr, B, sa.y.shape[1]))
-    log_est = np.empty((Kr, B, sa.n_est))
+    log_diag, log_whl, log_flags = ex["diag"], ex["whl"], ex["flags"]
+    log_y, log_est, log_mm = ex["y"], ex["est"], ex["mm"]
     log_hook = FS.hook_log(sa, n_steps, every_ctrl, B)
-    log_mm = np.empty((Kr if wp_plan.mm_at >= 0 else 0, B, 6))  # dipole, magnetic torque
     args = (
         n_steps, float(t0), float(dt), every_ctrl, setup.log_every, setup.R0, setup.x0,
         wp_plan.J, wp_plan.J_inv, wp_plan.wp, nw, wp_plan.friction,

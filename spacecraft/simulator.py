@@ -52,6 +52,7 @@ from ._fused import fused_supported, run_fused
 from ._fused_wheels import run_fused_wheels
 from ._kernels_sensors import unit_quaternion_matrix_batch
 from ._kernels_wheels import WheelPlan
+from ._log_memory import carve
 from .disturbances import SumOfDisturbances
 from .plant import PlantState, Spacecraft
 
@@ -289,18 +290,36 @@ class SimulationResult:
 
 
 class _Log:
-    """Preallocated ``(K, B, ...)`` log arrays filled row by row."""
+    """Preallocated ``(K, B, ...)`` log arrays filled row by row, in one allocation with the
+    compiled loop's own log arrays ``extra`` (``{name: (shape, dtype)}``, in ``self.extra``):
+    :mod:`spacecraft._log_memory`."""
 
-    def __init__(self, K: int, B: int) -> None:
+    def __init__(
+        self, K: int, B: int, extra: Mapping[str, tuple[tuple[int, ...], Any]] | None = None
+    ) -> None:
         self.K, self.B = K, B
-        self.t = np.empty(K)
-        self.R = np.empty((K, B, 3, 3))
-        self.omega = np.empty((K, B, 3))
-        self.R_d = np.empty((K, B, 3, 3))
-        self.omega_d = np.empty((K, B, 3))
-        self.u_cmd = np.empty((K, B, 3))
-        self.u = np.empty((K, B, 3))
-        self.disturbance = np.empty((K, B, 3))
+        f8 = np.float64
+        shapes: dict[str, tuple[tuple[int, ...], Any]] = {
+            "t": ((K,), f8),
+            "R": ((K, B, 3, 3), f8),
+            "omega": ((K, B, 3), f8),
+            "R_d": ((K, B, 3, 3), f8),
+            "omega_d": ((K, B, 3), f8),
+            "u_cmd": ((K, B, 3), f8),
+            "u": ((K, B, 3), f8),
+            "disturbance": ((K, B, 3), f8),
+        }
+        extra = dict(extra or {})
+        arrays = carve({**shapes, **{f"extra.{k}": v for k, v in extra.items()}})
+        self.t = arrays["t"]
+        self.R = arrays["R"]
+        self.omega = arrays["omega"]
+        self.R_d = arrays["R_d"]
+        self.omega_d = arrays["omega_d"]
+        self.u_cmd = arrays["u_cmd"]
+        self.u = arrays["u"]
+        self.disturbance = arrays["disturbance"]
+        self.extra = {k: arrays[f"extra.{k}"] for k in extra}
         self.dicts: dict[str, dict[str, np.ndarray]] = {attr: {} for attr, _ in _DICT_GROUPS}
         self.rows = 0
 
