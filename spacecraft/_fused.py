@@ -52,7 +52,12 @@ from . import _kernels as K
 from . import _kernels_momentum as KM
 from ._entry import fn_entry as _fn_entry
 from ._entry import torque_signature as _torque_sig
-from ._kernels_vscmg import vscmg_command_one, vscmg_derivatives_one, vscmg_rkmk4_step_batch
+from ._kernels_vscmg import (
+    vscmg_command_one,
+    vscmg_derivatives_one,
+    vscmg_momentum_one,
+    vscmg_rkmk4_step_batch,
+)
 from ._kernels_wheels import WheelPlan, wheel_support
 
 #: reference samples held in memory by the fused loop at most (else the Python loop runs)
@@ -709,7 +714,8 @@ class VscmgPlan:
     (:class:`spacecraft.cmg_dynamics.VscmgActuator`) in the fused loop: no gimbal stops, a
     regularised steering law with a kernel, a disturbance with a kernel (a built-in time-only
     code or a torque of the seam :mod:`spacecraft.disturbance_kernel`, as for
-    :class:`PlantKernel`), the body's inertia the actuator's bus inertia (:func:`vscmg_plan`)."""
+    :class:`PlantKernel`), the body's inertia the actuator's bus inertia (:func:`vscmg_plan`);
+    magnetic dumping composed with the disturbance as in :func:`momentum_plan` (``mm_at``)."""
 
     kinematic: bool
     variable_speed: bool
@@ -727,10 +733,16 @@ class VscmgPlan:
     dist_kparams: np.ndarray = field(default_factory=lambda: np.zeros((1, 0)))
     dist_attitude: bool = False
     disturbance: Any = None
+    # momentum management (as PlantKernel.mm_at): the magnetic torque's block in the row
+    mm_at: int = -1
 
     def dist_rows(self, B: int) -> np.ndarray:
-        """The seam torque's parameter rows for a batch of ``B`` (:func:`dist_rows`)."""
-        return dist_rows(self.disturbance, self.dist_kparams, B)
+        """The seam torque's parameter rows for a batch of ``B`` (:func:`dist_rows`; with
+        momentum management one fresh row per spacecraft, as :meth:`PlantKernel.dist_rows`)."""
+        rows = dist_rows(self.disturbance, self.dist_kparams, B)
+        if self.mm_at >= 0:
+            rows = np.ascontiguousarray(np.broadcast_to(rows, (B, rows.shape[1]))).copy()
+        return rows
 
 
 def _vscmg_support(plant: Any) -> tuple[VscmgPlan | None, str]:
@@ -743,14 +755,28 @@ def _vscmg_support(plant: Any) -> tuple[VscmgPlan | None, str]:
     act = plant.actuator
     if type(act) is not VscmgActuator:
         return None, ""
-    if plant.modes is not None or plant.momentum_management is not None:
+    if plant.modes is not None:
         return None, ""  # the generic reasons apply (plant_reason)
     if act.stops is not None:
         return None, "the full CMG model with gimbal stops has no compiled loop (stop contact)"
-    dk, _ = _disturbance_plan(plant)
-    if dk is None:
-        return None, ""  # plant_reason names the disturbance
-    if plant._coupled_plan is None:
+    mm_at = -1
+    if plant.momentum_management is not None:
+        # magnetic dumping as a torque of the seam after the disturbance (as momentum_plan)
+        from .disturbances import managed_disturbance_plan
+
+        got, why = managed_disturbance_plan(
+            plant.disturbance, plant.momentum_management, plant.body.batch_size
+        )
+        if got is None:
+            return None, why
+        dk = (K.DIST_KERNEL, np.zeros(3), got[0], got[1], True)
+        mm_at = got[2]
+    else:
+        dk, _ = _disturbance_plan(plant)
+        if dk is None:
+            return None, ""  # plant_reason names the disturbance
+    J = np.asarray(plant.body.J)
+    if J.shape != (3, 3) or not np.array_equal(J, act.bus_inertia):
         return None, "the full CMG model's body inertia differs from its bus_inertia"
     sk = steering_kernel(act.steering, act.cluster)
     if sk is None or sk[0] == K.STEER_PINV_NULL:
@@ -764,7 +790,7 @@ def _vscmg_support(plant: Any) -> tuple[VscmgPlan | None, str]:
         bool(kin), bool(var), ff, np.ascontiguousarray(par), np.ascontiguousarray(M), dk[0],
         np.ascontiguousarray(dk[1], dtype=np.float64), sk[0], np.ascontiguousarray(sk[1]),
         float(act.rate_limit), dist_fn=dk[2], dist_kparams=dk[3], dist_attitude=dk[4],
-        disturbance=plant.disturbance,
+        disturbance=plant.disturbance, mm_at=mm_at,
     )  # fmt: skip
     return plan, ""
 
@@ -794,7 +820,7 @@ def _one_vscmg(
     s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
     noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
     log_y: np.ndarray, log_est: np.ndarray, h_par: np.ndarray, h_state: np.ndarray,
-    log_hook: np.ndarray, sensing: Any,
+    log_hook: np.ndarray, sensing: Any, mm_at: int, log_mm: np.ndarray,
 ) -> tuple[int, float]:  # fmt: skip
     """The whole run of spacecraft ``b`` flying the full CMG model (as :func:`_one_spacecraft`
     for the momentum model): the law at every ``every_ctrl``-th step, the cluster's command
@@ -869,6 +895,7 @@ def _one_vscmg(
     rows = 0
     t = t0
     sat = False
+    md0, md1, md2 = 0.0, 0.0, 0.0
     for k in range(n_steps + 1):
         t = t0 + k * dt
         r = ref_index[k]
@@ -899,6 +926,14 @@ def _one_vscmg(
         sat = vscmg_command_one(
             ff, par, M, steer, sp, rate_limit, xb[:3], xb[3:], u_cmd, t, A, hdot, held[0]
         )  # fmt: skip
+        if mm_at >= 0:
+            # momentum management (as _one_spacecraft): the dipole held over this step from the
+            # cluster's momentum at its start (Plant.held_dipole); zero while the log reads
+            # the disturbance
+            mh0, mh1, mh2 = vscmg_momentum_one(par, M, xb[3:])
+            mp = dpb[mm_at:]
+            md0, md1, md2 = KM.dipole(t, Rc[0], mh0, mh1, mh2, mp)
+            KM.hold_dipole(mp, 0.0, 0.0, 0.0)
         if k % log_every == 0 or k == n_steps:
             Rb = Rc[0]
             for i in range(3):
@@ -945,9 +980,13 @@ def _one_vscmg(
                     log_y[rows, b, i] = yb[i]
                 for i in range(log_est.shape[2]):
                     log_est[rows, b, i] = sb[i]
+            if mm_at >= 0:  # the management's log (the dipole held from t, m × B)
+                KM.log_row(log_mm, rows, b, t, Rb, dpb[mm_at:], md0, md1, md2)
             rows += 1
         if k == n_steps:
             break
+        if mm_at >= 0:
+            KM.hold_dipole(dpb[mm_at:], md0, md1, md2)
         if dist == K.DIST_KERNEL:
             # a torque of the seam through its pointer: its own call site (as _one_spacecraft)
             vscmg_rkmk4_step_batch(
@@ -996,7 +1035,7 @@ def _fused_loop_vscmg(
     s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
     noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
     log_y: np.ndarray, log_est: np.ndarray, h_par: np.ndarray, h_state: np.ndarray,
-    log_hook: np.ndarray, sensing: Any,
+    log_hook: np.ndarray, sensing: Any, mm_at: int, log_mm: np.ndarray,
 ) -> tuple[int, int, float]:  # fmt: skip
     """:func:`_fused_loop` for the full CMG model (:func:`_one_vscmg` per spacecraft)."""
     B = R.shape[0]
@@ -1009,7 +1048,7 @@ def _fused_loop_vscmg(
             ref_dw, log_R, log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_vs, log_work,
             log_sat, log_diag, diag, s_int, s_par, pub_thr, pub_sched, noise, sst, sy, h_int,
             seen, log_y, log_est, h_par, h_state, log_hook,
-            sensing,
+            sensing, mm_at, log_mm,
         )  # fmt: skip
     return _loop_result(st, tf, n_steps, t0, dt, log_every, log_t)
 
@@ -1030,7 +1069,7 @@ def _fused_loop_vscmg_parallel(
     s_int: np.ndarray, s_par: np.ndarray, pub_thr: np.ndarray, pub_sched: np.ndarray,
     noise: np.ndarray, sst: np.ndarray, sy: np.ndarray, h_int: np.ndarray, seen: np.ndarray,
     log_y: np.ndarray, log_est: np.ndarray, h_par: np.ndarray, h_state: np.ndarray,
-    log_hook: np.ndarray, sensing: Any,
+    log_hook: np.ndarray, sensing: Any, mm_at: int, log_mm: np.ndarray,
 ) -> tuple[int, int, float]:  # fmt: skip
     """:func:`_fused_loop_vscmg` over numba's threads (bit-identical)."""
     B = R.shape[0]
@@ -1044,7 +1083,7 @@ def _fused_loop_vscmg_parallel(
             ref_dw, log_R, log_w, log_Rd, log_wd, log_ucmd, log_u, log_dist, log_vs, log_work,
             log_sat, log_diag, diag, s_int, s_par, pub_thr, pub_sched, noise, sst, sy, h_int,
             seen, log_y, log_est, h_par, h_state, log_hook,
-            sensing,
+            sensing, mm_at, log_mm,
         )  # fmt: skip
         st[b] = s
         tf[b] = tb
@@ -1375,6 +1414,7 @@ def run_fused(
                 "vs": ((Kr, B, 8, 4), f8),
                 "work": ((Kr, B), f8),
                 "sat": ((Kr, B), b1),
+                "mm": ((Kr if pk.mm_at >= 0 else 0, B, 6), f8),
             }
         n_held = 3 if pk.act == K.ACT_IDEAL else n - 3
         return {
@@ -1553,7 +1593,7 @@ def _run_vscmg(
     diag = np.zeros((B, int(spec.n_diag)))
     ex = log.extra  # carved with the simulator's log (run_fused's log_shapes)
     log_diag, log_vs, log_work, log_sat = ex["diag"], ex["vs"], ex["work"], ex["sat"]
-    log_y, log_est = ex["y"], ex["est"]
+    log_y, log_est, log_mm = ex["y"], ex["est"], ex["mm"]
     log_hook = FS.hook_log(sa, n_steps, every_ctrl, B)
     args = (
         n_steps, float(t0), float(dt), every_ctrl, log_every, R0, x0,
@@ -1564,7 +1604,7 @@ def _run_vscmg(
         log_vs, log_work, log_sat, log_diag, diag,
         sa.s_int, sa.s_par, sa.pub_thr, sa.pub_sched, sa.noise, sa.state, sa.y, sa.h_int,
         sa.seen, log_y, log_est, sa.h_par, sa.h_state, log_hook,
-        FS.sensing_marker(splan),
+        FS.sensing_marker(splan), vp.mm_at, log_mm,
     )  # fmt: skip
     status, rows, t_fail = _call_loop(args, 20, workers, B, vscmg=True)
     if not _finished(status, t_fail, t0, controller, spec, notes):
@@ -1586,6 +1626,9 @@ def _run_vscmg(
     a["torque_saturated"] = log_vs[:, :, _VS_TSAT] > 0.5
     a["stop_contact"] = np.zeros((Kr, B, 4), dtype=np.bool_)
     a["stop_limited"] = np.zeros((Kr, B, 4), dtype=np.bool_)
+    if vp.mm_at >= 0:  # after the actuator's own entries, as the Python loop puts them
+        a["dipole"] = log_mm[:, :, :3]
+        a["magnetic_torque"] = log_mm[:, :, 3:]
     log.dicts["controller"].update(spec.diagnostics(log_diag))
     spec.finish(cstate, diag.copy())
     _log_components(vp, log, rows, B)

@@ -117,9 +117,7 @@ def vscmg_derivatives_one(
         spin = xa[8 + i]
         sn = math.sin(d)
         cs = math.cos(d)
-        s0 = M[0, _S + i] * sn + M[0, _C + i] * cs
-        s1 = M[1, _S + i] * sn + M[1, _C + i] * cs
-        s2 = M[2, _S + i] * sn + M[2, _C + i] * cs
+        s0, s1, s2 = _spin_axis(M, i, sn, cs)
         t0 = M[0, _S + i] * cs - M[0, _C + i] * sn
         t1 = M[1, _S + i] * cs - M[1, _C + i] * sn
         t2 = M[2, _S + i] * cs - M[2, _C + i] * sn
@@ -222,9 +220,7 @@ def vscmg_derivatives_one(
         spin = xa[8 + i]
         sn = math.sin(d)
         cs = math.cos(d)
-        s0 = M[0, _S + i] * sn + M[0, _C + i] * cs
-        s1 = M[1, _S + i] * sn + M[1, _C + i] * cs
-        s2 = M[2, _S + i] * sn + M[2, _C + i] * cs
+        s0, s1, s2 = _spin_axis(M, i, sn, cs)
         t0 = M[0, _S + i] * cs - M[0, _C + i] * sn
         t1 = M[1, _S + i] * cs - M[1, _C + i] * sn
         t2 = M[2, _S + i] * cs - M[2, _C + i] * sn
@@ -278,6 +274,52 @@ def vscmg_derivatives_batch(
         )  # fmt: skip
 
 
+@njit(inline="always")
+def _spin_axis(M: np.ndarray, i: int, sn: float, cs: float) -> tuple[float, float, float]:
+    """Unit ``i``'s spin axis ``s = S sin δ + C cos δ`` from sin δ, cos δ."""
+    return (
+        M[0, _S + i] * sn + M[0, _C + i] * cs,
+        M[1, _S + i] * sn + M[1, _C + i] * cs,
+        M[2, _S + i] * sn + M[2, _C + i] * cs,
+    )
+
+
+@njit(inline="always")
+def _unit_momentum(
+    M: np.ndarray, i: int, e: float, hw: float, s0: float, s1: float, s2: float
+) -> tuple[float, float, float]:
+    """Unit ``i``'s share of the cluster momentum relative to the bus, ``J_g δ̇ g + I_Ws Ω s``,
+    from ``e = J_g δ̇``, ``hw = I_Ws Ω`` and its spin axis ``s`` at the current angle."""
+    return (
+        e * M[0, _G + i] + hw * s0,
+        e * M[1, _G + i] + hw * s1,
+        e * M[2, _G + i] + hw * s2,
+    )
+
+
+@njit(inline="always")
+def vscmg_momentum_one(
+    par: np.ndarray, M: np.ndarray, xa: np.ndarray
+) -> tuple[float, float, float]:
+    """The cluster momentum relative to the bus ``h = Σ (J_g δ̇ g + I_Ws Ω s)`` of one
+    spacecraft's actuator state ``xa`` (δ, δ̇, Ω, …) — the ``h`` of
+    :func:`vscmg_command_inputs_one` and of :meth:`spacecraft.cmg_dynamics.VscmgActuator.
+    momentum` (the numpy layer; equal to rounding: its sums are matrix products). ``par``,
+    ``M`` as for :func:`vscmg_derivatives_one`."""
+    Jg = par[PAR_JG]
+    Iw = par[PAR_IW]
+    h0 = h1 = h2 = 0.0
+    for i in range(4):
+        sn = math.sin(xa[i])
+        cs = math.cos(xa[i])
+        s0, s1, s2 = _spin_axis(M, i, sn, cs)
+        c0, c1, c2 = _unit_momentum(M, i, Jg * xa[4 + i], Iw * xa[8 + i], s0, s1, s2)
+        h0 += c0
+        h1 += c1
+        h2 += c2
+    return h0, h1, h2
+
+
 @njit
 def vscmg_command_inputs_one(
     feedforward: bool,
@@ -305,21 +347,17 @@ def vscmg_command_inputs_one(
     w2 = w[2]
     h0 = h1 = h2 = 0.0
     for i in range(4):
-        rate = xa[4 + i]
-        spin = xa[8 + i]
         sn = math.sin(xa[i])
         cs = math.cos(xa[i])
-        s0 = M[0, _S + i] * sn + M[0, _C + i] * cs
-        s1 = M[1, _S + i] * sn + M[1, _C + i] * cs
-        s2 = M[2, _S + i] * sn + M[2, _C + i] * cs
+        s0, s1, s2 = _spin_axis(M, i, sn, cs)
         t0 = M[0, _S + i] * cs - M[0, _C + i] * sn
         t1 = M[1, _S + i] * cs - M[1, _C + i] * sn
         t2 = M[2, _S + i] * cs - M[2, _C + i] * sn
-        hw = Iw * spin
-        e = Jg * rate
-        h0 += e * M[0, _G + i] + hw * s0
-        h1 += e * M[1, _G + i] + hw * s1
-        h2 += e * M[2, _G + i] + hw * s2
+        hw = Iw * xa[8 + i]
+        c0, c1, c2 = _unit_momentum(M, i, Jg * xa[4 + i], hw, s0, s1, s2)
+        h0 += c0
+        h1 += c1
+        h2 += c2
         A_out[0, i] = t0 * hw
         A_out[1, i] = t1 * hw
         A_out[2, i] = t2 * hw
