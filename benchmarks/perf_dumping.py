@@ -41,15 +41,8 @@ def dumping_costs(
     import numpy as np
 
     from liecontrol.control.geometric_pd import GeometricPD, gains_from_bandwidth
-    from spacecraft import (
-        ConstantHarmonicTorque,
-        RigidBody,
-        SgcmgActuator,
-        SgcmgPyramid,
-        SingularityRobust,
-        Spacecraft,
-        simulate,
-    )
+    from spacecraft import ConstantHarmonicTorque, RigidBody, SgcmgActuator, Spacecraft, simulate
+    from spacecraft import SgcmgPyramid, SingularityRobust
     from spacecraft import simulator as sim
     from spacecraft.cmg_dynamics import CmgInertias, VscmgActuator
     from spacecraft.momentum import CrossProductDumping, Magnetorquers

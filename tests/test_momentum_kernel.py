@@ -189,9 +189,7 @@ def test_dumping_with_the_full_cmg_model_equals_the_python_loop(case, monkeypatc
     management's; one run with two workers."""
     plant = _full_cmg_plant(**case)
     # the gimbal servo's time scale wants a step of 0.1 s (at 1 s the Python loop diverges too)
-    slow = _run_both(
-        monkeypatch, plant, B=2, t_final=60.0, dt=0.1, control_period=0.2, log_every=3
-    )
+    slow = _run_both(monkeypatch, plant, B=2, t_final=60.0, dt=0.1, control_period=0.2, log_every=3)
     keys = list(slow.actuator)
     assert keys.index("dipole") == keys.index("stop_limited") + 1
     assert np.abs(slow.actuator["dipole"]).max() > 1.0
