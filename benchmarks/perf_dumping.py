@@ -42,11 +42,12 @@ def dumping_costs(
 
     from liecontrol.control.geometric_pd import GeometricPD, gains_from_bandwidth
     from spacecraft import ConstantHarmonicTorque, RigidBody, SgcmgActuator, Spacecraft, simulate
-    from spacecraft import SgcmgPyramid, SingularityRobust
     from spacecraft import simulator as sim
     from spacecraft.cmg_dynamics import CmgInertias, VscmgActuator
     from spacecraft.momentum import CrossProductDumping, Magnetorquers
     from spacecraft.orbit import CircularOrbit, EarthPointingReference
+    from spacecraft.sgcmg import SgcmgPyramid
+    from spacecraft.steering import SingularityRobust
 
     J = np.array([[15053.0, 3000.0, -1000.0], [3000.0, 6510.0, 2000.0], [-1000.0, 2000.0, 11122.0]])
     orbit = CircularOrbit.from_altitude(530e3, inclination=np.deg2rad(97.5))
