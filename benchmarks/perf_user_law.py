@@ -1,6 +1,6 @@
 """A user's ``@njit`` law through the kernel seam against its Python twin and the built-in
 geometric PD, in one process: ``python -m benchmarks.perf_user_law [--repeat N] [--steering]
-[--disturbance]``.
+[--disturbance] [--same-law]``.
 
 The controller is the one of ``docs/fast_controllers.md`` (a PI law on the rotation-vector error
 with its integral as internal state; its code block is executed from the page, so the figures
@@ -13,6 +13,12 @@ simulated steps per CPU-second, best of ``--repeat`` alternated runs after a war
 SR formula handed over through the same seam (the seam's own cost): the SGCMG pyramid, a 180°
 start under the geometric PD, one spacecraft for 600 s and a batch of 100 for 60 s at dt = 0.1 s,
 spacecraft-steps per CPU-second.
+
+``--same-law``: the page's geometric PD written by hand from :mod:`liecontrol.kernels`
+(``MyGeometricPD``, the same arithmetic as the built-in ``GeometricPD``) against the built-in,
+the large-angle error with matrix gains, a 90° rest-to-rest slew: what the seam costs a user's
+law that does what a built-in law does (one spacecraft, 600 s at dt = 0.1 s, control and
+logging at every step, steps per CPU-second).
 
 ``--disturbance``: the gravity-gradient torque, which flies the compiled loop through the public
 disturbance seam (:mod:`spacecraft.disturbance_kernel`), against the same torque without its
@@ -35,28 +41,35 @@ import argparse  # noqa: E402
 import os  # noqa: E402
 import re  # noqa: E402
 import time  # noqa: E402
+from collections.abc import Callable  # noqa: E402
 from pathlib import Path  # noqa: E402
 from typing import Any  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-__all__ = ["disturbance_rates", "main", "user_law_rates", "user_steering_rates"]
+__all__ = ["disturbance_rates", "main", "same_law_rates", "user_law_rates", "user_steering_rates"]
 
 PAGE = Path(__file__).resolve().parents[1] / "docs" / "fast_controllers.md"
 
 
-def _page_namespace() -> dict[str, Any]:
-    """The definitions of the page's first code block (the controllers and ``pi_law``)."""
-    block = re.findall(r"```python\n(.*?)```", PAGE.read_text(encoding="utf-8"), re.S)[0]
-    keep = block.split("slow = simulate(")[0]  # the definitions, not the page's own runs
+def _page_namespace(marker: str = "pi_law", stop: str = "slow = simulate(") -> dict[str, Any]:
+    """The definitions of the page's code block that defines ``marker`` (default: the first
+    block's controllers and ``pi_law``), up to the line ``stop`` (not the page's own runs)."""
+    blocks = re.findall(r"```python\n(.*?)```", PAGE.read_text(encoding="utf-8"), re.S)
+    block = next(b for b in blocks if f"def {marker}(" in b)
+    keep = block.split(stop)[0]
     ns: dict[str, Any] = {"__name__": "fast_controllers_page"}
     exec(compile(keep, str(PAGE), "exec"), ns)  # noqa: S102 - the project's own page
     return ns
 
 
-def user_law_rates(repeat: int = 5, t_final: float = 600.0) -> dict[str, dict[str, float]]:
-    """``{actuator: {loop: steps per CPU-second}}`` (module docstring)."""
-    from liecontrol.control import ConstantAttitude, GeometricPD
+def _rates_on_both_plants(
+    controllers: Callable[[np.ndarray], dict[str, Any]], repeat: int, t_final: float
+) -> dict[str, dict[str, float]]:
+    """``{actuator: {name: steps per CPU-second}}`` of ``controllers(J)`` on the ideal torque
+    actuator and the SGCMG pyramid with SR steering, a 90° rest-to-rest slew, alternated rounds
+    after a warm-up; a name with ``Python`` flies a tenth of ``t_final`` (≈ 10× slower)."""
+    from liecontrol.control import ConstantAttitude
     from liecontrol.lie import so3
     from spacecraft import (
         IdealTorqueActuator,
@@ -68,7 +81,6 @@ def user_law_rates(repeat: int = 5, t_final: float = 600.0) -> dict[str, dict[st
         simulate,
     )
 
-    ns = _page_namespace()
     J = np.diag([1200.0, 1000.0, 800.0])
     target = ConstantAttitude(so3.exp(np.array([0.0, 0.0, np.pi / 2])))
     out: dict[str, dict[str, float]] = {}
@@ -78,26 +90,37 @@ def user_law_rates(repeat: int = 5, t_final: float = 600.0) -> dict[str, dict[st
     ):
         plant = Spacecraft(RigidBody(J), act)
         x0 = plant.initial_state(np.eye(3))
-        ctrls = {
-            "PIController (Python loop)": ns["PIController"](300.0, 1500.0, 5.0),
-            "FastPIController (fused, user's @njit law)": ns["FastPIController"](
-                300.0, 1500.0, 5.0
-            ),
-            "GeometricPD (fused, built-in)": GeometricPD(J, 300.0, 1500.0),
-        }
+        ctrls = controllers(J)
         steps = round(t_final / 0.1)
         best = dict.fromkeys(ctrls, np.inf)
         for c in ctrls.values():
             simulate(plant, c, target, x0, t_final=10.0, dt=0.1)  # warm-up
         for _ in range(repeat):
             for k, c in ctrls.items():
-                # the Python loop runs a tenth of the time: it is ~10× slower per step
                 T = t_final / 10 if "Python" in k else t_final
                 t0 = time.process_time()
                 simulate(plant, c, target, x0, t_final=T, dt=0.1)
                 best[k] = min(best[k], (time.process_time() - t0) / (steps * T / t_final))
         out[act_name] = {k: 1.0 / v for k, v in best.items()}
     return out
+
+
+def user_law_rates(repeat: int = 5, t_final: float = 600.0) -> dict[str, dict[str, float]]:
+    """``{actuator: {loop: steps per CPU-second}}`` (module docstring)."""
+    from liecontrol.control import GeometricPD
+
+    ns = _page_namespace()
+    return _rates_on_both_plants(
+        lambda J: {
+            "PIController (Python loop)": ns["PIController"](300.0, 1500.0, 5.0),
+            "FastPIController (fused, user's @njit law)": ns["FastPIController"](
+                300.0, 1500.0, 5.0
+            ),
+            "GeometricPD (fused, built-in)": GeometricPD(J, 300.0, 1500.0),
+        },
+        repeat,
+        t_final,
+    )
 
 
 def _steering_namespace() -> dict[str, Any]:
@@ -216,13 +239,46 @@ def disturbance_rates(repeat: int = 3, t_final: float = 600.0) -> dict[str, floa
     return {k: steps / v for k, v in best.items()}
 
 
+def same_law_rates(repeat: int = 5, t_final: float = 600.0) -> dict[str, dict[str, float]]:
+    """``{actuator: {law: steps per CPU-second}}`` for ``--same-law`` (module docstring)."""
+    from liecontrol.control import GeometricPD
+    from liecontrol.control.geometric_pd import gains_from_bandwidth
+
+    ns = _page_namespace("my_pd_law", "J = np.diag(")
+
+    def controllers(J: np.ndarray) -> dict[str, Any]:
+        K_R, K_W = gains_from_bandwidth(J, 0.05, 0.9, error="large_angle", matrix=True)
+        return {
+            "MyGeometricPD (user's law from liecontrol.kernels)": ns["MyGeometricPD"](J, K_R, K_W),
+            "GeometricPD (built-in)": GeometricPD(J, K_R, K_W),
+        }
+
+    return _rates_on_both_plants(controllers, repeat, t_final)
+
+
+def _print_per_actuator(
+    rates: dict[str, dict[str, float]], base_name: str, repeat: int, load: float
+) -> None:
+    print(f"simulated steps per CPU-second, best of {repeat}; load {load:.1f}")
+    for act, rows in rates.items():
+        base = rows[base_name]
+        for k, v in rows.items():
+            print(f"{act:6s} {k:52s} {v / 1e3:9.0f} k   cost × {base_name}: {base / v:5.2f}")
+
+
 def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--repeat", type=int, default=5)
     p.add_argument("--steering", action="store_true", help="the page's steering law instead")
     p.add_argument("--disturbance", action="store_true", help="the gravity gradient's seam")
+    p.add_argument(
+        "--same-law", action="store_true", help="the page's geometric PD from liecontrol.kernels"
+    )
     a = p.parse_args(argv)
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    if a.same_law:
+        _print_per_actuator(same_law_rates(a.repeat), "GeometricPD (built-in)", a.repeat, load)
+        return
     if a.disturbance:
         rates = disturbance_rates(a.repeat)
         print(f"steps per CPU-second, best of {a.repeat}; load {load:.1f}")
@@ -237,12 +293,7 @@ def main(argv: list[str] | None = None) -> None:
             for k, v in rows.items():
                 print(f"B={B:<4d} {k:44s} {v:10.3g}   cost × built-in SR: {base / v:5.2f}")
         return
-    res = user_law_rates(a.repeat)
-    print(f"simulated steps per CPU-second, best of {a.repeat}; load {load:.1f}")
-    for act, rows in res.items():
-        base = rows["GeometricPD (fused, built-in)"]
-        for k, v in rows.items():
-            print(f"{act:6s} {k:44s} {v / 1e3:9.0f} k   cost × built-in GPD: {base / v:5.2f}")
+    _print_per_actuator(user_law_rates(a.repeat), "GeometricPD (fused, built-in)", a.repeat, load)
 
 
 if __name__ == "__main__":

@@ -147,8 +147,10 @@ def log9(
 def dexpinv_rkmk4(
     t0: float, t1: float, t2: float, w0: float, w1: float, w2: float
 ) -> tuple[float, float, float]:
-    """dexp⁻¹_θ(w) truncated after the θ² term — w − ½[θ, w] + (1/12)[θ, [θ, w]], enough for a
-    fourth-order RKMK step (Iserles et al., Acta Numerica 2000)."""
+    """θ̇ of R exp(θ̂) for the body rate w, truncated after the θ² term: w + ½ θ × w +
+    (1/12) θ × (θ × w) — the right-trivialised dexp⁻¹ (dexp⁻¹ at −θ in the left-trivialised
+    convention w − ½[θ, w] + (1/12)[θ, [θ, w]]), enough for a fourth-order RKMK step (Iserles et
+    al., Acta Numerica 2000)."""
     tw = (t0 * w0 + t1 * w1 + t2 * w2) / 12.0
     c = 1.0 - (t0 * t0 + t1 * t1 + t2 * t2) / 12.0
     return (
