@@ -7,7 +7,7 @@ them here does not copy them), so a law you write with ``numba.njit`` for the ke
 numbers, in the same order, as the built-in law of the same equation. They work on one
 spacecraft and on scalars: a 3-vector is passed as three floats and returned as a tuple, a
 rotation as a ``(3, 3)`` C-contiguous float64 array or as the tuple of its nine entries in
-row-major order (no array is allocated; inside an ``@njit`` function numba inlines the ones
+row-major order (no array is allocated; inside a ``numba.njit`` function numba inlines the ones
 marked ``inline="always"``). Called from plain Python they run as Python (slowly): they are
 meant to be called from compiled code. The batched NumPy layer (:mod:`liecontrol.lie.so3`,
 :mod:`liecontrol.errors`) is the validated reference they are tested against.
