@@ -288,20 +288,19 @@ def momentum_plan(plant: Any) -> tuple[PlantKernel | None, str]:
     why)`` when a part has no kernel (``why`` empty: the generic reasons of
     :func:`plant_reason` apply)."""
     from .actuators import actuator_kernel
-    from .disturbances import managed_disturbance_plan
+    from .disturbances import loop_disturbance_plan
 
     if plant.modes is not None:
         return None, ""
     ak = actuator_kernel(plant.actuator)
     if ak is None:
         return None, ""
-    got, why = managed_disturbance_plan(
+    dk, at, why = loop_disturbance_plan(
         plant.disturbance, plant.momentum_management, plant.body.batch_size
     )
-    if got is None:
+    if dk is None:
         return None, why
-    torque, rows, at = got
-    return _plant_kernel_of(plant, ak, (K.DIST_KERNEL, np.zeros(3), torque, rows, True), at), ""
+    return _plant_kernel_of(plant, ak, dk, at), ""
 
 
 def plant_reason(plant: Any) -> str:
@@ -759,22 +758,13 @@ def _vscmg_support(plant: Any) -> tuple[VscmgPlan | None, str]:
         return None, ""  # the generic reasons apply (plant_reason)
     if act.stops is not None:
         return None, "the full CMG model with gimbal stops has no compiled loop (stop contact)"
-    mm_at = -1
-    if plant.momentum_management is not None:
-        # magnetic dumping as a torque of the seam after the disturbance (as momentum_plan)
-        from .disturbances import managed_disturbance_plan
+    from .disturbances import loop_disturbance_plan
 
-        got, why = managed_disturbance_plan(
-            plant.disturbance, plant.momentum_management, plant.body.batch_size
-        )
-        if got is None:
-            return None, why
-        dk = (K.DIST_KERNEL, np.zeros(3), got[0], got[1], True)
-        mm_at = got[2]
-    else:
-        dk, _ = _disturbance_plan(plant)
-        if dk is None:
-            return None, ""  # plant_reason names the disturbance
+    # magnetic dumping as a torque of the seam after the disturbance (as momentum_plan)
+    mm = plant.momentum_management
+    dk, mm_at, why = loop_disturbance_plan(plant.disturbance, mm, plant.body.batch_size)
+    if dk is None:
+        return None, why if mm is not None else ""  # else plant_reason names the disturbance
     J = np.asarray(plant.body.J)
     if J.shape != (3, 3) or not np.array_equal(J, act.bus_inertia):
         return None, "the full CMG model's body inertia differs from its bus_inertia"

@@ -28,7 +28,7 @@ import numpy as np
 from liecontrol._jit import njit
 from liecontrol._kernels.so3 import dexpinv_rkmk4, right_multiply_exp_into
 
-from ._kernels import DIST_KERNEL, rigid_acceleration, stage_disturbance
+from ._kernels import rigid_acceleration, stage_disturbance
 
 #: rows of the parameter array (module docstring)
 _AX, _AI, _PINV, _IW, _TMAX, _WMAX = 0, 3, 6, 9, 10, 11
@@ -93,27 +93,19 @@ def wheel_support(plant: Any) -> tuple[WheelPlan | None, str]:
     (exact type: a subclass may change a formula) that the compiled loop runs, ``(None, why)``
     when a part keeps the Python loop, ``(None, "")`` for any other plant."""
     from .actuators import ReactionWheelAssembly
-    from .disturbances import disturbance_plan, managed_disturbance_plan
+    from .disturbances import loop_disturbance_plan
 
     act = plant.actuator
     if type(act) is not ReactionWheelAssembly:
         return None, ""
     if plant.modes is not None:
         return None, ""  # the generic reasons apply (plant_reason)
-    at = -1
-    if plant.momentum_management is not None:
-        # its torque composed after the disturbance's (the held dipole written per step)
-        got, why = managed_disturbance_plan(
-            plant.disturbance, plant.momentum_management, plant.body.batch_size
-        )
-        if got is None:
-            return None, why
-        torque, rows, at = got
-        dk = (DIST_KERNEL, np.zeros(3), torque, rows, True)
-    else:
-        dk, _ = disturbance_plan(plant.disturbance, plant.body.batch_size)
-        if dk is None:
-            return None, ""  # plant_reason names the disturbance
+    # with momentum management its torque composed after the disturbance's (the held dipole
+    # written per step)
+    mm = plant.momentum_management
+    dk, at, why = loop_disturbance_plan(plant.disturbance, mm, plant.body.batch_size)
+    if dk is None:
+        return None, why if mm is not None else ""  # else plant_reason names the disturbance
     J3 = np.ascontiguousarray(plant.body.J.reshape(-1, 3, 3))
     Ji3 = np.ascontiguousarray(plant.body.J_inv.reshape(-1, 3, 3))
     plan = WheelPlan(

@@ -252,6 +252,25 @@ def managed_disturbance_plan(
     return (torque, np.ascontiguousarray(rows), drow.shape[1]), ""
 
 
+def loop_disturbance_plan(
+    dist: object, management: object, batch_size: int | None
+) -> tuple[tuple[int, np.ndarray, object, np.ndarray, bool] | None, int, str]:
+    """The compiled loops' disturbance plan of a plant, ``(plan, mm_at, why)``: with momentum
+    management its torque composed after the disturbance's (:func:`managed_disturbance_plan`;
+    ``plan`` a seam torque reading the attitude, ``mm_at`` the column where the management's
+    block starts), else the disturbance's own plan (:func:`disturbance_plan`, ``mm_at`` −1);
+    ``plan`` ``None`` with ``why`` when a part has no kernel. One resolution for the momentum
+    model's, the full CMG model's and the wheels' plans."""
+    if management is None:
+        dk, why = disturbance_plan(dist, batch_size)
+        return dk, -1, why
+    got, why = managed_disturbance_plan(dist, management, batch_size)
+    if got is None:
+        return None, -1, why
+    torque, rows, at = got
+    return (K.DIST_KERNEL, np.zeros(3), torque, rows, True), at, ""
+
+
 def kernel_rows(dist: object, params: np.ndarray, B: int) -> np.ndarray:
     """The seam torque's parameter rows ``params (B', n_p)`` for a batch of ``B``
     (``ValueError`` naming the disturbance when per-spacecraft rows do not match the batch)."""
